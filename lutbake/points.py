@@ -1,0 +1,134 @@
+"""Point specs: film stacks to evaluate, validated (the `eval`/`sample` input stage).
+
+A ``FilmPoints`` holds P stacks as float64 arrays. A named (dispersive) film
+or base replaces the constant η2 or η3/κ3 of every point at each wavelength.
+Every constructor validates and raises ValueError with one line naming the
+value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .materials import material
+from .optics import thickness_from_opd
+
+__all__ = ["FilmPoints", "check_value", "CSV_COLUMNS"]
+
+CSV_COLUMNS = ("eta1", "eta2", "thickness_nm", "opd_nm", "cos_theta", "angle_deg", "eta3", "kappa3")
+
+# name → (test, what is allowed); the one table every entry point validates with.
+_DOMAIN = {
+    "eta1": (lambda v: v > 0, "a finite number > 0"),
+    "eta2": (lambda v: v > 0, "a finite number > 0"),
+    "eta3": (lambda v: v > 0, "a finite number > 0"),
+    "kappa3": (lambda v: v >= 0, "a finite number >= 0"),
+    "thickness_nm": (lambda v: v >= 0, "a finite number >= 0"),
+    "opd_nm": (lambda v: v >= 0, "a finite number >= 0"),
+    "cos_theta": (lambda v: (v >= 0) & (v <= 1), "a number in [0, 1]"),
+    "angle_deg": (lambda v: (v >= 0) & (v <= 90), "a number in [0, 90]"),
+    "wavelength_nm": (lambda v: (v >= 360) & (v <= 830), "a number in [360, 830]"),
+}
+
+
+def check_value(name: str, values) -> np.ndarray:
+    """Validate an array against the domain of ``name``; return it as float64."""
+    arr = np.atleast_1d(np.asarray(values, dtype=float))
+    test, allowed = _DOMAIN[name]
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(arr) | ~test(arr)
+    if bad.any():
+        raise ValueError(f"{name} = {arr[bad][0]!r} is not allowed: must be {allowed}")
+    return arr
+
+
+@dataclass
+class FilmPoints:
+    """P film stacks: ambient η1 | film η2, thickness d | base η3 + iκ3, at cos θ1."""
+
+    eta1: np.ndarray
+    eta2: np.ndarray
+    eta3: np.ndarray
+    kappa3: np.ndarray
+    cos_theta: np.ndarray
+    thickness_nm: np.ndarray
+    film: object = None
+    base: object = None
+    extra: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return self.cos_theta.size
+
+    def indices(self, wavelength_nm):
+        """(η2, η3, κ3) at each point × wavelength, shape (P, M)."""
+        lam = np.asarray(wavelength_nm, float)[None, :]
+        ones = np.ones_like(lam)
+        eta2 = self.film.index(lam)[0] if self.film else self.eta2[:, None] * ones
+        if self.base:
+            eta3, kappa3 = self.base.index(lam)
+        else:
+            eta3, kappa3 = self.eta3[:, None] * ones, self.kappa3[:, None] * ones
+        return eta2, eta3, kappa3
+
+    @classmethod
+    def build(cls, *, eta1=1.0, eta2=None, thickness_nm=None, opd_nm=None, cos_theta=None,
+              angle_deg=None, eta3=None, kappa3=0.0, film=None, base=None) -> "FilmPoints":
+        """Validate and broadcast keyword columns (scalars or arrays)."""
+        film_mat = material(film) if film else None
+        base_mat = material(base) if base else None
+        _require_one("thickness_nm", thickness_nm, "opd_nm", opd_nm)
+        _require_one("cos_theta", cos_theta, "angle_deg", angle_deg)
+        if film_mat is None and eta2 is None:
+            raise ValueError("eta2 is missing: give --eta2 or --film NAME")
+        if base_mat is None and eta3 is None:
+            raise ValueError("eta3 is missing: give --eta3 (and --kappa3) or --base NAME")
+        if opd_nm is not None and film_mat is not None:
+            raise ValueError("opd_nm needs a constant eta2; with --film give --thickness")
+        cols = {
+            "eta1": check_value("eta1", eta1),
+            "eta2": check_value("eta2", 1.0 if eta2 is None else eta2),
+            "eta3": check_value("eta3", 1.0 if eta3 is None else eta3),
+            "kappa3": check_value("kappa3", kappa3),
+        }
+        if cos_theta is not None:
+            cols["cos_theta"] = check_value("cos_theta", cos_theta)
+        else:
+            cols["cos_theta"] = np.cos(np.radians(check_value("angle_deg", angle_deg)))
+        if thickness_nm is not None:
+            cols["thickness_nm"] = check_value("thickness_nm", thickness_nm)
+        else:
+            cols["thickness_nm"] = thickness_from_opd(check_value("opd_nm", opd_nm), cols["eta2"])
+        arrays = dict(zip(cols, np.broadcast_arrays(*cols.values())))
+        return cls(**{k: np.ascontiguousarray(v) for k, v in arrays.items()},
+                   film=film_mat, base=base_mat)
+
+    @classmethod
+    def from_csv(cls, text: str, **defaults) -> "FilmPoints":
+        """Parse CSV text whose header names columns from CSV_COLUMNS."""
+        rows = list(csv.reader(io.StringIO(text)))
+        rows = [r for r in rows if r and any(c.strip() for c in r)]
+        if len(rows) < 2:
+            raise ValueError("points CSV needs a header row and at least one data row")
+        header = [h.strip() for h in rows[0]]
+        unknown = [h for h in header if h not in CSV_COLUMNS]
+        if unknown:
+            raise ValueError(f"points CSV column {unknown[0]!r} is unknown: allowed {', '.join(CSV_COLUMNS)}")
+        columns = {h: [] for h in header}
+        for line, row in enumerate(rows[1:], start=2):
+            if len(row) != len(header):
+                raise ValueError(f"points CSV line {line} has {len(row)} fields, expected {len(header)}")
+            for h, cell in zip(header, row):
+                try:
+                    columns[h].append(float(cell))
+                except ValueError:
+                    raise ValueError(f"points CSV line {line}: {h} = {cell.strip()!r} is not a number") from None
+        return cls.build(**{**defaults, **{k: np.array(v) for k, v in columns.items()}})
+
+
+def _require_one(name_a, a, name_b, b):
+    if (a is None) == (b is None):
+        raise ValueError(f"give exactly one of {name_a} or {name_b}")

@@ -1,0 +1,85 @@
+"""Ground truth: converged spectral integration of the exact Airy reflectance.
+
+For each point, RGB (or XYZ) = ∫ w(λ)·R(λ) dλ over 360–830 nm, with w the
+piecewise-linear illuminant-weighted sensitivity (colorimetry.py) and R the
+float64 Airy reflectance (optics.py), indices taken at each wavelength for
+dispersive materials. The integral runs Gauss–Legendre on every 1 nm panel
+and doubles the nodes per panel until two successive results agree to
+``tolerance`` in every channel; the finer result is returned. Gauss–Legendre
+converges exponentially on a resolved integrand, so the returned value's
+error is far below the last difference (tests check ≤ 1e-7 against a rule
+four times finer, for D up to 20 µm and near-resonant films).
+
+This path is deliberately separate from the bake's wavenumber rule: tests,
+``check`` and ``report`` measure the fast paths against it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .optics import film_reflectance
+from .points import FilmPoints
+from .spectral import panel_rule
+
+__all__ = ["ReferenceResult", "reference_colour", "spectral_reflectance"]
+
+DEFAULT_TOLERANCE = 1e-9
+_START_NODES_PER_NM = 2
+_MAX_NODES_PER_NM = 512
+_CELLS_PER_CHUNK = 1_000_000
+
+
+@dataclass
+class ReferenceResult:
+    """Converged colour (P, 3) and the nodes per nm each point needed."""
+
+    values: np.ndarray
+    nodes_per_nm: np.ndarray
+    converged: np.ndarray
+
+
+def spectral_reflectance(points: FilmPoints, wavelength_nm):
+    """(R_s, R_p, R) of every point at every wavelength, each (P, M)."""
+    eta2, eta3, kappa3 = points.indices(wavelength_nm)
+    lam = np.asarray(wavelength_nm, float)[None, :]
+    return film_reflectance(points.eta1[:, None], eta2, eta3, kappa3,
+                            points.cos_theta[:, None], points.thickness_nm[:, None], lam)
+
+
+def _integrate(points: FilmPoints, rule) -> np.ndarray:
+    out = np.empty((len(points), 3))
+    step = max(1, _CELLS_PER_CHUNK // rule.count)
+    for start in range(0, len(points), step):
+        part = _subset(points, slice(start, start + step))
+        out[start:start + step] = spectral_reflectance(part, rule.wavelength_nm)[2] @ rule.weights.T
+    return out
+
+
+def _subset(points: FilmPoints, index) -> FilmPoints:
+    return FilmPoints(points.eta1[index], points.eta2[index], points.eta3[index],
+                      points.kappa3[index], points.cos_theta[index], points.thickness_nm[index],
+                      film=points.film, base=points.base)
+
+
+def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str = "rec709",
+                     basis: str = "rgb", tolerance: float = DEFAULT_TOLERANCE) -> ReferenceResult:
+    """Integrate each point until successive refinements agree to ``tolerance``."""
+    n = len(points)
+    nodes = _START_NODES_PER_NM
+    previous = _integrate(points, panel_rule(nodes, observer, space, basis))
+    values = previous.copy()
+    needed = np.full(n, nodes)
+    active = np.arange(n)
+    while active.size and nodes < _MAX_NODES_PER_NM:
+        nodes *= 2
+        finer = _integrate(_subset(points, active), panel_rule(nodes, observer, space, basis))
+        done = np.max(np.abs(finer - previous[active]), axis=1) <= tolerance
+        values[active], needed[active] = finer, nodes
+        previous[active] = finer
+        active = active[~done]
+    converged = np.ones(n, bool)
+    converged[active] = False
+    return ReferenceResult(values, needed, converged)

@@ -1,0 +1,54 @@
+"""The ground truth converges, and the fixed rules it replaces would not."""
+
+import numpy as np
+
+from lutbake.points import FilmPoints
+from lutbake.reference import _integrate, reference_colour
+from lutbake.spectral import panel_rule, wavenumber_count, wavenumber_rule
+
+
+def _hard_points(rng, n=150):
+    """Thick films up to D = 20 µm, plus near-resonant ones (metal base at grazing,
+    total reflection at the base) where R(λ) has narrow Fabry–Perot features."""
+    thick = dict(eta2=rng.uniform(1.2, 3.0, n), opd_nm=rng.uniform(0, 20000, n),
+                 cos_theta=rng.uniform(0, 1, n), eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+    resonant = dict(eta2=rng.uniform(2.0, 3.0, n), opd_nm=rng.uniform(5000, 20000, n),
+                    cos_theta=rng.uniform(0.02, 0.3, n), eta3=rng.uniform(1.0, 1.5, n),
+                    kappa3=rng.choice([0.0, 20.0], n))
+    return [FilmPoints.build(**thick), FilmPoints.build(**resonant)]
+
+
+def test_reference_is_converged_to_1e_7(rng):
+    for pts in _hard_points(rng):
+        ref = reference_colour(pts)
+        assert ref.converged.all()
+        finest = 4 * int(ref.nodes_per_nm.max())
+        truth = _integrate(pts, panel_rule(finest))
+        assert np.max(np.abs(ref.values - truth)) <= 1e-7
+
+
+def test_fixed_5nm_sampling_is_not_converged(rng):
+    """The refinement test above can fail: 5 nm sampling misses by far more than 1e-7."""
+    pts = _hard_points(rng)[1]
+    ref = reference_colour(pts).values
+    lam = np.arange(360.0, 831.0, 5.0)
+    from lutbake.reference import spectral_reflectance
+    from lutbake.colorimetry import colorimetry
+    w = colorimetry().sensitivity(lam) * 5.0
+    coarse = spectral_reflectance(pts, lam)[2] @ w.T
+    assert np.max(np.abs(coarse - ref)) > 1e-3
+
+
+def test_wavenumber_rule_error_falls_with_node_count(rng):
+    pts = _hard_points(rng)[0]
+    ref = reference_colour(pts).values
+    errors = [np.max(np.abs(_integrate(pts, wavenumber_rule(wavenumber_count(20000, spc))) - ref))
+              for spc in (3, 6, 12)]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 2e-3
+
+
+def test_wavenumber_rule_is_exact_for_a_constant_spectrum():
+    for count in (16, 64, 250):
+        rule = wavenumber_rule(count)
+        assert np.allclose(rule.weights.sum(axis=1), panel_rule(8).weights.sum(axis=1), atol=1e-12)
