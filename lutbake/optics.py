@@ -39,6 +39,7 @@ __all__ = [
     "film_amplitudes",
     "film_reflectance",
     "film_transmittance",
+    "round_trip_amplitude",
     "opd_from_thickness",
     "thickness_from_opd",
 ]
@@ -154,3 +155,14 @@ def film_transmittance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavel
             t = 16.0 * y1.real * y3.real * np.exp(-phi.imag) / np.abs(den) ** 2
         out.append(np.where(c1 == 0.0, 0.0, t))
     return out[0], out[1], 0.5 * (out[0] + out[1])
+
+
+def round_trip_amplitude(eta1, eta2, eta3, kappa3, cos_theta1):
+    """max over s, p of |r21·r23|, the Airy sum's ratio: its peaks sharpen as it nears 1."""
+    terms, _, _ = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, 0.0, 500.0)
+    out = 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for y1, y2, y3, _ in terms.values():
+            ratio = np.abs((y1 - y2) / (y1 + y2) * (y2 - y3) / (y2 + y3))
+            out = np.maximum(out, np.nan_to_num(ratio, nan=0.0))
+    return np.minimum(out, 1.0)

@@ -1,0 +1,145 @@
+"""Bake: run a plan through an integrator and stream it into a LUT file set.
+
+Outputs beside each other: NAME.exr (authoritative, self-describing),
+NAME.json (the same metadata), NAME.glsl and NAME.hlsl (samplers). The EXR is
+renamed into place last, after its companions.
+
+Before baking, the spectral rule's error is measured against the ground
+truth (reference.py) at probe cells spread over the grid, including the
+thickest film and grazing incidence, and recorded as
+``spectral.error_rgb_max``: the figure the kernel's output is held to.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .integrate import NumpyBackend
+from .integrate import backend as make_backend
+from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_text_atomic
+from .plan import Axis, BakeSpec
+from .points import FilmPoints
+from .reference import reference_colour
+
+__all__ = ["BakeResult", "bake", "bake_array", "default_specs", "metadata", "spectral_error"]
+
+_PROBES = 48
+
+
+@dataclass
+class BakeResult:
+    path: Path
+    cells: int
+    seconds: float
+    backend: str
+    spectral_error_rgb_max: float
+
+    @property
+    def cells_per_second(self) -> float:
+        return self.cells / max(self.seconds, 1e-12)
+
+
+def default_specs(precision: str = "float") -> dict:
+    """The embedded default LUT set: soap/water-like, glass-like and oxide-like films.
+
+    cos θ is warped in √ (colour and Fresnel change fastest near grazing),
+    κ3 in √ (metals' reflectance saturates with κ), D and η3 uniform.
+    """
+    axes = (Axis("cos_theta", 0.0, 1.0, 32, "sqrt"), Axis("opd_nm", 0.0, 3000.0, 128),
+            Axis("eta3", 1.0, 3.0, 8), Axis("kappa3", 0.0, 5.0, 8, "sqrt"))
+    return {f"lutbake-eta2-{eta2:.2f}": BakeSpec(eta2=eta2, axes=axes, precision=precision)
+            for eta2 in (1.33, 1.5, 2.0)}
+
+
+def _probe_points(spec: BakeSpec) -> FilmPoints:
+    """Deterministic probe cells: random nodes plus the thickest film at grazing-ish angles."""
+    rng = np.random.default_rng(int(spec.content_hash[:8], 16))
+    idx = [rng.integers(0, n, _PROBES) for n in spec.shape]
+    idx[1][: _PROBES // 4] = spec.shape[1] - 1
+    vals = [a.values()[i] for a, i in zip(spec.axes, idx)]
+    return FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=vals[0], opd_nm=vals[1],
+                            eta3=vals[2], kappa3=vals[3])
+
+
+def spectral_error(spec: BakeSpec) -> float:
+    """max |ΔRGB| of the bake's spectral rules against the ground truth at the probe cells."""
+    pts = _probe_points(spec)
+    opd = 2.0 * spec.eta2 * pts.thickness_nm
+    fast = NumpyBackend().evaluate(spec, pts.cos_theta, opd, pts.eta3, pts.kappa3)
+    truth = reference_colour(pts, spec.observer, spec.space).values
+    return float(np.max(np.abs(fast - truth)))
+
+
+def metadata(spec: BakeSpec, error_rgb_max: float) -> dict:
+    width, height = spec.image_size
+    n_cos, n_opd, _, _ = spec.shape
+    illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "lutbake_version": __version__,
+        "content_hash": spec.content_hash,
+        "axes": [a.describe() for a in spec.axes],
+        "packing": {"layout": "tiles", "width": width, "height": height,
+                    "tile_x": "cos_theta", "tile_y": "opd_nm", "tiles_x": "eta3", "tiles_y": "kappa3",
+                    "tile_width": n_cos, "tile_height": n_opd},
+        "constants": {"eta1": spec.eta1, "eta2": spec.eta2},
+        "observer": spec.observer,
+        "illuminant": illuminant,
+        "space": spec.space,
+        "encoding": "linear",
+        "method": spec.method,
+        "spectral": {"rule": "wavenumber-cubic-product", "counts": spec.ladder.counts,
+                     "range_nm": [360.0, 830.0], "samples_per_cycle": spec.samples_per_cycle,
+                     "error_rgb_max": error_rgb_max, "error_probes": _PROBES},
+        "precision": spec.precision,
+        "compute": spec.compute,
+        "channels": ["R", "G", "B"],
+    }
+
+
+def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None) -> BakeResult:
+    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes."""
+    out_path = Path(out_path)
+    _check_writable(out_path)
+    start = time.perf_counter()
+    integrator = make_backend(backend, spec.compute)
+    error = spectral_error(spec)
+    meta = metadata(spec, error)
+    width, height = spec.image_size
+    chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
+    with exr_stream(out_path, width, height, meta, spec.precision) as exr:
+        for y0, y1 in chunks:
+            exr.write_rows(integrator.bake_rows(spec, y0, y1))
+            if on_band:
+                on_band(y1 - y0, height)
+        write_text_atomic(out_path.with_suffix(".json"), json.dumps(meta, indent=2, sort_keys=True) + "\n")
+        for suffix, text in shader_includes(meta, out_path.name).items():
+            write_text_atomic(out_path.with_suffix(f".{suffix}"), text)
+    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, error)
+
+
+def bake_array(spec: BakeSpec, backend: str = "auto") -> np.ndarray:
+    """The whole packed image (height, width, 3) in float64, in memory (tests, benchmarks)."""
+    integrator = make_backend(backend, spec.compute)
+    return np.concatenate([integrator.bake_rows(spec, y0, y1) for y0, y1 in spec.row_chunks()])
+
+
+def _check_writable(out_path: Path) -> None:
+    import os
+
+    if out_path.suffix.lower() != ".exr":
+        raise ValueError(f"--out {str(out_path)!r} must end in .exr")
+    folder = out_path.parent
+    if not folder.is_dir():
+        raise ValueError(f"--out folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"--out folder {str(folder)!r} is not writable")
+    if out_path.is_dir():
+        raise ValueError(f"--out {str(out_path)!r} is a folder, expected a file name ending in .exr")

@@ -1,0 +1,209 @@
+"""Integrate a bake plan to RGB, band by band: the OpenCL kernel or the numpy path.
+
+Both evaluate the same spectral rule (spectral.wavenumber_rule) for every
+texel of a band of image rows and return an array (rows, width, 3):
+
+* ``OpenCLBackend`` runs kernels/airy.cl through pyopencl, by default on
+  PoCL's CPU device from PyPI; ``PYOPENCL_CTX`` picks any other platform
+  (a GPU's driver runs the same source unchanged). The program is built
+  once per process and compute precision.
+* ``NumpyBackend`` evaluates optics.film_reflectance (the ground truth's
+  float64 physics) at the rule's nodes: the reference for the kernel in
+  tests, and the fallback where no OpenCL platform exists.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import tempfile
+import warnings
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .optics import film_reflectance
+
+__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable"]
+
+
+class OpenCLUnavailable(RuntimeError):
+    """No usable OpenCL platform or device."""
+
+
+class NumpyBackend:
+    """float64 numpy evaluation of the exact Airy reflectance at each texel's rule nodes."""
+
+    name = "numpy"
+    _CELLS_X_NODES = 2_000_000
+
+    def bake_rows(self, spec, y0, y1):
+        params = (a.ravel() for a in spec.cell_params(y0, y1))
+        return self.evaluate(spec, *params).reshape(y1 - y0, -1, 3)
+
+    def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
+        """RGB (n, 3) of texels given as flat parameter arrays."""
+        levels = spec.cell_levels(cos_theta, opd_nm, eta3, kappa3)
+        thickness = np.asarray(opd_nm) / (2.0 * spec.eta2)
+        out = np.empty((levels.size, 3))
+        for level in np.unique(levels):
+            rule = spec.ladder.rule(level)
+            cells = np.flatnonzero(levels == level)
+            step = max(1, self._CELLS_X_NODES // rule.count)
+            for s in range(0, cells.size, step):
+                i = cells[s:s + step, None]
+                refl = film_reflectance(spec.eta1, spec.eta2, eta3[i], kappa3[i], cos_theta[i],
+                                        thickness[i], rule.wavelength_nm[None, :])[2]
+                out[i[:, 0]] = refl @ rule.weights.T
+        return out
+
+
+def _split(values, dtype):
+    """(hi, lo) with hi + lo ≈ values to twice the precision of ``dtype``."""
+    values = np.asarray(values, np.float64)
+    hi = values.astype(dtype)
+    lo = (values - hi.astype(np.float64)).astype(dtype)
+    return np.ascontiguousarray(hi), np.ascontiguousarray(lo)
+
+
+def _register_intel_cpu_runtime():
+    """Make Intel's CPU OpenCL runtime (PyPI: opencl-rt) visible to pyopencl's ICD loader.
+
+    PoCL 3.0 from PyPI compiles kernels with LLVM 14, which cannot name CPUs
+    newer than it (AMD family 1Ah, Zen 5: "unknown target CPU 'generic'").
+    The test extra installs Intel's CPU runtime into the environment's lib/;
+    registering it gives such machines a second OpenCL CPU device that runs
+    the same kernel source. An explicit OCL_ICD_VENDORS is left alone.
+    """
+    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
+    if "OCL_ICD_VENDORS" in os.environ or not lib.is_file():
+        return
+    vendors = Path(tempfile.gettempdir()) / f"lutbake-icd-{os.getuid()}"
+    vendors.mkdir(exist_ok=True)
+    icd = vendors / "intel-cpu.icd"
+    if not icd.is_file() or icd.read_text() != f"{lib}\n":
+        tmp = icd.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_text(f"{lib}\n")
+        os.replace(tmp, icd)
+    os.environ["OCL_ICD_VENDORS"] = str(vendors)
+
+
+def _candidate_devices():
+    """OpenCL devices in order of preference: PYOPENCL_CTX's, else PoCL's, then the rest."""
+    _register_intel_cpu_runtime()
+    import pyopencl as cl
+
+    try:
+        if os.environ.get("PYOPENCL_CTX"):
+            return [cl.create_some_context(interactive=False).devices[0]]
+        platforms = cl.get_platforms()
+    except cl.Error as exc:
+        raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
+    platforms.sort(key=lambda p: "Portable Computing Language" not in p.name)
+    return [d for p in platforms for d in p.get_devices()]
+
+
+def _build(device, compute: str):
+    import pyopencl as cl
+
+    if compute == "float64" and "cl_khr_fp64" not in device.extensions:
+        raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64; use --compute float32")
+    ctx = cl.Context([device])
+    source = resources.files("lutbake").joinpath("kernels/airy.cl").read_text()
+    options = ["-DLUTBAKE_FP64"] if compute == "float64" else []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return ctx, cl.Program(ctx, source).build(options=options)
+
+
+@functools.lru_cache(maxsize=4)
+def _program(compute: str):
+    """(context, built program) on the first device whose compiler builds the kernel."""
+    import pyopencl as cl
+
+    reasons = []
+    for device in _candidate_devices():
+        try:
+            return _build(device, compute)
+        except (cl.Error, OpenCLUnavailable) as exc:
+            first = str(exc).strip().splitlines()
+            reasons.append(f"{device.name.strip()}: {next((l for l in first if 'error' in l), first[0])}")
+    raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
+
+
+class OpenCLBackend:
+    """kernels/airy.cl on the default OpenCL device (PoCL unless PYOPENCL_CTX says otherwise)."""
+
+    name = "opencl"
+
+    def __init__(self, compute: str = "float64"):
+        import pyopencl as cl
+
+        self.compute = compute
+        self.dtype = np.float64 if compute == "float64" else np.float32
+        self.ctx, self.program = _program(compute)
+        self.queue = cl.CommandQueue(self.ctx)
+        self._static = None
+
+    @property
+    def device_name(self) -> str:
+        return self.ctx.devices[0].name.strip()
+
+    def _static_buffers(self, spec):
+        import pyopencl as cl
+
+        key = spec.content_hash
+        if self._static and self._static[0] == key:
+            return self._static[1]
+        rules = [spec.ladder.rule(k) for k in range(len(spec.ladder.counts))]
+        nu = np.concatenate([1.0 / r.wavelength_nm for r in rules])
+        weights = np.concatenate([r.weights.ravel() for r in rules])
+        ax = {a.name: a.values() for a in spec.axes}
+        sin2 = (1 - ax["cos_theta"]) * (1 + ax["cos_theta"])
+        cos2 = np.sqrt(np.abs(spec.eta2**2 - spec.eta1**2 * sin2)) / spec.eta2
+        # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0).
+        arrays = [ax["cos_theta"], *_split(cos2, self.dtype), *_split(ax["opd_nm"], self.dtype),
+                  ax["eta3"], ax["kappa3"], *_split(nu, self.dtype), weights]
+        mf = cl.mem_flags
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
+                             hostbuf=np.ascontiguousarray(a, self.dtype)) for a in arrays]
+        self._static = (key, (buffers, spec.ladder.counts[0]))
+        return self._static[1]
+
+    def bake_rows(self, spec, y0, y1):
+        import pyopencl as cl
+
+        buffers, n_min = self._static_buffers(spec)
+        width, _ = spec.image_size
+        n_cos, n_opd, _, _ = spec.shape
+        cells = (y1 - y0) * width
+        levels = spec.cell_levels(*(a.ravel() for a in spec.cell_params(y0, y1)))
+        mf = cl.mem_flags
+        level_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=levels)
+        out = np.empty((y1 - y0, width, 3), self.dtype)
+        out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
+        real = self.dtype
+        self.program.bake_rows(
+            self.queue, (cells,), None, *buffers, level_buf, real(spec.eta1), real(spec.eta2),
+            np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min),
+            out_buf)
+        cl.enqueue_copy(self.queue, out, out_buf)
+        out_buf.release()
+        level_buf.release()
+        return out.astype(np.float64, copy=False)
+
+
+def backend(name: str = "auto", compute: str = "float64"):
+    """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning)."""
+    if name == "numpy":
+        return NumpyBackend()
+    try:
+        return OpenCLBackend(compute)
+    except (OpenCLUnavailable, ImportError) as exc:
+        if name == "opencl":
+            raise
+        warnings.warn(f"OpenCL unavailable ({exc}); baking with the numpy path, which is much slower",
+                      RuntimeWarning, stacklevel=2)
+        return NumpyBackend()

@@ -1,0 +1,215 @@
+"""Bake plans: the LUT's axes, its tile packing, the spectral rule and the chunks.
+
+A LUT is a 4D grid over (cos θ1, D, η3, κ3) for a film η2 under an ambient
+η1. It is packed as a 2D image of tiles: each tile is one (η3, κ3) node and
+holds the (cos θ1, D) slice, cos θ1 along x and D along y; tiles go along x
+by η3 and along y by κ3. A texel (x, y) is therefore
+
+    x = i_eta3 · N_cos + i_cos,   y = i_kappa3 · N_opd + i_opd.
+
+Axes are uniform, or warped uniform in √v (denser near the low end, where
+thin-film colour changes fastest along D and κ3). Chunks are bands of whole
+image rows, so a grid of any size bakes and streams in bounded memory.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .colorimetry import OBSERVERS, SPACES
+from .points import check_value
+from .optics import normal_admittance, round_trip_amplitude
+from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
+
+__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
+           "COMPUTE_PRECISIONS", "METHODS"]
+
+AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
+AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
+SPACINGS = ("uniform", "sqrt")
+PRECISIONS = ("float", "half")
+COMPUTE_PRECISIONS = ("float64", "float32")
+METHODS = ("spectral",)
+MAX_CELLS = 2_000_000_000
+_CHUNK_CELLS = 1 << 20
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One LUT axis: ``count`` nodes from ``lo`` to ``hi`` with a spacing."""
+
+    name: str
+    lo: float
+    hi: float
+    count: int
+    spacing: str = "uniform"
+
+    @property
+    def unit(self) -> str:
+        return AXIS_UNITS[self.name]
+
+    def values(self) -> np.ndarray:
+        """Node values (float64), exact at both ends."""
+        u = np.linspace(0.0, 1.0, self.count)
+        v = self.from_unit(u)
+        v[0], v[-1] = self.lo, self.hi
+        return v
+
+    def from_unit(self, u):
+        u = np.asarray(u, float)
+        if self.spacing == "sqrt":
+            a, b = np.sqrt(self.lo), np.sqrt(self.hi)
+            return (a + (b - a) * u) ** 2
+        return self.lo + (self.hi - self.lo) * u
+
+    def to_unit(self, v):
+        """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped)."""
+        v = np.asarray(v, float)
+        if self.spacing == "sqrt":
+            a, b = np.sqrt(self.lo), np.sqrt(self.hi)
+            return (np.sqrt(np.maximum(v, 0.0)) - a) / (b - a)
+        return (v - self.lo) / (self.hi - self.lo)
+
+    def describe(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
+                "count": self.count, "spacing": self.spacing}
+
+
+def parse_axis(name: str, text: str) -> Axis:
+    """Parse 'A:B:N' or 'A:B:N:sqrt' into a validated Axis."""
+    parts = text.split(":")
+    if len(parts) not in (3, 4):
+        raise ValueError(f"--{_flag(name)} {text!r} is not A:B:N or A:B:N:SPACING")
+    try:
+        lo, hi = float(parts[0]), float(parts[1])
+        count = int(parts[2])
+    except ValueError:
+        raise ValueError(f"--{_flag(name)} {text!r}: A and B must be numbers and N an integer") from None
+    spacing = parts[3] if len(parts) == 4 else "uniform"
+    return validate_axis(Axis(name, lo, hi, count, spacing))
+
+
+def validate_axis(axis: Axis) -> Axis:
+    flag = f"--{_flag(axis.name)}"
+    domain_name = {"opd_nm": "opd_nm"}.get(axis.name, axis.name)
+    for v in (axis.lo, axis.hi):
+        try:
+            check_value(domain_name, v)
+        except ValueError as exc:
+            raise ValueError(f"{flag}: {exc}") from None
+    if not axis.hi > axis.lo:
+        raise ValueError(f"{flag} range {axis.lo:g}:{axis.hi:g} is empty or reversed: need A < B")
+    if axis.count < 2:
+        raise ValueError(f"{flag} count {axis.count} is too small: need N >= 2")
+    if axis.spacing not in SPACINGS:
+        raise ValueError(f"{flag} spacing {axis.spacing!r} is not one of {', '.join(SPACINGS)}")
+    return axis
+
+
+def _flag(name: str) -> str:
+    return {"opd_nm": "opd", "cos_theta": "cos-theta"}.get(name, name)
+
+
+@dataclass(frozen=True)
+class BakeSpec:
+    """Everything that determines a LUT's bytes."""
+
+    eta2: float
+    axes: tuple
+    eta1: float = 1.0
+    space: str = "rec709"
+    observer: str = "cie1931"
+    precision: str = "float"
+    compute: str = "float64"
+    method: str = "spectral"
+    samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE
+    notes: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        check_value("eta1", self.eta1)
+        check_value("eta2", self.eta2)
+        _choice("space", self.space, SPACES)
+        _choice("observer", self.observer, OBSERVERS)
+        _choice("precision", self.precision, PRECISIONS)
+        _choice("compute", self.compute, COMPUTE_PRECISIONS)
+        _choice("method", self.method, METHODS)
+        if [a.name for a in self.axes] != list(AXIS_NAMES):
+            raise ValueError(f"axes must be {', '.join(AXIS_NAMES)} in that order")
+        for axis in self.axes:
+            validate_axis(axis)
+        if not 1.0 <= self.samples_per_cycle <= 64.0:
+            raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
+        if self.cells > MAX_CELLS:
+            raise ValueError(f"grid of {self.cells} cells exceeds the {MAX_CELLS} cell limit")
+
+    @property
+    def axis(self) -> dict:
+        return {a.name: a for a in self.axes}
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(a.count for a in self.axes)
+
+    @property
+    def cells(self) -> int:
+        return int(np.prod(self.shape, dtype=np.int64))
+
+    @property
+    def image_size(self) -> tuple:
+        """(width, height) of the packed image in texels."""
+        n_cos, n_opd, n_eta3, n_kappa3 = self.shape
+        return n_eta3 * n_cos, n_kappa3 * n_opd
+
+    @property
+    def ladder(self):
+        return rule_ladder(self.samples_per_cycle, self.observer, self.space)
+
+    def cell_levels(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+        """Spectral rule level of each texel (spectral.RuleLadder.level), float64 on the host."""
+        g2 = normal_admittance(self.eta2, 0.0, self.eta1, cos_theta)
+        cycles = np.asarray(opd_nm) * g2.real / self.eta2 * WAVENUMBER_SPAN_PER_NM
+        round_trip = round_trip_amplitude(self.eta1, self.eta2, eta3, kappa3, cos_theta)
+        return self.ladder.level(cycles, round_trip)
+
+    def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
+        """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""
+        width, height = self.image_size
+        rows = max(1, chunk_cells // width)
+        return [(y, min(y + rows, height)) for y in range(0, height, rows)]
+
+    def cell_params(self, y0: int, y1: int):
+        """(cos θ1, D, η3, κ3) of every texel in rows [y0, y1), each (y1 − y0, width)."""
+        n_cos, n_opd, _, _ = self.shape
+        width, _ = self.image_size
+        x = np.arange(width)
+        y = np.arange(y0, y1)
+        v = {a.name: a.values() for a in self.axes}
+        cos_t = np.broadcast_to(v["cos_theta"][x % n_cos], (y.size, width))
+        eta3 = np.broadcast_to(v["eta3"][x // n_cos], (y.size, width))
+        opd = np.broadcast_to(v["opd_nm"][y % n_opd][:, None], (y.size, width))
+        kappa3 = np.broadcast_to(v["kappa3"][y // n_opd][:, None], (y.size, width))
+        return cos_t, opd, eta3, kappa3
+
+    def describe(self) -> dict:
+        """The inputs that define the LUT (hashed into ``content_hash``)."""
+        d = asdict(self)
+        d.pop("notes")
+        d["axes"] = [a.describe() for a in self.axes]
+        d["spectral_counts"] = self.ladder.counts
+        return d
+
+    @property
+    def content_hash(self) -> str:
+        from . import __version__
+
+        text = json.dumps({"spec": self.describe(), "lutbake": __version__}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _choice(name, value, allowed):
+    if value not in allowed:
+        raise ValueError(f"{name} {value!r} is not one of {', '.join(allowed)}")
