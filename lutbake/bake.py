@@ -26,6 +26,7 @@ from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
+from .spectral import STENCIL_NODES
 
 __all__ = ["BakeResult", "bake", "bake_array", "default_specs", "metadata", "spectral_error"]
 
@@ -95,7 +96,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float) -> dict:
         "space": spec.space,
         "encoding": "linear",
         "method": spec.method,
-        "spectral": {"rule": "wavenumber-cubic-product", "counts": spec.ladder.counts,
+        "spectral": {"rule": f"wavenumber-lagrange{STENCIL_NODES}-product", "counts": spec.ladder.counts,
                      "range_nm": [360.0, 830.0], "samples_per_cycle": spec.samples_per_cycle,
                      "error_rgb_max": error_rgb_max, "error_probes": _PROBES},
         "precision": spec.precision,

@@ -151,5 +151,162 @@ def _print_eval_table(rows):
             click.echo(f"{inputs}  Rs {row['Rs']:.9f}  Rp {row['Rp']:.9f}  R {row['R']:.9f}")
 
 
+DEFAULT_OUT_DIR = "lutbake-luts"
+
+
+def axis_option(flag, name):
+    return click.option(flag, name, metavar="A:B:N[:sqrt]",
+                        help=f"{name} axis: N nodes from A to B (uniform, or uniform in sqrt).")
+
+
+@cli.command("bake")
+@click.option("--eta2", type=float, help="Film index (constant, real). Omit to bake the default LUT set.")
+@click.option("--eta1", type=float, default=1.0, show_default=True, help="Ambient index.")
+@axis_option("--cos-theta", "cos_theta")
+@axis_option("--opd", "opd_nm")
+@axis_option("--eta3", "eta3")
+@axis_option("--kappa3", "kappa3")
+@colour_options
+@click.option("--precision", type=click.Choice(["float", "half"]), default="float", show_default=True,
+              help="Storage precision of the EXR.")
+@click.option("--compute", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
+              help="Arithmetic precision of the kernel.")
+@click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
+              help="Integration method (exact spectral Airy reflectance).")
+@click.option("--samples-per-cycle", type=float, default=None,
+              help="Spectral nodes per fringe-bandwidth cycle (default 3: |ΔRGB| ≤ 1e-5).")
+@click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True,
+              help="auto: OpenCL (PoCL first), else numpy with a warning.")
+@click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML).")
+@click.option("--out", "out", type=click.Path(), default=None,
+              help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
+def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
+             samples_per_cycle, backend, scene, out, quiet, as_json):
+    """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT."""
+    from .bake import default_specs
+    from .plan import BakeSpec, parse_axis
+
+    if scene:
+        raise BadInput("--scene bakes are not available yet (scene-driven bakes are a planned feature)")
+    given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
+    common = dict(eta1=eta1, space=space, observer=observer, precision=precision, compute=compute,
+                  method=method)
+    if samples_per_cycle is not None:
+        common["samples_per_cycle"] = samples_per_cycle
+    if eta2 is None:
+        if any(given.values()):
+            raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
+        folder = Path(out or DEFAULT_OUT_DIR)
+        if folder.suffix.lower() == ".exr":
+            raise BadInput(f"--out {str(folder)!r}: the default set goes into a folder, not one .exr")
+        _make_folder(folder)
+        jobs = [(folder / f"{name}.exr", BakeSpec(eta2=spec.eta2, axes=spec.axes, **common))
+                for name, spec in default_specs().items()]
+    else:
+        if out is None:
+            raise BadInput("--out FILE.exr is required with --eta2")
+        template = next(iter(default_specs().values())).axes
+        axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
+        jobs = [(Path(out), BakeSpec(eta2=eta2, axes=axes, **common))]
+    results = [_bake_one(path, spec, backend, quiet or as_json) for path, spec in jobs]
+    summary = [_bake_summary(r) for r in results]
+    if as_json:
+        echo_json({"luts": summary})
+        return
+    for row in summary:
+        click.echo(f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
+                   f"{row['cells_per_second']:.3g} cells/s, {row['backend']}, "
+                   f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})")
+    if eta2 is None:
+        click.echo(f"default LUT set in {jobs[0][0].parent}/")
+
+
+def _make_folder(folder: Path):
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BadInput(f"--out folder {str(folder)!r} cannot be created: {exc.strerror}") from None
+
+
+def _bake_one(path, spec, backend, quiet):
+    from .bake import bake
+
+    show = not quiet and sys.stderr.isatty()
+    if not show:
+        return bake(spec, path, backend)
+    with click.progressbar(length=spec.image_size[1], label=f"baking {path.name}", file=sys.stderr) as bar:
+        return bake(spec, path, backend, on_band=lambda rows, total: bar.update(rows))
+
+
+def _bake_summary(result):
+    return {"path": str(result.path), "cells": result.cells, "seconds": result.seconds,
+            "cells_per_second": result.cells_per_second, "backend": result.backend,
+            "spectral_error_rgb_max": result.spectral_error_rgb_max}
+
+
+@cli.command("inspect")
+@click.argument("lut", type=click.Path())
+@click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
+def inspect_cmd(lut, as_json):
+    """Show a LUT's metadata (read from the EXR header alone)."""
+    from .sample import Lut
+
+    table = Lut.load(lut)
+    meta = table.meta
+    if as_json:
+        echo_json(meta)
+        return
+    packing = meta["packing"]
+    click.echo(f"{lut}: {meta['format']} v{meta['format_version']} (lutbake {meta['lutbake_version']})")
+    click.echo(f"  film eta2 = {meta['constants']['eta2']!r}, ambient eta1 = {meta['constants']['eta1']!r}")
+    click.echo(f"  {meta['space']} linear RGB, {meta['observer']}, illuminant {meta['illuminant']}, "
+               f"{meta['precision']} storage, {meta['compute']} compute")
+    for a in meta["axes"]:
+        click.echo(f"  axis {a['name']:<9} [{a['min']!r}, {a['max']!r}] x {a['count']} ({a['spacing']}, unit {a['unit']})")
+    click.echo(f"  image {packing['width']} x {packing['height']}: tiles of {packing['tile_x']} x {packing['tile_y']}"
+               f" ({packing['tile_width']} x {packing['tile_height']}), laid out by {packing['tiles_x']} x {packing['tiles_y']}")
+    spectral = meta["spectral"]
+    click.echo(f"  spectral: {spectral['rule']}, {spectral['counts'][0]}-{spectral['counts'][-1]} nodes per texel, "
+               f"measured error |ΔRGB| ≤ {spectral['error_rgb_max']:.1e}")
+    click.echo(f"  content hash {meta['content_hash']}")
+
+
+@cli.command("sample")
+@click.argument("lut", type=click.Path())
+@point_options
+@click.option("--filter-bits", type=click.IntRange(1, 24), default=None,
+              help="Quantize bilinear weights as a GPU texture unit does (e.g. 8).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
+def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
+    """Sample a LUT as a GPU would (reference sampler)."""
+    from .sample import Lut
+
+    table = Lut.load(lut)
+    for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
+        if flags.get(name) is not None and flags[name] != value:
+            raise BadInput(f"--{name} {flags[name]!r} differs from the LUT's {name} = {value!r}")
+        flags[name] = value
+    if flags.get("film") or flags.get("base"):
+        raise BadInput("named materials cannot be sampled from a constant-index LUT; give --eta3/--kappa3")
+    points = build_points(points_csv, **flags)
+    opd = 2.0 * table.eta2 * points.thickness_nm
+    rgb = table.sample(points.cos_theta, opd, points.eta3, points.kappa3, filter_bits)
+    inside = table.in_domain(points.cos_theta, opd, points.eta3, points.kappa3)
+    rows = []
+    for i in range(len(points)):
+        rows.append({"cos_theta": float(points.cos_theta[i]), "opd_nm": float(opd[i]),
+                     "eta3": float(points.eta3[i]), "kappa3": float(points.kappa3[i]),
+                     "rgb": rgb[i].tolist(), "in_domain": bool(inside[i])})
+    if as_json:
+        echo_json({"lut": str(lut), "space": table.meta["space"], "points": rows})
+        return
+    for row in rows:
+        note = "" if row["in_domain"] else "  (outside the LUT: clamped)"
+        click.echo(f"cos_theta={row['cos_theta']:g} opd_nm={row['opd_nm']:g} eta3={row['eta3']:g} "
+                   f"kappa3={row['kappa3']:g}  RGB " + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .optics import film_reflectance
+from .optics import film_reflectance, normal_admittance
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable"]
 
@@ -143,7 +143,8 @@ class OpenCLBackend:
 
         self.compute = compute
         self.dtype = np.float64 if compute == "float64" else np.float32
-        self.ctx, self.program = _program(compute)
+        self.ctx, program = _program(compute)
+        self.kernel = cl.Kernel(program, "bake_rows")
         self.queue = cl.CommandQueue(self.ctx)
         self._static = None
 
@@ -161,8 +162,8 @@ class OpenCLBackend:
         nu = np.concatenate([1.0 / r.wavelength_nm for r in rules])
         weights = np.concatenate([r.weights.ravel() for r in rules])
         ax = {a.name: a.values() for a in spec.axes}
-        sin2 = (1 - ax["cos_theta"]) * (1 + ax["cos_theta"])
-        cos2 = np.sqrt(np.abs(spec.eta2**2 - spec.eta1**2 * sin2)) / spec.eta2
+        g2 = normal_admittance(spec.eta2, 0.0, spec.eta1, ax["cos_theta"])  # as the numpy path
+        cos2 = np.where(g2.imag > 0, -g2.imag, g2.real) / spec.eta2      # < 0 marks evanescent
         # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0).
         arrays = [ax["cos_theta"], *_split(cos2, self.dtype), *_split(ax["opd_nm"], self.dtype),
                   ax["eta3"], ax["kappa3"], *_split(nu, self.dtype), weights]
@@ -185,7 +186,7 @@ class OpenCLBackend:
         out = np.empty((y1 - y0, width, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
         real = self.dtype
-        self.program.bake_rows(
+        self.kernel(
             self.queue, (cells,), None, *buffers, level_buf, real(spec.eta1), real(spec.eta2),
             np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min),
             out_buf)

@@ -96,7 +96,7 @@ inline REAL airy_r2(AiryTerms t, CPLX w) {
 
 __kernel void bake_rows(
     __global const REAL *cos_axis,                            // N_cos
-    __global const REAL *cos2_hi, __global const REAL *cos2_lo, // |cos θ2| per cos node
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2|, < 0: evanescent film
     __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd
     __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
     __global const REAL *nu_hi, __global const REAL *nu_lo,     // all ladder rules' nodes (1/nm)
@@ -114,9 +114,10 @@ __kernel void bake_rows(
     const REAL c1 = cos_axis[i_cos];
     const REAL e3 = eta3_axis[i_eta3], k3 = kappa3_axis[i_kappa3];
     const REAL sin2 = (1 - c1) * (1 + c1);
-    const REAL g2sq = eta2 * eta2 - eta1 * eta1 * sin2;
-    const bool evanescent = g2sq < 0;
-    const REAL g2abs = sqrt(fabs(g2sq));
+    // One host-computed cos θ2 feeds both the Fresnel terms and the phase, so
+    // they agree even at the film's critical angle, where g2² is rounding noise.
+    const bool evanescent = cos2_hi[i_cos] < 0;
+    const REAL g2abs = eta2 * fabs(cos2_hi[i_cos]);
     const CPLX g1 = (CPLX)(eta1 * c1, 0);
     const CPLX g2 = evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
     const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
@@ -127,7 +128,8 @@ __kernel void bake_rows(
                                     c_div(g3, n3sq), eta2 * eta2);
 
     const REAL d_hi = opd_hi[i_opd], d_lo = opd_lo[i_opd];
-    const REAL b_hi = cos2_hi[i_cos], b_lo = cos2_lo[i_cos];
+    const REAL b_hi = fabs(cos2_hi[i_cos]);
+    const REAL b_lo = evanescent ? -cos2_lo[i_cos] : cos2_lo[i_cos];
     const REAL dc_hi = d_hi * b_hi;                            // D·|cos θ2| as float-float
     const REAL dc_lo = fma(d_hi, b_hi, -dc_hi) + (d_hi * b_lo + d_lo * b_hi);
     // Ladder rule k has n_min·2^k nodes, stored after those of rules 0 … k−1.

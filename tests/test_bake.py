@@ -1,0 +1,242 @@
+"""Bake: kernel against numpy and the ground truth, the EXR contract, atomicity, determinism."""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from lutbake.bake import bake, bake_array
+from lutbake.integrate import NumpyBackend, OpenCLBackend
+from lutbake.plan import Axis, BakeSpec
+from lutbake.points import FilmPoints
+from lutbake.reference import reference_colour
+from lutbake.sample import Lut
+
+
+def random_spec(rng, shape=(32, 64, 8, 8), **kw):
+    lo = [rng.uniform(0, 0.3), rng.uniform(0, 500), rng.uniform(1, 1.5), rng.uniform(0, 1)]
+    hi = [rng.uniform(0.7, 1.0), rng.uniform(2000, 6000), rng.uniform(2, 3.5), rng.uniform(2, 8)]
+    spacing = ["sqrt", "uniform", "uniform", "sqrt"]
+    names = ["cos_theta", "opd_nm", "eta3", "kappa3"]
+    axes = tuple(Axis(n, a, b, c, s) for n, a, b, c, s in zip(names, lo, hi, shape, spacing))
+    return BakeSpec(eta2=rng.uniform(1.2, 2.5), axes=axes, **kw)
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return random_spec(np.random.default_rng(7))
+
+
+@pytest.fixture(scope="module")
+def kernel_grid(spec):
+    return bake_array(spec, "opencl")
+
+
+def test_kernel_float64_equals_numpy_on_every_cell(spec, kernel_grid):
+    assert kernel_grid.shape == (8 * 64, 8 * 32, 3)
+    assert np.max(np.abs(kernel_grid - bake_array(spec, "numpy"))) <= 1e-10
+
+
+def test_kernel_float32_within_2e5_of_float64(spec, kernel_grid):
+    from dataclasses import replace
+
+    f32 = bake_array(replace(spec, compute="float32"), "opencl")
+    assert np.max(np.abs(f32 - kernel_grid)) <= 2e-5
+
+
+def test_kernel_matches_ground_truth_within_the_spectral_target(spec, kernel_grid, rng):
+    n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
+    y = rng.integers(0, n_opd * n_kappa3, 200)
+    x = rng.integers(0, n_cos * n_eta3, 200)
+    v = [a.values() for a in spec.axes]
+    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=v[0][x % n_cos], opd_nm=v[1][y % n_opd],
+                           eta3=v[2][x // n_cos], kappa3=v[3][y // n_opd])
+    truth = reference_colour(pts, spec.observer, spec.space).values
+    assert np.max(np.abs(kernel_grid[y, x] - truth)) <= 1e-5
+
+
+def test_grazing_and_evanescent_texels_are_physical(rng):
+    """Film below the ambient index (η1 > η2: evanescent film past the critical angle)."""
+    axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
+    spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes)
+    grid = bake_array(spec, "opencl")
+    assert np.max(np.abs(grid - bake_array(spec, "numpy"))) <= 1e-10
+    assert np.allclose(grid.reshape(4, 16, 4, 16, 3)[:, :, :, 0], 1.0, atol=1e-6)  # cos θ = 0 column
+
+
+def _small_spec(**kw):
+    axes = (Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 32),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4, "sqrt"))
+    return BakeSpec(eta2=1.4, axes=axes, **kw)
+
+
+@pytest.fixture(scope="module")
+def lut_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("lut") / "small.exr"
+    bake(_small_spec(), path)
+    return path
+
+
+def test_file_set_and_header_are_self_describing(lut_path):
+    for suffix in (".json", ".glsl", ".hlsl"):
+        assert lut_path.with_suffix(suffix).is_file()
+    lut = Lut.load(lut_path)
+    sidecar = json.loads(lut_path.with_suffix(".json").read_text())
+    assert sidecar == lut.meta
+    assert lut.meta["constants"]["eta2"] == 1.4 and lut.meta["spectral"]["error_rgb_max"] <= 1e-5
+    assert [a.name for a in lut.axes] == ["cos_theta", "opd_nm", "eta3", "kappa3"]
+    assert lut.image.shape == (4 * 32, 4 * 16, 3) and lut.image.dtype == np.float32
+    assert "lutbake_sample" in lut_path.with_suffix(".glsl").read_text()
+
+
+def test_stored_values_are_the_kernel_values(lut_path):
+    lut = Lut.load(lut_path)
+    grid = bake_array(_small_spec())
+    assert np.array_equal(lut.image, grid.astype(np.float32))
+
+
+def test_sampler_is_exact_at_nodes(lut_path):
+    lut = Lut.load(lut_path)
+    v = [a.values() for a in lut.axes]
+    i = np.meshgrid(*[np.arange(a.count) for a in lut.axes], indexing="ij")
+    got = lut.sample(v[0][i[0]], v[1][i[1]], v[2][i[2]], v[3][i[3]])
+    stored = lut.image.reshape(4, 32, 4, 16, 3).transpose(3, 1, 2, 0, 4)  # (cos, opd, eta3, kappa3, 3)
+    assert np.max(np.abs(got - stored)) <= 1e-6 * np.max(np.abs(stored))
+
+
+def _quadrilinear(grid, coords):
+    """Independent multilinear interpolation: one axis at a time with np.interp."""
+    out = []
+    for c in coords:
+        g = grid
+        for axis, x in enumerate(c):
+            idx = np.arange(g.shape[0])
+            g = np.apply_along_axis(lambda col: np.interp(x, idx, col), 0, g)
+        out.append(g)
+    return np.array(out)
+
+
+def test_sampler_between_nodes_is_quadrilinear(lut_path, rng):
+    lut = Lut.load(lut_path)
+    grid = lut.image.reshape(4, 32, 4, 16, 3).transpose(3, 1, 2, 0, 4).astype(float)
+    pts = [rng.uniform(a.lo, a.hi, 60) for a in lut.axes]
+    got = lut.sample(*pts)
+    coords = np.stack(lut.node_coords(*pts), axis=1)
+    assert np.max(np.abs(got - _quadrilinear(grid, coords))) <= 1e-6
+
+
+def test_sampler_clamps_outside_the_domain(lut_path):
+    lut = Lut.load(lut_path)
+    inside = lut.sample(0.5, 2000.0, 3.0, 4.0)
+    assert np.allclose(lut.sample(0.5, 2500.0, 3.5, 9.0), inside)
+    assert not lut.in_domain(0.5, 2500.0, 3.0, 4.0) and lut.in_domain(0.5, 2000.0, 3.0, 4.0)
+
+
+def test_filter_bits_quantize_weights(lut_path):
+    lut = Lut.load(lut_path)
+    exact = lut.sample(0.33, 777.0, 1.7, 1.3)
+    coarse = lut.sample(0.33, 777.0, 1.7, 1.3, filter_bits=2)
+    assert 0 < np.max(np.abs(exact - coarse)) < 0.05
+
+
+def test_half_precision_storage(tmp_path):
+    path = tmp_path / "half.exr"
+    bake(_small_spec(precision="half"), path)
+    lut = Lut.load(path)
+    assert lut.image.dtype == np.float16
+    assert np.max(np.abs(lut.image.astype(float) - bake_array(_small_spec()))) <= 1e-3
+
+
+def test_same_inputs_give_the_same_bytes(tmp_path, lut_path):
+    again = tmp_path / "small.exr"
+    bake(_small_spec(), again)
+    assert again.read_bytes() == lut_path.read_bytes()
+    for suffix in (".json", ".glsl", ".hlsl"):
+        assert again.with_suffix(suffix).read_bytes() == lut_path.with_suffix(suffix).read_bytes()
+
+
+def test_chunked_bake_equals_one_band(tmp_path):
+    spec = _small_spec()
+    bake(spec, tmp_path / "a.exr", chunk_cells=64)
+    bake(spec, tmp_path / "b.exr")
+    assert (tmp_path / "a.exr").read_bytes() == (tmp_path / "b.exr").read_bytes()
+
+
+def test_oiiotool_reads_the_lut_and_its_attributes(lut_path):
+    oiiotool = shutil.which("oiiotool", path=os.path.dirname(sys.executable)) or shutil.which("oiiotool")
+    assert oiiotool, "oiiotool (openimageio test dependency) is not installed"
+    out = subprocess.run([oiiotool, "--info", "-v", str(lut_path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "64 x  128, 3 channel, float openexr" in out.stdout
+    assert 'compression: "zip"' in out.stdout
+    assert "lutbake.constants.eta2" in out.stdout and "lutbake.metadata" in out.stdout
+
+
+def _cli(*args, cwd=None):
+    return subprocess.Popen([sys.executable, "-m", "lutbake.cli", *args], cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT, signal.SIGTERM])
+def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
+    """A slow (numpy) bake is killed mid-way: the previous LUT survives, byte for byte."""
+    out = tmp_path / "lut.exr"
+    out.write_bytes(b"previous")
+    proc = _cli("bake", "--eta2", "1.5", "--cos-theta", "0:1:64", "--opd", "0:20000:256",
+                "--eta3", "1:3:8", "--kappa3", "0:5:8", "--backend", "numpy", "--quiet", "--out", str(out))
+    deadline = time.time() + 60
+    while not any(p.name.startswith(".lut.exr.tmp") for p in tmp_path.iterdir()):
+        assert proc.poll() is None and time.time() < deadline, proc.stderr.read() if proc.poll() else "timeout"
+        time.sleep(0.05)
+    proc.send_signal(sig)
+    proc.wait(timeout=60)
+    assert proc.returncode != 0
+    assert out.read_bytes() == b"previous"
+    assert not out.with_suffix(".json").exists()
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert leftovers == ([] if sig != signal.SIGKILL else leftovers)
+    assert all(".tmp-" in name for name in leftovers)
+
+
+@pytest.mark.parametrize("args, named", [
+    (["--eta2", "1.5", "--opd", "100:50:8"], "--opd range 100:50 is empty or reversed"),
+    (["--eta2", "1.5", "--eta3", "1:3:1"], "--eta3 count 1 is too small"),
+    (["--eta2", "1.5", "--cos-theta", "0:1.5:8"], "cos_theta = 1.5"),
+    (["--eta2", "1.5", "--kappa3", "0:5:8:log"], "spacing 'log'"),
+    (["--eta2", "0", "--opd", "0:100:8"], "eta2 = 0.0"),
+    (["--eta2", "1.5", "--opd", "0:100"], "is not A:B:N"),
+])
+def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
+    proc = _cli("bake", *args, "--out", str(tmp_path / "x.exr"))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2 and named in err and len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_output_exits_2(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    proc = _cli("bake", "--eta2", "1.5", "--out", str(tmp_path / "missing" / "x.exr"))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2 and "does not exist" in err
+    if os.geteuid() != 0:  # root writes anywhere
+        proc = _cli("bake", "--eta2", "1.5", "--out", str(locked / "x.exr"))
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 2 and "not writable" in err
+
+
+def test_default_bake_writes_the_default_set(tmp_path):
+    proc = _cli("bake", "--quiet", cwd=tmp_path)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    names = sorted(p.name for p in (tmp_path / "lutbake-luts").iterdir())
+    assert len([n for n in names if n.endswith(".exr")]) == 3
+    assert "default LUT set in lutbake-luts/" in out
