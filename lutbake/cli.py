@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import click
@@ -167,8 +168,8 @@ def axis_option(flag, name):
 @axis_option("--eta3", "eta3")
 @axis_option("--kappa3", "kappa3")
 @colour_options
-@click.option("--precision", type=click.Choice(["float", "half"]), default="float", show_default=True,
-              help="Storage precision of the EXR.")
+@click.option("--precision", type=click.Choice(["float", "half"]), default=None,
+              help="Storage precision of the EXR (default: float; half for the default set).")
 @click.option("--compute", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Arithmetic precision of the kernel.")
 @click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
@@ -191,8 +192,7 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
     if scene:
         raise BadInput("--scene bakes are not available yet (scene-driven bakes are a planned feature)")
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
-    common = dict(eta1=eta1, space=space, observer=observer, precision=precision, compute=compute,
-                  method=method)
+    common = dict(eta1=eta1, space=space, observer=observer, compute=compute, method=method)
     if samples_per_cycle is not None:
         common["samples_per_cycle"] = samples_per_cycle
     if eta2 is None:
@@ -202,14 +202,14 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         if folder.suffix.lower() == ".exr":
             raise BadInput(f"--out {str(folder)!r}: the default set goes into a folder, not one .exr")
         _make_folder(folder)
-        jobs = [(folder / f"{name}.exr", BakeSpec(eta2=spec.eta2, axes=spec.axes, **common))
-                for name, spec in default_specs().items()]
+        jobs = [(folder / f"{name}.exr", replace(spec, **common))
+                for name, spec in default_specs(precision or "half").items()]
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
         template = next(iter(default_specs().values())).axes
         axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
-        jobs = [(Path(out), BakeSpec(eta2=eta2, axes=axes, **common))]
+        jobs = [(Path(out), BakeSpec(eta2=eta2, axes=axes, precision=precision or "float", **common))]
     results = [_bake_one(path, spec, backend, quiet or as_json) for path, spec in jobs]
     summary = [_bake_summary(r) for r in results]
     if as_json:

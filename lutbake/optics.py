@@ -60,12 +60,14 @@ def normal_admittance(eta, kappa, eta1, cos_theta1):
 
     The squared term's imaginary part 2ηκ is built as a real ≥ 0 so that a
     negative real radicand (total internal reflection) takes the +i branch
-    (a decaying wave), never the −i one a signed zero could select.
+    (a decaying wave), never the −i one a signed zero could select. The real
+    part is (η² − κ² − η1²) + η1² cos² θ1, exact when η = η1 at grazing
+    incidence, where η² − η1² sin² θ1 would cancel.
     """
     eta, kappa = np.asarray(eta, float), np.asarray(kappa, float)
+    e1sq = np.asarray(eta1, float) ** 2
     cos1 = np.asarray(cos_theta1, float)
-    sin2 = (1.0 - cos1) * (1.0 + cos1)  # 1 − cos², accurate near grazing
-    re = (eta - kappa) * (eta + kappa) - np.asarray(eta1, float) ** 2 * sin2
+    re = ((eta - kappa) * (eta + kappa) - e1sq) + e1sq * cos1 * cos1
     im = 2.0 * eta * kappa
     return np.sqrt(re + 1j * im)
 

@@ -79,6 +79,18 @@ inline REAL sincospi_ff(REAL a_hi, REAL a_lo, REAL b_hi, REAL b_lo, REAL *s, REA
     return p + e;
 }
 
+// Compensated (Kahan) accumulation: up to 2048 float32 terms per channel
+// would otherwise lose ~1e-5; exact compensation needs no reassociation
+// (OpenCL forbids it unless -cl-fast-relaxed-math is given).
+typedef struct { REAL sum, carry; } Accumulator;
+
+inline void accumulate(Accumulator *a, REAL term) {
+    const REAL y = term - a->carry;
+    const REAL t = a->sum + y;
+    a->carry = (t - a->sum) - y;
+    a->sum = t;
+}
+
 typedef struct { CPLX n0, n1, d0, d1; } AiryTerms;
 
 inline AiryTerms airy_terms(CPLX y1, CPLX y2, CPLX y3, REAL w_scale) {
@@ -113,7 +125,6 @@ __kernel void bake_rows(
 
     const REAL c1 = cos_axis[i_cos];
     const REAL e3 = eta3_axis[i_eta3], k3 = kappa3_axis[i_kappa3];
-    const REAL sin2 = (1 - c1) * (1 + c1);
     // One host-computed cos θ2 feeds both the Fresnel terms and the phase, so
     // they agree even at the film's critical angle, where g2² is rounding noise.
     const bool evanescent = cos2_hi[i_cos] < 0;
@@ -121,7 +132,10 @@ __kernel void bake_rows(
     const CPLX g1 = (CPLX)(eta1 * c1, 0);
     const CPLX g2 = evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
     const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
-    const CPLX g3 = c_sqrt_upper(n3sq - (CPLX)(eta1 * eta1 * sin2, 0));
+    // g3² = (n3² − η1²) + η1² cos² θ1: exact when η3 = η1, where n3² − η1² sin² θ1
+    // cancels catastrophically at grazing incidence.
+    const CPLX g3 = c_sqrt_upper((CPLX)((e3 - k3) * (e3 + k3) - eta1 * eta1 + eta1 * eta1 * c1 * c1,
+                                        2 * e3 * k3));
 
     const AiryTerms ts = airy_terms(g1, g2, g3, 1);
     const AiryTerms tp = airy_terms(g1 / (eta1 * eta1), g2 / (eta2 * eta2),
@@ -137,7 +151,7 @@ __kernel void bake_rows(
     const int first = n_nodes - n_min;
     __global const REAL *nu_h = nu_hi + first, *nu_l = nu_lo + first;
     __global const REAL *wt = weights + 3 * first;
-    REAL r = 0, g = 0, b = 0;
+    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
 
     for (int j = 0; j < n_nodes; ++j) {
         // W_s = (e^{iΦ} − 1)/g2 = i·(2πDν/η2)·exprel(iΦ); W_p = η2²·W_s (folded into tp).
@@ -154,11 +168,11 @@ __kernel void bake_rows(
             w = (CPLX)(0, amp * rel);
         }
         const REAL refl = c1 == 0 ? (REAL)1 : (REAL)0.5 * (airy_r2(ts, w) + airy_r2(tp, w));
-        r += wt[j] * refl;
-        g += wt[n_nodes + j] * refl;
-        b += wt[2 * n_nodes + j] * refl;
+        accumulate(&r, wt[j] * refl);
+        accumulate(&g, wt[n_nodes + j] * refl);
+        accumulate(&b, wt[2 * n_nodes + j] * refl);
     }
-    rgb_out[3 * gid + 0] = r;
-    rgb_out[3 * gid + 1] = g;
-    rgb_out[3 * gid + 2] = b;
+    rgb_out[3 * gid + 0] = r.sum;
+    rgb_out[3 * gid + 1] = g.sum;
+    rgb_out[3 * gid + 2] = b.sum;
 }
