@@ -40,6 +40,8 @@ class BakeResult:
     seconds: float
     backend: str
     spectral_error_rgb_max: float
+    capped_texels: int = 0
+    truncation_bound: float = 0.0
 
     @property
     def cells_per_second(self) -> float:
@@ -80,7 +82,7 @@ def spectral_error(spec: BakeSpec) -> float:
     return float(np.max(np.abs(fast - truth)))
 
 
-def metadata(spec: BakeSpec, error_rgb_max: float) -> dict:
+def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0)) -> dict:
     width, height = spec.image_size
     n_cos, n_opd, _, _ = spec.shape
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
@@ -101,7 +103,8 @@ def metadata(spec: BakeSpec, error_rgb_max: float) -> dict:
         "method": spec.method,
         "spectral": {"rule": f"wavenumber-lagrange{STENCIL_NODES}-product", "counts": spec.ladder.counts,
                      "range_nm": [360.0, 830.0], "samples_per_cycle": spec.samples_per_cycle,
-                     "error_rgb_max": error_rgb_max, "error_probes": _PROBES},
+                     "error_rgb_max": error_rgb_max, "error_probes": _PROBES,
+                     "capped_texels": capped[0], "truncation_bound_rgb": capped[1]},
         "precision": spec.precision,
         "compute": spec.compute,
         "channels": ["R", "G", "B"],
@@ -115,7 +118,8 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute)
     error = spectral_error(spec)
-    meta = metadata(spec, error)
+    capped = spec.worst_truncation()
+    meta = metadata(spec, error, capped)
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
     with exr_stream(out_path, width, height, meta, spec.precision) as exr:
@@ -126,7 +130,7 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
         write_text_atomic(out_path.with_suffix(".json"), json.dumps(meta, indent=2, sort_keys=True) + "\n")
         for suffix, text in shader_includes(meta, out_path.name).items():
             write_text_atomic(out_path.with_suffix(f".{suffix}"), text)
-    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, error)
+    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, error, *capped)
 
 
 def bake_array(spec: BakeSpec, backend: str = "auto") -> np.ndarray:

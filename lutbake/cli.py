@@ -219,6 +219,10 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         click.echo(f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
                    f"{row['cells_per_second']:.3g} cells/s, {row['backend']}, "
                    f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})")
+        if row["capped_texels"]:
+            click.echo(f"lutbake: warning: {row['capped_texels']} texels need more spectral nodes than the "
+                       f"cap; their error is bounded by {row['truncation_bound']:.1e} (recorded in the LUT)",
+                       err=True)
     if eta2 is None:
         click.echo(f"default LUT set in {jobs[0][0].parent}/")
 
@@ -243,7 +247,8 @@ def _bake_one(path, spec, backend, quiet):
 def _bake_summary(result):
     return {"path": str(result.path), "cells": result.cells, "seconds": result.seconds,
             "cells_per_second": result.cells_per_second, "backend": result.backend,
-            "spectral_error_rgb_max": result.spectral_error_rgb_max}
+            "spectral_error_rgb_max": result.spectral_error_rgb_max,
+            "capped_texels": result.capped_texels, "truncation_bound": result.truncation_bound}
 
 
 @cli.command("inspect")
@@ -306,6 +311,30 @@ def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
         note = "" if row["in_domain"] else "  (outside the LUT: clamped)"
         click.echo(f"cos_theta={row['cos_theta']:g} opd_nm={row['opd_nm']:g} eta3={row['eta3']:g} "
                    f"kappa3={row['kappa3']:g}  RGB " + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+
+
+@cli.command("check")
+@click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
+def check_cmd(backend, as_json):
+    """Stiff and extreme cases: every path finite and accurate (exit 1 on any failure)."""
+    from .check import run_checks
+
+    results = run_checks(backend)
+    failed = [r for r in results if not r.passed]
+    if as_json:
+        echo_json({"passed": not failed, "checks": [r.as_dict() for r in results]})
+    else:
+        group = None
+        for r in results:
+            if r.group != group:
+                group = r.group
+                click.echo(f"{group}:")
+            mark = "PASS" if r.passed else "FAIL"
+            click.echo(f"  {mark} {r.name}: value {r.value:.9g}, reference {r.reference:.9g}, "
+                       f"error {r.error:.2e} (tolerance {r.tolerance:.1e}){'; ' + r.note if r.note else ''}")
+        click.echo(f"{len(results) - len(failed)} passed, {len(failed)} failed")
+    return EXIT_GATE if failed else 0
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -60,6 +60,12 @@ class NumpyBackend:
         return out
 
 
+def _signed_cos_theta2(eta1, eta2, cos_theta):
+    """|cos θ2| of the film, negated where the film is evanescent (the kernel's convention)."""
+    g2 = normal_admittance(eta2, 0.0, eta1, cos_theta)  # exactly as the numpy path
+    return np.where(g2.imag > 0, -g2.imag, g2.real) / eta2
+
+
 def _split(values, dtype):
     """(hi, lo) with hi + lo ≈ values to twice the precision of ``dtype``."""
     values = np.asarray(values, np.float64)
@@ -145,6 +151,7 @@ class OpenCLBackend:
         self.dtype = np.float64 if compute == "float64" else np.float32
         self.ctx, program = _program(compute)
         self.kernel = cl.Kernel(program, "bake_rows")
+        self.points_kernel = cl.Kernel(program, "reflectance_points")
         self.queue = cl.CommandQueue(self.ctx)
         self._static = None
 
@@ -162,8 +169,7 @@ class OpenCLBackend:
         nu = np.concatenate([1.0 / r.wavelength_nm for r in rules])
         weights = np.concatenate([r.weights.ravel() for r in rules])
         ax = {a.name: a.values() for a in spec.axes}
-        g2 = normal_admittance(spec.eta2, 0.0, spec.eta1, ax["cos_theta"])  # as the numpy path
-        cos2 = np.where(g2.imag > 0, -g2.imag, g2.real) / spec.eta2      # < 0 marks evanescent
+        cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"])
         # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0).
         arrays = [ax["cos_theta"], *_split(cos2, self.dtype), *_split(ax["opd_nm"], self.dtype),
                   ax["eta3"], ax["kappa3"], *_split(nu, self.dtype), weights]
@@ -194,6 +200,37 @@ class OpenCLBackend:
         out_buf.release()
         level_buf.release()
         return out.astype(np.float64, copy=False)
+
+    def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
+        """RGB (n, 3) of texels at arbitrary parameters: the kernel's R at each texel's rule nodes."""
+        levels = spec.cell_levels(cos_theta, opd_nm, eta3, kappa3)
+        out = np.empty((levels.size, 3))
+        for level in np.unique(levels):
+            rule = spec.ladder.rule(level)
+            cells = np.flatnonzero(levels == level)[:, None]
+            refl = self.reflectance(spec.eta1, spec.eta2, cos_theta[cells], opd_nm[cells], eta3[cells],
+                                    kappa3[cells], rule.wavelength_nm[None, :])
+            out[cells[:, 0]] = refl @ rule.weights.T
+        return out
+
+    def reflectance(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, wavelength_nm):
+        """The kernel's unpolarized R at points (broadcast arrays): its physics, node by node."""
+        import pyopencl as cl
+
+        cols = np.broadcast_arrays(*(np.asarray(v, np.float64) for v in
+                                     (cos_theta, opd_nm, eta3, kappa3, wavelength_nm)))
+        shape = cols[0].shape
+        cos1, opd, e3, k3, lam = (c.ravel() for c in cols)
+        arrays = [cos1, *_split(_signed_cos_theta2(eta1, eta2, cos1), self.dtype), *_split(opd, self.dtype),
+                  e3, k3, *_split(1.0 / lam, self.dtype)]
+        mf = cl.mem_flags
+        bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                for a in arrays]
+        out = np.empty(cos1.size, self.dtype)
+        out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
+        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), self.dtype(eta2), out_buf)
+        cl.enqueue_copy(self.queue, out, out_buf)
+        return out.astype(np.float64).reshape(shape)
 
 
 def backend(name: str = "auto", compute: str = "float64"):

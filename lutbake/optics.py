@@ -125,7 +125,16 @@ def _airy_amplitude(y1, y2, y3, w, cos_theta1):
         r = num / den
     # Grazing incidence: every stack reflects totally (r → −1); this also
     # settles 0/0 when all three admittances vanish together.
-    return np.where(cos_theta1 == 0.0, -1.0 + 0j, r), den
+    return np.where(cos_theta1 == 0.0, -1.0 + 0j, r), num, den
+
+
+def _transmitted_power(y1, y3, den, phi, cos_theta1):
+    """Power into the base, 16·Re(Y1)·Re(Y3)·e^{−Im Φ}/|den|² (a product of terms ≥ 0),
+    formed as |4·√Re Y1·√Re Y3·e^{−Im Φ/2}/den|² so tiny admittances cannot underflow."""
+    amplitude = 4.0 * np.sqrt(y1.real) * np.sqrt(np.maximum(y3.real, 0.0)) * np.exp(-0.5 * phi.imag)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        t = np.abs(amplitude / den) ** 2
+    return np.where(cos_theta1 == 0.0, 0.0, t)
 
 
 def film_amplitudes(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
@@ -135,10 +144,22 @@ def film_amplitudes(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, waveleng
 
 
 def film_reflectance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    """Reflectances (R_s, R_p, R) with R = (R_s + R_p)/2 (unpolarized)."""
-    r_s, r_p = film_amplitudes(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
-    rs2, rp2 = np.abs(r_s) ** 2, np.abs(r_p) ** 2
-    return rs2, rp2, 0.5 * (rs2 + rp2)
+    """Reflectances (R_s, R_p, R) with R = (R_s + R_p)/2 (unpolarized).
+
+    Where |r|² ≤ 1/2 it is |num|²/|den|²; above, 1 − T with T the power
+    into the base (the film is lossless, so R + T = 1 exactly). Both are
+    ratios of non-negative terms, so 0 ≤ R ≤ 1 holds by construction and
+    1 − R keeps its relative accuracy near total reflection.
+    """
+    terms, phi, c1 = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
+    out = []
+    for pol in ("s", "p"):
+        y1, _, y3, _ = terms[pol]
+        r, _, den = _airy_amplitude(*terms[pol], c1)
+        direct = np.abs(r) ** 2  # complex division scales, so tiny admittances cannot underflow
+        complement = 1.0 - _transmitted_power(y1, y3, den, phi, c1)
+        out.append(np.where(direct <= 0.5, direct, complement))
+    return out[0], out[1], 0.5 * (out[0] + out[1])
 
 
 def film_transmittance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
@@ -152,10 +173,8 @@ def film_transmittance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavel
     out = []
     for pol in ("s", "p"):
         y1, _, y3, _ = terms[pol]
-        _, den = _airy_amplitude(*terms[pol], c1)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t = 16.0 * y1.real * y3.real * np.exp(-phi.imag) / np.abs(den) ** 2
-        out.append(np.where(c1 == 0.0, 0.0, t))
+        den = _airy_amplitude(*terms[pol], c1)[2]
+        out.append(_transmitted_power(y1, y3, den, phi, c1))
     return out[0], out[1], 0.5 * (out[0] + out[1])
 
 

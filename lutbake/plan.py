@@ -168,12 +168,40 @@ class BakeSpec:
     def ladder(self):
         return rule_ladder(self.samples_per_cycle, self.observer, self.space)
 
-    def cell_levels(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
-        """Spectral rule level of each texel (spectral.RuleLadder.level), float64 on the host."""
+    def _fringes(self, cos_theta, opd_nm, eta3, kappa3):
+        """(cycles over the visible span, |r21·r23|) of each texel."""
         g2 = normal_admittance(self.eta2, 0.0, self.eta1, cos_theta)
         cycles = np.asarray(opd_nm) * g2.real / self.eta2 * WAVENUMBER_SPAN_PER_NM
-        round_trip = round_trip_amplitude(self.eta1, self.eta2, eta3, kappa3, cos_theta)
-        return self.ladder.level(cycles, round_trip)
+        return cycles, round_trip_amplitude(self.eta1, self.eta2, eta3, kappa3, cos_theta)
+
+    def cell_levels(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+        """Spectral rule level of each texel (spectral.RuleLadder.level), float64 on the host."""
+        return self.ladder.level(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
+
+    def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+        """Bound on the spectral truncation error of texels past the ladder's cap (else 0)."""
+        return self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
+
+    def worst_truncation(self) -> tuple:
+        """(texels past the ladder's cap, their largest truncation bound) over the grid.
+
+        Cycles, hence the need for nodes and the bound, grow with D, so each
+        (cos θ, η3, κ3) column is judged at its largest D and the capped D
+        nodes are counted from that column's threshold.
+        """
+        v = {a.name: a.values() for a in self.axes}
+        cos_t, eta3, kappa3 = (g.ravel() for g in np.meshgrid(v["cos_theta"], v["eta3"], v["kappa3"],
+                                                              indexing="ij"))
+        d_max = np.full(cos_t.shape, v["opd_nm"][-1])
+        bound = self.truncation_estimate(cos_t, d_max, eta3, kappa3)
+        if not bound.any():
+            return 0, 0.0
+        count = 0
+        for i in np.flatnonzero(bound):
+            est = self.truncation_estimate(np.full_like(v["opd_nm"], cos_t[i]), v["opd_nm"],
+                                           np.full_like(v["opd_nm"], eta3[i]), np.full_like(v["opd_nm"], kappa3[i]))
+            count += int(np.count_nonzero(est))
+        return count, float(bound.max())
 
     def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""

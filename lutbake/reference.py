@@ -28,7 +28,7 @@ __all__ = ["ReferenceResult", "reference_colour", "spectral_reflectance"]
 
 DEFAULT_TOLERANCE = 1e-9
 _START_NODES_PER_NM = 2
-_MAX_NODES_PER_NM = 512
+_MAX_NODES_PER_NM = 2048
 _CELLS_PER_CHUNK = 1_000_000
 
 

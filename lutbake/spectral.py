@@ -28,10 +28,10 @@ __all__ = ["SpectralRule", "RuleLadder", "panel_rule", "wavenumber_rule", "rule_
 
 WAVENUMBER_SPAN_PER_NM = 1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM
 DEFAULT_SAMPLES_PER_CYCLE = 3.0
-_HARMONIC_TOLERANCE = 1e-5
+_HARMONIC_TOLERANCE = 1e-6
 STENCIL_NODES = 8
 _MIN_WAVENUMBER_NODES = 16
-MAX_WAVENUMBER_NODES = 2048
+MAX_WAVENUMBER_NODES = 16384
 _PROJECTION_NODES_PER_NM = 8
 
 
@@ -87,7 +87,7 @@ class RuleLadder:
     With constant indices a texel's R depends on ν only through the phase
     Φ = 2π·D·cos θ2·ν, so R(ν) is periodic with ``cycles`` = D·cos θ2·Δν
     periods over the visible span. Its Fourier series in Φ decays as
-    |r21·r23|^m, so m ≈ ln(1/ε)/(−ln |r21·r23|) harmonics (ε = 1e-5) carry it:
+    |r21·r23|^m, so m ≈ ln(1/ε)/(−ln |r21·r23|) harmonics (ε = 1e-6) carry it:
     high finesse (|r21 r23| → 1, metals at grazing incidence) sharpens the
     Airy peaks. A texel's bandwidth is cycles × harmonics; the rule needs
     ``samples_per_cycle`` nodes per bandwidth cycle (3 measured to give
@@ -111,14 +111,29 @@ class RuleLadder:
     def rule(self, level: int) -> SpectralRule:
         return wavenumber_rule(self.counts[level], self.observer, self.space)
 
-    def level(self, cycles, round_trip):
-        """Rule level per texel from its fringe cycles and |r21·r23| (arrays)."""
+    def _needed(self, cycles, round_trip):
         b = np.clip(np.asarray(round_trip, float), 1e-300, 1.0)
         with np.errstate(divide="ignore"):
             harmonics = np.maximum(1.0, np.log(1.0 / _HARMONIC_TOLERANCE) / -np.log(b))
-        needed = self.samples_per_cycle * np.asarray(cycles, float) * harmonics + 1.0
+        return self.samples_per_cycle * np.asarray(cycles, float) * harmonics + 1.0
+
+    def level(self, cycles, round_trip):
+        """Rule level per texel from its fringe cycles and |r21·r23| (arrays)."""
+        needed = self._needed(cycles, round_trip)
         level = np.ceil(np.log2(np.maximum(needed, 1.0) / _MIN_WAVENUMBER_NODES))
         return np.clip(level, 0, len(self.counts) - 1).astype(np.int32)
+
+    def truncation_estimate(self, cycles, round_trip):
+        """Bound on the |ΔRGB| a texel keeps past the cap (0 below it).
+
+        The cap resolves m = (N_max − 1)/(samples_per_cycle · cycles) harmonics;
+        the residual was measured at about 2·|r21 r23|^m (docs/stability.md),
+        and the bound states it with a factor 5 of margin: 10·|r21 r23|^m.
+        """
+        needed = self._needed(cycles, round_trip)
+        resolved = (MAX_WAVENUMBER_NODES - 1.0) / (self.samples_per_cycle * np.maximum(cycles, 1e-300))
+        bound = 10.0 * np.clip(np.asarray(round_trip, float), 0.0, 1.0) ** resolved
+        return np.where(needed > MAX_WAVENUMBER_NODES, np.clip(bound, _HARMONIC_TOLERANCE, 1.0), 0.0)
 
 
 def rule_ladder(samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE, observer: str = "cie1931",

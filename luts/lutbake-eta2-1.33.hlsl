@@ -1,5 +1,5 @@
 // lutbake thin-film LUT sampler (HLSL) for lutbake-eta2-1.33.exr
-// content hash 1b08486bcc55adadcd7d315760f5ff7e1693f6ad6f0ab7cd8562c21cfd4dc3b9; film eta2 = 1.33 under ambient eta1 = 1.0; linear rec709 RGB.
+// content hash 4678ba198e81fd291bf4bba9ea5b3a5fa647032953c9e4ddaffd02afd9e38a84; film eta2 = 1.33 under ambient eta1 = 1.0; linear rec709 RGB.
 // Use a sampler with MIN_MAG_LINEAR filtering, CLAMP addressing and a single mip level.
 // Axes in order (cos_theta, opd_nm, eta3, kappa3); opd_nm = 2 * eta2 * thickness_nm.
 

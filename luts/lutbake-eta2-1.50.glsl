@@ -1,5 +1,5 @@
 // lutbake thin-film LUT sampler (GLSL) for lutbake-eta2-1.50.exr
-// content hash 2fde342df03815d7e7913c9f489751b4941b0f55dbfb91e9f5ee0db9279c6e24; film eta2 = 1.5 under ambient eta1 = 1.0; linear rec709 RGB.
+// content hash 48c834e512b46a9d75159643f55dda9fe80d54602c26cfd48c96451243ca83bc; film eta2 = 1.5 under ambient eta1 = 1.0; linear rec709 RGB.
 // Bind the LUT with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
 // Axes in order (cos_theta, opd_nm, eta3, kappa3); opd_nm = 2 * eta2 * thickness_nm.
 

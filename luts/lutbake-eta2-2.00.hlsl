@@ -1,5 +1,5 @@
 // lutbake thin-film LUT sampler (HLSL) for lutbake-eta2-2.00.exr
-// content hash b2fc55fa7c81dcb1e41672c41803c7bbb7572c9f6cf31856771188aecbf00dfb; film eta2 = 2.0 under ambient eta1 = 1.0; linear rec709 RGB.
+// content hash f20a6d521b4fcfe4fbff5bf103a04b000d46ec0eb36552b970b0763060261ab7; film eta2 = 2.0 under ambient eta1 = 1.0; linear rec709 RGB.
 // Use a sampler with MIN_MAG_LINEAR filtering, CLAMP addressing and a single mip level.
 // Axes in order (cos_theta, opd_nm, eta3, kappa3); opd_nm = 2 * eta2 * thickness_nm.
 

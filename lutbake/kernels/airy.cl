@@ -91,24 +91,94 @@ inline void accumulate(Accumulator *a, REAL term) {
     a->sum = t;
 }
 
-typedef struct { CPLX n0, n1, d0, d1; } AiryTerms;
+typedef struct { CPLX n0, n1, d0, d1; REAL t16; } AiryTerms;
 
-inline AiryTerms airy_terms(CPLX y1, CPLX y2, CPLX y3, REAL w_scale) {
+// w_max bounds |W| over the spectrum. R is homogeneous of degree 0 in the
+// terms, so they are rescaled to make the denominator O(1): tiny admittances
+// (cos θ1 → 0) then cannot underflow |den|² to 0/0.
+inline AiryTerms airy_terms(CPLX y1, CPLX y2, CPLX y3, REAL w_scale, REAL w_max) {
     AiryTerms t;
     t.n0 = 2 * (y1 - y3);
     t.n1 = w_scale * c_mul(y1 + y2, y2 - y3);
     t.d0 = 2 * (y1 + y3);
     t.d1 = w_scale * c_mul(y1 - y2, y2 - y3);
+    const REAL m = fmax(fmax(length(t.n0), length(t.n1) * w_max), fmax(length(t.d0), length(t.d1) * w_max));
+    const REAL inv = m > 0 ? 1 / m : (REAL)1;
+    t.n0 *= inv; t.n1 *= inv; t.d0 *= inv; t.d1 *= inv;
+    // transmitted power = t16·e^{−Im Φ}/|den|², t16 = 16·Re Y1·Re Y3 on the same scale
+    const REAL a = sqrt(y1.x) * sqrt(fmax(y3.x, (REAL)0)) * inv;
+    t.t16 = 16 * a * a;
     return t;
 }
 
-inline REAL airy_r2(AiryTerms t, CPLX w) {
-    return c_abs2(t.n0 + c_mul(t.n1, w)) / c_abs2(t.d0 + c_mul(t.d1, w));
+// |r|² directly where it is ≤ 1/2, else 1 − T (the film is lossless): both
+// are ratios of non-negative terms, so 0 ≤ R ≤ 1 by construction.
+inline REAL airy_r2(AiryTerms t, CPLX w, REAL decay_factor) {
+    const REAL num2 = c_abs2(t.n0 + c_mul(t.n1, w));
+    const REAL den2 = c_abs2(t.d0 + c_mul(t.d1, w));
+    return num2 <= (REAL)0.5 * den2 ? num2 / den2 : 1 - t.t16 * decay_factor / den2;
+}
+
+// Everything about a texel that does not depend on wavelength.
+typedef struct {
+    AiryTerms s, p;
+    bool evanescent, grazing;
+    REAL dc_hi, dc_lo;   // D·|cos θ2| as a float-float pair (turns per unit ν)
+    REAL d_over_eta2;    // D / η2
+} Texel;
+
+// cos2_hi/lo: ±|cos θ2| from the host (< 0: evanescent film); one value feeds
+// both the Fresnel terms and the phase, so they agree even at the film's
+// critical angle, where g2² is rounding noise.
+inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_lo,
+                         REAL e3, REAL k3, REAL eta1, REAL eta2) {
+    Texel t;
+    t.evanescent = cos2_hi < 0;
+    t.grazing = c1 == 0;
+    const REAL g2abs = eta2 * fabs(cos2_hi);
+    const CPLX g1 = (CPLX)(eta1 * c1, 0);
+    const CPLX g2 = t.evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
+    const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
+    // g3² = (n3² − η1²) + η1² cos² θ1: exact when η3 = η1, where n3² − η1² sin² θ1
+    // cancels catastrophically at grazing incidence.
+    const CPLX g3 = c_sqrt_upper((CPLX)((e3 - k3) * (e3 + k3) - eta1 * eta1 + eta1 * eta1 * c1 * c1,
+                                        2 * e3 * k3));
+    // |W| ≤ 2πDν/η2 (ν ≤ 1/360 nm⁻¹), times η2² for p
+    const REAL w_max = 2 * PI_R * d_hi / (eta2 * (REAL)360);
+    t.s = airy_terms(g1, g2, g3, 1, w_max);
+    t.p = airy_terms(g1 / (eta1 * eta1), g2 / (eta2 * eta2), c_div(g3, n3sq), eta2 * eta2, w_max);
+    const REAL b_hi = fabs(cos2_hi);
+    const REAL b_lo = t.evanescent ? -cos2_lo : cos2_lo;
+    t.dc_hi = d_hi * b_hi;
+    t.dc_lo = fma(d_hi, b_hi, -t.dc_hi) + (d_hi * b_lo + d_lo * b_hi);
+    t.d_over_eta2 = d_hi / eta2;
+    return t;
+}
+
+// Unpolarized R at wavenumber ν = nu_hi + nu_lo (1/nm).
+inline REAL texel_reflectance(const Texel *t, REAL nu_hi, REAL nu_lo) {
+    if (t->grazing) return (REAL)1;
+    // W_s = (e^{iΦ} − 1)/g2 = i·(2πDν/η2)·exprel(iΦ); W_p = η2²·W_s (folded into t->p).
+    const REAL amp = 2 * PI_R * t->d_over_eta2 * nu_hi;
+    CPLX w;
+    REAL decay_factor = 1;   // e^{−Im Φ}
+    if (!t->evanescent) {
+        REAL s, c;
+        const REAL turns = sincospi_ff(t->dc_hi, t->dc_lo, nu_hi, nu_lo, &s, &c);
+        const REAL sinc = turns == 0 ? (REAL)1 : s / (PI_R * turns);  // exprel(2πit) = e^{iπt} sinc
+        w = (CPLX)(-amp * sinc * s, amp * sinc * c);
+    } else {
+        const REAL decay = 2 * PI_R * t->dc_hi * nu_hi;                // −iΦ, real >= 0
+        const REAL rel = decay == 0 ? (REAL)1 : -expm1(-decay) / decay;
+        w = (CPLX)(0, amp * rel);
+        decay_factor = exp(-decay);
+    }
+    return (REAL)0.5 * (airy_r2(t->s, w, decay_factor) + airy_r2(t->p, w, decay_factor));
 }
 
 __kernel void bake_rows(
     __global const REAL *cos_axis,                            // N_cos
-    __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2|, < 0: evanescent film
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
     __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd
     __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
     __global const REAL *nu_hi, __global const REAL *nu_lo,     // all ladder rules' nodes (1/nm)
@@ -122,52 +192,17 @@ __kernel void bake_rows(
     const int x = gid % width, y = row0 + gid / width;
     const int i_cos = x % n_cos, i_eta3 = x / n_cos;
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
+    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
+                                opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
 
-    const REAL c1 = cos_axis[i_cos];
-    const REAL e3 = eta3_axis[i_eta3], k3 = kappa3_axis[i_kappa3];
-    // One host-computed cos θ2 feeds both the Fresnel terms and the phase, so
-    // they agree even at the film's critical angle, where g2² is rounding noise.
-    const bool evanescent = cos2_hi[i_cos] < 0;
-    const REAL g2abs = eta2 * fabs(cos2_hi[i_cos]);
-    const CPLX g1 = (CPLX)(eta1 * c1, 0);
-    const CPLX g2 = evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
-    const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
-    // g3² = (n3² − η1²) + η1² cos² θ1: exact when η3 = η1, where n3² − η1² sin² θ1
-    // cancels catastrophically at grazing incidence.
-    const CPLX g3 = c_sqrt_upper((CPLX)((e3 - k3) * (e3 + k3) - eta1 * eta1 + eta1 * eta1 * c1 * c1,
-                                        2 * e3 * k3));
-
-    const AiryTerms ts = airy_terms(g1, g2, g3, 1);
-    const AiryTerms tp = airy_terms(g1 / (eta1 * eta1), g2 / (eta2 * eta2),
-                                    c_div(g3, n3sq), eta2 * eta2);
-
-    const REAL d_hi = opd_hi[i_opd], d_lo = opd_lo[i_opd];
-    const REAL b_hi = fabs(cos2_hi[i_cos]);
-    const REAL b_lo = evanescent ? -cos2_lo[i_cos] : cos2_lo[i_cos];
-    const REAL dc_hi = d_hi * b_hi;                            // D·|cos θ2| as float-float
-    const REAL dc_lo = fma(d_hi, b_hi, -dc_hi) + (d_hi * b_lo + d_lo * b_hi);
     // Ladder rule k has n_min·2^k nodes, stored after those of rules 0 … k−1.
     const int n_nodes = n_min << levels[gid];
     const int first = n_nodes - n_min;
     __global const REAL *nu_h = nu_hi + first, *nu_l = nu_lo + first;
     __global const REAL *wt = weights + 3 * first;
     Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
-
     for (int j = 0; j < n_nodes; ++j) {
-        // W_s = (e^{iΦ} − 1)/g2 = i·(2πDν/η2)·exprel(iΦ); W_p = η2²·W_s (folded into tp).
-        const REAL amp = 2 * PI_R * d_hi * nu_h[j] / eta2;
-        CPLX w;
-        if (!evanescent) {
-            REAL s, c;
-            const REAL t = sincospi_ff(dc_hi, dc_lo, nu_h[j], nu_l[j], &s, &c);
-            const REAL sinc = t == 0 ? (REAL)1 : s / (PI_R * t);   // exprel(2πit) = e^{iπt} sinc
-            w = (CPLX)(-amp * sinc * s, amp * sinc * c);
-        } else {
-            const REAL decay = 2 * PI_R * dc_hi * nu_h[j];        // −iΦ, real >= 0
-            const REAL rel = decay == 0 ? (REAL)1 : -expm1(-decay) / decay;
-            w = (CPLX)(0, amp * rel);
-        }
-        const REAL refl = c1 == 0 ? (REAL)1 : (REAL)0.5 * (airy_r2(ts, w) + airy_r2(tp, w));
+        const REAL refl = texel_reflectance(&t, nu_h[j], nu_l[j]);
         accumulate(&r, wt[j] * refl);
         accumulate(&g, wt[n_nodes + j] * refl);
         accumulate(&b, wt[2 * n_nodes + j] * refl);
@@ -175,4 +210,19 @@ __kernel void bake_rows(
     rgb_out[3 * gid + 0] = r.sum;
     rgb_out[3 * gid + 1] = g.sum;
     rgb_out[3 * gid + 2] = b.sum;
+}
+
+// R at arbitrary (stack, wavenumber) points: one work-item per point. For
+// tests and `lutbake check` (the kernel's own physics, wavelength by wavelength).
+__kernel void reflectance_points(
+    __global const REAL *cos1, __global const REAL *cos2_hi, __global const REAL *cos2_lo,
+    __global const REAL *opd_hi, __global const REAL *opd_lo,
+    __global const REAL *eta3, __global const REAL *kappa3,
+    __global const REAL *nu_hi, __global const REAL *nu_lo,
+    const REAL eta1, const REAL eta2, __global REAL *r_out)
+{
+    const int i = get_global_id(0);
+    const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
+                                eta3[i], kappa3[i], eta1, eta2);
+    r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
 }

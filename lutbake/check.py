@@ -1,0 +1,213 @@
+"""Numerical stability on stiff and extreme cases (`lutbake check`).
+
+Each case evaluates the fast path (the bake kernel on the default OpenCL
+device, or the numpy path where none exists) and compares it with an
+independent reference: the converged ground truth (reference.py), a closed
+form, the incoherent limit, or a physical identity, against a stated
+tolerance. docs/stability.md lists the cases and what the code does at each.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .integrate import backend as make_backend
+from .optics import film_reflectance, round_trip_amplitude
+from .plan import Axis, BakeSpec
+from .points import FilmPoints
+from .reference import reference_colour
+
+__all__ = ["CheckResult", "run_checks"]
+
+SPECTRAL_TOLERANCE = 1e-5   # the ladder's design target (spectral.RuleLadder)
+IDENTITY_TOLERANCE = 1e-9
+FLOAT32_TOLERANCE = 2e-5
+
+
+@dataclass
+class CheckResult:
+    group: str
+    name: str
+    value: float
+    reference: float
+    error: float
+    tolerance: float
+    note: str = ""
+
+    @property
+    def passed(self) -> bool:
+        return bool(np.isfinite(self.error) and self.error <= self.tolerance)
+
+    def as_dict(self) -> dict:
+        return {**asdict(self), "passed": self.passed}
+
+
+def _spec(eta2, eta1=1.0, compute="float64"):
+    axes = (Axis("cos_theta", 0.0, 1.0, 2), Axis("opd_nm", 0.0, 1.0, 2), Axis("eta3", 1.0, 2.0, 2),
+            Axis("kappa3", 0.0, 1.0, 2))
+    return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, compute=compute)
+
+
+class _Paths:
+    """The fast path (per compute precision) and the ground truth at single stacks."""
+
+    def __init__(self, backend_name):
+        self.backend_name = backend_name
+        self._fast = {}
+
+    def fast(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, compute="float64"):
+        if compute not in self._fast:
+            self._fast[compute] = make_backend(self.backend_name, compute)
+        spec = _spec(eta2, eta1, compute)
+        cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
+        return self._fast[compute].evaluate(spec, *np.broadcast_arrays(*cols))
+
+    @staticmethod
+    def truth(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
+        pts = FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
+                               kappa3=kappa3)
+        result = reference_colour(pts)
+        return result.values, bool(result.converged.all())
+
+
+def _grey(eta1, eta2, eta3, kappa3, cos_theta):
+    """Colour of a spectrally flat reflectance (a bare interface): R·(1, 1, 1)."""
+    return film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, 0.0, 550.0)[2]
+
+
+def _vs_truth(paths, group, name, stack, note=""):
+    fast = paths.fast(*stack)
+    truth, converged = paths.truth(*stack)
+    err = float(np.max(np.abs(fast - truth)))
+    note = note + ("" if converged else " (reference not converged)")
+    return CheckResult(group, name, float(fast[0, 1]), float(truth[0, 1]), err, SPECTRAL_TOLERANCE, note)
+
+
+def _vs_value(paths, group, name, stack, expected, tolerance, note=""):
+    fast = paths.fast(*stack)
+    expected = np.broadcast_to(np.asarray(expected, float), fast.shape)
+    err = float(np.max(np.abs(fast - expected)))
+    return CheckResult(group, name, float(fast[0, 1]), float(expected[0, 1]), err, tolerance, note)
+
+
+def _incoherent_limit(eta1, eta2, eta3, kappa3, cos_theta):
+    """Thick-film limit: intensities add, R = R12 + (1−R12)²·R23 / (1 − R12·R23), per polarization."""
+    r12 = film_reflectance(eta1, eta2, eta2, 0.0, cos_theta, 0.0, 550.0)
+    sin2 = (1 - cos_theta**2) * eta1**2 / eta2**2
+    r23 = film_reflectance(eta2, eta2, eta3, kappa3, np.sqrt(1 - sin2), 0.0, 550.0)
+    pol = [a + (1 - a) ** 2 * b / (1 - a * b) for a, b in zip(r12[:2], r23[:2])]
+    return 0.5 * (pol[0] + pol[1])
+
+
+def _high_finesse(paths):
+    g = "high finesse"
+    return [
+        _vs_truth(paths, g, "metal base κ3 = 10 at grazing (cos θ 0.02, D 3 µm)", (1.0, 1.5, 0.02, 3000.0, 1.2, 10.0),
+                  f"|r21·r23| = {float(round_trip_amplitude(1.0, 1.5, 1.2, 10.0, 0.02)):.4f}"),
+        # Total reflection at the base needs η3 < η1·sin θ1: a film in glass (η1 1.5) over air.
+        _vs_truth(paths, g, "near-total reflection at the base, κ3 = 1e-3 (η1 1.5, η3 1.0)",
+                  (1.5, 2.0, 0.3, 5000.0, 1.0, 1e-3)),
+        _vs_value(paths, g, "lossless total reflection at the base: R ≡ 1", (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
+                  1.0, IDENTITY_TOLERANCE, "every wavelength reflects totally"),
+        _vs_truth(paths, g, "total reflection at the top (η1 1.6 > η2 1.2): evanescent film",
+                  (1.6, 1.2, 0.3, 1000.0, 2.0, 0.5)),
+    ]
+
+
+def _thick_films(paths):
+    g = "thick films"
+    out = [_vs_truth(paths, g, f"D = {d / 1000:g} µm on glass", (1.0, 1.5, 0.8, d, 1.0, 0.0))
+           for d in (20000.0, 100000.0)]
+    out.append(_vs_truth(paths, g, "D = 100 µm on a metal (η3 2, κ3 3)", (1.0, 1.5, 0.8, 100000.0, 2.0, 3.0)))
+    limit = _incoherent_limit(1.0, 1.5, 1.0, 0.0, 0.8)
+    truth, _ = paths.truth(1.0, 1.5, 0.8, 100000.0, 1.0, 0.0)
+    out.append(CheckResult(g, "D = 100 µm tends to the incoherent limit (ground truth)", float(truth[0, 1]),
+                           float(limit), float(np.max(np.abs(truth - limit))), 2e-3,
+                           "fringes 2 nm apart average out under the CMFs"))
+    return out
+
+
+def _degenerate(paths):
+    g = "degenerate stacks"
+    out = [
+        _vs_value(paths, g, "d = 0: bare ambient|base interface", (1.0, 1.5, 0.7, 0.0, 2.0, 1.5),
+                  _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE),
+        _vs_value(paths, g, "D = 1e-9 nm: continuous with d = 0", (1.0, 1.5, 0.7, 1e-9, 2.0, 1.5),
+                  paths.fast(1.0, 1.5, 0.7, 0.0, 2.0, 1.5), IDENTITY_TOLERANCE),
+        _vs_value(paths, g, "η2 = η1: bare ambient|base interface", (1.0, 1.0, 0.7, 2000.0, 2.0, 1.5),
+                  _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE),
+        _vs_value(paths, g, "η3 = η2, κ3 = 0: bare ambient|film interface", (1.0, 1.5, 0.7, 2000.0, 1.5, 0.0),
+                  _grey(1.0, 1.5, 1.5, 0.0, 0.7), IDENTITY_TOLERANCE),
+        _vs_value(paths, g, "η3 = η2, κ3 = 1e-9: within 1e-8 of the bare interface", (1.0, 1.5, 0.7, 2000.0, 1.5, 1e-9),
+                  _grey(1.0, 1.5, 1.5, 0.0, 0.7), 1e-8),
+        _vs_value(paths, g, "κ3 = 0 vs 1e-12: continuous", (1.0, 1.5, 0.7, 2000.0, 2.0, 1e-12),
+                  paths.fast(1.0, 1.5, 0.7, 2000.0, 2.0, 0.0), IDENTITY_TOLERANCE),
+        _vs_truth(paths, g, "κ3 = 100", (1.0, 1.5, 0.7, 2000.0, 2.0, 100.0)),
+        _vs_truth(paths, g, "η3 = 1 (film in air)", (1.0, 1.33, 0.7, 2000.0, 1.0, 0.0)),
+    ]
+    return out
+
+
+def _angles(paths):
+    g = "angles"
+    out = [_vs_value(paths, g, "cos θ = 0: total reflection", (1.0, 1.5, 0.0, 2000.0, 2.0, 1.0), 1.0, 1e-12,
+                     "RGB = Σ weights = 1 to rounding"),
+           _vs_truth(paths, g, "cos θ = 1e-12", (1.0, 1.5, 1e-12, 2000.0, 2.0, 1.0)),
+           _vs_truth(paths, g, "cos θ = 1 (normal incidence)", (1.0, 1.5, 1.0, 2000.0, 2.0, 1.0))]
+    # Brewster at the base, tan θ2 = η3/η2, is reachable from the ambient for η3 = 1.2 < η2.
+    for label, theta, eta3 in (("ambient|film", np.arctan(1.5), 2.0),
+                               ("film|base", np.arcsin(1.5 * np.sin(np.arctan(1.2 / 1.5))), 1.2)):
+        c = np.cos(theta + np.array([-1e-7, 1e-7]))
+        rgb = paths.fast(1.0, 1.5, c, 800.0, eta3, 0.0)
+        out.append(CheckResult(g, f"Brewster's angle at the {label} interface: R continuous",
+                               float(rgb[0, 1]), float(rgb[1, 1]), float(np.max(np.abs(rgb[0] - rgb[1]))),
+                               1e-6, "r_p passes through 0; its phase jumps by π"))
+    return out
+
+
+def _float32(paths):
+    g = "float32 kernel"
+    rng = np.random.default_rng(2026)
+    n = 400
+    stacks = [(1.0, 1.5, rng.uniform(0, 1, n), rng.uniform(0, 20000, n), rng.uniform(1, 3, n), rng.uniform(0, 5, n)),
+              (1.0, 2.0, rng.uniform(0, 0.1, n), rng.uniform(15000, 20000, n), rng.uniform(1, 3, n),
+               rng.uniform(0, 10, n))]
+    out = []
+    for label, stack in zip(("random stacks, D ≤ 20 µm", "grazing, D 15–20 µm (Φ ≈ 1e3 rad)"), stacks):
+        f64 = paths.fast(*stack)
+        f32 = paths.fast(*stack, compute="float32")
+        err = float(np.max(np.abs(f32 - f64)))
+        out.append(CheckResult(g, f"float32 vs float64: {label}", float(f32[0, 1]), float(f64[0, 1]), err,
+                               FLOAT32_TOLERANCE, "float-float phase, quarter-turn reduction"))
+    return out
+
+
+def _truncation(paths):
+    """The ladder's cap is the spectral integral's truncation: below it the
+    error target holds; beyond it the estimate the bake records must bound
+    the actual error."""
+    g = "truncation"
+    spec = _spec(2.0)
+    out = []
+    for label, stack in (("just past the cap (κ3 40, cos θ 0.05, D 20 µm)", (1.0, 2.0, 0.05, 20000.0, 2.5, 40.0)),
+                         ("far past the cap (κ3 100, cos θ 0.01, D 100 µm)", (1.0, 2.0, 0.01, 100000.0, 2.5, 100.0))):
+        params = [np.array([v]) for v in stack[2:]]
+        level = int(spec.cell_levels(*params)[0])
+        estimate = float(spec.truncation_estimate(*params)[0])
+        result = _vs_truth(paths, g, label, stack, f"{spec.ladder.counts[level]} nodes")
+        if estimate > 0:
+            result.tolerance = estimate
+            result.note += f"; the bound the bake records: {estimate:.1e}"
+        out.append(result)
+    return out
+
+
+def run_checks(backend_name: str = "auto") -> list:
+    """All cases, in groups (list of CheckResult)."""
+    paths = _Paths(backend_name)
+    results = []
+    for group in (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation):
+        results.extend(group(paths))
+    return results

@@ -1,0 +1,79 @@
+"""Stiff and extreme inputs: `lutbake check`, and a fuzz of the kernel path."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lutbake import check
+from lutbake.integrate import OpenCLBackend
+from lutbake.optics import film_reflectance
+
+
+def test_lutbake_check_passes_and_reports_every_case():
+    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "check", "--json"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr
+    doc = json.loads(out.stdout)
+    groups = {c["group"] for c in doc["checks"]}
+    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation"}
+    for c in doc["checks"]:
+        assert {"value", "reference", "error", "tolerance", "passed"} <= set(c)
+        assert c["passed"] and np.isfinite(c["value"])
+
+
+def test_check_exits_1_on_a_failure(monkeypatch):
+    from click.testing import CliRunner
+
+    from lutbake.cli import cli
+
+    failing = check.CheckResult("angles", "planted failure", 1.0, 0.0, 1.0, 1e-9)
+    monkeypatch.setattr(check, "run_checks", lambda backend="auto": [failing])
+    result = CliRunner().invoke(cli, ["check"], standalone_mode=False)
+    assert result.return_value == 1 and "FAIL planted failure" in result.output
+
+
+def _extreme_inputs(rng, n):
+    """Random stacks biased to the stiff corners of every axis."""
+    def pick(choices, lo, hi):
+        return np.where(rng.random(n) < 0.3, rng.choice(choices, n), rng.uniform(lo, hi, n))
+    cos_theta = pick([0.0, 1e-12, 1e-6, 1.0], 0.0, 1.0)
+    opd = pick([0.0, 1e-9, 1e5], 0.0, 1e5)
+    eta3 = pick([1.0, 0.05, 5.0], 0.05, 5.0)
+    kappa3 = pick([0.0, 1e-12, 1e-9, 100.0], 0.0, 100.0)
+    lam = rng.uniform(360.0, 830.0, n)
+    return cos_theta, opd, eta3, kappa3, lam
+
+
+@pytest.mark.parametrize("compute", ["float64", "float32"])
+@pytest.mark.parametrize("eta1, eta2", [(1.0, 1.5), (1.0, 1.0), (1.6, 1.2), (1.0, 3.0)])
+def test_kernel_fuzz_finite_and_within_0_1(rng, compute, eta1, eta2):
+    """≥ 100,000 extreme inputs per configuration (800,000 in all) through the kernel."""
+    cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 100_000)
+    r = OpenCLBackend(compute).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
+    assert np.all(np.isfinite(r))
+    assert r.min() >= 0.0 and r.max() <= 1.0
+    if compute == "float64":
+        ref = film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, opd / (2 * eta2), lam)[2]
+        assert np.max(np.abs(r - ref)) <= 1e-10
+
+
+def test_reference_reflectance_fuzz_within_0_1(rng):
+    cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 200_000)
+    for eta1, eta2 in [(1.0, 1.5), (1.6, 1.2), (1.0, 1.0)]:
+        r = film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, opd / (2 * eta2), lam)
+        for v in r:
+            assert np.all(np.isfinite(v)) and v.min() >= 0.0 and v.max() <= 1.0
+
+
+def test_bake_records_texels_past_the_spectral_cap():
+    from lutbake.plan import Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 0.1, 8), Axis("opd_nm", 0.0, 100000.0, 8), Axis("eta3", 2.0, 3.0, 2),
+            Axis("kappa3", 50.0, 100.0, 2))
+    count, bound = BakeSpec(eta2=2.0, axes=axes).worst_truncation()
+    assert count > 0 and 1e-6 <= bound <= 1.0
+    tame = BakeSpec(eta2=1.5, axes=(Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 8),
+                                    Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 5.0, 2)))
+    assert tame.worst_truncation() == (0, 0.0)
