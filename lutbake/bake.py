@@ -42,6 +42,7 @@ class BakeResult:
     spectral_error_rgb_max: float
     capped_texels: int = 0
     truncation_bound: float = 0.0
+    capped_error_rgb_max: float = 0.0
 
     @property
     def cells_per_second(self) -> float:
@@ -73,16 +74,30 @@ def _probe_points(spec: BakeSpec) -> FilmPoints:
                             eta3=vals[2], kappa3=vals[3])
 
 
-def spectral_error(spec: BakeSpec) -> float:
-    """max |ΔRGB| of the bake's spectral rules against the ground truth at the probe cells."""
-    pts = _probe_points(spec)
-    opd = 2.0 * spec.eta2 * pts.thickness_nm
-    fast = NumpyBackend().evaluate(spec, pts.cos_theta, opd, pts.eta3, pts.kappa3)
+def _error_at(spec: BakeSpec, cos_theta, opd_nm, eta3, kappa3) -> float:
+    """max |ΔRGB| of the bake's spectral rules against the ground truth at texels."""
+    if np.size(cos_theta) == 0:
+        return 0.0
+    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
+                           kappa3=kappa3)
+    fast = NumpyBackend().evaluate(spec, cos_theta, opd_nm, eta3, kappa3)
     truth = reference_colour(pts, spec.observer, spec.space).values
     return float(np.max(np.abs(fast - truth)))
 
 
-def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0)) -> dict:
+def spectral_error(spec: BakeSpec) -> float:
+    """max |ΔRGB| of the bake's spectral rules against the ground truth at the probe cells."""
+    pts = _probe_points(spec)
+    return _error_at(spec, pts.cos_theta, 2.0 * spec.eta2 * pts.thickness_nm, pts.eta3, pts.kappa3)
+
+
+def capped_error(spec: BakeSpec) -> tuple:
+    """(texels past the node cap, their a-priori bound, the error measured at the worst 64)."""
+    count, bound, texels = spec.capped_texels()
+    return count, bound, _error_at(spec, *texels)
+
+
+def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)) -> dict:
     width, height = spec.image_size
     n_cos, n_opd, _, _ = spec.shape
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
@@ -104,7 +119,8 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0)) -> 
         "spectral": {"rule": f"wavenumber-lagrange{STENCIL_NODES}-product", "counts": spec.ladder.counts,
                      "range_nm": [360.0, 830.0], "samples_per_cycle": spec.samples_per_cycle,
                      "error_rgb_max": error_rgb_max, "error_probes": _PROBES,
-                     "capped_texels": capped[0], "truncation_bound_rgb": capped[1]},
+                     "capped_texels": capped[0], "truncation_bound_rgb": capped[1],
+                     "capped_error_rgb_max": capped[2]},
         "precision": spec.precision,
         "compute": spec.compute,
         "channels": ["R", "G", "B"],
@@ -118,7 +134,7 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute)
     error = spectral_error(spec)
-    capped = spec.worst_truncation()
+    capped = capped_error(spec)
     meta = metadata(spec, error, capped)
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()

@@ -65,11 +65,13 @@ def normal_admittance(eta, kappa, eta1, cos_theta1):
     incidence, where η² − η1² sin² θ1 would cancel.
     """
     eta, kappa = np.asarray(eta, float), np.asarray(kappa, float)
-    e1sq = np.asarray(eta1, float) ** 2
+    e1 = np.asarray(eta1, float)
     cos1 = np.asarray(cos_theta1, float)
-    re = ((eta - kappa) * (eta + kappa) - e1sq) + e1sq * cos1 * cos1
+    offset = (eta - kappa) * (eta + kappa) - e1 * e1
     im = 2.0 * eta * kappa
-    return np.sqrt(re + 1j * im)
+    g = np.sqrt((offset + e1 * e1 * cos1 * cos1) + 1j * im)
+    # A medium matching the ambient has g = η1 cos θ1 exactly (cos² may underflow).
+    return np.where((offset == 0) & (im == 0), e1 * cos1 + 0j, g)
 
 
 def fresnel_s(g_i, g_j):
@@ -118,11 +120,20 @@ def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_
     return terms, phi, c1
 
 
+def _ratio(num, den):
+    """num/den for complex arrays, scaled first: numpy's complex division
+    overflows to inf + nan·i when both are subnormal (cos θ1 ~ 1e-320)."""
+    scale = np.maximum(np.abs(np.real(den)), np.abs(np.imag(den)))
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        def scaled(z):  # real divisions: numpy's complex path overflows here too
+            return np.real(z) / scale + 1j * (np.imag(z) / scale)
+        return scaled(num) / scaled(den)
+
+
 def _airy_amplitude(y1, y2, y3, w, cos_theta1):
     num = 2.0 * (y1 - y3) + (y1 + y2) * (y2 - y3) * w
     den = 2.0 * (y1 + y3) + (y1 - y2) * (y2 - y3) * w
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        r = num / den
+    r = _ratio(num, den)
     # Grazing incidence: every stack reflects totally (r → −1); this also
     # settles 0/0 when all three admittances vanish together.
     return np.where(cos_theta1 == 0.0, -1.0 + 0j, r), num, den
@@ -132,8 +143,7 @@ def _transmitted_power(y1, y3, den, phi, cos_theta1):
     """Power into the base, 16·Re(Y1)·Re(Y3)·e^{−Im Φ}/|den|² (a product of terms ≥ 0),
     formed as |4·√Re Y1·√Re Y3·e^{−Im Φ/2}/den|² so tiny admittances cannot underflow."""
     amplitude = 4.0 * np.sqrt(y1.real) * np.sqrt(np.maximum(y3.real, 0.0)) * np.exp(-0.5 * phi.imag)
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        t = np.abs(amplitude / den) ** 2
+    t = np.abs(_ratio(amplitude + 0j, den)) ** 2
     return np.where(cos_theta1 == 0.0, 0.0, t)
 
 

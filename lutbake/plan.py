@@ -182,26 +182,26 @@ class BakeSpec:
         """Bound on the spectral truncation error of texels past the ladder's cap (else 0)."""
         return self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
 
-    def worst_truncation(self) -> tuple:
-        """(texels past the ladder's cap, their largest truncation bound) over the grid.
+    def capped_texels(self, limit: int = 64) -> tuple:
+        """Texels past the ladder's cap: (count, largest bound, the ``limit`` worst as
+        (cos θ, D, η3, κ3) arrays).
 
         Cycles, hence the need for nodes and the bound, grow with D, so each
-        (cos θ, η3, κ3) column is judged at its largest D and the capped D
-        nodes are counted from that column's threshold.
+        (cos θ, η3, κ3) column is screened at its largest D first.
         """
         v = {a.name: a.values() for a in self.axes}
         cos_t, eta3, kappa3 = (g.ravel() for g in np.meshgrid(v["cos_theta"], v["eta3"], v["kappa3"],
                                                               indexing="ij"))
-        d_max = np.full(cos_t.shape, v["opd_nm"][-1])
-        bound = self.truncation_estimate(cos_t, d_max, eta3, kappa3)
-        if not bound.any():
-            return 0, 0.0
-        count = 0
-        for i in np.flatnonzero(bound):
-            est = self.truncation_estimate(np.full_like(v["opd_nm"], cos_t[i]), v["opd_nm"],
-                                           np.full_like(v["opd_nm"], eta3[i]), np.full_like(v["opd_nm"], kappa3[i]))
-            count += int(np.count_nonzero(est))
-        return count, float(bound.max())
+        screen = self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3)
+        cols = np.flatnonzero(screen)
+        if cols.size == 0:
+            return 0, 0.0, tuple(np.empty(0) for _ in range(4))
+        n_opd = v["opd_nm"].size
+        params = (np.repeat(cos_t[cols], n_opd), np.tile(v["opd_nm"], cols.size),
+                  np.repeat(eta3[cols], n_opd), np.repeat(kappa3[cols], n_opd))
+        bound = self.truncation_estimate(*params)
+        worst = np.argsort(-bound, kind="stable")[:min(limit, int(np.count_nonzero(bound)))]
+        return int(np.count_nonzero(bound)), float(bound.max()), tuple(p[worst] for p in params)
 
     def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""

@@ -32,7 +32,7 @@ _HARMONIC_TOLERANCE = 1e-6
 STENCIL_NODES = 8
 _MIN_WAVENUMBER_NODES = 16
 MAX_WAVENUMBER_NODES = 16384
-_PROJECTION_NODES_PER_NM = 8
+_PROJECTION_NODES = 8
 
 
 @dataclass(frozen=True)
@@ -71,13 +71,27 @@ def wavenumber_rule(count: int, observer: str = "cie1931", space: str = "rec709"
     if count < STENCIL_NODES:
         raise ValueError(f"wavenumber rule count {count} is below the {STENCIL_NODES} a stencil needs")
     nu = np.linspace(1.0 / WAVELENGTH_MAX_NM, 1.0 / WAVELENGTH_MIN_NM, count)
-    fine = panel_rule(_PROJECTION_NODES_PER_NM, observer, space, basis)
-    start, basis_values = _lagrange_stencils(nu, 1.0 / fine.wavelength_nm)
+    lam, quad = _projection_points(1.0 / nu)
+    sens = colorimetry(observer, space).sensitivity(lam, basis) * quad
+    start, basis_values = _lagrange_stencils(nu, 1.0 / lam)
     weights = np.zeros((3, count))
     for k in range(STENCIL_NODES):
         for c in range(3):
-            weights[c] += np.bincount(start + k, fine.weights[c] * basis_values[k], minlength=count)
+            weights[c] += np.bincount(start + k, sens[c] * basis_values[k], minlength=count)
     return SpectralRule(1.0 / nu, weights, f"wavenumber-lagrange{STENCIL_NODES}-{count}")
+
+
+def _projection_points(node_wavelength_nm):
+    """Gauss–Legendre points and weights on every piece between consecutive breakpoints
+    (the 1 nm CMF samples and the rule's nodes): the integrand — a linear
+    sensitivity times a polynomial in ν — is smooth on each piece, so the
+    projection is exact to rounding for any node count."""
+    edges = np.union1d(np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5),
+                       np.clip(node_wavelength_nm, WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM))
+    x, w = np.polynomial.legendre.leggauss(_PROJECTION_NODES)
+    left, width = edges[:-1], np.diff(edges)
+    lam = (left[:, None] + 0.5 * width[:, None] * (x[None, :] + 1.0)).ravel()
+    return lam, (0.5 * width[:, None] * w[None, :]).ravel()
 
 
 @dataclass(frozen=True)
@@ -126,9 +140,10 @@ class RuleLadder:
     def truncation_estimate(self, cycles, round_trip):
         """Bound on the |ΔRGB| a texel keeps past the cap (0 below it).
 
-        The cap resolves m = (N_max − 1)/(samples_per_cycle · cycles) harmonics;
-        the residual was measured at about 2·|r21 r23|^m (docs/stability.md),
-        and the bound states it with a factor 5 of margin: 10·|r21 r23|^m.
+        The cap resolves m = (N_max − 1)/(samples_per_cycle · cycles) harmonics
+        of a series whose terms decay as |r21 r23|^m; the bound takes the tail
+        at 10·|r21 r23|^m. It is loose where R ≈ 1 (measured residuals are
+        orders of magnitude smaller; docs/stability.md), so bakes also measure.
         """
         needed = self._needed(cycles, round_trip)
         resolved = (MAX_WAVENUMBER_NODES - 1.0) / (self.samples_per_cycle * np.maximum(cycles, 1e-300))

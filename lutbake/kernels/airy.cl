@@ -141,8 +141,9 @@ inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_
     const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
     // g3² = (n3² − η1²) + η1² cos² θ1: exact when η3 = η1, where n3² − η1² sin² θ1
     // cancels catastrophically at grazing incidence.
-    const CPLX g3 = c_sqrt_upper((CPLX)((e3 - k3) * (e3 + k3) - eta1 * eta1 + eta1 * eta1 * c1 * c1,
-                                        2 * e3 * k3));
+    const REAL offset3 = (e3 - k3) * (e3 + k3) - eta1 * eta1;
+    const CPLX g3 = (offset3 == 0 && k3 == 0) ? g1   // base matches the ambient (cos² may underflow)
+                  : c_sqrt_upper((CPLX)(offset3 + eta1 * eta1 * c1 * c1, 2 * e3 * k3));
     // |W| ≤ 2πDν/η2 (ν ≤ 1/360 nm⁻¹), times η2² for p
     const REAL w_max = 2 * PI_R * d_hi / (eta2 * (REAL)360);
     t.s = airy_terms(g1, g2, g3, 1, w_max);
