@@ -161,24 +161,49 @@ def axis_option(flag, name):
                         help=f"{name} axis: N nodes from A to B (uniform, or uniform in sqrt).")
 
 
+def domain_options(f):
+    """The flags that define a LUT: film, axes, colour, precision, method, backend."""
+    opts = [
+        click.option("--eta2", type=float, help="Film index (constant, real)."),
+        click.option("--eta1", type=float, default=1.0, show_default=True, help="Ambient index."),
+        axis_option("--cos-theta", "cos_theta"),
+        axis_option("--opd", "opd_nm"),
+        axis_option("--eta3", "eta3"),
+        axis_option("--kappa3", "kappa3"),
+        click.option("--precision", type=click.Choice(["float", "half"]), default=None,
+                     help="Storage precision of the EXR (default: float; half for the default set)."),
+        click.option("--compute", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
+                     help="Arithmetic precision of the kernel."),
+        click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
+                     help="Integration method (exact spectral Airy reflectance)."),
+        click.option("--samples-per-cycle", type=float, default=None,
+                     help="Spectral nodes per fringe-bandwidth cycle (default 3: |ΔRGB| ≤ 1e-5)."),
+        click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto",
+                     show_default=True, help="auto: OpenCL (PoCL first), else numpy with a warning."),
+    ]
+    for opt in reversed(opts):
+        f = opt(f)
+    return colour_options(f)
+
+
+def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
+                samples_per_cycle, default_precision="float"):
+    """BakeSpec from domain flags; axes not given take the default set's."""
+    from .bake import default_specs
+    from .plan import BakeSpec, parse_axis
+
+    if eta2 is None:
+        raise BadInput("--eta2 is required (the film index)")
+    given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
+    template = next(iter(default_specs().values())).axes
+    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
+    extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
+    return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
+                    precision=precision or default_precision, compute=compute, method=method, **extra)
+
+
 @cli.command("bake")
-@click.option("--eta2", type=float, help="Film index (constant, real). Omit to bake the default LUT set.")
-@click.option("--eta1", type=float, default=1.0, show_default=True, help="Ambient index.")
-@axis_option("--cos-theta", "cos_theta")
-@axis_option("--opd", "opd_nm")
-@axis_option("--eta3", "eta3")
-@axis_option("--kappa3", "kappa3")
-@colour_options
-@click.option("--precision", type=click.Choice(["float", "half"]), default=None,
-              help="Storage precision of the EXR (default: float; half for the default set).")
-@click.option("--compute", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
-              help="Arithmetic precision of the kernel.")
-@click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
-              help="Integration method (exact spectral Airy reflectance).")
-@click.option("--samples-per-cycle", type=float, default=None,
-              help="Spectral nodes per fringe-bandwidth cycle (default 3: |ΔRGB| ≤ 1e-5).")
-@click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True,
-              help="auto: OpenCL (PoCL first), else numpy with a warning.")
+@domain_options
 @click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML).")
 @click.option("--out", "out", type=click.Path(), default=None,
               help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
@@ -186,31 +211,33 @@ def axis_option(flag, name):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
 def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
              samples_per_cycle, backend, scene, out, quiet, as_json):
-    """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT."""
+    """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
+
+    Without --eta2, bakes the default LUT set into a folder.
+    """
     from .bake import default_specs
-    from .plan import BakeSpec, parse_axis
 
     if scene:
         raise BadInput("--scene bakes are not available yet (scene-driven bakes are a planned feature)")
-    given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
-    common = dict(eta1=eta1, space=space, observer=observer, compute=compute, method=method)
-    if samples_per_cycle is not None:
-        common["samples_per_cycle"] = samples_per_cycle
+    flags = dict(eta2=eta2, eta1=eta1, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3,
+                 space=space, observer=observer, precision=precision, compute=compute, method=method,
+                 samples_per_cycle=samples_per_cycle)
     if eta2 is None:
-        if any(given.values()):
+        if any((cos_theta, opd_nm, eta3, kappa3)):
             raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
         folder = Path(out or DEFAULT_OUT_DIR)
         if folder.suffix.lower() == ".exr":
             raise BadInput(f"--out {str(folder)!r}: the default set goes into a folder, not one .exr")
         _make_folder(folder)
+        common = dict(eta1=eta1, space=space, observer=observer, compute=compute, method=method)
+        if samples_per_cycle is not None:
+            common["samples_per_cycle"] = samples_per_cycle
         jobs = [(folder / f"{name}.exr", replace(spec, **common))
                 for name, spec in default_specs(precision or "half").items()]
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
-        template = next(iter(default_specs().values())).axes
-        axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
-        jobs = [(Path(out), BakeSpec(eta2=eta2, axes=axes, precision=precision or "float", **common))]
+        jobs = [(Path(out), domain_spec(**flags))]
     results = [_bake_one(path, spec, backend, quiet or as_json) for path, spec in jobs]
     summary = [_bake_summary(r) for r in results]
     if as_json:
@@ -313,6 +340,100 @@ def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
         note = "" if row["in_domain"] else "  (outside the LUT: clamped)"
         click.echo(f"cos_theta={row['cos_theta']:g} opd_nm={row['opd_nm']:g} eta3={row['eta3']:g} "
                    f"kappa3={row['kappa3']:g}  RGB " + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+
+
+@cli.command("report")
+@click.argument("lut", type=click.Path())
+@click.option("--points", "n_points", type=click.IntRange(10, 1_000_000), default=1000, show_default=True,
+              help="Held-out points (half uniform, half at cell centres).")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), help="Folder for report.html, PNGs, summary.json.")
+@click.option("--max-de", type=float, default=None, help="Gate: exit 1 when p99 ΔE00 exceeds this.")
+@click.option("--no-approximations", is_flag=True, help="Skip the engine-approximation rows.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON document.")
+def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json):
+    """How wrong a LUT is: ΔE00 against the ground truth at held-out points."""
+    from .report import report_lut, write_report
+
+    if max_de is not None and not max_de > 0:
+        raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    rep = report_lut(lut, n_points, seed, approximations=not no_approximations)
+    summary = write_report(rep, out_dir) if out_dir else rep.summary()
+    p99 = summary["lut_error"]["de00_p99"]
+    gate_failed = max_de is not None and p99 > max_de
+    if max_de is not None:
+        summary["gate"] = {"max_de00_p99": max_de, "passed": not gate_failed}
+    if as_json:
+        echo_json(summary)
+    else:
+        _print_error_rows([summary["lut_error"]] + summary["approximations"], summary["points"])
+        w = summary["worst_points"][0]
+        click.echo(f"worst: ΔE00 {w['de00']:.3f} at cos_theta={w['cos_theta']:.4f} opd_nm={w['opd_nm']:.1f} "
+                   f"eta3={w['eta3']:.3f} kappa3={w['kappa3']:.3f} ({w['kind']})")
+        if out_dir:
+            click.echo(f"report in {out_dir}/report.html")
+        if max_de is not None:
+            click.echo(f"gate p99 ΔE00 {p99:.3f} {'>' if gate_failed else '<='} {max_de:g}: "
+                       f"{'FAIL' if gate_failed else 'pass'}")
+    return EXIT_GATE if gate_failed else 0
+
+
+def _print_error_rows(rows, n_points):
+    click.echo(f"ΔE00 against the ground truth at {n_points} held-out points")
+    click.echo(f"  {'method':<26}{'mean':>8}{'p50':>8}{'p95':>8}{'p99':>8}{'max':>8}{'max|ΔRGB|':>11}")
+    for r in rows:
+        click.echo(f"  {r['name']:<26}{r['de00_mean']:8.3f}{r['de00_p50']:8.3f}{r['de00_p95']:8.3f}"
+                   f"{r['de00_p99']:8.3f}{r['de00_max']:8.3f}{r['rgb_abs_max']:11.2e}")
+
+
+@cli.command("sweep")
+@domain_options
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), required=True,
+              help="Folder for sweep.json and pareto.png.")
+@click.option("--points", "n_points", type=click.IntRange(10, 1_000_000), default=600, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def sweep_cmd(out_dir, n_points, seed, as_json, backend, **flags):
+    """Error against bake time and bytes over LUT variants of one domain, plus engine approximations."""
+    from .sweep import sweep
+
+    doc = sweep(domain_spec(**flags), out_dir, n_points, seed, backend)
+    if as_json:
+        echo_json(doc)
+        return
+    click.echo(f"  {'variant':<26}{'shape':>16}{'p99 ΔE00':>10}{'bake s':>9}{'bytes':>11}{'ns/eval':>9}")
+    for r in doc["rows"]:
+        lut_cols = (f"{r['shape']:>16}{r['de00_p99']:10.3f}{r['bake_seconds']:9.2f}{r['bytes']:11d}{'':>9}"
+                    if r["kind"] == "lut" else f"{'(no LUT)':>16}{r['de00_p99']:10.3f}{'':>9}{'':>11}{r['ns_per_eval']:9.0f}")
+        click.echo(f"  {r['name']:<26}{lut_cols}")
+    click.echo(f"Pareto plot in {out_dir}/pareto.png")
+
+
+@cli.command("tune")
+@domain_options
+@click.option("--max-de", type=float, required=True, help="Target p99 ΔE00.")
+@click.option("--points", "n_points", type=click.IntRange(10, 1_000_000), default=600, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--json", "as_json", is_flag=True)
+def tune_cmd(max_de, n_points, seed, as_json, backend, **flags):
+    """Smallest per-axis counts whose p99 ΔE00 meets --max-de (exit 1 if not reached)."""
+    from .sweep import tune
+
+    if not max_de > 0:
+        raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    result = tune(domain_spec(**flags), max_de, n_points, seed, backend)
+    if as_json:
+        echo_json(result)
+    else:
+        for r in result["rounds"]:
+            click.echo(f"  {r['shape']:>16}  p99 ΔE00 {r['de00_p99']:.3f}  bake {r['bake_seconds']:.2f} s  {r['bytes']} bytes")
+        best = result["result"]
+        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{':sqrt' if a['spacing'] == 'sqrt' else ''}"
+                        for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), result["axes"]))
+        state = "met" if result["met"] else "NOT met"
+        click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "
+                   f"(p99 {best['de00_p99']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
+    return 0 if result["met"] else EXIT_GATE
 
 
 @cli.command("check")

@@ -1,0 +1,162 @@
+"""LUT-error reports: how wrong a LUT is, and what it cost (`lutbake report`, `sweep`, `tune`).
+
+A report samples a LUT through the reference sampler (what a GPU returns) at
+held-out points — uniform over the LUT's domain, plus the centres of random
+grid cells, where multilinear interpolation error peaks — and compares with
+the ground-truth integrator (reference.py). Errors are CIEDE2000 in CIELAB
+with the working space's white. The same points score the approximations
+engines run today (approximations.py), so every row is measured alike.
+
+Numbers depend only on the LUT and the seed.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .approximations import APPROXIMATIONS
+from .colorimetry import delta_e00
+from .points import FilmPoints
+from .reference import reference_colour
+from .sample import Lut
+
+__all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport", "report_lut",
+           "write_report"]
+
+
+@dataclass
+class HeldOutPoints:
+    """Film parameters (cos θ, D, η3, κ3) of the held-out points and their ground truth."""
+
+    params: tuple
+    kind: np.ndarray  # "uniform" or "cell-centre"
+    eta1: float
+    eta2: float
+    truth: np.ndarray = None
+
+    def __len__(self):
+        return self.kind.size
+
+
+def held_out_points(lut: Lut, n_points: int, seed: int) -> HeldOutPoints:
+    """Half uniform over the domain, half at centres of random cells (in node coordinates)."""
+    rng = np.random.default_rng(seed)
+    n_centre = n_points // 2
+    uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in lut.axes]
+    centres = [a.from_unit((rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1)) for a in lut.axes]
+    params = tuple(np.concatenate([u, c]) for u, c in zip(uniform, centres))
+    kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
+    pts = HeldOutPoints(params, kind, lut.eta1, lut.eta2)
+    film = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=params[0], opd_nm=params[1],
+                            eta3=params[2], kappa3=params[3])
+    pts.truth = reference_colour(film, lut.meta["observer"], lut.meta["space"]).values
+    return pts
+
+
+@dataclass
+class ErrorStats:
+    """ΔE00 statistics of one method over the held-out points."""
+
+    name: str
+    de00: np.ndarray = field(repr=False)
+    rgb_abs_max: float
+    seconds_per_eval: float = float("nan")
+
+    def summary(self) -> dict:
+        de = self.de00
+        return {"name": self.name, "de00_mean": float(de.mean()), "de00_p50": float(np.percentile(de, 50)),
+                "de00_p95": float(np.percentile(de, 95)), "de00_p99": float(np.percentile(de, 99)),
+                "de00_max": float(de.max()), "rgb_abs_max": self.rgb_abs_max,
+                "ns_per_eval": self.seconds_per_eval * 1e9}
+
+
+def score(name: str, rgb: np.ndarray, pts: HeldOutPoints, space: str, observer: str,
+          seconds_per_eval: float = float("nan")) -> ErrorStats:
+    de = np.nan_to_num(delta_e00(rgb, pts.truth, observer, space), nan=np.inf)
+    return ErrorStats(name, de, float(np.max(np.abs(rgb - pts.truth))), seconds_per_eval)
+
+
+def _timed(fn, *args):
+    start = time.perf_counter()
+    out = fn(*args)
+    return out, time.perf_counter() - start
+
+
+@dataclass
+class LutReport:
+    path: str
+    meta: dict
+    points: HeldOutPoints
+    lut: ErrorStats
+    approximations: list
+    worst: list
+
+    def summary(self) -> dict:
+        return {"lut": self.path, "content_hash": self.meta["content_hash"], "points": len(self.points),
+                "space": self.meta["space"], "observer": self.meta["observer"],
+                "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
+                "worst_points": self.worst}
+
+
+def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True) -> LutReport:
+    """Score a LUT (and the approximations) at held-out points against the ground truth."""
+    lut = Lut.load(path)
+    space, observer = lut.meta["space"], lut.meta["observer"]
+    pts = held_out_points(lut, n_points, seed)
+    rgb, seconds = _timed(lut.sample, *pts.params)
+    lut_stats = score("lut", rgb, pts, space, observer, seconds / len(pts))
+    rows = []
+    if approximations:
+        for name, fn in APPROXIMATIONS.items():
+            out, seconds = _timed(fn, lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0],
+                                  pts.params[1], space, observer)
+            rows.append(score(name, out, pts, space, observer, seconds / len(pts)))
+    order = np.argsort(-lut_stats.de00, kind="stable")[:10]
+    worst = [{"cos_theta": float(pts.params[0][i]), "opd_nm": float(pts.params[1][i]),
+              "eta3": float(pts.params[2][i]), "kappa3": float(pts.params[3][i]), "kind": str(pts.kind[i]),
+              "de00": float(lut_stats.de00[i]), "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
+             for i in order]
+    return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst)
+
+
+def write_report(rep: LutReport, out_dir, maps: bool = True) -> dict:
+    """summary.json, PNG figures and report.html in ``out_dir``; returns the summary."""
+    from .figures import delta_e_maps, swatch_strips
+    from .lutfile import write_text_atomic
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = rep.summary()
+    figures = []
+    if maps:
+        figures.append(("ΔE00 of the LUT over (cos θ, D) slices", delta_e_maps(rep.path, out / "delta_e_maps.png")))
+        figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / "swatches.png")))
+    summary["figures"] = [f.name for _, f in figures]
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(out / "report.html", _html(summary, figures))
+    return summary
+
+
+def _html(summary: dict, figures) -> str:
+    rows = [summary["lut_error"]] + summary["approximations"]
+    head = "<tr><th>method</th><th>mean</th><th>p50</th><th>p95</th><th>p99</th><th>max</th><th>max |ΔRGB|</th><th>ns/eval (numpy)</th></tr>"
+    body = "".join(
+        f"<tr><td>{html.escape(r['name'])}</td>" + "".join(f"<td>{r[k]:.3f}</td>" for k in
+        ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max")) +
+        f"<td>{r['rgb_abs_max']:.2e}</td><td>{r['ns_per_eval']:.0f}</td></tr>" for r in rows)
+    worst = "".join(
+        f"<tr><td>{w['cos_theta']:.4f}</td><td>{w['opd_nm']:.1f}</td><td>{w['eta3']:.3f}</td><td>{w['kappa3']:.3f}</td>"
+        f"<td>{w['kind']}</td><td>{w['de00']:.3f}</td></tr>" for w in summary["worst_points"])
+    figs = "".join(f"<h2>{html.escape(t)}</h2><img src='{f.name}' style='max-width:100%'>" for t, f in figures)
+    return (f"<!doctype html><html><head><meta charset='utf-8'><title>lutbake report</title>"
+            f"<style>body{{font-family:sans-serif;margin:2em}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>"
+            f"<h1>LUT error report</h1><p>{html.escape(summary['lut'])} — {summary['points']} held-out points, "
+            f"{summary['space']} / {summary['observer']}, ΔE00 against the ground truth.</p>"
+            f"<table>{head}{body}</table><h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
+            f"<th>η3</th><th>κ3</th><th>kind</th><th>ΔE00</th></tr>{worst}</table>{figs}</body></html>\n")

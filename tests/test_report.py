@@ -1,0 +1,167 @@
+"""Reports: reproducible, find planted errors, gate correctly; approximation rows hand-checked."""
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from lutbake.approximations import belcour_barla_rgb, eval_sensitivity, khr_iridescence_rgb
+from lutbake.bake import bake
+from lutbake.colorimetry import delta_e00
+from lutbake.lutfile import exr_stream
+from lutbake.plan import Axis, BakeSpec
+from lutbake.points import FilmPoints
+from lutbake.reference import reference_colour
+from lutbake.report import report_lut
+from lutbake.sample import Lut
+
+
+def _spec():
+    axes = (Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 48),
+            Axis("eta3", 1.0, 3.0, 6), Axis("kappa3", 0.0, 4.0, 6, "sqrt"))
+    return BakeSpec(eta2=1.4, axes=axes)
+
+
+@pytest.fixture(scope="module")
+def lut_path(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rep") / "lut.exr"
+    bake(_spec(), path)
+    return path
+
+
+def test_numbers_are_reproducible_for_a_seed(lut_path):
+    def numbers(seed):  # everything but timings (ns per evaluation), which vary by nature
+        doc = report_lut(lut_path, 200, seed=seed).summary()
+        for row in [doc["lut_error"], *doc["approximations"]]:
+            row.pop("ns_per_eval")
+        return json.dumps(doc, sort_keys=True)
+
+    assert numbers(3) == numbers(3)
+    assert numbers(3) != numbers(4)
+
+
+def test_planted_error_is_found_at_its_parameters(lut_path, tmp_path):
+    """Perturb one tile (η3 node 3, κ3 node 2): the worst points lie in its neighbourhood."""
+    lut = Lut.load(lut_path)
+    image = lut.image.astype(np.float64)
+    n_cos, n_opd = 16, 48
+    image[2 * n_opd:3 * n_opd, 3 * n_cos:4 * n_cos] += 0.2
+    planted = tmp_path / "planted.exr"
+    with exr_stream(planted, image.shape[1], image.shape[0], lut.meta) as exr:
+        exr.write_rows(image)
+    rep = report_lut(planted, 600, seed=1, approximations=False)
+    eta3_nodes, kappa3_nodes = lut.axes[2].values(), lut.axes[3].values()
+    for w in rep.worst[:5]:
+        assert eta3_nodes[2] < w["eta3"] < eta3_nodes[4]
+        assert kappa3_nodes[1] < w["kappa3"] < kappa3_nodes[3]
+    clean = report_lut(lut_path, 600, seed=1, approximations=False).lut.summary()
+    assert rep.lut.summary()["de00_max"] > 2 * clean["de00_max"]
+
+
+def _report_cli(*args):
+    return subprocess.run([sys.executable, "-m", "lutbake.cli", "report", *args], capture_output=True, text=True)
+
+
+def test_gate_exits_1_above_and_0_below_the_threshold(lut_path):
+    p99 = report_lut(lut_path, 200, seed=0, approximations=False).summary()["lut_error"]["de00_p99"]
+    above = _report_cli(str(lut_path), "--points", "200", "--no-approximations", "--max-de", f"{p99 * 0.99}", "--json")
+    below = _report_cli(str(lut_path), "--points", "200", "--no-approximations", "--max-de", f"{p99 * 1.01}", "--json")
+    assert above.returncode == 1 and json.loads(above.stdout)["gate"]["passed"] is False
+    assert below.returncode == 0 and json.loads(below.stdout)["gate"]["passed"] is True
+
+
+def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
+    out = _report_cli(str(lut_path), "--points", "100", "--out", str(tmp_path / "r"))
+    assert out.returncode == 0, out.stderr
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert {a["name"] for a in summary["approximations"]} == {"belcour-barla-2017", "khr-iridescence-threejs"}
+    html = (tmp_path / "r" / "report.html").read_text()
+    for fig in summary["figures"]:
+        assert (tmp_path / "r" / fig).stat().st_size > 1000 and fig in html
+
+
+def test_report_bad_input_exits_2(tmp_path):
+    assert _report_cli(str(tmp_path / "missing.exr")).returncode == 2
+    (tmp_path / "not.exr").write_bytes(b"nope")
+    assert _report_cli(str(tmp_path / "not.exr")).returncode == 2
+
+
+def test_gaussian_fit_normalization_by_hand():
+    """S(0) from the published constants: val·√(2π·var)/1.0685e-7 (+ the second X lobe)."""
+    x = (5.4856e-13 * math.sqrt(2 * math.pi * 4.3278e9) + 9.7470e-14 * math.sqrt(2 * math.pi * 4.5282e9)) / 1.0685e-7
+    y = 4.4201e-13 * math.sqrt(2 * math.pi * 9.3046e9) / 1.0685e-7
+    z = 5.2481e-13 * math.sqrt(2 * math.pi * 6.6121e9) / 1.0685e-7
+    assert np.allclose(eval_sensitivity(0.0, 0.0), [x, y, z], rtol=1e-12)
+    assert np.allclose([x, y, z], 1.0, atol=1.2e-3)  # the fit's white is E, to 0.1%
+    assert np.allclose(eval_sensitivity(0.0, np.pi), -eval_sensitivity(0.0, 0.0))
+
+
+def _truth(eta2, eta3, kappa3, cos_theta, opd):
+    return reference_colour(FilmPoints.build(eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3,
+                                             kappa3=kappa3)).values
+
+
+def test_belcour_barla_matches_the_exact_integral_at_zero_thickness():
+    cos_t = np.array([1.0, 0.8, 0.5, 0.2])
+    for eta3 in (1.0, 1.5, 2.4):
+        de = delta_e00(belcour_barla_rgb(1.0, 1.5, eta3, 0.0, cos_t, 0.0), _truth(1.5, eta3, 0.0, cos_t, 0.0))
+        assert de.max() < 0.1
+
+
+def test_belcour_barla_fails_on_dispersive_metal_bases():
+    """A constant-index evaluation cannot follow a conductor whose phase varies with wavelength
+    (Cycles' finding): copper fails by ΔE > 10, silver (flat dispersion) stays below 1.5."""
+    from lutbake.materials import material
+
+    opd = np.linspace(100.0, 1500.0, 40)
+
+    def de(base):
+        eta3, kappa3 = (float(v) for v in material(base).index(550.0))
+        truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=0.9, thickness_nm=opd / 3.0,
+                                                  base=base)).values
+        return delta_e00(belcour_barla_rgb(1.0, 1.5, eta3, kappa3, 0.9, opd), truth)
+
+    assert np.percentile(de("Cu"), 50) > 10
+    assert np.percentile(de("Ag"), 90) < 1.5
+
+
+def test_khr_hand_computed_value_on_bare_glass():
+    """η2 = η1 (film fades out), glass base, normal incidence, by hand: R12 = 0, R23 = 0.04,
+    C0 = 0.04/(1 − 1e-5), first order +2·0.96·√1e-5·(M709 · S(0)), second negligible."""
+    m709 = np.array([[3.2404542, -1.5371385, -0.4985314], [-0.9692660, 1.8760108, 0.0415560],
+                     [0.0556434, -0.2040259, 1.0572252]])
+    s0 = eval_sensitivity(0.0, 0.0)
+    expected = 0.04 / (1 - 1e-5) + 2 * 0.96 * math.sqrt(1e-5) * (m709 @ s0) - 2 * 0.96 * 1e-5 * (m709 @ s0)
+    assert np.allclose(khr_iridescence_rgb(1.0, 1.0, 1.5, 0.0, 1.0, 0.0), expected, atol=1e-6)
+    assert np.allclose(m709 @ np.ones(3), [1.2048, 0.9484, 0.9088], atol=1e-4)  # its white cast
+
+
+def test_khr_loses_the_base_extinction():
+    """Bases with one F0 but different (η3, κ3) look alike to KHR, not to the ground truth."""
+    f0 = ((2.7 - 1) ** 2 + 2.8**2) / ((2.7 + 1) ** 2 + 2.8**2)
+    eta3_dielectric = (1 + math.sqrt(f0)) / (1 - math.sqrt(f0))
+    a = khr_iridescence_rgb(1.0, 2.0, 2.7, 2.8, 0.9, 600.0)
+    b = khr_iridescence_rgb(1.0, 2.0, eta3_dielectric, 0.0, 0.9, 600.0)
+    assert np.allclose(a, b, atol=1e-12)
+    assert delta_e00(_truth(2.0, 2.7, 2.8, 0.9, 600.0), _truth(2.0, eta3_dielectric, 0.0, 0.9, 600.0)).max() > 5
+
+
+def test_sweep_and_tune_on_a_small_domain(tmp_path):
+    from lutbake.sweep import sweep, tune
+
+    axes = (Axis("cos_theta", 0.3, 1.0, 8), Axis("opd_nm", 0.0, 800.0, 16), Axis("eta3", 1.4, 1.6, 4),
+            Axis("kappa3", 0.0, 0.5, 4))
+    spec = BakeSpec(eta2=1.33, axes=axes)
+    doc = sweep(spec, tmp_path / "s", n_points=120, seed=0)
+    kinds = [r["kind"] for r in doc["rows"]]
+    assert kinds.count("lut") >= 8 and kinds.count("approximation") == 2
+    assert (tmp_path / "s" / "pareto.png").stat().st_size > 1000
+    res = {r["name"]: r for r in doc["rows"]}
+    assert res["res×2"]["de00_p99"] < res["res×0.5"]["de00_p99"]
+    assert res["res×2"]["bytes"] > res["res×0.5"]["bytes"]
+    result = tune(spec, max_de=1.0, n_points=120, seed=0)
+    assert result["met"] and result["result"]["de00_p99"] <= 1.0
+    assert result["rounds"][0]["de00_p99"] > 1.0  # the search had to grow the grid
