@@ -204,13 +204,14 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
 
 @cli.command("bake")
 @domain_options
-@click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML).")
+@click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML): bake what it needs into --out DIR.")
+@click.option("--force", is_flag=True, help="With --scene: recompute every slice and LUT.")
 @click.option("--out", "out", type=click.Path(), default=None,
               help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
 def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
-             samples_per_cycle, backend, scene, out, quiet, as_json):
+             samples_per_cycle, backend, scene, force, out, quiet, as_json):
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
     Without --eta2, bakes the default LUT set into a folder.
@@ -218,7 +219,7 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
     from .bake import default_specs
 
     if scene:
-        raise BadInput("--scene bakes are not available yet (scene-driven bakes are a planned feature)")
+        return _bake_scene(scene, out, force, backend, as_json)
     flags = dict(eta2=eta2, eta1=eta1, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3,
                  space=space, observer=observer, precision=precision, compute=compute, method=method,
                  samples_per_cycle=samples_per_cycle)
@@ -253,6 +254,52 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
                        f"(bound {row['truncation_bound']:.1e}, recorded in the LUT)", err=True)
     if eta2 is None:
         click.echo(f"default LUT set in {jobs[0][0].parent}/")
+
+
+def _bake_scene(scene_path, out, force, backend, as_json):
+    from .atlas import bake_scene
+    from .scene import load_scene
+
+    if out is None:
+        raise BadInput("--out DIR is required with --scene")
+    if Path(out).suffix.lower() == ".exr":
+        raise BadInput(f"--out {out!r}: a scene bakes into a folder")
+    scene = load_scene(scene_path)
+    _make_folder(Path(out))
+    result = bake_scene(scene, out, force, backend)
+    doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
+           "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds}
+    if as_json:
+        echo_json(doc)
+    elif result.up_to_date:
+        click.echo(f"{scene_path}: up to date in {out}/ (nothing written)")
+    else:
+        click.echo(f"{scene_path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+                   f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
+    return 0
+
+
+@cli.command("plan")
+@click.option("--scene", "scene_path", type=click.Path(dir_okay=False), required=True)
+@click.option("--json", "as_json", is_flag=True)
+def plan_cmd(scene_path, as_json):
+    """What `bake --scene` would bake: slices, axes, counts, bytes, estimated time (bakes nothing)."""
+    from .atlas import plan_scene
+    from .scene import load_scene
+
+    doc = plan_scene(load_scene(scene_path)).describe()
+    if as_json:
+        echo_json(doc)
+        return
+    s = doc["settings"]
+    click.echo(f"{scene_path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
+               f"target p99 ΔE00 ≤ {s['max_de']:g}")
+    for job in doc["jobs"]:
+        shape = " × ".join(str(c) for c in job["counts"])
+        click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
+                   f"{job['bytes_start']} bytes, ~{job['seconds_estimate']:.1f} s")
+    click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
+               f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
 
 
 def _make_folder(folder: Path):

@@ -186,7 +186,7 @@ class OpenCLBackend:
         width, _ = spec.image_size
         n_cos, n_opd, _, _ = spec.shape
         cells = (y1 - y0) * width
-        levels = spec.cell_levels(*(a.ravel() for a in spec.cell_params(y0, y1)))
+        levels = spec.row_levels(y0, y1)
         mf = cl.mem_flags
         level_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=levels)
         out = np.empty((y1 - y0, width, 3), self.dtype)

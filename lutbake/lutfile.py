@@ -78,9 +78,10 @@ def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
         if isinstance(value, dict):
             out.update(flat_attributes(value, name))
         elif isinstance(value, list) and value and isinstance(value[0], dict):
-            for item in value:
-                out.update(flat_attributes({k: v for k, v in item.items() if k != "name"},
-                                           f"{name}.{item['name']}"))
+            for i, item in enumerate(value):
+                label = item.get("name", item.get("id", str(i)))
+                out.update(flat_attributes({k: v for k, v in item.items() if k not in ("name", "id")},
+                                           f"{name}.{label}"))
         else:
             out[name] = value if isinstance(value, str) else json.dumps(value)
     return out

@@ -178,6 +178,22 @@ class BakeSpec:
         """Spectral rule level of each texel (spectral.RuleLadder.level), float64 on the host."""
         return self.ladder.level(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
 
+    def row_levels(self, y0: int, y1: int) -> np.ndarray:
+        """Levels of every texel in rows [y0, y1), flat: equal to cell_levels on cell_params,
+        but |r21·r23| is evaluated once per (x, κ3) and cycles once per (cos θ, D)."""
+        n_cos, n_opd, _, _ = self.shape
+        width, _ = self.image_size
+        v = {a.name: a.values() for a in self.axes}
+        x, y = np.arange(width), np.arange(y0, y1)
+        k_index = y // n_opd
+        kappa_rows = np.unique(k_index)
+        rt = round_trip_amplitude(self.eta1, self.eta2, v["eta3"][x // n_cos][None, :],
+                                  v["kappa3"][kappa_rows][:, None], v["cos_theta"][x % n_cos][None, :])
+        rt_rows = rt[np.searchsorted(kappa_rows, k_index)]
+        g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][x % n_cos]).real
+        cycles = v["opd_nm"][y % n_opd][:, None] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
+        return self.ladder.level(cycles, rt_rows).ravel()
+
     def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
         """Bound on the spectral truncation error of texels past the ladder's cap (else 0)."""
         return self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))

@@ -32,6 +32,7 @@ _DOMAIN = {
     "cos_theta": (lambda v: (v >= 0) & (v <= 1), "a number in [0, 1]"),
     "angle_deg": (lambda v: (v >= 0) & (v <= 90), "a number in [0, 90]"),
     "wavelength_nm": (lambda v: (v >= 360) & (v <= 830), "a number in [360, 830]"),
+    "max_de": (lambda v: v > 0, "a finite number > 0"),
 }
 
 

@@ -240,3 +240,10 @@ def test_default_bake_writes_the_default_set(tmp_path):
     names = sorted(p.name for p in (tmp_path / "lutbake-luts").iterdir())
     assert len([n for n in names if n.endswith(".exr")]) == 3
     assert "default LUT set in lutbake-luts/" in out
+
+
+def test_row_levels_equal_per_texel_levels(spec):
+    width, height = spec.image_size
+    for y0, y1 in ((0, 5), (height // 3, height // 3 + 70), (height - 9, height)):
+        per_texel = spec.cell_levels(*(a.ravel() for a in spec.cell_params(y0, y1)))
+        assert np.array_equal(spec.row_levels(y0, y1), per_texel)

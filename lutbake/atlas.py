@@ -1,0 +1,355 @@
+"""Scene bakes: the smallest set of LUTs that serves a scene's materials (`plan`, `bake --scene`).
+
+Plan: materials with a fixed base (constant or a named dispersive material)
+need only a 2D slice over (cos θ, film thickness) — one thickness row when the
+thickness is fixed; materials that share film, thickness range and base share
+a slice. Only a base given as η3/κ3 ranges (texture-driven) needs a 4D LUT,
+over just those ranges. Slices are integrated by the ground truth
+(reference.py: exact for dispersive indices, wavelength by wavelength) and
+refined until their p99 ΔE00 at held-out points meets the scene's target;
+they are packed into one atlas EXR, with a JSON manifest and a GLSL include
+holding the material table.
+
+Incremental: each slice and LUT is keyed by a content hash. An unchanged
+scene writes nothing; a changed material recomputes only its slice (the
+others come from DIR/.lutbake-cache); --force recomputes all.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .colorimetry import delta_e00
+from .lutfile import atomic_path, exr_stream, write_text_atomic
+from .materials import material
+from .plan import Axis, BakeSpec
+from .points import FilmPoints
+from .reference import reference_colour
+from .scene import Scene
+
+__all__ = ["ScenePlan", "plan_scene", "bake_scene"]
+
+ATLAS_FORMAT = "lutbake-atlas"
+_MAX_COUNT = 256
+_HELD_OUT = 160
+# Slice nodes and held-out truth to |ΔRGB| ≤ 1e-7: 10⁴× below the interpolation error that matters.
+_SLICE_TOLERANCE = 1e-7
+
+
+@dataclass
+class SliceJob:
+    """A 2D (cos θ, thickness) slice or a 4D LUT serving one or more materials."""
+
+    kind: str                 # "slice" or "lut"
+    key: dict
+    materials: list
+    scene: Scene = field(repr=False)
+    counts: tuple = ()
+
+    @property
+    def hash(self) -> str:
+        return self.scene.hash_of(self.kind, self.key)
+
+    @property
+    def id(self) -> str:
+        return f"{self.kind}-{self.hash[:12]}"
+
+    def film_index_550(self) -> float:
+        film = self.key["film"]
+        return float(material(film).index(550.0)[0]) if isinstance(film, str) else float(film)
+
+    def bytes_estimate(self, counts=None) -> int:
+        per_texel = 6 if self.scene.precision == "half" else 12
+        return int(np.prod(counts or self.counts)) * per_texel
+
+
+@dataclass
+class ScenePlan:
+    scene: Scene
+    jobs: list
+
+    def describe(self) -> dict:
+        rows = []
+        for job in self.jobs:
+            row = {"id": job.id, "kind": job.kind, "materials": job.materials, "counts": list(job.counts),
+                   "bytes_start": job.bytes_estimate()}
+            if job.kind == "slice":
+                row["axes"] = {"cos_theta": [0.0, 1.0, "sqrt"], "thickness_nm": job.key["thickness_nm"]}
+                row["bytes_max"] = job.bytes_estimate((_MAX_COUNT, _MAX_COUNT if job.counts[1] > 1 else 1))
+                row["seconds_estimate"] = 2e-3 * int(np.prod(job.counts))
+            else:
+                spec = lut_spec(job)
+                row["axes"] = [a.describe() for a in spec.axes]
+                row["seconds_estimate"] = spec.cells / 5e5
+            rows.append(row)
+        generic = 32 * 128 * 16 * 16 * (6 if self.scene.precision == "half" else 12)
+        return {"scene": self.scene.path, "settings": self.scene.settings_key(), "jobs": rows,
+                "bytes_start_total": sum(r["bytes_start"] for r in rows), "generic_4d_bytes": generic}
+
+
+def _initial_counts(scene: Scene, key: dict, film_index: float) -> tuple:
+    lo, hi = key["thickness_nm"]
+    if hi == lo:
+        return 16, 1
+    # Colour cycles once per ~400 nm of D = 2·η2·d; ~12 nodes per cycle.
+    cycles = 2.0 * film_index * (hi - lo) / 400.0
+    return 16, int(np.clip(np.ceil(12 * cycles) + 1, 8, _MAX_COUNT))
+
+
+def plan_scene(scene: Scene) -> ScenePlan:
+    jobs = {}
+    for m in scene.materials:
+        kind = "lut" if m.base_is_range else "slice"
+        key = m.slice_key()
+        ident = json.dumps([kind, key], sort_keys=True)
+        if ident not in jobs:
+            jobs[ident] = SliceJob(kind, key, [], scene)
+        jobs[ident].materials.append(m.name)
+    out = list(jobs.values())
+    for job in out:
+        job.counts = (_initial_counts(scene, job.key, job.film_index_550()) if job.kind == "slice"
+                      else tuple(a.count for a in lut_spec(job).axes))
+    return ScenePlan(scene, out)
+
+
+# --- slices ------------------------------------------------------------------------------------
+
+def _slice_axes(job: SliceJob, counts) -> tuple:
+    lo, hi = job.key["thickness_nm"]
+    return Axis("cos_theta", 0.0, 1.0, counts[0], "sqrt"), (lo, hi, counts[1])
+
+
+def _slice_points(job: SliceJob, cos_theta, thickness_nm) -> FilmPoints:
+    film, base = job.key["film"], job.key["base"]
+    kw = {"film": film} if isinstance(film, str) else {"eta2": film}
+    kw.update({"base": base} if isinstance(base, str) else {"eta3": base[0], "kappa3": base[1]})
+    return FilmPoints.build(eta1=job.scene.eta1, cos_theta=cos_theta, thickness_nm=thickness_nm, **kw)
+
+
+def _truth(job: SliceJob, cos_theta, thickness_nm) -> np.ndarray:
+    pts = _slice_points(job, cos_theta, thickness_nm)
+    return reference_colour(pts, job.scene.observer, job.scene.space, tolerance=_SLICE_TOLERANCE).values
+
+
+def _thickness_values(lo, hi, n):
+    return np.array([lo]) if n == 1 else np.linspace(lo, hi, n)
+
+
+def compute_slice(job: SliceJob, counts) -> np.ndarray:
+    """Ground-truth colours on the slice grid, (n_thickness, n_cos, 3)."""
+    cos_axis, (lo, hi, n_d) = _slice_axes(job, counts)
+    cos_t, d = np.meshgrid(cos_axis.values(), _thickness_values(lo, hi, n_d))
+    return _truth(job, cos_t.ravel(), d.ravel()).reshape(n_d, counts[0], 3)
+
+
+def sample_slice(values, job: SliceJob, cos_theta, thickness_nm) -> np.ndarray:
+    """Bilinear in (√cos θ, thickness) node coordinates, clamped: what the atlas shader does."""
+    n_d, n_cos, _ = values.shape
+    cos_axis, (lo, hi, _) = _slice_axes(job, (n_cos, n_d))
+    fx = np.clip(cos_axis.to_unit(cos_theta), 0, 1) * (n_cos - 1)
+    fy = np.zeros_like(fx) if n_d == 1 else np.clip((np.asarray(thickness_nm) - lo) / (hi - lo), 0, 1) * (n_d - 1)
+    x0 = np.minimum(np.floor(fx), n_cos - 2).astype(int)
+    y0 = np.minimum(np.floor(fy), max(n_d - 2, 0)).astype(int)
+    y1 = np.minimum(y0 + 1, n_d - 1)
+    tx, ty = (fx - x0)[:, None], (fy - y0)[:, None]
+    top = values[y0, x0] * (1 - tx) + values[y0, x0 + 1] * tx
+    bottom = values[y1, x0] * (1 - tx) + values[y1, x0 + 1] * tx
+    return top * (1 - ty) + bottom * ty
+
+
+def _held_out(job: SliceJob, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    lo, hi = job.key["thickness_nm"]
+    cos_t = rng.uniform(0.0, 1.0, _HELD_OUT) ** 2
+    d = rng.uniform(lo, hi, _HELD_OUT)
+    return cos_t, d, _truth(job, cos_t, d)
+
+
+def refine_slice(job: SliceJob) -> tuple:
+    """Grow the slice until its p99 ΔE00 at held-out points meets the target: (values, counts, p99)."""
+    cos_t, d, truth = _held_out(job)
+    counts = job.counts
+    while True:
+        values = compute_slice(job, counts)
+        de = delta_e00(sample_slice(values, job, cos_t, d), truth, job.scene.observer, job.scene.space)
+        p99 = float(np.percentile(de, 99))
+        if p99 <= job.scene.max_de or max(counts) >= _MAX_COUNT:
+            return values, counts, p99, (cos_t, d, truth)
+        # Grow the axis the error follows: thickness while fringes dominate, else angle.
+        grow_d = counts[1] > 1 and counts[1] <= 2 * counts[0]
+        counts = (counts[0], min(2 * counts[1], _MAX_COUNT)) if grow_d else (min(2 * counts[0], _MAX_COUNT), counts[1])
+
+
+def constant_index_error(job: SliceJob, held_out) -> float | None:
+    """p99 ΔE00 if the slice's named materials were taken at their 550 nm index (what a
+    constant-index LUT would show), at the held-out points; None without named materials."""
+    film, base = job.key["film"], job.key["base"]
+    if not isinstance(film, str) and not isinstance(base, str):
+        return None
+    cos_t, d, truth = held_out
+    eta2 = job.film_index_550()
+    eta3, kappa3 = ((float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base)
+    pts = FilmPoints.build(eta1=job.scene.eta1, eta2=eta2, cos_theta=cos_t, thickness_nm=d, eta3=eta3, kappa3=kappa3)
+    approx = reference_colour(pts, job.scene.observer, job.scene.space, tolerance=_SLICE_TOLERANCE).values
+    return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
+
+
+# --- 4D LUTs for ranged bases ------------------------------------------------------------------
+
+def _widen(lo, hi):
+    return (lo, hi) if hi > lo else (lo, lo + 1e-6 * max(1.0, abs(lo)))
+
+
+def lut_spec(job: SliceJob) -> BakeSpec:
+    eta2 = float(job.key["film"])
+    d_lo, d_hi = _widen(*(2 * eta2 * t for t in job.key["thickness_nm"]))
+    (e_lo, e_hi), (k_lo, k_hi) = (_widen(*r) for r in job.key["base"])
+    d_count = 2 if job.key["thickness_nm"][0] == job.key["thickness_nm"][1] else 128
+    axes = (Axis("cos_theta", 0.0, 1.0, 32, "sqrt"), Axis("opd_nm", d_lo, d_hi, d_count),
+            Axis("eta3", e_lo, e_hi, 16), Axis("kappa3", k_lo, k_hi, 16, "sqrt"))
+    s = job.scene
+    return BakeSpec(eta2=eta2, eta1=s.eta1, axes=axes, space=s.space, observer=s.observer, precision=s.precision)
+
+
+# --- bake --------------------------------------------------------------------------------------
+
+@dataclass
+class SceneResult:
+    out_dir: Path
+    written: list
+    computed: list
+    reused: list
+    up_to_date: bool
+    seconds: float
+
+
+def _cache(out: Path) -> Path:
+    path = out / ".lutbake-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
+def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
+    npy, info = cache / f"{job.id}.npy", cache / f"{job.id}.json"
+    if not force and npy.is_file() and info.is_file():
+        reused.append(job.id)
+        return np.load(npy), json.loads(info.read_text())
+    values, counts, p99, held_out = refine_slice(job)
+    meta = {"counts": list(counts), "de00_p99": p99, "held_out_points": _HELD_OUT,
+            "constant_index_de00_p99": constant_index_error(job, held_out)}
+    with atomic_path(npy) as tmp, open(tmp, "wb") as fh:
+        np.save(fh, values)  # a file handle: np.save would append ".npy" to the temporary's name
+    write_text_atomic(info, json.dumps(meta, indent=2) + "\n")
+    computed.append(job.id)
+    return values, meta
+
+
+def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto") -> SceneResult:
+    from .bake import bake
+    from .sample import Lut
+
+    start = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = Path(scene.path).stem
+    plan = plan_scene(scene)
+    scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials])
+    manifest_path = out / f"{stem}.json"
+    outputs = [manifest_path, out / f"{stem}.glsl"]
+    if any(j.kind == "slice" for j in plan.jobs):
+        outputs.append(out / f"{stem}.exr")
+    outputs += [out / f"{j.id}.exr" for j in plan.jobs if j.kind == "lut"]
+    if not force and all(p.is_file() for p in outputs):
+        if json.loads(manifest_path.read_text()).get("scene_hash") == scene_hash:
+            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start)
+    cache, computed, reused, written = _cache(out), [], [], []
+    slices, entries = [], {}
+    for job in plan.jobs:
+        if job.kind == "slice":
+            values, info = _load_or_compute_slice(job, cache, force, computed, reused)
+            slices.append((job, values, info))
+            continue
+        path = out / f"{job.id}.exr"
+        spec = lut_spec(job)
+        if not force and path.is_file() and Lut.load(path).meta["content_hash"] == spec.content_hash:
+            reused.append(job.id)
+        else:
+            bake(spec, path, backend)
+            computed.append(job.id)
+            written.append(path)
+        for name in job.materials:
+            entries[name] = {"kind": "lut", "job": job.id, "file": path.name, "sample": "lutbake_sample (luts format)"}
+    atlas = _pack(slices)
+    if slices:
+        exr_path = out / f"{stem}.exr"
+        meta = {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
+                "space": scene.space, "observer": scene.observer, "encoding": "linear", "precision": scene.precision,
+                "slices": [{"id": j.id, "rect": rect} for (j, _, _), rect in zip(slices, atlas["rects"])]}
+        with exr_stream(exr_path, atlas["width"], atlas["height"], meta, scene.precision) as exr:
+            exr.write_rows(atlas["image"])
+        written.append(exr_path)
+        for (job, values, info), rect in zip(slices, atlas["rects"]):
+            for name in job.materials:
+                entries[name] = _slice_entry(job, info, rect, atlas, exr_path.name)
+    manifest = {"format": "lutbake-scene-manifest", "format_version": 1, "scene": scene.path,
+                "scene_hash": scene_hash, "settings": scene.settings_key(),
+                "materials": {m.name: entries[m.name] for m in scene.materials}}
+    write_text_atomic(out / f"{stem}.glsl", _glsl(manifest, atlas))
+    write_text_atomic(manifest_path, json.dumps(manifest, indent=2) + "\n")
+    written += [out / f"{stem}.glsl", manifest_path]
+    return SceneResult(out, written, computed, reused, False, time.perf_counter() - start)
+
+
+def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
+    x0, y0, w, h = rect
+    lo, hi = job.key["thickness_nm"]
+    return {"kind": "slice", "job": job.id, "file": exr_name, "rect": rect,
+            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+            "axes": {"cos_theta": {"min": 0.0, "max": 1.0, "count": w, "spacing": "sqrt"},
+                     "thickness_nm": {"min": lo, "max": hi, "count": h, "spacing": "uniform"}},
+            "film": job.key["film"], "base": job.key["base"], "de00_p99": info["de00_p99"],
+            "constant_index_de00_p99": info["constant_index_de00_p99"],
+            "sample": "lutbake_atlas_sample(atlas, rect, thickness range, cos_theta, thickness_nm)"}
+
+
+def _pack(slices) -> dict:
+    """Stack slices vertically, left-aligned: each a rect of texels; sampling stays inside it."""
+    if not slices:
+        return {"width": 0, "height": 0, "rects": [], "image": None}
+    width = max(v.shape[1] for _, v, _ in slices)
+    height = sum(v.shape[0] for _, v, _ in slices)
+    image = np.zeros((height, width, 3))
+    rects, y = [], 0
+    for _, v, _ in slices:
+        image[y:y + v.shape[0], :v.shape[1]] = v
+        rects.append([0, y, v.shape[1], v.shape[0]])
+        y += v.shape[0]
+    return {"width": width, "height": height, "rects": rects, "image": image}
+
+
+def _glsl(manifest: dict, atlas: dict) -> str:
+    lines = [f"// lutbake scene material table for {manifest['scene']} (scene hash {manifest['scene_hash'][:16]})",
+             "// Slices: sample the atlas with LINEAR filtering, CLAMP_TO_EDGE, no mipmaps.",
+             f"const vec2 LUTBAKE_ATLAS_SIZE = vec2({float(atlas['width'])}, {float(atlas['height'])});",
+             "",
+             "// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.",
+             "vec3 lutbake_atlas_sample(sampler2D atlas, vec4 rect, vec2 thick, float cos_theta, float thickness_nm) {",
+             "    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);",
+             "    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0) * (rect.w - 1.0) : 0.0;",
+             "    return texture(atlas, (rect.xy + vec2(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE).rgb;",
+             "}", ""]
+    for name, e in manifest["materials"].items():
+        ident = "".join(c if c.isalnum() else "_" for c in name).upper()
+        if e["kind"] == "slice":
+            x0, y0, w, h = e["rect"]
+            t = e["axes"]["thickness_nm"]
+            lines.append(f"const vec4 LUTBAKE_{ident}_RECT = vec4({float(x0)}, {float(y0)}, {float(w)}, {float(h)});")
+            lines.append(f"const vec2 LUTBAKE_{ident}_THICKNESS = vec2({float(t['min'])}, {float(t['max'])});")
+        else:
+            lines.append(f"// {name}: 4D LUT {e['file']} (sample with its own {Path(e['file']).stem}.glsl)")
+    return "\n".join(lines) + "\n"

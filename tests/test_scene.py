@@ -1,0 +1,151 @@
+"""Scene-driven bakes: validation, axis collapse, dispersive accuracy, incremental re-bakes."""
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from lutbake.atlas import bake_scene, plan_scene, sample_slice
+from lutbake.colorimetry import delta_e00
+from lutbake.points import FilmPoints
+from lutbake.reference import reference_colour
+from lutbake.scene import load_scene
+
+
+def write(tmp_path, text, name="scene.toml"):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+FIXED_BASES = """
+[scene]
+max_de = 2.0
+
+[materials.soap]
+film = 1.33
+thickness_nm = [200, 500]
+base = 1.0
+
+[materials.bubble_copy]   # same film, thickness and base: shares the soap slice
+film = 1.33
+thickness_nm = [200, 500]
+base = 1.0
+
+[materials.steel]
+film = 2.9
+thickness_nm = [10, 70]
+base = { eta3 = 2.7, kappa3 = 2.8 }
+"""
+
+
+def test_fixed_base_scene_collapses_to_small_2d_slices(tmp_path):
+    plan = plan_scene(load_scene(write(tmp_path, FIXED_BASES)))
+    assert [j.kind for j in plan.jobs] == ["slice", "slice"]
+    assert plan.jobs[0].materials == ["soap", "bubble_copy"]
+    doc = plan.describe()
+    assert all(len(j["counts"]) == 2 for j in doc["jobs"])
+    assert doc["bytes_start_total"] * 100 < doc["generic_4d_bytes"]
+    ranged = plan_scene(load_scene(write(tmp_path, """
+        [materials.coat]
+        film = 1.6
+        thickness_nm = [150, 450]
+        base = { eta3 = [1.2, 2.8], kappa3 = [0.5, 4.0] }
+        """, "ranged.toml")))
+    assert [j.kind for j in ranged.jobs] == ["lut"]
+    assert [a["min"] for a in ranged.describe()["jobs"][0]["axes"]][2:] == [1.2, 0.5]
+
+
+def test_fixed_thickness_collapses_to_one_row(tmp_path):
+    plan = plan_scene(load_scene(write(tmp_path, """
+        [materials.ergun_1]
+        film = 3.0
+        thickness_nm = 15.1667
+        base = { eta3 = 1.43, kappa3 = 0.0 }
+        """)))
+    assert plan.jobs[0].counts[1] == 1
+
+
+def test_dispersive_copper_slice_meets_the_target_against_ground_truth(tmp_path):
+    scene = load_scene(write(tmp_path, """
+        [scene]
+        max_de = 0.4
+
+        [materials.copper_coat]
+        film = 1.5
+        thickness_nm = [100, 300]
+        base = "Cu"
+        """))
+    result = bake_scene(scene, tmp_path / "out")
+    manifest = json.loads((tmp_path / "out" / "scene.json").read_text())
+    entry = manifest["materials"]["copper_coat"]
+    values = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")
+    rng = np.random.default_rng(11)  # fresh points, not the ones the bake refined against
+    cos_t, d = rng.uniform(0, 1, 300), rng.uniform(100, 300, 300)
+    truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=cos_t, thickness_nm=d, base="Cu")).values
+    job = plan_scene(scene).jobs[0]
+    de = delta_e00(sample_slice(values, job, cos_t, d), truth)
+    assert np.percentile(de, 99) <= 0.5
+    assert entry["constant_index_de00_p99"] > 5 * entry["de00_p99"]  # a constant index is far off
+    assert result.computed == [entry["job"]]
+
+
+def test_unchanged_scene_writes_nothing_and_one_change_rebakes_one_slice(tmp_path):
+    scene_path = write(tmp_path, FIXED_BASES)
+    out = tmp_path / "out"
+    first = bake_scene(load_scene(scene_path), out)
+    assert len(first.computed) == 2
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()}
+    again = bake_scene(load_scene(scene_path), out)
+    assert again.up_to_date and again.written == []
+    assert stamps == {p.name: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()}
+    scene_path.write_text(FIXED_BASES.replace("[10, 70]", "[10, 80]"))
+    touched = bake_scene(load_scene(scene_path), out)
+    assert len(touched.computed) == 1 and len(touched.reused) == 1
+    soap = json.loads((out / "scene.json").read_text())["materials"]["soap"]["job"]
+    cache = out / ".lutbake-cache"
+    assert (cache / f"{soap}.npy").stat().st_mtime_ns == stamps[f"{soap}.npy"]
+    forced = bake_scene(load_scene(scene_path), out, force=True)
+    assert len(forced.computed) == 2
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "lutbake.cli", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = 1.0\ncolour = 'red'\n",
+     ":5: unknown field materials.a.colour"),
+    ("[materials.a]\nfilm = 1.5\nbase = 1.0\n", ":1: materials.a is missing the field 'thickness_nm'"),
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = [70, 10]\nbase = 1.0\n", ":3: materials.a.thickness_nm = [70, 10] is reversed"),
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = \"Cooper\"\n", ":4: materials.a.base: unknown material 'Cooper'"),
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = { eta3 = 2.0, kappa3 = -1 }\n", ":4: materials.a.kappa3"),
+    ("[scene]\nspace = 'srgb'\n[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = 1.0\n", ":2: scene.space = 'srgb'"),
+    ("[materials.a]\nfilm = \"butanol\"\nthickness_nm = 10\nbase = { eta3 = [1, 2] }\n", ":2: materials.a: a named (dispersive) film"),
+    ("[materials.a\nfilm = 1.5\n", "invalid TOML"),
+])
+def test_invalid_scenes_exit_2_naming_file_line_and_field(tmp_path, text, message):
+    path = write(tmp_path, text)
+    out = tmp_path / "out"
+    for args in (["bake", "--scene", str(path), "--out", str(out)], ["plan", "--scene", str(path)]):
+        proc = _cli(*args)
+        assert proc.returncode == 2, proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and str(path) in lines[0] and message in lines[0]
+    assert not out.exists()
+
+
+def test_plan_and_bake_from_the_command_line(tmp_path):
+    path = write(tmp_path, FIXED_BASES)
+    plan = _cli("plan", "--scene", str(path), "--json")
+    assert plan.returncode == 0 and len(json.loads(plan.stdout)["jobs"]) == 2
+    assert not (tmp_path / "out").exists()
+    baked = _cli("bake", "--scene", str(path), "--out", str(tmp_path / "out"), "--json")
+    assert baked.returncode == 0, baked.stderr
+    files = {p.name for p in (tmp_path / "out").iterdir()}
+    assert {"scene.exr", "scene.json", "scene.glsl"} <= files
+    glsl = (tmp_path / "out" / "scene.glsl").read_text()
+    assert "LUTBAKE_SOAP_RECT" in glsl and "LUTBAKE_STEEL_THICKNESS" in glsl
