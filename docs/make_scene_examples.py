@@ -38,7 +38,8 @@ def main():
                 lines.append(f"| {name} | slice | {e['rect'][2]} × {e['rect'][3]} | {e['de00_p99']:.2f} | "
                              f"{'' if ci is None else f'{ci:.2f}'} |")
             else:
-                lines.append(f"| {name} | 4D LUT `{e['file']}` | (see its sidecar) | | |")
+                counts = " × ".join(str(c) for c in e["counts"])
+                lines.append(f"| {name} | 4D LUT `{e['file']}` | {counts} (cos θ × D × η3 × κ3) | {e['de00_p99']:.2f} | |")
         lines.append("")
     (ROOT / "docs" / "scene-examples.md").write_text("\n".join(lines))
     print("wrote docs/scene-examples.md")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +31,7 @@ from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .scene import Scene
+from .sweep import TUNE_START_COUNTS
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
 
@@ -84,8 +85,8 @@ class ScenePlan:
                 row["seconds_estimate"] = 2e-3 * int(np.prod(job.counts))
             else:
                 spec = lut_spec(job)
-                row["axes"] = [a.describe() for a in spec.axes]
-                row["seconds_estimate"] = spec.cells / 5e5
+                row["axes"] = [{k: v for k, v in a.describe().items() if k != "count"} for a in spec.axes]
+                row["seconds_estimate"] = 20.0  # a few tune rounds of small 4D bakes
             rows.append(row)
         generic = 32 * 128 * 16 * 16 * (6 if self.scene.precision == "half" else 12)
         return {"scene": self.scene.path, "settings": self.scene.settings_key(), "jobs": rows,
@@ -113,7 +114,7 @@ def plan_scene(scene: Scene) -> ScenePlan:
     out = list(jobs.values())
     for job in out:
         job.counts = (_initial_counts(scene, job.key, job.film_index_550()) if job.kind == "slice"
-                      else tuple(a.count for a in lut_spec(job).axes))
+                      else TUNE_START_COUNTS)
     return ScenePlan(scene, out)
 
 
@@ -205,6 +206,18 @@ def _widen(lo, hi):
     return (lo, hi) if hi > lo else (lo, lo + 1e-6 * max(1.0, abs(lo)))
 
 
+def _tuned_lut(job: SliceJob, path: Path, backend: str) -> dict:
+    """Bake the 4D LUT at the smallest counts (sweep.tune) whose p99 ΔE00 meets the target."""
+    from .bake import bake
+    from .sweep import tune
+
+    spec = lut_spec(job)
+    result = tune(spec, job.scene.max_de, n_points=300, seed=0, backend=backend, max_rounds=6)
+    axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result["counts"]))
+    bake(replace(spec, axes=axes), path, backend)
+    return {"counts": result["counts"], "de00_p99": result["result"]["de00_p99"], "target_met": result["met"]}
+
+
 def lut_spec(job: SliceJob) -> BakeSpec:
     eta2 = float(job.key["film"])
     d_lo, d_hi = _widen(*(2 * eta2 * t for t in job.key["thickness_nm"]))
@@ -250,9 +263,6 @@ def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
 
 
 def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto") -> SceneResult:
-    from .bake import bake
-    from .sample import Lut
-
     start = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -275,15 +285,18 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             slices.append((job, values, info))
             continue
         path = out / f"{job.id}.exr"
-        spec = lut_spec(job)
-        if not force and path.is_file() and Lut.load(path).meta["content_hash"] == spec.content_hash:
+        info_path = cache / f"{job.id}.json"
+        if not force and path.is_file() and info_path.is_file():
             reused.append(job.id)
+            info = json.loads(info_path.read_text())
         else:
-            bake(spec, path, backend)
+            info = _tuned_lut(job, path, backend)
+            write_text_atomic(info_path, json.dumps(info, indent=2) + "\n")
             computed.append(job.id)
             written.append(path)
         for name in job.materials:
-            entries[name] = {"kind": "lut", "job": job.id, "file": path.name, "sample": "lutbake_sample (luts format)"}
+            entries[name] = {"kind": "lut", "job": job.id, "file": path.name, "counts": info["counts"],
+                             "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
     atlas = _pack(slices)
     if slices:
         exr_path = out / f"{stem}.exr"

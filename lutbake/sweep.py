@@ -22,7 +22,9 @@ from .plan import Axis, BakeSpec
 from .report import held_out_points, score
 from .sample import Lut
 
-__all__ = ["sweep", "tune", "variants"]
+__all__ = ["sweep", "tune", "variants", "TUNE_START_COUNTS"]
+
+TUNE_START_COUNTS = (8, 16, 4, 4)
 
 
 def _scaled(spec: BakeSpec, factors) -> BakeSpec:
@@ -100,7 +102,7 @@ def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, back
     """
     with tempfile.TemporaryDirectory() as tmp:
         pts = _points_for(spec, tmp, n_points, seed, backend)
-        current = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, (8, 16, 4, 4))))
+        current = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, TUNE_START_COUNTS)))
         best = _measure("start", current, tmp, pts, backend)
         history = [best]
         for _ in range(max_rounds):

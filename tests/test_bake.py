@@ -247,3 +247,37 @@ def test_row_levels_equal_per_texel_levels(spec):
     for y0, y1 in ((0, 5), (height // 3, height // 3 + 70), (height - 9, height)):
         per_texel = spec.cell_levels(*(a.ravel() for a in spec.cell_params(y0, y1)))
         assert np.array_equal(spec.row_levels(y0, y1), per_texel)
+
+
+def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
+    from lutbake import integrate
+
+    def unavailable(compute):
+        raise integrate.OpenCLUnavailable("no platform (simulated)")
+
+    monkeypatch.setattr(integrate, "_program", unavailable)
+    with pytest.warns(RuntimeWarning, match="numpy path"):
+        assert isinstance(integrate.backend("auto"), NumpyBackend)
+    with pytest.raises(integrate.OpenCLUnavailable):
+        integrate.backend("opencl")
+
+
+def test_sample_and_inspect_commands(lut_path, tmp_path):
+    csv = tmp_path / "pts.csv"
+    csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n1.2,700,1.7,1.3\n")
+    bad = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "cos_theta = 1.2" in bad.stderr
+    csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n0.9,2500,1.7,1.3\n")
+    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv), "--json"],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout)["points"]
+    lut = Lut.load(lut_path)
+    assert np.allclose(rows[0]["rgb"], lut.sample(0.5, 700.0, 1.7, 1.3), atol=1e-12)
+    assert rows[0]["in_domain"] and not rows[1]["in_domain"]
+    meta = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path), "--json"],
+                          capture_output=True, text=True)
+    assert json.loads(meta.stdout) == lut.meta
+    text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path)], capture_output=True, text=True)
+    assert "axis opd_nm" in text.stdout and lut.meta["content_hash"] in text.stdout

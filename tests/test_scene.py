@@ -149,3 +149,25 @@ def test_plan_and_bake_from_the_command_line(tmp_path):
     assert {"scene.exr", "scene.json", "scene.glsl"} <= files
     glsl = (tmp_path / "out" / "scene.glsl").read_text()
     assert "LUTBAKE_SOAP_RECT" in glsl and "LUTBAKE_STEEL_THICKNESS" in glsl
+
+
+def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
+    scene = load_scene(write(tmp_path, """
+        [scene]
+        max_de = 1.5
+
+        [materials.coat]
+        film = 1.6
+        thickness_nm = [150, 300]
+        base = { eta3 = [1.2, 2.0], kappa3 = [0.5, 2.0] }
+        """))
+    result = bake_scene(scene, tmp_path / "out")
+    entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["coat"]
+    assert entry["kind"] == "lut" and entry["de00_p99"] <= 1.5
+    from lutbake.sample import Lut
+
+    lut = Lut.load(tmp_path / "out" / entry["file"])
+    assert [a.count for a in lut.axes] == entry["counts"]
+    assert (lut.axes[2].lo, lut.axes[2].hi, lut.axes[3].lo, lut.axes[3].hi) == (1.2, 2.0, 0.5, 2.0)
+    assert result.computed == [entry["job"]]
+    assert bake_scene(scene, tmp_path / "out").up_to_date
