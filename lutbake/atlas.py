@@ -7,8 +7,8 @@ a slice. Only a base given as η3/κ3 ranges (texture-driven) needs a 4D LUT,
 over just those ranges. Slices are integrated by the ground truth
 (reference.py: exact for dispersive indices, wavelength by wavelength) and
 refined until their p99 ΔE00 at held-out points meets the scene's target;
-they are packed into one atlas EXR, with a JSON manifest and a GLSL include
-holding the material table.
+they are packed into one atlas EXR, with a JSON manifest and GLSL and HLSL
+includes holding the material table.
 
 Incremental: each slice and LUT is keyed by a content hash. An unchanged
 scene writes nothing; a changed material recomputes only its slice (the
@@ -270,7 +270,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     plan = plan_scene(scene)
     scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials])
     manifest_path = out / f"{stem}.json"
-    outputs = [manifest_path, out / f"{stem}.glsl"]
+    outputs = [manifest_path, out / f"{stem}.glsl", out / f"{stem}.hlsl"]
     if any(j.kind == "slice" for j in plan.jobs):
         outputs.append(out / f"{stem}.exr")
     outputs += [out / f"{j.id}.exr" for j in plan.jobs if j.kind == "lut"]
@@ -312,9 +312,11 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     manifest = {"format": "lutbake-scene-manifest", "format_version": 1, "scene": scene.path,
                 "scene_hash": scene_hash, "settings": scene.settings_key(),
                 "materials": {m.name: entries[m.name] for m in scene.materials}}
-    write_text_atomic(out / f"{stem}.glsl", _glsl(manifest, atlas))
+    for lang in _SHADER:
+        write_text_atomic(out / f"{stem}.{lang}", _shader(manifest, atlas, lang))
+        written.append(out / f"{stem}.{lang}")
     write_text_atomic(manifest_path, json.dumps(manifest, indent=2) + "\n")
-    written += [out / f"{stem}.glsl", manifest_path]
+    written.append(manifest_path)
     return SceneResult(out, written, computed, reused, False, time.perf_counter() - start)
 
 
@@ -345,24 +347,38 @@ def _pack(slices) -> dict:
     return {"width": width, "height": height, "rects": rects, "image": image}
 
 
-def _glsl(manifest: dict, atlas: dict) -> str:
+_SHADER = {
+    "glsl": {"vec2": "vec2", "vec3": "vec3", "vec4": "vec4", "const": "const", "texture": "sampler2D atlas",
+             "fetch": "texture(atlas, {uv}).rgb", "filter": "LINEAR filtering, CLAMP_TO_EDGE, no mipmaps"},
+    "hlsl": {"vec2": "float2", "vec3": "float3", "vec4": "float4", "const": "static const",
+             "texture": "Texture2D<float3> atlas, SamplerState linear_clamp",
+             "fetch": "atlas.SampleLevel(linear_clamp, {uv}, 0)", "filter": "MIN_MAG_LINEAR, CLAMP, one mip level"},
+}
+
+
+def _shader(manifest: dict, atlas: dict, lang: str) -> str:
+    """The scene's material table and atlas sampler, in GLSL or HLSL."""
+    t = _SHADER[lang]
+    v2, v3, v4, const = t["vec2"], t["vec3"], t["vec4"], t["const"]
+    uv = f"(rect.xy + {v2}(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE"
     lines = [f"// lutbake scene material table for {manifest['scene']} (scene hash {manifest['scene_hash'][:16]})",
-             "// Slices: sample the atlas with LINEAR filtering, CLAMP_TO_EDGE, no mipmaps.",
-             f"const vec2 LUTBAKE_ATLAS_SIZE = vec2({float(atlas['width'])}, {float(atlas['height'])});",
+             f"// Slices: sample the atlas with {t['filter']}.",
+             f"{const} {v2} LUTBAKE_ATLAS_SIZE = {v2}({float(atlas['width'])}, {float(atlas['height'])});",
              "",
              "// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.",
-             "vec3 lutbake_atlas_sample(sampler2D atlas, vec4 rect, vec2 thick, float cos_theta, float thickness_nm) {",
+             f"{v3} lutbake_atlas_sample({t['texture']}, {v4} rect, {v2} thick, float cos_theta, float thickness_nm) {{",
              "    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);",
-             "    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0) * (rect.w - 1.0) : 0.0;",
-             "    return texture(atlas, (rect.xy + vec2(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE).rgb;",
+             "    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0)"
+             " * (rect.w - 1.0) : 0.0;",
+             f"    return {t['fetch'].format(uv=uv)};",
              "}", ""]
     for name, e in manifest["materials"].items():
         ident = "".join(c if c.isalnum() else "_" for c in name).upper()
         if e["kind"] == "slice":
             x0, y0, w, h = e["rect"]
-            t = e["axes"]["thickness_nm"]
-            lines.append(f"const vec4 LUTBAKE_{ident}_RECT = vec4({float(x0)}, {float(y0)}, {float(w)}, {float(h)});")
-            lines.append(f"const vec2 LUTBAKE_{ident}_THICKNESS = vec2({float(t['min'])}, {float(t['max'])});")
+            th = e["axes"]["thickness_nm"]
+            lines.append(f"{const} {v4} LUTBAKE_{ident}_RECT = {v4}({float(x0)}, {float(y0)}, {float(w)}, {float(h)});")
+            lines.append(f"{const} {v2} LUTBAKE_{ident}_THICKNESS = {v2}({float(th['min'])}, {float(th['max'])});")
         else:
-            lines.append(f"// {name}: 4D LUT {e['file']} (sample with its own {Path(e['file']).stem}.glsl)")
+            lines.append(f"// {name}: 4D LUT {e['file']} (sample with its own {Path(e['file']).stem}.{lang})")
     return "\n".join(lines) + "\n"

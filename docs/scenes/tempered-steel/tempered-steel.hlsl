@@ -1,0 +1,15 @@
+// lutbake scene material table for examples/tempered-steel.toml (scene hash d033588eca9d60bf)
+// Slices: sample the atlas with MIN_MAG_LINEAR, CLAMP, one mip level.
+static const float2 LUTBAKE_ATLAS_SIZE = float2(32.0, 96.0);
+
+// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.
+float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, float4 rect, float2 thick, float cos_theta, float thickness_nm) {
+    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);
+    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0) * (rect.w - 1.0) : 0.0;
+    return atlas.SampleLevel(linear_clamp, (rect.xy + float2(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE, 0);
+}
+
+static const float4 LUTBAKE_STEEL_CONSTANT_RECT = float4(0.0, 0.0, 32.0, 48.0);
+static const float2 LUTBAKE_STEEL_CONSTANT_THICKNESS = float2(10.0, 70.0);
+static const float4 LUTBAKE_STEEL_WERNER_RECT = float4(0.0, 48.0, 32.0, 48.0);
+static const float2 LUTBAKE_STEEL_WERNER_THICKNESS = float2(10.0, 70.0);
