@@ -90,11 +90,6 @@ class Colorimetry:
         join = table[lam == end][0] / series[lam == end][0]
         return np.where(lam <= end, table, series * join)
 
-    @property
-    def white_xyz(self) -> np.ndarray:
-        """XYZ of a perfect reflector under the illuminant (Y = 1)."""
-        return _trapezoid(self.xyz_table, axis=1)
-
     def sensitivity(self, wavelength_nm, basis: str = "rgb") -> np.ndarray:
         """Continuous w_c(λ) (3, …), linear between the 1 nm table entries."""
         table = self.rgb_table if basis == "rgb" else self.xyz_table

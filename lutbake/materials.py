@@ -52,7 +52,6 @@ class ConstantMaterial:
     def name(self) -> str:
         return f"{self.eta:g}+{self.kappa:g}i"
 
-    is_constant = True
     extrapolated_nm: tuple = ()
 
     def index(self, wavelength_nm):
@@ -67,8 +66,6 @@ class DispersiveMaterial:
     name: str
     page: tuple
     entry: object
-
-    is_constant = False
 
     def index(self, wavelength_nm):
         lam_um = np.asarray(wavelength_nm, float) / 1000.0

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -127,7 +127,6 @@ class BakeSpec:
     compute: str = "float64"
     method: str = "spectral"
     samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE
-    notes: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
         check_value("eta1", self.eta1)
@@ -241,7 +240,6 @@ class BakeSpec:
     def describe(self) -> dict:
         """The inputs that define the LUT (hashed into ``content_hash``)."""
         d = asdict(self)
-        d.pop("notes")
         d["axes"] = [a.describe() for a in self.axes]
         d["spectral_counts"] = self.ladder.counts
         return d

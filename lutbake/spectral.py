@@ -47,10 +47,6 @@ class SpectralRule:
     def count(self) -> int:
         return self.wavelength_nm.size
 
-    @property
-    def wavenumber_per_nm(self) -> np.ndarray:
-        return 1.0 / self.wavelength_nm
-
 
 @functools.lru_cache(maxsize=64)
 def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec709",
