@@ -82,9 +82,12 @@ class Lut:
             ax, ay = np.round(ax * scale) / scale, np.round(ay * scale) / scale
         x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
         x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
-        img = self.image.astype(np.float64)
-        top = _lerp(img[y0, x0], img[y0, x1], ax)
-        bottom = _lerp(img[y1, x0], img[y1, x1], ax)
+
+        def tap(y, x):  # gather first, widen only the taps (not the whole image)
+            return self.image[y, x].astype(np.float64)
+
+        top = _lerp(tap(y0, x0), tap(y0, x1), ax)
+        bottom = _lerp(tap(y1, x0), tap(y1, x1), ax)
         return _lerp(top, bottom, ay)
 
 
