@@ -44,18 +44,20 @@ class HeldOutPoints:
         return self.kind.size
 
 
-def held_out_points(lut: Lut, n_points: int, seed: int) -> HeldOutPoints:
-    """Half uniform over the domain, half at centres of random cells (in node coordinates)."""
+def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n_points: int,
+                    seed: int, centre_fraction: float = 0.5) -> HeldOutPoints:
+    """Uniform over the axes' domain, and a ``centre_fraction`` at centres of random cells of
+    this grid (in node coordinates), where its interpolation error peaks."""
     rng = np.random.default_rng(seed)
-    n_centre = n_points // 2
-    uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in lut.axes]
-    centres = [a.from_unit((rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1)) for a in lut.axes]
+    n_centre = int(n_points * centre_fraction)
+    uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in axes]
+    centres = [a.from_unit((rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1)) for a in axes]
     params = tuple(np.concatenate([u, c]) for u, c in zip(uniform, centres))
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
-    pts = HeldOutPoints(params, kind, lut.eta1, lut.eta2)
-    film = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=params[0], opd_nm=params[1],
+    pts = HeldOutPoints(params, kind, eta1, eta2)
+    film = FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=params[0], opd_nm=params[1],
                             eta3=params[2], kappa3=params[3])
-    pts.truth = reference_colour(film, lut.meta["observer"], lut.meta["space"]).values
+    pts.truth = reference_colour(film, observer, space).values
     return pts
 
 
@@ -108,7 +110,7 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     """Score a LUT (and the approximations) at held-out points against the ground truth."""
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
-    pts = held_out_points(lut, n_points, seed)
+    pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, n_points, seed)
     rgb, seconds = _timed(lut.sample, *pts.params)
     lut_stats = score("lut", rgb, pts, space, observer, seconds / len(pts))
     rows = []

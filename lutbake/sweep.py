@@ -1,7 +1,7 @@
 """Error against cost: sweep LUT variants over one domain, and tune counts to a target.
 
 Every variant is baked (timed), its file measured in bytes, and scored at the
-same held-out points (report.held_out_points) as the approximations engines
+same held-out points (uniform over the domain) as the approximations engines
 run today, so the rows are comparable: p99 ΔE00 against bake seconds and
 bytes for LUTs, against nanoseconds per evaluation for the approximations.
 """
@@ -45,7 +45,7 @@ def variants(spec: BakeSpec) -> dict:
 
 
 def _measure(name, spec, folder, pts, backend):
-    path = Path(folder) / f"{abs(hash(name)) % 10**8}-{spec.content_hash[:12]}.exr"
+    path = Path(folder) / f"{spec.content_hash[:16]}.exr"
     start = time.perf_counter()
     bake(spec, path, backend)
     seconds = time.perf_counter() - start
@@ -67,12 +67,11 @@ def _approximation_rows(spec, pts):
     return rows
 
 
-def _points_for(spec, folder, n_points, seed, backend):
-    """Held-out points for the domain of ``spec`` (the LUT only supplies axes)."""
-    probe = _scaled(spec, (2 / a.count for a in spec.axes))
-    path = Path(folder) / "domain.exr"
-    bake(probe, path, backend)
-    return held_out_points(Lut.load(path), n_points, seed)
+def _points_for(spec, n_points, seed):
+    """Held-out points for the domain of ``spec``: uniform only, since the variants compared
+    have different grids (a cell centre of one is a node of another)."""
+    return held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed,
+                           centre_fraction=0.0)
 
 
 def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto") -> dict:
@@ -83,7 +82,7 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=out) as tmp:
-        pts = _points_for(spec, tmp, n_points, seed, backend)
+        pts = _points_for(spec, n_points, seed)
         rows = [_measure(name, v, tmp, pts, backend) for name, v in variants(spec).items()]
     rows += _approximation_rows(spec, pts)
     pareto_plot(rows, out / "pareto.png")
@@ -101,7 +100,7 @@ def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, back
     by a quarter while the target still holds.
     """
     with tempfile.TemporaryDirectory() as tmp:
-        pts = _points_for(spec, tmp, n_points, seed, backend)
+        pts = _points_for(spec, n_points, seed)
         current = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, TUNE_START_COUNTS)))
         best = _measure("start", current, tmp, pts, backend)
         history = [best]
