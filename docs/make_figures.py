@@ -15,6 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from lutbake.figures import display_srgb  # noqa: E402
 from lutbake.sample import Lut  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -23,11 +24,6 @@ PANELS = [
     ("oil on water (η2 1.50 | 1.33)", "lutbake-eta2-1.50.exr", 1.33, 0.0),
     ("oxide on steel (η2 2.0 | 2.7 + 2.8i)", "lutbake-eta2-2.00.exr", 2.7, 2.8),
 ]
-
-
-def srgb(linear):
-    linear = np.clip(linear, 0.0, 1.0)
-    return np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
 
 
 def main():
@@ -39,7 +35,7 @@ def main():
         rgb = lut.sample(cos_theta, opd, eta3, kappa3)
         exposure = 1.0 / np.percentile(rgb.max(axis=-1), 95)
         angle = np.degrees(np.arccos(cos_theta[0]))
-        ax.imshow(srgb(exposure * rgb), origin="lower", aspect="auto",
+        ax.imshow(display_srgb(rgb, exposure), origin="lower", aspect="auto",
                   extent=[angle[0], angle[-1], opd[0, 0], opd[-1, 0]])
         ax.set_title(f"{title}\nexposure ×{exposure:.1f}", fontsize=10)
         ax.set_xlabel("view angle θ1 (degrees)")
