@@ -177,7 +177,7 @@ def domain_options(f):
         click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
                      help="Integration method (exact spectral Airy reflectance)."),
         click.option("--samples-per-cycle", type=float, default=None,
-                     help="Spectral nodes per fringe-bandwidth cycle (default 3: |ΔRGB| ≤ 1e-5)."),
+                     help="Spectral nodes per fringe-bandwidth cycle (default 3: measured |ΔRGB| ≤ 1.2e-6)."),
         click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto",
                      show_default=True, help="auto: OpenCL (PoCL first), else numpy with a warning."),
     ]

@@ -101,7 +101,7 @@ class RuleLadder:
     high finesse (|r21 r23| → 1, metals at grazing incidence) sharpens the
     Airy peaks. A texel's bandwidth is cycles × harmonics; the rule needs
     ``samples_per_cycle`` nodes per bandwidth cycle (3 measured to give
-    |ΔRGB| ≤ 1e-5, 4 to give 1e-6; docs/accuracy.md). ``level`` picks the
+    |ΔRGB| ≤ 1.2e-6, 2 to give 1.2e-5; bench/bench_spectral_rule.py). ``level`` picks the
     smallest rule with that many nodes, capped at MAX_WAVENUMBER_NODES: the
     enforced truncation bound, whose residual the bake measures and records.
     """
