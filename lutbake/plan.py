@@ -95,10 +95,9 @@ def parse_axis(name: str, text: str) -> Axis:
 
 def validate_axis(axis: Axis) -> Axis:
     flag = f"--{_flag(axis.name)}"
-    domain_name = {"opd_nm": "opd_nm"}.get(axis.name, axis.name)
     for v in (axis.lo, axis.hi):
         try:
-            check_value(domain_name, v)
+            check_value(axis.name, v)
         except ValueError as exc:
             raise ValueError(f"{flag}: {exc}") from None
     if not axis.hi > axis.lo:
