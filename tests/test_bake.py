@@ -201,8 +201,10 @@ def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
     assert out.read_bytes() == b"previous"
     assert not out.with_suffix(".json").exists()
     leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
-    assert leftovers == ([] if sig != signal.SIGKILL else leftovers)
-    assert all(".tmp-" in name for name in leftovers)
+    if sig == signal.SIGKILL:  # no handler runs: at most the hidden temporary remains
+        assert all(name.startswith(".lut.exr.tmp-") for name in leftovers)
+    else:  # SIGINT and SIGTERM clean up
+        assert leftovers == []
 
 
 @pytest.mark.parametrize("args, named", [
@@ -221,16 +223,15 @@ def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
 
 
 def test_unwritable_output_exits_2(tmp_path):
-    locked = tmp_path / "locked"
-    locked.mkdir()
-    locked.chmod(0o500)
     proc = _cli("bake", "--eta2", "1.5", "--out", str(tmp_path / "missing" / "x.exr"))
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 2 and "does not exist" in err
-    if os.geteuid() != 0:  # root writes anywhere
-        proc = _cli("bake", "--eta2", "1.5", "--out", str(locked / "x.exr"))
-        _, err = proc.communicate(timeout=120)
-        assert proc.returncode == 2 and "not writable" in err
+    # A folder nobody may write, root included (CI runs as root, so a chmod would not do).
+    locked = "/proc/self"
+    assert not os.access(locked, os.W_OK)
+    proc = _cli("bake", "--eta2", "1.5", "--out", f"{locked}/x.exr")
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2 and "not writable" in err and len(err.strip().splitlines()) == 1
 
 
 def test_default_bake_writes_the_default_set(tmp_path):
