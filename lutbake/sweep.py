@@ -81,7 +81,7 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=out) as tmp:
+    with tempfile.TemporaryDirectory() as tmp:
         pts = _points_for(spec, n_points, seed)
         rows = [_measure(name, v, tmp, pts, backend) for name, v in variants(spec).items()]
     rows += _approximation_rows(spec, pts)
