@@ -1,11 +1,11 @@
 // lutbake thin-film LUT sampler (GLSL) for lut-ab9defd7f35a.exr
-// content hash 6de526263ab828c1c6cb760e1a7eb460aaea3c851995f4d8cab57604d2fbf273; film eta2 = 1.6 under ambient eta1 = 1.0; linear rec709 RGB.
+// content hash 0e0610804679179c765d5184f436246de4371067b6e0ed43423eef36cc8d39a8; film eta2 = 1.6 under ambient eta1 = 1.0; linear rec709 RGB.
 // Bind the LUT with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
 // Axes in order (cos_theta, opd_nm, eta3, kappa3); opd_nm = 2 * eta2 * thickness_nm.
 
 const vec4 LUTBAKE_MIN = vec4(0.0, 480.0, 1.2, 0.5);
 const vec4 LUTBAKE_MAX = vec4(1.0, 1440.0, 2.8, 4.0);
-const vec4 LUTBAKE_COUNT = vec4(32.0, 32.0, 8.0, 8.0);
+const vec4 LUTBAKE_COUNT = vec4(24.0, 32.0, 8.0, 16.0);
 const vec4 LUTBAKE_SQRT = vec4(1.0, 0.0, 0.0, 1.0); // 1: nodes uniform in sqrt(value)
 
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
