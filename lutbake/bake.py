@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .integrate import NumpyBackend
+from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
 from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_text_atomic
 from .plan import Axis, BakeSpec
@@ -39,6 +39,7 @@ class BakeResult:
     cells: int
     seconds: float
     backend: str
+    device: str
     spectral_error_rgb_max: float
     capped_texels: int = 0
     truncation_bound: float = 0.0
@@ -127,15 +128,21 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
     }
 
 
-def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None) -> BakeResult:
-    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes."""
+def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
+         device=None) -> BakeResult:
+    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes.
+
+    ``device`` picks the OpenCL device (integrate.find_device). The EXR's bytes do not
+    depend on it; the sidecar records it under ``baked_on``.
+    """
     out_path = Path(out_path)
     _check_writable(out_path)
     start = time.perf_counter()
-    integrator = make_backend(backend, spec.compute)
+    integrator = make_backend(backend, spec.compute, device)
     error = spectral_error(spec)
     capped = capped_error(spec)
     meta = metadata(spec, error, capped)
+    sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
     with exr_stream(out_path, width, height, meta, spec.precision) as exr:
@@ -143,16 +150,16 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
             exr.write_rows(integrator.bake_rows(spec, y0, y1))
             if on_band:
                 on_band(y1 - y0, height)
-        write_text_atomic(out_path.with_suffix(".json"), json.dumps(meta, indent=2, sort_keys=True) + "\n")
+        write_text_atomic(out_path.with_suffix(".json"), json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
         for suffix, text in shader_includes(meta, out_path.name).items():
             write_text_atomic(out_path.with_suffix(f".{suffix}"), text)
-    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, error, *capped)
+    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device,
+                      error, *capped)
 
 
-def bake_array(spec: BakeSpec, backend: str = "auto") -> np.ndarray:
+def bake_array(spec: BakeSpec, backend: str = "auto", device=None) -> np.ndarray:
     """The whole packed image (height, width, 3) in float64, in memory (tests, benchmarks)."""
-    integrator = make_backend(backend, spec.compute)
-    return np.concatenate([integrator.bake_rows(spec, y0, y1) for y0, y1 in spec.row_chunks()])
+    return bake_rows_all(make_backend(backend, spec.compute, device), spec)
 
 
 def _check_writable(out_path: Path) -> None:

@@ -161,6 +161,24 @@ def axis_option(flag, name):
                         help=f"{name} axis: N nodes from A to B (uniform, or uniform in sqrt).")
 
 
+def _use_device(ctx, param, selector):
+    """--device: validate the selector now and make it this process's default device."""
+    if selector:
+        import os
+
+        from .integrate import device_label, find_device
+
+        device_label(find_device(selector))
+        os.environ["LUTBAKE_DEVICE"] = selector
+    return selector
+
+
+device_option = click.option(
+    "--device", metavar="N|KEY|TEXT", callback=_use_device, expose_value=False, is_eager=True,
+    help="OpenCL device: its number or key in `lutbake devices`, or part of its name (default: the "
+         "first that builds the kernel and passes its self-check; PYOPENCL_CTX is honoured).")
+
+
 def domain_options(f):
     """The flags that define a LUT: film, axes, colour, precision, method, backend."""
     opts = [
@@ -180,6 +198,7 @@ def domain_options(f):
                      help="Spectral nodes per fringe-bandwidth cycle (default 3: measured |ΔRGB| ≤ 1.2e-6)."),
         click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto",
                      show_default=True, help="auto: OpenCL (PoCL first), else numpy with a warning."),
+        device_option,
     ]
     for opt in reversed(opts):
         f = opt(f)
@@ -246,7 +265,7 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         return
     for row in summary:
         click.echo(f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
-                   f"{row['cells_per_second']:.3g} cells/s, {row['backend']}, "
+                   f"{row['cells_per_second']:.3g} cells/s on {row['device']}, "
                    f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})")
         if row["capped_error_rgb_max"] > CAPPED_WARNING:
             click.echo(f"lutbake: warning: {row['capped_texels']} texels need more spectral nodes than the "
@@ -321,7 +340,7 @@ def _bake_one(path, spec, backend, quiet):
 
 def _bake_summary(result):
     return {"path": str(result.path), "cells": result.cells, "seconds": result.seconds,
-            "cells_per_second": result.cells_per_second, "backend": result.backend,
+            "cells_per_second": result.cells_per_second, "backend": result.backend, "device": result.device,
             "spectral_error_rgb_max": result.spectral_error_rgb_max,
             "capped_texels": result.capped_texels, "truncation_bound": result.truncation_bound,
             "capped_error_rgb_max": result.capped_error_rgb_max}
@@ -484,17 +503,22 @@ def tune_cmd(max_de, n_points, seed, as_json, backend, **flags):
 
 
 @cli.command("check")
-@click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True)
+@click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True,
+              help="Fast path to check: auto (OpenCL, else numpy), opencl or numpy.")
+@device_option
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
 def check_cmd(backend, as_json):
     """Stiff and extreme cases: every path finite and accurate (exit 1 on any failure)."""
     from .check import run_checks
+    from .integrate import backend as make_backend
 
+    device = make_backend(backend).device
     results = run_checks(backend)
     failed = [r for r in results if not r.passed]
     if as_json:
-        echo_json({"passed": not failed, "checks": [r.as_dict() for r in results]})
+        echo_json({"passed": not failed, "device": device, "checks": [r.as_dict() for r in results]})
     else:
+        click.echo(f"fast path on {device}")
         group = None
         for r in results:
             if r.group != group:
@@ -505,6 +529,34 @@ def check_cmd(backend, as_json):
                        f"error {r.error:.2e} (tolerance {r.tolerance:.1e}){'; ' + r.note if r.note else ''}")
         click.echo(f"{len(results) - len(failed)} passed, {len(failed)} failed")
     return EXIT_GATE if failed else 0
+
+
+@cli.command("devices")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
+def devices_cmd(as_json):
+    """OpenCL devices: does each build the kernel and pass its self-check, and how fast is it."""
+    from .integrate import survey_devices
+    from .plan import Axis, BakeSpec
+
+    probe = BakeSpec(eta2=1.5, axes=(Axis("cos_theta", 0.0, 1.0, 32, "sqrt"), Axis("opd_nm", 0.0, 3000.0, 128),
+                                     Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 5.0, 4, "sqrt")))
+    rows = survey_devices(probe)
+    if as_json:
+        echo_json({"throughput_cells": probe.cells, "devices": rows})
+        return
+    for row in rows:
+        if row["index"] is None:
+            click.echo(f"no OpenCL device: {row['error']}")
+            continue
+        mark = " (default)" if row["default"] else ""
+        click.echo(f"{row['index']} {row['key']}: {row['label']}{mark}")
+        for compute in ("float64", "float32"):
+            r = row[compute]
+            state = (f"builds, self-check |ΔR| {r['self_check_error']:.1e}" if r["builds"]
+                     else f"not usable: {r['error']}")
+            click.echo(f"    {compute}: {state}")
+        if "cells_per_second" in row:
+            click.echo(f"    {row['cells_per_second']:.3g} cells/s (float64, {probe.cells} cells over D 0–3000 nm)")
 
 
 if __name__ == "__main__":  # pragma: no cover

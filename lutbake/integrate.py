@@ -26,7 +26,8 @@ import numpy as np
 
 from .optics import film_reflectance, normal_admittance
 
-__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable"]
+__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "opencl_devices", "find_device",
+           "device_key", "device_label", "self_check_error"]
 
 
 class OpenCLUnavailable(RuntimeError):
@@ -37,6 +38,7 @@ class NumpyBackend:
     """float64 numpy evaluation of the exact Airy reflectance at each texel's rule nodes."""
 
     name = "numpy"
+    device = "numpy / float64 (host CPU)"
     _CELLS_X_NODES = 2_000_000
 
     def bake_rows(self, spec, y0, y1):
@@ -96,19 +98,63 @@ def _register_intel_cpu_runtime():
     os.environ["OCL_ICD_VENDORS"] = str(vendors)
 
 
-def _candidate_devices():
-    """OpenCL devices in order of preference: PYOPENCL_CTX's, else PoCL's, then the rest."""
+RUNTIME_KEYS = {"Portable Computing Language": "pocl", "Intel(R) OpenCL": "intel"}
+
+
+def device_key(device) -> str:
+    """Short stable name of a device: its runtime ('pocl', 'intel', …), plus ':N' past the first."""
+    platform = device.platform.name.strip()
+    key = RUNTIME_KEYS.get(platform, platform.split()[0].lower())
+    index = device.platform.get_devices().index(device)
+    return key if index == 0 else f"{key}:{index}"
+
+
+def device_label(device) -> str:
+    """'platform / device' as the runtime names them."""
+    return f"{device.platform.name.strip()} / {device.name.strip()}"
+
+
+def opencl_devices() -> list:
+    """Every OpenCL device, PoCL's first (the design's runtime), then the rest in platform order."""
     _register_intel_cpu_runtime()
     import pyopencl as cl
 
     try:
-        if os.environ.get("PYOPENCL_CTX"):
-            return [cl.create_some_context(interactive=False).devices[0]]
         platforms = cl.get_platforms()
     except cl.Error as exc:
         raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
     platforms.sort(key=lambda p: "Portable Computing Language" not in p.name)
     return [d for p in platforms for d in p.get_devices()]
+
+
+def _candidate_devices(selector=None):
+    """Devices to try, in order: the one ``selector`` (or $LUTBAKE_DEVICE) names, else the one
+    PYOPENCL_CTX names, else every device (``opencl_devices`` order)."""
+    import pyopencl as cl
+
+    selector = selector or os.environ.get("LUTBAKE_DEVICE")
+    if selector:
+        return [find_device(selector)]
+    if os.environ.get("PYOPENCL_CTX"):
+        _register_intel_cpu_runtime()
+        return [cl.create_some_context(interactive=False).devices[0]]
+    return opencl_devices()
+
+
+def find_device(selector: str):
+    """The device a selector names: its index in ``opencl_devices()``, its key, or a
+    case-insensitive part of its label (e.g. '0', 'pocl', 'intel')."""
+    devices = opencl_devices()
+    text = str(selector).strip().lower()
+    if text.isdigit() and int(text) < len(devices):
+        return devices[int(text)]
+    exact = [d for d in devices if device_key(d) == text]
+    found = exact or [d for d in devices if text in device_label(d).lower()]
+    if len(found) != 1:
+        known = ", ".join(f"{i} ({device_key(d)}: {device_label(d)})" for i, d in enumerate(devices))
+        state = "matches no" if not found else "matches more than one"
+        raise ValueError(f"device {selector!r} {state} OpenCL device; devices: {known or 'none'}")
+    return found[0]
 
 
 def _build(device, compute: str):
@@ -124,40 +170,85 @@ def _build(device, compute: str):
         return ctx, cl.Program(ctx, source).build(options=options)
 
 
-@functools.lru_cache(maxsize=4)
-def _program(compute: str):
-    """(context, built program) on the first device whose compiler builds the kernel."""
+# Self-check stacks: stiff corners where runtimes have disagreed (grazing incidence over a
+# base matching the ambient, thick films, metals, evanescent films), R compared with numpy.
+_SELF_CHECK = np.array([
+    # cos θ1, D (nm), η3, κ3, λ (nm)
+    [1e-6, 0.0, 1.0, 1e-12, 550.0], [1e-6, 1e-9, 1.0, 1e-12, 400.0], [0.0, 500.0, 1.5, 0.0, 500.0],
+    [0.3, 1e5, 2.0, 3.0, 700.0], [1.0, 800.0, 1.0, 0.0, 450.0], [0.05, 4000.0, 0.2, 3.5, 610.0],
+    [0.7, 250.0, 1.5, 1e-9, 380.0], [1e-12, 1e4, 3.0, 100.0, 820.0],
+])
+SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
+
+
+_SELF_CHECKED = {}
+
+
+def _self_check(backend, device) -> float:
+    """``self_check_error`` once per device and compute precision per process."""
+    key = (device.int_ptr, backend.compute)
+    if key not in _SELF_CHECKED:
+        _SELF_CHECKED[key] = self_check_error(backend)
+    return _SELF_CHECKED[key]
+
+
+def self_check_error(backend) -> float:
+    """max |R_kernel − R_numpy| over the self-check stacks, films η2 1.5 (η1 1) and 1.2 (η1 1.6)."""
+    cos1, opd, eta3, kappa3, lam = _SELF_CHECK.T
+    worst = 0.0
+    for eta1, eta2 in ((1.0, 1.5), (1.6, 1.2)):
+        fast = backend.reflectance(eta1, eta2, cos1, opd, eta3, kappa3, lam)
+        ref = film_reflectance(eta1, eta2, eta3, kappa3, cos1, opd / (2 * eta2), lam)[2]
+        worst = max(worst, float(np.max(np.abs(fast - ref))))
+    return worst
+
+
+@functools.lru_cache(maxsize=16)
+def _program(device, compute: str):
+    """(context, program) built for one device, or the OpenCLUnavailable saying why not."""
     import pyopencl as cl
 
-    reasons = []
-    for device in _candidate_devices():
-        try:
-            return _build(device, compute)
-        except (cl.Error, OpenCLUnavailable) as exc:
-            first = str(exc).strip().splitlines()
-            reasons.append(f"{device.name.strip()}: {next((l for l in first if 'error' in l), first[0])}")
-    raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
+    try:
+        return _build(device, compute)
+    except (cl.Error, OpenCLUnavailable) as exc:
+        lines = str(exc).strip().splitlines() or ["build failed"]
+        return OpenCLUnavailable(f"{device_label(device)}: {next((l for l in lines if 'error' in l), lines[0])}")
 
 
 class OpenCLBackend:
-    """kernels/airy.cl on the default OpenCL device (PoCL unless PYOPENCL_CTX says otherwise)."""
+    """kernels/airy.cl on an OpenCL device: the one ``device`` names (see ``find_device``),
+    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else the first that builds the kernel
+    (PoCL first)."""
 
     name = "opencl"
 
-    def __init__(self, compute: str = "float64"):
+    def __init__(self, compute: str = "float64", device=None):
         import pyopencl as cl
 
         self.compute = compute
         self.dtype = np.float64 if compute == "float64" else np.float32
-        self.ctx, program = _program(compute)
-        self.kernel = cl.Kernel(program, "bake_rows")
-        self.points_kernel = cl.Kernel(program, "reflectance_points")
-        self.queue = cl.CommandQueue(self.ctx)
         self._static = None
+        reasons = []
+        for candidate in _candidate_devices(device):
+            built = _program(candidate, compute)
+            if isinstance(built, OpenCLUnavailable):
+                reasons.append(str(built))
+                continue
+            self.ctx, program = built
+            self.kernel = cl.Kernel(program, "bake_rows")
+            self.points_kernel = cl.Kernel(program, "reflectance_points")
+            self.queue = cl.CommandQueue(self.ctx)
+            error = _self_check(self, candidate)
+            if error <= SELF_CHECK_TOLERANCE[compute]:
+                return
+            reasons.append(f"{device_label(candidate)}: fails the self-check (|ΔR| {error:.2g} against numpy, "
+                           f"tolerance {SELF_CHECK_TOLERANCE[compute]:g})")
+        raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
 
     @property
-    def device_name(self) -> str:
-        return self.ctx.devices[0].name.strip()
+    def device(self) -> str:
+        """The device that runs the kernel, as 'platform / device'."""
+        return device_label(self.ctx.devices[0])
 
     def _static_buffers(self, spec):
         import pyopencl as cl
@@ -233,15 +324,59 @@ class OpenCLBackend:
         return out.astype(np.float64).reshape(shape)
 
 
-def backend(name: str = "auto", compute: str = "float64"):
-    """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning)."""
+def backend(name: str = "auto", compute: str = "float64", device=None):
+    """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
+    ``device`` picks the OpenCL device (``find_device``)."""
     if name == "numpy":
         return NumpyBackend()
     try:
-        return OpenCLBackend(compute)
+        return OpenCLBackend(compute, device)
     except (OpenCLUnavailable, ImportError) as exc:
         if name == "opencl":
             raise
         warnings.warn(f"OpenCL unavailable ({exc}); baking with the numpy path, which is much slower",
                       RuntimeWarning, stacklevel=2)
         return NumpyBackend()
+
+
+def survey_devices(throughput_spec=None) -> list:
+    """Every OpenCL device: whether the kernel builds (float64, float32), passes the self-check,
+    and, given a spec, its measured cells per second baking it (after a warm-up band)."""
+    import time
+
+    try:
+        devices = opencl_devices()
+    except (OpenCLUnavailable, ImportError) as exc:
+        return [{"index": None, "key": "opencl", "label": "no OpenCL platform", "error": str(exc)}]
+    default = _default_device_key()
+    rows = []
+    for index, device in enumerate(devices):
+        row = {"index": index, "key": device_key(device), "label": device_label(device),
+               "default": device_key(device) == default}
+        for compute in ("float64", "float32"):
+            try:
+                fast = OpenCLBackend(compute, str(index))
+                row[compute] = {"builds": True, "self_check_error": self_check_error(fast)}
+            except OpenCLUnavailable as exc:
+                row[compute] = {"builds": False, "error": str(exc)}
+        if throughput_spec is not None and row["float64"].get("builds"):
+            fast = OpenCLBackend("float64", str(index))
+            fast.bake_rows(throughput_spec, 0, 1)
+            start = time.perf_counter()
+            bake_rows_all(fast, throughput_spec)
+            row["cells_per_second"] = throughput_spec.cells / (time.perf_counter() - start)
+        rows.append(row)
+    return rows
+
+
+def _default_device_key():
+    """Key of the device ``OpenCLBackend()`` picks, or None."""
+    try:
+        return device_key(OpenCLBackend("float64").ctx.devices[0])
+    except (OpenCLUnavailable, ImportError):
+        return None
+
+
+def bake_rows_all(integrator, spec) -> np.ndarray:
+    """The whole packed image (height, width, 3) of ``spec`` in float64, band by band."""
+    return np.concatenate([integrator.bake_rows(spec, y0, y1) for y0, y1 in spec.row_chunks()])

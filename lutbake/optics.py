@@ -67,7 +67,8 @@ def normal_admittance(eta, kappa, eta1, cos_theta1):
     eta, kappa = np.asarray(eta, float), np.asarray(kappa, float)
     e1 = np.asarray(eta1, float)
     cos1 = np.asarray(cos_theta1, float)
-    offset = (eta - kappa) * (eta + kappa) - e1 * e1
+    # n² − η1² factored so that η = η1 gives exactly −κ² (the kernel does the same).
+    offset = (eta - e1) * (eta + e1) - kappa * kappa
     im = 2.0 * eta * kappa
     g = np.sqrt((offset + e1 * e1 * cos1 * cos1) + 1j * im)
     # A medium matching the ambient has g = η1 cos θ1 exactly (cos² may underflow).

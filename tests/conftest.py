@@ -1,9 +1,64 @@
+"""Shared fixtures. Kernel tests run once per OpenCL device that builds the kernel
+(parametrized by ``kernel_device``, the device's key in the test id: ``[pocl]``,
+``[intel]``); the summary lists which runtimes were exercised and which could not be."""
+
 import warnings
 
 import numpy as np
 import pytest
 
 warnings.filterwarnings("ignore", module="colour")
+
+
+def _survey_devices():
+    """(keys of devices whose compiler builds the kernel, {key: why not} for the rest)."""
+    from lutbake.integrate import OpenCLUnavailable, _program, device_key, device_label, opencl_devices
+
+    try:
+        devices = opencl_devices()
+    except (OpenCLUnavailable, ImportError) as exc:
+        return [], {"opencl": str(exc)}
+    builds, excluded = [], {}
+    for device in devices:
+        built = _program(device, "float64")
+        if isinstance(built, OpenCLUnavailable):
+            excluded[device_key(device)] = str(built)
+        else:
+            builds.append((device_key(device), device_label(device)))
+    return builds, excluded
+
+
+_DEVICES, _EXCLUDED = _survey_devices()
+
+
+def pytest_generate_tests(metafunc):
+    if "kernel_device" in metafunc.fixturenames:
+        keys = [key for key, _ in _DEVICES]
+        metafunc.parametrize("kernel_device", keys, ids=keys, scope="module")
+
+
+_DEVICE_OF = {}   # test nodeid -> device key
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        key = getattr(item, "callspec", None) and item.callspec.params.get("kernel_device")
+        if key:
+            _DEVICE_OF[item.nodeid] = key
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Per OpenCL runtime: how many kernel tests ran on it, and their outcomes."""
+    tr = terminalreporter
+    tr.section("OpenCL runtimes exercised by the kernel tests")
+    for key, label in _DEVICES:
+        counts = {outcome: sum(_DEVICE_OF.get(r.nodeid) == key for r in tr.stats.get(outcome, [])
+                               if r.when == "call" or outcome == "error")
+                  for outcome in ("passed", "failed", "error", "skipped")}
+        ran = ", ".join(f"{n} {o}" for o, n in counts.items() if n) or "no kernel test ran"
+        tr.write_line(f"{key}: {label}: {ran}")
+    for key, reason in _EXCLUDED.items():
+        tr.write_line(f"{key}: not exercised (the kernel does not build): {reason[:200]}")
 
 
 @pytest.fixture

@@ -34,19 +34,24 @@ def spec():
 
 
 @pytest.fixture(scope="module")
-def kernel_grid(spec):
-    return bake_array(spec, "opencl")
+def numpy_grid(spec):
+    return bake_array(spec, "numpy")
 
 
-def test_kernel_float64_equals_numpy_on_every_cell(spec, kernel_grid):
+@pytest.fixture(scope="module")
+def kernel_grid(spec, kernel_device):
+    return bake_array(spec, "opencl", kernel_device)
+
+
+def test_kernel_float64_equals_numpy_on_every_cell(spec, kernel_grid, numpy_grid):
     assert kernel_grid.shape == (8 * 64, 8 * 32, 3)
-    assert np.max(np.abs(kernel_grid - bake_array(spec, "numpy"))) <= 1e-10
+    assert np.max(np.abs(kernel_grid - numpy_grid)) <= 1e-10
 
 
-def test_kernel_float32_within_2e5_of_float64(spec, kernel_grid):
+def test_kernel_float32_within_2e5_of_float64(spec, kernel_grid, kernel_device):
     from dataclasses import replace
 
-    f32 = bake_array(replace(spec, compute="float32"), "opencl")
+    f32 = bake_array(replace(spec, compute="float32"), "opencl", kernel_device)
     assert np.max(np.abs(f32 - kernel_grid)) <= 2e-5
 
 
@@ -61,12 +66,12 @@ def test_kernel_matches_ground_truth_within_the_spectral_target(spec, kernel_gri
     assert np.max(np.abs(kernel_grid[y, x] - truth)) <= 1e-5
 
 
-def test_grazing_and_evanescent_texels_are_physical(rng):
+def test_grazing_and_evanescent_texels_are_physical(kernel_device):
     """Film below the ambient index (η1 > η2: evanescent film past the critical angle)."""
     axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
             Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
     spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes)
-    grid = bake_array(spec, "opencl")
+    grid = bake_array(spec, "opencl", kernel_device)
     assert np.max(np.abs(grid - bake_array(spec, "numpy"))) <= 1e-10
     assert np.allclose(grid.reshape(4, 16, 4, 16, 3)[:, :, :, 0], 1.0, atol=1e-6)  # cos θ = 0 column
 
@@ -89,7 +94,9 @@ def test_file_set_and_header_are_self_describing(lut_path):
         assert lut_path.with_suffix(suffix).is_file()
     lut = Lut.load(lut_path)
     sidecar = json.loads(lut_path.with_suffix(".json").read_text())
+    baked_on = sidecar.pop("baked_on")
     assert sidecar == lut.meta
+    assert baked_on["device"] and " / " in baked_on["device"]  # 'platform / device'
     assert lut.meta["constants"]["eta2"] == 1.4 and lut.meta["spectral"]["error_rgb_max"] <= 1e-5
     assert [a.name for a in lut.axes] == ["cos_theta", "opd_nm", "eta3", "kappa3"]
     assert lut.image.shape == (4 * 32, 4 * 16, 3) and lut.image.dtype == np.float32
@@ -253,10 +260,8 @@ def test_row_levels_equal_per_texel_levels(spec):
 def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
     from lutbake import integrate
 
-    def unavailable(compute):
-        raise integrate.OpenCLUnavailable("no platform (simulated)")
-
-    monkeypatch.setattr(integrate, "_program", unavailable)
+    monkeypatch.setattr(integrate, "_program",
+                        lambda device, compute: integrate.OpenCLUnavailable("no platform (simulated)"))
     with pytest.warns(RuntimeWarning, match="numpy path"):
         assert isinstance(integrate.backend("auto"), NumpyBackend)
     with pytest.raises(integrate.OpenCLUnavailable):

@@ -48,10 +48,10 @@ def _extreme_inputs(rng, n):
 
 @pytest.mark.parametrize("compute", ["float64", "float32"])
 @pytest.mark.parametrize("eta1, eta2", [(1.0, 1.5), (1.0, 1.0), (1.6, 1.2), (1.0, 3.0)])
-def test_kernel_fuzz_finite_and_within_0_1(rng, compute, eta1, eta2):
-    """≥ 100,000 extreme inputs per configuration (800,000 in all) through the kernel."""
+def test_kernel_fuzz_finite_and_within_0_1(rng, compute, eta1, eta2, kernel_device):
+    """≥ 100,000 extreme inputs per configuration (800,000 in all) through the kernel, per device."""
     cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 100_000)
-    r = OpenCLBackend(compute).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
+    r = OpenCLBackend(compute, kernel_device).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
     assert np.all(np.isfinite(r))
     assert r.min() >= 0.0 and r.max() <= 1.0
     if compute == "float64":

@@ -13,6 +13,10 @@
 // turn before a polynomial sin/cos, so float32 keeps its phase to ~1e-7 rad
 // for any film thickness. No libm call in the loop: PoCL can vectorize it.
 
+// Contraction of a*b + c into fma is the compiler's choice unless forbidden, so
+// runtimes differed (PoCL fused, Intel did not): every fma here is explicit.
+#pragma OPENCL FP_CONTRACT OFF
+
 #ifdef LUTBAKE_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 typedef double REAL;
@@ -46,21 +50,21 @@ inline CPLX c_sqrt_upper(CPLX z) {
 // sin(πr), cos(πr) for |r| <= 1/4: Taylor series in x = πr, terms through x^17.
 inline void sincospi_quarter(REAL r, REAL *s, REAL *c) {
     REAL x = PI_R * r, z = x * x;
-    REAL ps = (REAL)-1.0 / 1307674368000;                 // -1/15!
-    ps = ps * z + (REAL)1.0 / 6227020800;                 //  1/13!
-    ps = ps * z - (REAL)1.0 / 39916800;                   // -1/11!
-    ps = ps * z + (REAL)1.0 / 362880;                     //  1/9!
-    ps = ps * z - (REAL)1.0 / 5040;
-    ps = ps * z + (REAL)1.0 / 120;
-    ps = ps * z - (REAL)1.0 / 6;
+    REAL ps = (REAL)-7.647163731819816e-13;                 // -1/15!
+    ps = ps * z + (REAL)1.6059043836821613e-10;                 //  1/13!
+    ps = ps * z - (REAL)2.505210838544172e-08;                   // -1/11!
+    ps = ps * z + (REAL)2.7557319223985893e-06;                     //  1/9!
+    ps = ps * z - (REAL)0.0001984126984126984;
+    ps = ps * z + (REAL)0.008333333333333333;
+    ps = ps * z - (REAL)0.16666666666666666;
     *s = x + x * z * ps;
-    REAL pc = (REAL)1.0 / 20922789888000;                 //  1/16!
-    pc = pc * z - (REAL)1.0 / 87178291200;                // -1/14!
-    pc = pc * z + (REAL)1.0 / 479001600;                  //  1/12!
-    pc = pc * z - (REAL)1.0 / 3628800;
-    pc = pc * z + (REAL)1.0 / 40320;
-    pc = pc * z - (REAL)1.0 / 720;
-    pc = pc * z + (REAL)1.0 / 24;
+    REAL pc = (REAL)4.779477332387385e-14;                 //  1/16!
+    pc = pc * z - (REAL)1.1470745597729725e-11;                // -1/14!
+    pc = pc * z + (REAL)2.08767569878681e-09;                  //  1/12!
+    pc = pc * z - (REAL)2.755731922398589e-07;
+    pc = pc * z + (REAL)2.48015873015873e-05;
+    pc = pc * z - (REAL)0.001388888888888889;
+    pc = pc * z + (REAL)0.041666666666666664;
     pc = pc * z - (REAL)0.5;
     *c = (REAL)1 + z * pc;
 }
@@ -139,9 +143,10 @@ inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_
     const CPLX g1 = (CPLX)(eta1 * c1, 0);
     const CPLX g2 = t.evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
     const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
-    // g3² = (n3² − η1²) + η1² cos² θ1: exact when η3 = η1, where n3² − η1² sin² θ1
-    // cancels catastrophically at grazing incidence.
-    const REAL offset3 = (e3 - k3) * (e3 + k3) - eta1 * eta1;
+    // g3² = (n3² − η1²) + η1² cos² θ1 with n3² − η1² = (η3 − η1)(η3 + η1) − κ3²: exact
+    // when η3 = η1 (Sterbenz), where n3² − η1² sin² θ1 cancels catastrophically at grazing
+    // incidence and (η3² − κ3²) − η1² keeps the rounding error of η3 ± κ3 (1e-16 ≫ cos² θ1).
+    const REAL offset3 = (e3 - eta1) * (e3 + eta1) - k3 * k3;
     const CPLX g3 = (offset3 == 0 && k3 == 0) ? g1   // base matches the ambient (cos² may underflow)
                   : c_sqrt_upper((CPLX)(offset3 + eta1 * eta1 * c1 * c1, 2 * e3 * k3));
     // |W| ≤ 2πDν/η2 (ν ≤ 1/360 nm⁻¹), times η2² for p

@@ -1,0 +1,90 @@
+"""OpenCL devices: the same numbers and bytes on every runtime, device choice, and naming it."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from airy_mp import airy_reflectance_mp
+from lutbake import integrate
+from lutbake.bake import bake
+from lutbake.plan import Axis, BakeSpec
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "lutbake.cli", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("thickness_nm", [0.0, 1e-9 / 3.0])
+def test_grazing_over_a_base_matching_the_ambient_agrees_with_mpmath(kernel_device, thickness_nm):
+    """The stack where PoCL once differed by 4.7e-6: its compiler fused (η3−κ3)(η3+κ3) − η1² into
+    an fma, keeping a 1e-16 rounding error of η3 ± κ3 against cos² θ1 = 1e-12."""
+    fast = integrate.OpenCLBackend("float64", kernel_device)
+    got = fast.reflectance(1.0, 1.5, 1e-6, 3.0 * thickness_nm, 1.0, 1e-12, 550.0)
+    rs, rp = airy_reflectance_mp(1.0, 1.5, 1.0, 1e-12, 1e-6, thickness_nm, 550.0)
+    assert abs(float(got) - 0.5 * (rs + rp)) <= 1e-13
+
+
+def test_every_device_writes_the_same_exr_bytes_as_numpy(tmp_path):
+    """The LUT's bytes do not depend on the runtime: each device's half EXR equals the numpy path's."""
+    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 16), Axis("eta3", 1.0, 3.0, 3),
+            Axis("kappa3", 0.0, 4.0, 3, "sqrt"))
+    spec = BakeSpec(eta2=1.4, axes=axes, precision="half")
+    bake(spec, tmp_path / "numpy.exr", backend="numpy")
+    reference = (tmp_path / "numpy.exr").read_bytes()
+    keys = [integrate.device_key(d) for d in integrate.opencl_devices()
+            if not isinstance(integrate._program(d, "float64"), integrate.OpenCLUnavailable)]
+    assert keys, "no OpenCL device builds the kernel"
+    for key in keys:
+        result = bake(spec, tmp_path / f"{key}.exr", backend="opencl", device=key)
+        assert (tmp_path / f"{key}.exr").read_bytes() == reference, key
+        assert json.loads((tmp_path / f"{key}.json").read_text())["baked_on"]["device"] == result.device
+
+
+def test_a_device_failing_its_self_check_is_refused_and_the_next_is_used(monkeypatch):
+    devices = [d for d in integrate.opencl_devices()
+               if not isinstance(integrate._program(d, "float64"), integrate.OpenCLUnavailable)]
+    first = integrate.device_label(devices[0])
+    monkeypatch.setattr(integrate, "_SELF_CHECKED", {})
+    real = integrate.self_check_error
+    monkeypatch.setattr(integrate, "self_check_error",
+                        lambda b: 1e-3 if b.device == first else real(b))
+    with pytest.raises(integrate.OpenCLUnavailable, match="self-check"):
+        integrate.OpenCLBackend("float64", "0")
+    if len(devices) > 1:
+        assert integrate.OpenCLBackend("float64").device == integrate.device_label(devices[1])
+    else:
+        with pytest.warns(RuntimeWarning, match="numpy path"):
+            assert integrate.backend("auto").name == "numpy"
+
+
+def test_bake_names_its_device_in_stdout_json_and_sidecar(tmp_path):
+    flags = ["bake", "--quiet", "--eta2", "1.4", "--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2",
+             "--kappa3", "0:1:2", "--device", "0"]
+    text = _cli(*flags, "--out", str(tmp_path / "a.exr"))
+    label = integrate.device_label(integrate.opencl_devices()[0])
+    assert text.returncode == 0, text.stderr
+    assert f"on {label}" in text.stdout
+    doc = json.loads(_cli(*flags, "--out", str(tmp_path / "b.exr"), "--json").stdout)
+    assert doc["luts"][0]["device"] == label
+    assert json.loads((tmp_path / "b.json").read_text())["baked_on"]["device"] == label
+
+
+def test_unknown_device_is_refused_with_one_line():
+    out = _cli("bake", "--eta2", "1.4", "--out", "never.exr", "--device", "no-such-runtime")
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
+    assert "'no-such-runtime' matches no OpenCL device" in out.stderr and "pocl" in out.stderr
+
+
+def test_devices_command_lists_every_device():
+    out = _cli("devices", "--json")
+    assert out.returncode == 0, out.stderr
+    rows = json.loads(out.stdout)["devices"]
+    assert [r["label"] for r in rows] == [integrate.device_label(d) for d in integrate.opencl_devices()]
+    assert sum(r["default"] for r in rows) == 1
+    for r in rows:
+        if r["float64"]["builds"]:
+            assert r["float64"]["self_check_error"] <= integrate.SELF_CHECK_TOLERANCE["float64"]
+            assert r["cells_per_second"] > 0
