@@ -61,7 +61,7 @@ def normal_admittance(eta, kappa, eta1, cos_theta1):
     The squared term's imaginary part 2ηκ is built as a real ≥ 0 so that a
     negative real radicand (total internal reflection) takes the +i branch
     (a decaying wave), never the −i one a signed zero could select. The real
-    part is (η² − κ² − η1²) + η1² cos² θ1, exact when η = η1 at grazing
+    part is ((η − η1)(η + η1) − κ²) + η1² cos² θ1, exact when η = η1 at grazing
     incidence, where η² − η1² sin² θ1 would cancel.
     """
     eta, kappa = np.asarray(eta, float), np.asarray(kappa, float)
