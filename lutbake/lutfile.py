@@ -21,16 +21,20 @@ import json
 import os
 import signal
 import string
+import warnings
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
-           "atomic_path", "shader_includes", "flat_attributes"]
+           "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
+           "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
 FORMAT_VERSION = 1
+# Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
+MAX_TEXTURE_SIZE = 8192
 
 
 @contextlib.contextmanager
@@ -156,22 +160,39 @@ def read_lut(path):
 def shader_includes(meta: dict, lut_name: str) -> dict:
     """GLSL and HLSL include texts for a LUT, keyed by file suffix."""
     axes = meta["axes"]
+    warn_texture_size(meta["packing"]["width"], meta["packing"]["height"], lut_name)
     fields = {
         "lut_name": lut_name,
+        "ident": shader_ident(Path(lut_name).stem),
         "content_hash": meta["content_hash"],
         "eta1": repr(meta["constants"]["eta1"]),
         "eta2": repr(meta["constants"]["eta2"]),
+        "eta1_f": _shader_float(meta["constants"]["eta1"]),
+        "eta2_f": _shader_float(meta["constants"]["eta2"]),
         "space": meta["space"],
         "min": ", ".join(_shader_float(a["min"]) for a in axes),
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
     }
-    out = {}
-    for suffix in ("glsl", "hlsl"):
-        template = resources.files("lutbake").joinpath(f"shaders/lutbake.{suffix}.in").read_text()
-        out[suffix] = string.Template(template).substitute(fields)
-    return out
+    return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
+
+
+def shader_template(name: str) -> string.Template:
+    return string.Template(resources.files("lutbake").joinpath(f"shaders/{name}").read_text())
+
+
+def shader_ident(name: str) -> str:
+    """A shader constant name for a LUT or material: LUTBAKE_ + its name in upper case, _ for the rest."""
+    ident = "".join(c if c.isalnum() else "_" for c in name).upper()
+    return ident if ident.startswith("LUTBAKE_") else f"LUTBAKE_{ident}"
+
+
+def warn_texture_size(width: int, height: int, name: str) -> None:
+    """Warn when an image exceeds what many GPUs load (docs/engines.md: texture size)."""
+    if max(width, height) > MAX_TEXTURE_SIZE:
+        warnings.warn(f"{name}: {width}×{height} texels exceeds {MAX_TEXTURE_SIZE} in a dimension; many "
+                      f"GPUs cannot load it (WebGL2 guarantees 2048, mobile GPUs 4096)", stacklevel=2)
 
 
 def _shader_float(value) -> str:
