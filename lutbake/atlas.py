@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .colorimetry import delta_e00
-from .lutfile import atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size, write_text_atomic
+from .lutfile import ATLAS_FORMAT, atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size, write_text_atomic
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
@@ -35,7 +35,6 @@ from .sweep import TUNE_START_COUNTS
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
 
-ATLAS_FORMAT = "lutbake-atlas"
 _MAX_COUNT = 256
 _HELD_OUT = 160
 # Slice nodes and held-out truth to |ΔRGB| ≤ 1e-7: 10⁴× below the interpolation error that matters.
@@ -303,7 +302,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         exr_path = out / f"{stem}.exr"
         meta = {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
                 "space": scene.space, "observer": scene.observer, "encoding": "linear", "precision": scene.precision,
-                "slices": [{"id": j.id, "rect": rect} for (j, _, _), rect in zip(slices, atlas["rects"])]}
+                "eta1": scene.eta1, "slices": [_slice_meta(j, rect) for (j, _, _), rect in zip(slices, atlas["rects"])]}
         with exr_stream(exr_path, atlas["width"], atlas["height"], meta, scene.precision) as exr:
             exr.write_rows(atlas["image"])
         written.append(exr_path)
@@ -321,15 +320,22 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     return SceneResult(out, written, computed, reused, False, time.perf_counter() - start)
 
 
-def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
+def _slice_meta(job, rect) -> dict:
+    """What the atlas header says about a slice: enough to sample it by material name."""
     x0, y0, w, h = rect
     lo, hi = job.key["thickness_nm"]
-    return {"kind": "slice", "job": job.id, "file": exr_name, "rect": rect,
-            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+    return {"id": job.id, "rect": rect, "materials": job.materials,
             "axes": {"cos_theta": {"min": 0.0, "max": 1.0, "count": w, "spacing": "sqrt"},
                      "thickness_nm": {"min": lo, "max": hi, "count": h, "spacing": "uniform"}},
-            "film": job.key["film"], "base": job.key["base"], "de00_p99": info["de00_p99"],
-            "constant_index_de00_p99": info["constant_index_de00_p99"],
+            "film": job.key["film"], "base": job.key["base"]}
+
+
+def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
+    x0, y0, w, h = rect
+    entry = {k: v for k, v in _slice_meta(job, rect).items() if k not in ("id", "materials")}
+    return {"kind": "slice", "job": job.id, "file": exr_name, **entry,
+            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+            "de00_p99": info["de00_p99"], "constant_index_de00_p99": info["constant_index_de00_p99"],
             "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
 
 

@@ -27,11 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
+__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
            "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
            "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
+ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py)
 FORMAT_VERSION = 1
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
@@ -132,8 +133,9 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
             raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
 
 
-def read_lut(path):
-    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR."""
+def read_lut(path, formats=(FORMAT,)):
+    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR whose format is
+    one of ``formats`` (version 1)."""
     import OpenEXR
 
     path = Path(path)
@@ -152,8 +154,8 @@ def read_lut(path):
                 image = np.stack([np.array(channels[c].pixels) for c in "RGB"], axis=-1)
     except (OSError, RuntimeError) as exc:
         raise ValueError(f"{str(path)!r} is not a readable EXR: {exc}") from None
-    if meta.get("format") != FORMAT or meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {FORMAT} v{FORMAT_VERSION} file")
+    if meta.get("format") not in formats or meta.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{str(path)!r} is not a {' or '.join(formats)} v{FORMAT_VERSION} file")
     return meta, image
 
 
