@@ -138,3 +138,12 @@ def test_engine_matches_lutbake_sample(engine_run, name):
 def test_the_check_fails_with_the_other_row_order(engine_run):
     _, runs = engine_run
     assert _max_error(*runs["control: scanline 0 at v = 0"]) > 0.1
+
+
+def test_docs_show_the_helper_the_test_runs():
+    """docs/engines.md's three.js snippet is engine/page.js's helper verbatim."""
+    page = (ENGINE / "page.js").read_text()
+    begin, end = "// --- docs/engines.md snippet: begin\n", "// --- docs/engines.md snippet: end"
+    snippet = page[page.index(begin) + len(begin):page.index(end)]
+    assert "function lutbakeMaterial(" in snippet
+    assert snippet in (ROOT / "docs" / "engines.md").read_text()

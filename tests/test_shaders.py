@@ -2,6 +2,7 @@
 
 import os
 import subprocess
+import sys
 import sysconfig
 import textwrap
 import warnings
@@ -140,3 +141,11 @@ def test_a_texture_larger_than_8192_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         warn_texture_size(8192, 8192, "ok.exr")
+
+
+def test_bake_warns_above_8192_texels(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", "--quiet", "--eta2", "1.4",
+                          "--cos-theta", "0:1:2", "--opd", "0:100:2", "--eta3", "1:2:4100", "--kappa3", "0:1:2",
+                          "--out", str(tmp_path / "wide.exr")], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "8200×4 texels exceeds 8192" in out.stderr
