@@ -391,10 +391,14 @@ def sample_cmd(lut, points_csv, filter_bits, material, as_json, **flags):
     if as_json:
         echo_json({"lut": str(lut), "space": table.meta["space"], "points": rows})
         return
+    _echo_samples(rows, ("cos_theta", "opd_nm", "eta3", "kappa3"), "outside the LUT")
+
+
+def _echo_samples(rows, columns, outside):
     for row in rows:
-        note = "" if row["in_domain"] else "  (outside the LUT: clamped)"
-        click.echo(f"cos_theta={row['cos_theta']:g} opd_nm={row['opd_nm']:g} eta3={row['eta3']:g} "
-                   f"kappa3={row['kappa3']:g}  RGB " + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+        note = "" if row["in_domain"] else f"  ({outside}: clamped)"
+        click.echo(" ".join(f"{k}={row[k]:g}" for k in columns) + "  RGB "
+                   + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
 
 
 def _print_atlas(path, atlas):
@@ -413,15 +417,12 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
     """Sample one material's slice at (cos θ, thickness); the film and base come from the atlas."""
     if material is None:
         raise BadInput(f"--material is required with a scene atlas: allowed {', '.join(atlas.materials)}")
-    s = atlas.slice_of(material)
+    atlas.slice_of(material)  # an unknown name fails here, naming the allowed ones
     given = [k for k in ("eta1", "eta2", "opd_nm", "eta3", "kappa3", "film", "base") if flags.get(k) is not None]
     if given:
         raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
                        f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
-    flags["eta1"] = atlas.meta["eta1"]
-    flags.update({"film": s["film"]} if isinstance(s["film"], str) else {"eta2": s["film"]})
-    flags.update({"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"])))
-    points = build_points(points_csv, **flags)
+    points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
     rgb = atlas.sample(material, points.cos_theta, points.thickness_nm, filter_bits)
     inside = atlas.in_domain(material, points.cos_theta, points.thickness_nm)
     rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
@@ -429,10 +430,7 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
     if as_json:
         echo_json({"atlas": str(path), "material": material, "space": atlas.meta["space"], "points": rows})
         return
-    for row in rows:
-        note = "" if row["in_domain"] else "  (outside the slice: clamped)"
-        click.echo(f"cos_theta={row['cos_theta']:g} thickness_nm={row['thickness_nm']:g}  RGB "
-                   + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+    _echo_samples(rows, ("cos_theta", "thickness_nm"), "outside the slice")
 
 
 @cli.command("report")

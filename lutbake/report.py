@@ -135,9 +135,7 @@ def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0) -> dic
     slices, all_de = [], []
     for s in atlas.meta["slices"]:
         cos_t, thickness = _slice_held_out(s, n_points, rng)
-        film = {"film": s["film"]} if isinstance(s["film"], str) else {"eta2": s["film"]}
-        base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
-        pts = FilmPoints.build(eta1=atlas.meta["eta1"], cos_theta=cos_t, thickness_nm=thickness, **film, **base)
+        pts = FilmPoints.build(cos_theta=cos_t, thickness_nm=thickness, **atlas.film_stack(s["materials"][0]))
         truth = reference_colour(pts, observer, space).values
         rgb = atlas.sample(s["materials"][0], cos_t, thickness)
         de = np.nan_to_num(delta_e00(rgb, truth, observer, space), nan=np.inf)

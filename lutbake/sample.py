@@ -92,10 +92,17 @@ class Atlas:
             raise ValueError(f"material {material!r} is not in this atlas: allowed {', '.join(self.materials)}")
         return self.materials[material]
 
+    def film_stack(self, material: str) -> dict:
+        """FilmPoints.build keywords for the material's ambient, film and base (named or constant)."""
+        s = self.slice_of(material)
+        film = {"film": s["film"]} if isinstance(s["film"], str) else {"eta2": s["film"]}
+        base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
+        return {"eta1": self.meta["eta1"], **film, **base}
+
     def in_domain(self, material, cos_theta, thickness_nm) -> np.ndarray:
         th = self.slice_of(material)["axes"]["thickness_nm"]
-        t = np.asarray(thickness_nm, float)
-        return np.asarray((np.asarray(cos_theta) >= 0) & (np.asarray(cos_theta) <= 1) & (t >= th["min"]) & (t <= th["max"]))
+        c, t = np.asarray(cos_theta, float), np.asarray(thickness_nm, float)
+        return np.asarray((c >= 0) & (c <= 1) & (t >= th["min"]) & (t <= th["max"]))
 
     def sample(self, material, cos_theta, thickness_nm, filter_bits=None) -> np.ndarray:
         """Linear RGB (…, 3): node coordinates (√cos θ, thickness) clamped to the rect, one bilinear fetch."""

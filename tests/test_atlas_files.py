@@ -23,10 +23,7 @@ def cli(*args):
 
 
 def truth(atlas: Atlas, material: str, cos_theta, thickness_nm):
-    s = atlas.slice_of(material)
-    film = {"film": s["film"]} if isinstance(s["film"], str) else {"eta2": s["film"]}
-    base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
-    pts = FilmPoints.build(eta1=atlas.meta["eta1"], cos_theta=cos_theta, thickness_nm=thickness_nm, **film, **base)
+    pts = FilmPoints.build(cos_theta=cos_theta, thickness_nm=thickness_nm, **atlas.film_stack(material))
     return reference_colour(pts, atlas.meta["observer"], atlas.meta["space"]).values
 
 
