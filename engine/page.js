@@ -34,7 +34,8 @@ async function loadText(url) {
 }
 
 // Evaluate `call` (a GLSL expression of vec4 p) at every point; one fragment per point, read back as float.
-// `prelude` goes before the include (the test's negative control defines LUTBAKE_SCANLINE0_AT_V0 there).
+// `include` is one URL or a list; `prelude` goes before them (the test's negative control defines
+// LUTBAKE_SCANLINE0_AT_V0 there).
 async function evaluate({ exr, include, call, points, prelude = '' }) {
   const lut = await new EXRLoader().loadAsync(exr);
   const width = 64;
@@ -45,7 +46,7 @@ async function evaluate({ exr, include, call, points, prelude = '' }) {
   pointTexture.needsUpdate = true;
   const material = lutbakeMaterial({
     textures: { lut, points_in: pointTexture },
-    includes: [prelude, await loadText(include)],
+    includes: [prelude, ...(await Promise.all([].concat(include).map(loadText)))],
     vertexShader: FULLSCREEN_VS,
     body: `layout(location = 0) out highp vec4 colour;
     void main() {

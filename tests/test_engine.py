@@ -95,6 +95,17 @@ def atlas_job(folder: Path, path: Path, material: str, rng) -> dict:
             "expected": [r["rgb"] for r in rows], "in_domain": [r["in_domain"] for r in rows]}
 
 
+def together(job: dict, other_lut: Path) -> dict:
+    """``job`` with another LUT's and the atlas's includes in the same shader, all three samplers called
+    (the others weighted 0 on this job's texture): WebGL2 compiles them together, the result is unchanged."""
+    other = shader_ident(other_lut.stem)
+    atlas_ident = shader_ident(f"{ATLAS.stem}_{next(iter(load_table(ATLAS).materials))}")
+    return {**job, "include": [job["include"], f"/{other_lut.with_suffix('.glsl').relative_to(ROOT)}",
+                               f"/{ATLAS.with_suffix('.glsl').relative_to(ROOT)}"],
+            "call": f"{job['call']} + 0.0 * lutbake_sample(lut, {other}, p.x, p.y, p.z, p.w)"
+                    f" + 0.0 * lutbake_atlas_sample(lut, {atlas_ident}, p.x, p.y)"}
+
+
 @pytest.fixture(scope="module")
 def engine_run(tmp_path_factory):
     require_engine()
@@ -104,6 +115,7 @@ def engine_run(tmp_path_factory):
     jobs.update({f"{ATLAS.stem}:{m}": atlas_job(folder, ATLAS, m, rng) for m in load_table(ATLAS).materials})
     # Negative control: the same LUT with the other row order must be far off, so the check can fail.
     first = jobs[SHIPPED_LUTS[0].stem]
+    jobs["one shader: two LUT includes and an atlas include"] = together(first, SHIPPED_LUTS[1])
     jobs["control: scanline 0 at v = 0"] = {**first, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}
     (folder / "jobs.json").write_text(json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")}
                                                   for j in jobs.values()]))
@@ -126,7 +138,8 @@ def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
 
 
 @pytest.mark.parametrize("name", [p.stem for p in SHIPPED_LUTS] + ["tempered-steel:steel_constant",
-                                                                    "tempered-steel:steel_werner"])
+                                                                    "tempered-steel:steel_werner",
+                                                                    "one shader: two LUT includes and an atlas include"])
 def test_engine_matches_lutbake_sample(engine_run, name):
     _, runs = engine_run
     job, got = runs[name]
