@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from .colorimetry import delta_e00
-from .lutfile import ATLAS_FORMAT, atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size, write_text_atomic
+from .lutfile import (ATLAS_FORMAT, atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size,
+                      write_text_atomic)
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints

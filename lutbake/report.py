@@ -153,7 +153,7 @@ def _untimed(stats: ErrorStats) -> dict:
 
 def _slice_held_out(s: dict, n_points: int, rng):
     """Uniform in (√cos θ, thickness) and at centres of random cells of the slice's grid."""
-    x0, y0, w, h = s["rect"]
+    _, _, w, h = s["rect"]
     th = s["axes"]["thickness_nm"]
     n_centre = n_points // 2
     u = np.concatenate([rng.uniform(0, 1, n_points - n_centre), (rng.integers(0, w - 1, n_centre) + 0.5) / (w - 1)])
