@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from .colorimetry import delta_e00
-from .lutfile import atomic_path, exr_stream, write_text_atomic
+from .lutfile import (ATLAS_FORMAT, atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size,
+                      write_text_atomic)
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
@@ -35,7 +36,6 @@ from .sweep import TUNE_START_COUNTS
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
 
-ATLAS_FORMAT = "lutbake-atlas"
 _MAX_COUNT = 256
 _HELD_OUT = 160
 # Slice nodes and held-out truth to |ΔRGB| ≤ 1e-7: 10⁴× below the interpolation error that matters.
@@ -298,11 +298,12 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             entries[name] = {"kind": "lut", "job": job.id, "file": path.name, "counts": info["counts"],
                              "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
     atlas = _pack(slices)
+    warn_texture_size(atlas["width"], atlas["height"], f"{stem}.exr")
     if slices:
         exr_path = out / f"{stem}.exr"
         meta = {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
                 "space": scene.space, "observer": scene.observer, "encoding": "linear", "precision": scene.precision,
-                "slices": [{"id": j.id, "rect": rect} for (j, _, _), rect in zip(slices, atlas["rects"])]}
+                "eta1": scene.eta1, "slices": [_slice_meta(j, rect) for (j, _, _), rect in zip(slices, atlas["rects"])]}
         with exr_stream(exr_path, atlas["width"], atlas["height"], meta, scene.precision) as exr:
             exr.write_rows(atlas["image"])
         written.append(exr_path)
@@ -320,16 +321,23 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     return SceneResult(out, written, computed, reused, False, time.perf_counter() - start)
 
 
-def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
+def _slice_meta(job, rect) -> dict:
+    """What the atlas header says about a slice: enough to sample it by material name."""
     x0, y0, w, h = rect
     lo, hi = job.key["thickness_nm"]
-    return {"kind": "slice", "job": job.id, "file": exr_name, "rect": rect,
-            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+    return {"id": job.id, "rect": rect, "materials": job.materials,
             "axes": {"cos_theta": {"min": 0.0, "max": 1.0, "count": w, "spacing": "sqrt"},
                      "thickness_nm": {"min": lo, "max": hi, "count": h, "spacing": "uniform"}},
-            "film": job.key["film"], "base": job.key["base"], "de00_p99": info["de00_p99"],
-            "constant_index_de00_p99": info["constant_index_de00_p99"],
-            "sample": "lutbake_atlas_sample(atlas, rect, thickness range, cos_theta, thickness_nm)"}
+            "film": job.key["film"], "base": job.key["base"]}
+
+
+def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
+    x0, y0, w, h = rect
+    entry = {k: v for k, v in _slice_meta(job, rect).items() if k not in ("id", "materials")}
+    return {"kind": "slice", "job": job.id, "file": exr_name, **entry,
+            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+            "de00_p99": info["de00_p99"], "constant_index_de00_p99": info["constant_index_de00_p99"],
+            "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
 
 
 def _pack(slices) -> dict:
@@ -348,37 +356,27 @@ def _pack(slices) -> dict:
 
 
 _SHADER = {
-    "glsl": {"vec2": "vec2", "vec3": "vec3", "vec4": "vec4", "const": "const", "texture": "sampler2D atlas",
-             "fetch": "texture(atlas, {uv}).rgb", "filter": "LINEAR filtering, CLAMP_TO_EDGE, no mipmaps"},
-    "hlsl": {"vec2": "float2", "vec3": "float3", "vec4": "float4", "const": "static const",
-             "texture": "Texture2D<float3> atlas, SamplerState linear_clamp",
-             "fetch": "atlas.SampleLevel(linear_clamp, {uv}, 0)", "filter": "MIN_MAG_LINEAR, CLAMP, one mip level"},
+    "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
+             "// {name}: 4D LUT {file} (sample it with {stem}.glsl)"),
+    "hlsl": ("static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
+             "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)"),
 }
 
 
 def _shader(manifest: dict, atlas: dict, lang: str) -> str:
-    """The scene's material table and atlas sampler, in GLSL or HLSL."""
-    t = _SHADER[lang]
-    v2, v3, v4, const = t["vec2"], t["vec3"], t["vec4"], t["const"]
-    uv = f"(rect.xy + {v2}(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE"
-    lines = [f"// lutbake scene material table for {manifest['scene']} (scene hash {manifest['scene_hash'][:16]})",
-             f"// Slices: sample the atlas with {t['filter']}.",
-             f"{const} {v2} LUTBAKE_ATLAS_SIZE = {v2}({float(atlas['width'])}, {float(atlas['height'])});",
-             "",
-             "// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.",
-             f"{v3} lutbake_atlas_sample({t['texture']}, {v4} rect, {v2} thick, float cos_theta, float thickness_nm) {{",
-             "    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);",
-             "    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0)"
-             " * (rect.w - 1.0) : 0.0;",
-             f"    return {t['fetch'].format(uv=uv)};",
-             "}", ""]
+    """The scene's atlas sampler and one LutbakeSlice constant per material, in GLSL or HLSL."""
+    slice_line, lut_line = _SHADER[lang]
+    scene = Path(manifest["scene"]).stem
+    size = ", ".join(str(float(v)) for v in (atlas["width"], atlas["height"]))
+    lines = []
     for name, e in manifest["materials"].items():
-        ident = "".join(c if c.isalnum() else "_" for c in name).upper()
         if e["kind"] == "slice":
-            x0, y0, w, h = e["rect"]
             th = e["axes"]["thickness_nm"]
-            lines.append(f"{const} {v4} LUTBAKE_{ident}_RECT = {v4}({float(x0)}, {float(y0)}, {float(w)}, {float(h)});")
-            lines.append(f"{const} {v2} LUTBAKE_{ident}_THICKNESS = {v2}({float(th['min'])}, {float(th['max'])});")
+            lines.append(slice_line.format(ident=shader_ident(f"{scene}_{name}"), size=size,
+                                           rect=", ".join(str(float(v)) for v in e["rect"]),
+                                           thick=f"{float(th['min'])}, {float(th['max'])}"))
         else:
-            lines.append(f"// {name}: 4D LUT {e['file']} (sample with its own {Path(e['file']).stem}.{lang})")
-    return "\n".join(lines) + "\n"
+            lines.append(lut_line.format(name=name, file=e["file"], stem=Path(e["file"]).stem))
+    return shader_template(f"atlas.{lang}.in").substitute(
+        scene=manifest["scene"], scene_hash=manifest["scene_hash"][:16], atlas=f"{scene}.exr",
+        materials="\n".join(lines))

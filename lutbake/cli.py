@@ -350,13 +350,16 @@ def _bake_summary(result):
 @click.argument("lut", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
 def inspect_cmd(lut, as_json):
-    """Show a LUT's metadata (read from the EXR header alone)."""
-    from .sample import Lut
+    """Show a LUT's or scene atlas's metadata (read from the EXR header alone)."""
+    from .sample import Atlas, load_table
 
-    table = Lut.load(lut)
+    table = load_table(lut)
     meta = table.meta
     if as_json:
         echo_json(meta)
+        return
+    if isinstance(table, Atlas):
+        _print_atlas(lut, table)
         return
     packing = meta["packing"]
     click.echo(f"{lut}: {meta['format']} v{meta['format_version']} (lutbake {meta['lutbake_version']})")
@@ -378,12 +381,17 @@ def inspect_cmd(lut, as_json):
 @point_options
 @click.option("--filter-bits", type=click.IntRange(1, 24), default=None,
               help="Quantize bilinear weights as a GPU texture unit does (e.g. 8).")
+@click.option("--material", help="With a scene atlas: the material whose slice to sample.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
-    """Sample a LUT as a GPU would (reference sampler)."""
-    from .sample import Lut
+def sample_cmd(lut, points_csv, filter_bits, material, as_json, **flags):
+    """Sample a LUT or a scene atlas as a GPU would (reference sampler)."""
+    from .sample import Atlas, load_table
 
-    table = Lut.load(lut)
+    table = load_table(lut)
+    if isinstance(table, Atlas):
+        return _sample_atlas(lut, table, material, points_csv, filter_bits, as_json, flags)
+    if material is not None:
+        raise BadInput(f"--material {material!r} is for scene atlases; {lut!r} is a 4D LUT")
     for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
         if flags.get(name) is not None and flags[name] != value:
             raise BadInput(f"--{name} {flags[name]!r} differs from the LUT's {name} = {value!r}")
@@ -402,10 +410,46 @@ def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
     if as_json:
         echo_json({"lut": str(lut), "space": table.meta["space"], "points": rows})
         return
+    _echo_samples(rows, ("cos_theta", "opd_nm", "eta3", "kappa3"), "outside the LUT")
+
+
+def _echo_samples(rows, columns, outside):
     for row in rows:
-        note = "" if row["in_domain"] else "  (outside the LUT: clamped)"
-        click.echo(f"cos_theta={row['cos_theta']:g} opd_nm={row['opd_nm']:g} eta3={row['eta3']:g} "
-                   f"kappa3={row['kappa3']:g}  RGB " + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+        note = "" if row["in_domain"] else f"  ({outside}: clamped)"
+        click.echo(" ".join(f"{k}={row[k]:g}" for k in columns) + "  RGB "
+                   + " ".join(f"{v:.6f}" for v in row["rgb"]) + note)
+
+
+def _print_atlas(path, atlas):
+    meta = atlas.meta
+    height, width, _ = atlas.image.shape
+    click.echo(f"{path}: {meta['format']} v{meta['format_version']}, scene hash {meta['scene_hash'][:16]}")
+    click.echo(f"  {meta['space']} linear RGB, {meta['observer']}, {meta['precision']} storage, "
+               f"ambient eta1 = {meta['eta1']!r}, image {width} x {height}")
+    for name, s in atlas.materials.items():
+        th = s["axes"]["thickness_nm"]
+        click.echo(f"  material {name}: rect {s['rect']} (cos_theta sqrt x {s['rect'][2]}, thickness_nm "
+                   f"[{th['min']!r}, {th['max']!r}] x {th['count']}), film {s['film']}, base {s['base']}")
+
+
+def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags):
+    """Sample one material's slice at (cos θ, thickness); the film and base come from the atlas."""
+    if material is None:
+        raise BadInput(f"--material is required with a scene atlas: allowed {', '.join(atlas.materials)}")
+    atlas.slice_of(material)  # an unknown name fails here, naming the allowed ones
+    given = [k for k in ("eta1", "eta2", "opd_nm", "eta3", "kappa3", "film", "base") if flags.get(k) is not None]
+    if given:
+        raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
+                       f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
+    points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
+    rgb = atlas.sample(material, points.cos_theta, points.thickness_nm, filter_bits)
+    inside = atlas.in_domain(material, points.cos_theta, points.thickness_nm)
+    rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
+            for c, t, v, i in zip(points.cos_theta, points.thickness_nm, rgb, inside)]
+    if as_json:
+        echo_json({"atlas": str(path), "material": material, "space": atlas.meta["space"], "points": rows})
+        return
+    _echo_samples(rows, ("cos_theta", "thickness_nm"), "outside the slice")
 
 
 @cli.command("report")
@@ -418,13 +462,20 @@ def sample_cmd(lut, points_csv, filter_bits, as_json, **flags):
 @click.option("--no-approximations", is_flag=True, help="Skip the engine-approximation rows.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON document.")
 def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json):
-    """How wrong a LUT is: ΔE00 against the ground truth at held-out points."""
+    """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points."""
     from .report import report_lut, write_report
+    from .sample import Atlas, load_table
 
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
-    rep = report_lut(lut, n_points, seed, approximations=not no_approximations)
-    summary = write_report(rep, out_dir) if out_dir else rep.summary()
+    table = load_table(lut)
+    if isinstance(table, Atlas):
+        summary = _atlas_summary(table, lut, n_points, seed, out_dir)
+        rows = summary["slices"]
+    else:
+        rep = report_lut(lut, n_points, seed, approximations=not no_approximations)
+        summary = write_report(rep, out_dir) if out_dir else rep.summary()
+        rows = summary["approximations"]
     p99 = summary["lut_error"]["de00_p99"]
     gate_failed = max_de is not None and p99 > max_de
     if max_de is not None:
@@ -432,16 +483,28 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json)
     if as_json:
         echo_json(summary)
     else:
-        _print_error_rows([summary["lut_error"]] + summary["approximations"], summary["points"])
-        w = summary["worst_points"][0]
-        click.echo(f"worst: ΔE00 {w['de00']:.3f} at cos_theta={w['cos_theta']:.4f} opd_nm={w['opd_nm']:.1f} "
-                   f"eta3={w['eta3']:.3f} kappa3={w['kappa3']:.3f} ({w['kind']})")
+        _print_error_rows([summary["lut_error"]] + rows, summary["points"])
+        for w in summary.get("worst_points", [])[:1]:
+            click.echo(f"worst: ΔE00 {w['de00']:.3f} at cos_theta={w['cos_theta']:.4f} opd_nm={w['opd_nm']:.1f} "
+                       f"eta3={w['eta3']:.3f} kappa3={w['kappa3']:.3f} ({w['kind']})")
         if out_dir:
-            click.echo(f"report in {out_dir}/report.html")
+            click.echo(f"report in {out_dir}/{'summary.json' if isinstance(table, Atlas) else 'report.html'}")
         if max_de is not None:
             click.echo(f"gate p99 ΔE00 {p99:.3f} {'>' if gate_failed else '<='} {max_de:g}: "
                        f"{'FAIL' if gate_failed else 'pass'}")
     return EXIT_GATE if gate_failed else 0
+
+
+def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:
+    """Per-slice ΔE00 of a scene atlas as stored; summary.json in out_dir when given."""
+    from .lutfile import write_text_atomic
+    from .report import report_atlas
+
+    summary = report_atlas(atlas, path, n_points, seed)
+    if out_dir:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        write_text_atomic(Path(out_dir) / "summary.json", json.dumps(summary, indent=2) + "\n")
+    return summary
 
 
 def _print_error_rows(rows, n_points):

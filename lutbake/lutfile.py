@@ -21,16 +21,21 @@ import json
 import os
 import signal
 import string
+import warnings
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
-           "atomic_path", "shader_includes", "flat_attributes"]
+__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
+           "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
+           "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
+ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py)
 FORMAT_VERSION = 1
+# Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
+MAX_TEXTURE_SIZE = 8192
 
 
 @contextlib.contextmanager
@@ -128,8 +133,9 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
             raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
 
 
-def read_lut(path):
-    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR."""
+def read_lut(path, formats=(FORMAT,)):
+    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR whose format is
+    one of ``formats`` (version 1)."""
     import OpenEXR
 
     path = Path(path)
@@ -148,30 +154,47 @@ def read_lut(path):
                 image = np.stack([np.array(channels[c].pixels) for c in "RGB"], axis=-1)
     except (OSError, RuntimeError) as exc:
         raise ValueError(f"{str(path)!r} is not a readable EXR: {exc}") from None
-    if meta.get("format") != FORMAT or meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {FORMAT} v{FORMAT_VERSION} file")
+    if meta.get("format") not in formats or meta.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{str(path)!r} is not a {' or '.join(formats)} v{FORMAT_VERSION} file")
     return meta, image
 
 
 def shader_includes(meta: dict, lut_name: str) -> dict:
     """GLSL and HLSL include texts for a LUT, keyed by file suffix."""
     axes = meta["axes"]
+    warn_texture_size(meta["packing"]["width"], meta["packing"]["height"], lut_name)
     fields = {
         "lut_name": lut_name,
+        "ident": shader_ident(Path(lut_name).stem),
         "content_hash": meta["content_hash"],
         "eta1": repr(meta["constants"]["eta1"]),
         "eta2": repr(meta["constants"]["eta2"]),
+        "eta1_f": _shader_float(meta["constants"]["eta1"]),
+        "eta2_f": _shader_float(meta["constants"]["eta2"]),
         "space": meta["space"],
         "min": ", ".join(_shader_float(a["min"]) for a in axes),
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
     }
-    out = {}
-    for suffix in ("glsl", "hlsl"):
-        template = resources.files("lutbake").joinpath(f"shaders/lutbake.{suffix}.in").read_text()
-        out[suffix] = string.Template(template).substitute(fields)
-    return out
+    return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
+
+
+def shader_template(name: str) -> string.Template:
+    return string.Template(resources.files("lutbake").joinpath(f"shaders/{name}").read_text())
+
+
+def shader_ident(name: str) -> str:
+    """A shader constant name for a LUT or material: LUTBAKE_ + its name in upper case, _ for the rest."""
+    ident = "".join(c if c.isalnum() else "_" for c in name).upper()
+    return ident if ident.startswith("LUTBAKE_") else f"LUTBAKE_{ident}"
+
+
+def warn_texture_size(width: int, height: int, name: str) -> None:
+    """Warn when an image exceeds what many GPUs load (docs/engines.md: texture size)."""
+    if max(width, height) > MAX_TEXTURE_SIZE:
+        warnings.warn(f"{name}: {width}×{height} texels exceeds {MAX_TEXTURE_SIZE} in a dimension; many "
+                      f"GPUs cannot load it (WebGL2 guarantees 2048, mobile GPUs 4096)", stacklevel=2)
 
 
 def _shader_float(value) -> str:

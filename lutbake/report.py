@@ -24,10 +24,10 @@ from .approximations import APPROXIMATIONS
 from .colorimetry import delta_e00
 from .points import FilmPoints
 from .reference import reference_colour
-from .sample import Lut
+from .sample import Atlas, Lut
 
 __all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport", "report_lut",
-           "write_report"]
+           "write_report", "report_atlas"]
 
 
 @dataclass
@@ -125,6 +125,41 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
               "de00": float(lut_stats.de00[i]), "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
              for i in order]
     return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst)
+
+
+def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0) -> dict:
+    """Score each slice of a scene atlas, as stored, at held-out (cos θ, thickness) points against the
+    ground truth of its film and base: half uniform, half at cell centres."""
+    space, observer = atlas.meta["space"], atlas.meta["observer"]
+    rng = np.random.default_rng(seed)
+    slices, all_de = [], []
+    for s in atlas.meta["slices"]:
+        cos_t, thickness = _slice_held_out(s, n_points, rng)
+        pts = FilmPoints.build(cos_theta=cos_t, thickness_nm=thickness, **atlas.film_stack(s["materials"][0]))
+        truth = reference_colour(pts, observer, space).values
+        rgb = atlas.sample(s["materials"][0], cos_t, thickness)
+        de = np.nan_to_num(delta_e00(rgb, truth, observer, space), nan=np.inf)
+        all_de.append(de)
+        stats = ErrorStats(", ".join(s["materials"]), de, float(np.max(np.abs(rgb - truth))))
+        slices.append({"materials": s["materials"], "rect": s["rect"], **_untimed(stats)})
+    total = ErrorStats("atlas", np.concatenate(all_de), max(r["rgb_abs_max"] for r in slices))
+    return {"atlas": str(path), "scene_hash": atlas.meta["scene_hash"], "points": n_points * len(slices),
+            "space": space, "observer": observer, "lut_error": _untimed(total), "slices": slices}
+
+
+def _untimed(stats: ErrorStats) -> dict:
+    return {k: v for k, v in stats.summary().items() if k != "ns_per_eval"}
+
+
+def _slice_held_out(s: dict, n_points: int, rng):
+    """Uniform in (√cos θ, thickness) and at centres of random cells of the slice's grid."""
+    _, _, w, h = s["rect"]
+    th = s["axes"]["thickness_nm"]
+    n_centre = n_points // 2
+    u = np.concatenate([rng.uniform(0, 1, n_points - n_centre), (rng.integers(0, w - 1, n_centre) + 0.5) / (w - 1)])
+    v = np.concatenate([rng.uniform(0, 1, n_points - n_centre),
+                        (rng.integers(0, max(h - 1, 1), n_centre) + 0.5) / max(h - 1, 1)])
+    return u ** 2, th["min"] + (th["max"] - th["min"]) * v
 
 
 def write_report(rep: LutReport, out_dir, maps: bool = True) -> dict:

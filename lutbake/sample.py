@@ -1,12 +1,14 @@
-"""Reference sampler: what a GPU returns when it samples a lutbake LUT.
+"""Reference sampler: what a GPU returns when it samples a lutbake LUT or scene atlas.
 
 It reads only the EXR (metadata from its header) and follows the shader
 includes step by step: each axis value → its warp → a continuous node
 coordinate clamped to [0, N − 1]; (cos θ, D) through hardware bilinear
 filtering inside a tile (texel centres, clamp-to-edge addressing); the four
-tiles around (η3, κ3) blended with manual lerps. ``filter_bits`` quantizes
-the bilinear weights as fixed-function texture units do (8 bits on many
-GPUs); None uses exact weights.
+tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
+bilinear fetch inside its material's rect. ``filter_bits`` quantizes the
+bilinear weights as fixed-function texture units do (8 bits on many GPUs);
+None uses exact weights. Rows are scanlines counted from the top of the EXR;
+the includes map them to each API's texture coordinates (docs/lut-format.md).
 """
 
 from __future__ import annotations
@@ -15,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .lutfile import read_lut
+from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
 
-__all__ = ["Lut"]
+__all__ = ["Lut", "Atlas", "load_table"]
 
 
 @dataclass
@@ -67,28 +69,75 @@ class Lut:
             for dk in (0, 1):
                 x = (i_e + de) * n_cos + f_cos
                 y = (i_k + dk) * n_opd + f_opd
-                corners[de, dk] = self._bilinear(x, y, filter_bits)
+                corners[de, dk] = _bilinear(self.image, x, y, filter_bits)
         lower = _lerp(corners[0, 0], corners[1, 0], t_e)
         upper = _lerp(corners[0, 1], corners[1, 1], t_e)
         return _lerp(lower, upper, t_k)
 
-    def _bilinear(self, x, y, filter_bits):
-        """Hardware bilinear at texel-space (x, y) measured between texel centres."""
-        h, w, _ = self.image.shape
-        x0, y0 = np.floor(x), np.floor(y)
-        ax, ay = x - x0, y - y0
-        if filter_bits:
-            scale = float(1 << filter_bits)
-            ax, ay = np.round(ax * scale) / scale, np.round(ay * scale) / scale
-        x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
-        x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
 
-        def tap(y, x):  # gather first, widen only the taps (not the whole image)
-            return self.image[y, x].astype(np.float64)
+@dataclass
+class Atlas:
+    """A scene atlas: one (cos θ, thickness) slice per rect, each serving named materials."""
 
-        top = _lerp(tap(y0, x0), tap(y0, x1), ax)
-        bottom = _lerp(tap(y1, x0), tap(y1, x1), ax)
-        return _lerp(top, bottom, ay)
+    meta: dict
+    image: np.ndarray  # (height, width, 3), as stored
+
+    @property
+    def materials(self) -> dict:
+        """Material name → its slice's description in the header (rect, axes, film, base)."""
+        return {name: s for s in self.meta["slices"] for name in s["materials"]}
+
+    def slice_of(self, material: str) -> dict:
+        if material not in self.materials:
+            raise ValueError(f"material {material!r} is not in this atlas: allowed {', '.join(self.materials)}")
+        return self.materials[material]
+
+    def film_stack(self, material: str) -> dict:
+        """FilmPoints.build keywords for the material's ambient, film and base (named or constant)."""
+        s = self.slice_of(material)
+        film = {"film": s["film"]} if isinstance(s["film"], str) else {"eta2": s["film"]}
+        base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
+        return {"eta1": self.meta["eta1"], **film, **base}
+
+    def in_domain(self, material, cos_theta, thickness_nm) -> np.ndarray:
+        th = self.slice_of(material)["axes"]["thickness_nm"]
+        c, t = np.asarray(cos_theta, float), np.asarray(thickness_nm, float)
+        return np.asarray((c >= 0) & (c <= 1) & (t >= th["min"]) & (t <= th["max"]))
+
+    def sample(self, material, cos_theta, thickness_nm, filter_bits=None) -> np.ndarray:
+        """Linear RGB (…, 3): node coordinates (√cos θ, thickness) clamped to the rect, one bilinear fetch."""
+        s = self.slice_of(material)
+        x0, y0, w, h = s["rect"]
+        lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
+        cos_theta, thickness_nm = np.broadcast_arrays(np.asarray(cos_theta, float), np.asarray(thickness_nm, float))
+        fx = np.sqrt(np.clip(cos_theta, 0.0, 1.0)) * (w - 1)
+        fy = np.clip((thickness_nm - lo) / (hi - lo), 0.0, 1.0) * (h - 1) if h > 1 else np.zeros_like(fx)
+        return _bilinear(self.image, x0 + fx, y0 + fy, filter_bits)
+
+
+def load_table(path):
+    """A Lut or an Atlas, whichever the EXR holds."""
+    meta, image = read_lut(path, (FORMAT, ATLAS_FORMAT))
+    return (Atlas if meta["format"] == ATLAS_FORMAT else Lut)(meta, image)
+
+
+def _bilinear(image, x, y, filter_bits):
+    """Hardware bilinear at texel-space (x, y) measured between texel centres, clamp-to-edge."""
+    h, w, _ = image.shape
+    x0, y0 = np.floor(x), np.floor(y)
+    ax, ay = x - x0, y - y0
+    if filter_bits:
+        scale = float(1 << filter_bits)
+        ax, ay = np.round(ax * scale) / scale, np.round(ay * scale) / scale
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+
+    def tap(y, x):  # gather first, widen only the taps (not the whole image)
+        return image[y, x].astype(np.float64)
+
+    top = _lerp(tap(y0, x0), tap(y0, x1), ax)
+    bottom = _lerp(tap(y1, x0), tap(y1, x1), ax)
+    return _lerp(top, bottom, ay)
 
 
 def _lower_node(f, count):

@@ -1,32 +1,65 @@
-// lutbake thin-film LUT sampler (GLSL) for lutbake-eta2-1.33.exr
+// lutbake thin-film LUT sampler (GLSL: ES 3.00 / WebGL2, 3.30+, Vulkan) for lutbake-eta2-1.33.exr
 // content hash 4678ba198e81fd291bf4bba9ea5b3a5fa647032953c9e4ddaffd02afd9e38a84; film eta2 = 1.33 under ambient eta1 = 1.0; linear rec709 RGB.
 // Bind the LUT with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
-// Axes in order (cos_theta, opd_nm, eta3, kappa3); opd_nm = 2 * eta2 * thickness_nm.
+// Call: lutbake_sample(lut, LUTBAKE_ETA2_1_33, cos_theta, opd_nm, eta3, kappa3), opd_nm = 2 * eta2 * thickness_nm.
+// Row order (docs/lut-format.md): v = 0 is the EXR's last scanline, as OpenGL-style loaders (three.js's
+// EXRLoader) upload it. If yours puts scanline 0 at v = 0, #define LUTBAKE_SCANLINE0_AT_V0 1 first.
+// Several LUT includes and scene atlas includes can share one shader: the sampler is guarded, the
+// constants are named per LUT.
 
-const vec4 LUTBAKE_MIN = vec4(0.0, 0.0, 1.0, 0.0);
-const vec4 LUTBAKE_MAX = vec4(1.0, 3000.0, 3.0, 5.0);
-const vec4 LUTBAKE_COUNT = vec4(32.0, 128.0, 16.0, 16.0);
-const vec4 LUTBAKE_SQRT = vec4(1.0, 0.0, 0.0, 1.0); // 1: nodes uniform in sqrt(value)
+#ifndef LUTBAKE_LUT_SAMPLER_V1
+#define LUTBAKE_LUT_SAMPLER_V1
+#ifndef LUTBAKE_SCANLINE0_AT_V0
+#define LUTBAKE_SCANLINE0_AT_V0 0
+#endif
+
+// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value).
+struct LutbakeLut {
+    highp vec4 lo;
+    highp vec4 hi;
+    highp vec4 count;
+    highp vec4 sqrt_spacing;
+    highp float eta1;
+    highp float eta2;
+};
 
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
-vec4 lutbake_node_coord(vec4 v) {
-    vec4 w = mix(v, sqrt(max(v, 0.0)), LUTBAKE_SQRT);
-    vec4 lo = mix(LUTBAKE_MIN, sqrt(LUTBAKE_MIN), LUTBAKE_SQRT);
-    vec4 hi = mix(LUTBAKE_MAX, sqrt(LUTBAKE_MAX), LUTBAKE_SQRT);
-    return clamp((w - lo) / (hi - lo), 0.0, 1.0) * (LUTBAKE_COUNT - 1.0);
+highp vec4 lutbake_node_coord(LutbakeLut l, highp vec4 v) {
+    highp vec4 w = mix(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
+    highp vec4 lo = mix(l.lo, sqrt(l.lo), l.sqrt_spacing);
+    highp vec4 hi = mix(l.hi, sqrt(l.hi), l.sqrt_spacing);
+    return clamp((w - lo) / (hi - lo), 0.0, 1.0) * (l.count - 1.0);
+}
+
+// Texture coordinate of a texel-space position measured in scanlines from the top.
+highp vec2 lutbake_lut_uv(highp vec2 texel, highp vec2 size) {
+    highp vec2 uv = texel / size;
+#if LUTBAKE_SCANLINE0_AT_V0
+    return uv;
+#else
+    return vec2(uv.x, 1.0 - uv.y);
+#endif
 }
 
 // Linear RGB reflectance of the film stack: 4 bilinear fetches and 3 lerps.
-vec3 lutbake_sample(sampler2D lut, float cos_theta, float opd_nm, float eta3, float kappa3) {
-    vec4 f = lutbake_node_coord(vec4(cos_theta, opd_nm, eta3, kappa3));
-    vec2 tile = LUTBAKE_COUNT.xy;
-    vec2 size = tile * LUTBAKE_COUNT.zw;
-    vec2 base = min(floor(f.zw), LUTBAKE_COUNT.zw - 2.0);   // lower (eta3, kappa3) node
-    vec2 t = f.zw - base;
-    vec2 in_tile = f.xy + 0.5;                               // texel centres: no bleeding across tiles
-    vec3 c00 = texture(lut, (base * tile + in_tile) / size).rgb;
-    vec3 c10 = texture(lut, ((base + vec2(1.0, 0.0)) * tile + in_tile) / size).rgb;
-    vec3 c01 = texture(lut, ((base + vec2(0.0, 1.0)) * tile + in_tile) / size).rgb;
-    vec3 c11 = texture(lut, ((base + vec2(1.0, 1.0)) * tile + in_tile) / size).rgb;
+highp vec3 lutbake_sample(highp sampler2D lut, LutbakeLut l, highp float cos_theta, highp float opd_nm,
+                          highp float eta3, highp float kappa3) {
+    highp vec4 f = lutbake_node_coord(l, vec4(cos_theta, opd_nm, eta3, kappa3));
+    highp vec2 tile = l.count.xy;
+    highp vec2 size = tile * l.count.zw;
+    highp vec2 base = min(floor(f.zw), l.count.zw - 2.0);   // lower (eta3, kappa3) node
+    highp vec2 t = f.zw - base;
+    highp vec2 in_tile = f.xy + 0.5;                         // texel centres: no bleeding across tiles
+    highp vec3 c00 = texture(lut, lutbake_lut_uv(base * tile + in_tile, size)).rgb;
+    highp vec3 c10 = texture(lut, lutbake_lut_uv((base + vec2(1.0, 0.0)) * tile + in_tile, size)).rgb;
+    highp vec3 c01 = texture(lut, lutbake_lut_uv((base + vec2(0.0, 1.0)) * tile + in_tile, size)).rgb;
+    highp vec3 c11 = texture(lut, lutbake_lut_uv((base + vec2(1.0, 1.0)) * tile + in_tile, size)).rgb;
     return mix(mix(c00, c10, t.x), mix(c01, c11, t.x), t.y);
 }
+#endif
+
+// lutbake-eta2-1.33.exr: axis minima, maxima, node counts, sqrt spacing; eta1; eta2.
+const LutbakeLut LUTBAKE_ETA2_1_33 = LutbakeLut(
+    vec4(0.0, 0.0, 1.0, 0.0), vec4(1.0, 3000.0, 3.0, 5.0),
+    vec4(32.0, 128.0, 16.0, 16.0), vec4(1.0, 0.0, 0.0, 1.0),
+    1.0, 1.33);

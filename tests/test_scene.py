@@ -148,9 +148,9 @@ def test_plan_and_bake_from_the_command_line(tmp_path):
     files = {p.name for p in (tmp_path / "out").iterdir()}
     assert {"scene.exr", "scene.json", "scene.glsl", "scene.hlsl"} <= files
     glsl = (tmp_path / "out" / "scene.glsl").read_text()
-    assert "LUTBAKE_SOAP_RECT" in glsl and "LUTBAKE_STEEL_THICKNESS" in glsl
+    assert "const LutbakeSlice LUTBAKE_SCENE_SOAP =" in glsl and "LUTBAKE_SCENE_STEEL =" in glsl
     hlsl = (tmp_path / "out" / "scene.hlsl").read_text()
-    assert "static const float4 LUTBAKE_SOAP_RECT" in hlsl and "SampleLevel(linear_clamp" in hlsl
+    assert "static const LutbakeSlice LUTBAKE_SCENE_SOAP =" in hlsl and "SampleLevel(linear_clamp" in hlsl
 
 
 def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):

@@ -1,13 +1,36 @@
-// lutbake scene material table for examples/soap-bubble.toml (scene hash 87275fdbb3cef532)
-// Slices: sample the atlas with LINEAR filtering, CLAMP_TO_EDGE, no mipmaps.
-const vec2 LUTBAKE_ATLAS_SIZE = vec2(64.0, 73.0);
+// lutbake scene material table for examples/soap-bubble.toml (scene hash 87275fdbb3cef532), atlas soap-bubble.exr
+// Sample the atlas with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
+// Call: lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
+// Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's last scanline unless
+// LUTBAKE_SCANLINE0_AT_V0 is defined to 1 first. Several includes can share one shader.
 
-// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.
-vec3 lutbake_atlas_sample(sampler2D atlas, vec4 rect, vec2 thick, float cos_theta, float thickness_nm) {
-    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);
-    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0) * (rect.w - 1.0) : 0.0;
-    return texture(atlas, (rect.xy + vec2(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE).rgb;
+#ifndef LUTBAKE_ATLAS_SAMPLER_V1
+#define LUTBAKE_ATLAS_SAMPLER_V1
+#ifndef LUTBAKE_SCANLINE0_AT_V0
+#define LUTBAKE_SCANLINE0_AT_V0 0
+#endif
+
+// A material's slice: rect = (x0, y0, width, height) in texels from the top-left; cos theta runs along x
+// (nodes uniform in sqrt(cos theta) over [0, 1]), thickness along y over [thickness_nm.x, thickness_nm.y].
+struct LutbakeSlice {
+    highp vec4 rect;
+    highp vec2 thickness_nm;
+    highp vec2 atlas_size;
+};
+
+highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp float cos_theta,
+                                highp float thickness_nm) {
+    highp float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (s.rect.z - 1.0);
+    highp float fy = s.rect.w > 1.0
+        ? clamp((thickness_nm - s.thickness_nm.x) / max(s.thickness_nm.y - s.thickness_nm.x, 1e-9), 0.0, 1.0)
+          * (s.rect.w - 1.0)
+        : 0.0;
+    highp vec2 uv = (s.rect.xy + vec2(fx, fy) + 0.5) / s.atlas_size;  // texel centres: stays in the rect
+#if !LUTBAKE_SCANLINE0_AT_V0
+    uv.y = 1.0 - uv.y;
+#endif
+    return texture(atlas, uv).rgb;
 }
+#endif
 
-const vec4 LUTBAKE_SOAP_RECT = vec4(0.0, 0.0, 64.0, 73.0);
-const vec2 LUTBAKE_SOAP_THICKNESS = vec2(100.0, 1000.0);
+const LutbakeSlice LUTBAKE_SOAP_BUBBLE_SOAP = LutbakeSlice(vec4(0.0, 0.0, 64.0, 73.0), vec2(100.0, 1000.0), vec2(64.0, 73.0));

@@ -1,15 +1,37 @@
-// lutbake scene material table for examples/tempered-steel.toml (scene hash d033588eca9d60bf)
-// Slices: sample the atlas with MIN_MAG_LINEAR, CLAMP, one mip level.
-static const float2 LUTBAKE_ATLAS_SIZE = float2(32.0, 96.0);
+// lutbake scene material table for examples/tempered-steel.toml (scene hash d033588eca9d60bf), atlas tempered-steel.exr
+// Use a sampler with MIN_MAG_LINEAR filtering, CLAMP addressing and a single mip level.
+// Call: lutbake_atlas_sample(atlas, linear_clamp, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
+// Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's scanline 0 unless
+// LUTBAKE_SCANLINE0_AT_V0 is defined to 0 first. Several includes can share one shader.
 
-// rect = (x0, y0, width, height) in texels; thick = (min, max) thickness in nm.
-float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, float4 rect, float2 thick, float cos_theta, float thickness_nm) {
-    float fx = clamp(sqrt(max(cos_theta, 0.0)), 0.0, 1.0) * (rect.z - 1.0);
-    float fy = rect.w > 1.0 ? clamp((thickness_nm - thick.x) / max(thick.y - thick.x, 1e-9), 0.0, 1.0) * (rect.w - 1.0) : 0.0;
-    return atlas.SampleLevel(linear_clamp, (rect.xy + float2(fx, fy) + 0.5) / LUTBAKE_ATLAS_SIZE, 0);
+#ifndef LUTBAKE_ATLAS_SAMPLER_V1
+#define LUTBAKE_ATLAS_SAMPLER_V1
+#ifndef LUTBAKE_SCANLINE0_AT_V0
+#define LUTBAKE_SCANLINE0_AT_V0 1
+#endif
+
+// A material's slice: rect = (x0, y0, width, height) in texels from the top-left; cos theta runs along x
+// (nodes uniform in sqrt(cos theta) over [0, 1]), thickness along y over [thickness_nm.x, thickness_nm.y].
+struct LutbakeSlice {
+    float4 rect;
+    float2 thickness_nm;
+    float2 atlas_size;
+};
+
+float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, LutbakeSlice s,
+                            float cos_theta, float thickness_nm) {
+    float fx = saturate(sqrt(max(cos_theta, 0.0))) * (s.rect.z - 1.0);
+    float fy = s.rect.w > 1.0
+        ? saturate((thickness_nm - s.thickness_nm.x) / max(s.thickness_nm.y - s.thickness_nm.x, 1e-9))
+          * (s.rect.w - 1.0)
+        : 0.0;
+    float2 uv = (s.rect.xy + float2(fx, fy) + 0.5) / s.atlas_size;  // texel centres: stays in the rect
+#if !LUTBAKE_SCANLINE0_AT_V0
+    uv.y = 1.0 - uv.y;
+#endif
+    return atlas.SampleLevel(linear_clamp, uv, 0);
 }
+#endif
 
-static const float4 LUTBAKE_STEEL_CONSTANT_RECT = float4(0.0, 0.0, 32.0, 48.0);
-static const float2 LUTBAKE_STEEL_CONSTANT_THICKNESS = float2(10.0, 70.0);
-static const float4 LUTBAKE_STEEL_WERNER_RECT = float4(0.0, 48.0, 32.0, 48.0);
-static const float2 LUTBAKE_STEEL_WERNER_THICKNESS = float2(10.0, 70.0);
+static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_CONSTANT = {float4(0.0, 0.0, 32.0, 48.0), float2(10.0, 70.0), float2(32.0, 96.0)};
+static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_WERNER = {float4(0.0, 48.0, 32.0, 48.0), float2(10.0, 70.0), float2(32.0, 96.0)};

@@ -1,0 +1,90 @@
+// Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
+// Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
+//        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
+// The server serves the repository's files read-only; nothing outside the repository is reachable.
+import { createServer } from 'node:http';
+import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { extname, join, resolve, sep } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { chromium } from 'playwright-core';
+
+const ROOT = resolve(fileURLToPath(new URL('..', import.meta.url)));
+const CHROMIUM = process.env.LUTBAKE_CHROMIUM || '/usr/bin/chromium';
+const TYPES = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json' };
+
+function serve() {
+  const server = createServer((req, res) => {
+    const path = resolve(join(ROOT, decodeURIComponent(new URL(req.url, 'http://x').pathname)));
+    if (!path.startsWith(ROOT + sep) || !existsSync(path) || !statSync(path).isFile()) {
+      res.writeHead(404).end();
+      return;
+    }
+    res.writeHead(200, { 'Content-Type': TYPES[extname(path)] || 'application/octet-stream' });
+    res.end(readFileSync(path));
+  });
+  return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok(server)));
+}
+
+async function withPage(fn) {
+  if (!existsSync(CHROMIUM)) throw new Error(`${CHROMIUM} not found: install Debian's chromium (apt-get install chromium)`);
+  const server = await serve();
+  const profile = mkdtempSync(join(tmpdir(), 'lutbake-chromium-'));
+  // A fresh profile (--user-data-dir) per run; playwright passes it for launchPersistentContext.
+  const browser = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM,
+    headless: true,
+    viewport: { width: 1200, height: 400 },
+    args: ['--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic', '--no-first-run',
+           '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+  });
+  try {
+    const page = await browser.newPage();
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.error(m.text()); });
+    await page.goto(`http://127.0.0.1:${server.address().port}/engine/page.html`);
+    await page.waitForFunction(() => window.lutbakeReady === true || null, null, { timeout: 30000 })
+      .catch(() => { throw new Error(`page did not load: ${errors.join('; ')}`); });
+    return await fn(page, errors);
+  } finally {
+    await browser.close();
+    server.close();
+    rmSync(profile, { recursive: true, force: true });
+  }
+}
+
+// Write beside the destination, then rename: a reader never sees a partial file.
+function writeAtomic(path, data) {
+  const tmp = `${path}.tmp-${process.pid}`;
+  writeFileSync(tmp, data);
+  renameSync(tmp, path);
+}
+
+const [command, input, output] = process.argv.slice(2);
+if (command === 'evaluate') {
+  const jobs = JSON.parse(readFileSync(input, 'utf8'));
+  const result = await withPage(async (page, errors) => {
+    try {
+      return await page.evaluate((j) => window.lutbakeEvaluate(j), jobs);
+    } catch (e) {
+      throw new Error(`${e.message}\n${errors.join('\n')}`);
+    }
+  });
+  writeAtomic(output, JSON.stringify(result));
+} else if (command === 'view') {
+  const spheres = JSON.parse(readFileSync(input, 'utf8'));
+  await withPage(async (page) => {
+    const labels = await page.evaluate((s) => window.lutbakeView(s), spheres);
+    await page.evaluate((names) => {
+      const row = document.createElement('div');
+      row.style = 'position:absolute;left:0;top:0;display:flex;font:14px sans-serif;color:#ddd';
+      for (const name of names) row.insertAdjacentHTML('beforeend', `<div style="width:256px;text-align:center;padding-top:12px">${name}</div>`);
+      document.body.appendChild(row);
+    }, labels);
+    writeAtomic(output, await page.locator('canvas').screenshot());
+  });
+} else {
+  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png');
+  process.exit(2);
+}

@@ -1,0 +1,162 @@
+"""A real engine samples what lutbake writes: three.js (pinned in engine/package-lock.json) in headless
+Chromium loads every shipped LUT and a shipped scene atlas with EXRLoader's default settings, evaluates the
+shipped GLSL includes, unmodified, at random points (domain edges and points outside the domain included)
+into a float render target, and must return what `lutbake sample` says to 1e-4 (engine/page.js,
+engine/harness.mjs). SwiftShader's filtering differs from exact bilinear by ~1e-5."""
+
+import csv
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lutbake.lutfile import shader_ident
+from lutbake.sample import load_table
+
+ROOT = Path(__file__).resolve().parent.parent
+ENGINE = ROOT / "engine"
+CHROMIUM = Path(os.environ.get("LUTBAKE_CHROMIUM", "/usr/bin/chromium"))
+SHIPPED_LUTS = sorted((ROOT / "luts").glob("*.exr"))
+ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"
+TOLERANCE = 1e-4
+POINTS = 2500
+EDGE, OUTSIDE = 0.2, 0.2  # fractions of coordinates at a domain edge, and outside the domain
+
+
+def require_engine():
+    """Fail (never skip) with what to install; in CI (CI=true) a missing engine is a failed check."""
+    missing = []
+    if shutil.which("node") is None:
+        missing.append("node and npm (apt-get install nodejs npm)")
+    if not CHROMIUM.is_file():
+        missing.append(f"Debian's chromium at {CHROMIUM} (apt-get install chromium)")
+    if not (ENGINE / "node_modules" / "three").is_dir():
+        missing.append("the pinned three.js and playwright-core (cd engine && npm ci)")
+    if missing:
+        context = "CI=true: the real-engine check must run" if os.environ.get("CI") == "true" else \
+            "the real-engine check needs them"
+        pytest.fail(f"{context}; install {'; '.join(missing)}", pytrace=False)
+
+
+def _coordinates(rng, lo, hi, n, floor=None, ceil=None):
+    """Uniform in [lo, hi]; EDGE of them exactly lo or hi; OUTSIDE of them up to 20% beyond (kept physical)."""
+    v = rng.uniform(lo, hi, n)
+    kind = rng.random(n)
+    edge = kind < EDGE
+    v[edge] = np.where(rng.random(edge.sum()) < 0.5, lo, hi)
+    out = (kind >= EDGE) & (kind < EDGE + OUTSIDE)
+    span = hi - lo
+    v[out] = np.where(rng.random(out.sum()) < 0.5, lo - rng.uniform(0, 0.2 * span, out.sum()),
+                      hi + rng.uniform(0, 0.2 * span, out.sum()))
+    return np.clip(v, floor, ceil)
+
+
+def lutbake_sample(folder: Path, path: Path, columns: dict, *args) -> list:
+    """`lutbake sample PATH --points CSV --json` rows, run as a user would."""
+    text = io.StringIO()
+    writer = csv.writer(text)
+    writer.writerow(columns)
+    writer.writerows(zip(*(map(repr, map(float, c)) for c in columns.values())))
+    points = folder / "points.csv"
+    points.write_text(text.getvalue())
+    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(path), "--points", str(points),
+                          "--json", *args], capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)["points"]
+
+
+def lut_job(folder: Path, path: Path, rng) -> dict:
+    axes = load_table(path).axes
+    limits = [(0.0, 1.0), (0.0, None), (1e-3, None), (0.0, None)]
+    columns = {name: _coordinates(rng, a.lo, a.hi, POINTS, *lim)
+               for name, a, lim in zip(("cos_theta", "opd_nm", "eta3", "kappa3"), axes, limits)}
+    rows = lutbake_sample(folder, path, columns)
+    return {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}",
+            "call": f"lutbake_sample(lut, {shader_ident(path.stem)}, p.x, p.y, p.z, p.w)",
+            "points": [[r["cos_theta"], r["opd_nm"], r["eta3"], r["kappa3"]] for r in rows],
+            "expected": [r["rgb"] for r in rows], "in_domain": [r["in_domain"] for r in rows]}
+
+
+def atlas_job(folder: Path, path: Path, material: str, rng) -> dict:
+    th = load_table(path).slice_of(material)["axes"]["thickness_nm"]
+    columns = {"cos_theta": _coordinates(rng, 0.0, 1.0, POINTS, 0.0, 1.0),
+               "thickness_nm": _coordinates(rng, th["min"], th["max"], POINTS, 0.0)}
+    rows = lutbake_sample(folder, path, columns, "--material", material)
+    ident = shader_ident(f"{path.stem}_{material}")
+    return {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}",
+            "call": f"lutbake_atlas_sample(lut, {ident}, p.x, p.y)",
+            "points": [[r["cos_theta"], r["thickness_nm"], 0.0, 0.0] for r in rows],
+            "expected": [r["rgb"] for r in rows], "in_domain": [r["in_domain"] for r in rows]}
+
+
+def together(job: dict, other_lut: Path) -> dict:
+    """``job`` with another LUT's and the atlas's includes in the same shader, all three samplers called
+    (the others weighted 0 on this job's texture): WebGL2 compiles them together, the result is unchanged."""
+    other = shader_ident(other_lut.stem)
+    atlas_ident = shader_ident(f"{ATLAS.stem}_{next(iter(load_table(ATLAS).materials))}")
+    return {**job, "include": [job["include"], f"/{other_lut.with_suffix('.glsl').relative_to(ROOT)}",
+                               f"/{ATLAS.with_suffix('.glsl').relative_to(ROOT)}"],
+            "call": f"{job['call']} + 0.0 * lutbake_sample(lut, {other}, p.x, p.y, p.z, p.w)"
+                    f" + 0.0 * lutbake_atlas_sample(lut, {atlas_ident}, p.x, p.y)"}
+
+
+@pytest.fixture(scope="module")
+def engine_run(tmp_path_factory):
+    require_engine()
+    folder = tmp_path_factory.mktemp("engine")
+    rng = np.random.default_rng(10)
+    jobs = {p.stem: lut_job(folder, p, rng) for p in SHIPPED_LUTS}
+    jobs.update({f"{ATLAS.stem}:{m}": atlas_job(folder, ATLAS, m, rng) for m in load_table(ATLAS).materials})
+    # Negative control: the same LUT with the other row order must be far off, so the check can fail.
+    first = jobs[SHIPPED_LUTS[0].stem]
+    jobs["one shader: two LUT includes and an atlas include"] = together(first, SHIPPED_LUTS[1])
+    jobs["control: scanline 0 at v = 0"] = {**first, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}
+    (folder / "jobs.json").write_text(json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")}
+                                                  for j in jobs.values()]))
+    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
+                           str(folder / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    result = json.loads((folder / "result.json").read_text())
+    return result, dict(zip(jobs, zip(jobs.values(), result["results"])))
+
+
+def _max_error(job, got) -> float:
+    return float(np.abs(np.array(got["rgb"]) - np.array(job["expected"])).max())
+
+
+def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
+    result, runs = engine_run
+    assert result["three"] == json.loads((ENGINE / "package.json").read_text())["dependencies"]["three"].split(".")[1]
+    for job, got in runs.values():
+        assert got["texture"]["flipY"] is False  # EXRLoader's default: rows bottom-up, as OpenGL reads them
+
+
+@pytest.mark.parametrize("name", [p.stem for p in SHIPPED_LUTS] + ["tempered-steel:steel_constant",
+                                                                    "tempered-steel:steel_werner",
+                                                                    "one shader: two LUT includes and an atlas include"])
+def test_engine_matches_lutbake_sample(engine_run, name):
+    _, runs = engine_run
+    job, got = runs[name]
+    inside = np.array(job["in_domain"])
+    assert len(job["points"]) >= 2000 and 0.2 < inside.mean() < 0.9  # edges and outside points included
+    assert _max_error(job, got) <= TOLERANCE
+
+
+def test_the_check_fails_with_the_other_row_order(engine_run):
+    _, runs = engine_run
+    assert _max_error(*runs["control: scanline 0 at v = 0"]) > 0.1
+
+
+def test_docs_show_the_helper_the_test_runs():
+    """docs/engines.md's three.js snippet is engine/page.js's helper verbatim."""
+    page = (ENGINE / "page.js").read_text()
+    begin, end = "// --- docs/engines.md snippet: begin\n", "// --- docs/engines.md snippet: end"
+    snippet = page[page.index(begin) + len(begin):page.index(end)]
+    assert "function lutbakeMaterial(" in snippet
+    assert snippet in (ROOT / "docs" / "engines.md").read_text()
