@@ -29,15 +29,23 @@ POINTS = 2500
 EDGE, OUTSIDE = 0.2, 0.2  # fractions of coordinates at a domain edge, and outside the domain
 
 
+def _install_pinned_engine():
+    """`npm ci` in engine/ when its node_modules is missing: the lockfile pins every package."""
+    if (ENGINE / "node_modules" / "three").is_dir() or shutil.which("npm") is None:
+        return
+    subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=ENGINE, capture_output=True, timeout=600)
+
+
 def require_engine():
     """Fail (never skip) with what to install; in CI (CI=true) a missing engine is a failed check."""
+    _install_pinned_engine()
     missing = []
     if shutil.which("node") is None:
         missing.append("node and npm (apt-get install nodejs npm)")
     if not CHROMIUM.is_file():
         missing.append(f"Debian's chromium at {CHROMIUM} (apt-get install chromium)")
     if not (ENGINE / "node_modules" / "three").is_dir():
-        missing.append("the pinned three.js and playwright-core (cd engine && npm ci)")
+        missing.append("the pinned three.js and playwright-core (cd engine && npm ci failed)")
     if missing:
         context = "CI=true: the real-engine check must run" if os.environ.get("CI") == "true" else \
             "the real-engine check needs them"
