@@ -36,7 +36,7 @@ from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from .optics import _stack_terms, normal_admittance
 
 __all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
-           "SeriesResult", "series_colour", "series_plan", "TABLE_STEP_NM", "TABLE_MAX_NM",
+           "SeriesResult", "series_colour", "series_plan", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_MIN_BUDGET",
            "DEFAULT_SERIES_TOLERANCE"]
 
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
@@ -45,6 +45,7 @@ NU0_PER_NM = 0.5 * (NU_MIN_PER_NM + NU_MAX_PER_NM)   # demodulation: centre of t
 TABLE_STEP_NM = 25.0
 TABLE_MAX_NM = 4.0e5
 DEFAULT_SERIES_TOLERANCE = 1e-9   # per polarization: truncation bound on the dropped terms
+SERIES_MIN_BUDGET = 256           # terms the series may always take (the 16-node rules are only ~1e-6)
 _NODES_PER_RADIAN = 3.0
 _X_BLOCK = 512
 
@@ -254,7 +255,7 @@ def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms):
     return np.sum(geometric, axis=0) * wt.tail_bound((terms + 1) * co.x_nm)
 
 
-def series_plan(co: SeriesCoefficients, wt: WeightTransform, direct_nodes, grazing,
+def series_plan(co: SeriesCoefficients, wt: WeightTransform, direct_nodes,
                 tolerance: float = DEFAULT_SERIES_TOLERANCE):
     """Terms M per texel for the series, or −1 for the direct quadrature.
 
@@ -263,15 +264,15 @@ def series_plan(co: SeriesCoefficients, wt: WeightTransform, direct_nodes, grazi
     last term table-allows is ≤ ``tolerance``, and the series needs no more
     terms than the direct rule has nodes (a term costs about what a node
     does). M is then the smallest count whose remainder bound is ≤ tolerance
-    (X = 0 and grazing incidence: closed forms, M = 0). ``direct_nodes`` and
-    ``grazing`` are per texel.
+    (X = 0: closed form, M = 0; at grazing incidence K = 0, so M = 0 and
+    R = C0 = 1). ``direct_nodes`` is per texel; the bake kernel runs this rule.
     """
     n = co.x_nm.size
     with np.errstate(divide="ignore"):
         cap = np.where(co.x_nm > 0, np.floor(wt.x_max_nm / co.x_nm), 0.0)
-    cap = np.minimum(cap, np.asarray(direct_nodes, float))
-    ok = co.in_scope & ~np.asarray(grazing, bool) & (_remainder(co, wt, cap) <= tolerance)
-    closed = (co.in_scope & (co.x_nm == 0)) | np.asarray(grazing, bool)
+    cap = np.minimum(cap, np.maximum(np.asarray(direct_nodes, float), SERIES_MIN_BUDGET))
+    ok = co.in_scope & (_remainder(co, wt, cap) <= tolerance)
+    closed = co.in_scope & (co.x_nm == 0)
     lo, hi = np.zeros(n), np.where(ok & ~closed, cap, 0.0)
     while np.any(lo < hi):   # smallest M in [0, cap] meeting the bound (the bound falls with M)
         mid = np.floor(0.5 * (lo + hi))
@@ -293,8 +294,7 @@ def series_colour(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, direct_nodes, obs
     cos_theta = np.asarray(cos_theta, float)
     wt = weight_transform(observer, space, basis)
     co = series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3)
-    grazing = cos_theta == 0
-    terms = series_plan(co, wt, direct_nodes, grazing, tolerance)
+    terms = series_plan(co, wt, direct_nodes, tolerance)
     w0 = wt(np.zeros(1))[:, 0]
     # X = 0: Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1 (γ = 0).
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -308,8 +308,10 @@ def series_colour(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, direct_nodes, obs
         power[:, active] *= co.q[:, active]
     per_pol = co.c0[..., None] * w0.real + 2 * acc.real
     values = 0.5 * per_pol.sum(axis=0)
-    values[grazing] = np.real(w0)   # cos θ1 = 0: R = 1
     values[terms < 0] = np.nan
-    interp = np.sum(np.abs(co.k) / np.where(co.k == 0, 1.0, co.one_minus_q), axis=0) * wt.interpolation_bound.max()
-    bound = np.where((terms >= 0) & ~grazing, _remainder(co, wt, np.maximum(terms, 0)) * ~zero + interp, 0.0)
+    # the table's error, carried through the M terms taken: Σ_pol |K| (1 − |q|^M)/(1 − |q|) · δ
+    with np.errstate(divide="ignore", invalid="ignore"):
+        taken = np.abs(co.k) * (1 - np.abs(co.q) ** np.maximum(terms, 0)) / co.one_minus_q
+    interp = np.sum(np.where(co.k == 0, 0.0, taken), axis=0) * wt.interpolation_bound.max()
+    bound = np.where(terms >= 0, _remainder(co, wt, np.maximum(terms, 0)) * ~zero + interp, 0.0)
     return SeriesResult(values, terms, bound)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .fourier import DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_MIN_BUDGET, series_coefficients, weight_transform
 from .optics import film_reflectance, normal_admittance
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable"]
@@ -139,21 +140,70 @@ def _program(compute: str):
     raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
 
 
+class SeriesStats:
+    """What the series kernel did over a bake: its method mix and largest enforced bound."""
+
+    def __init__(self):
+        self.series_texels = self.direct_texels = self.terms_total = self.terms_max = 0
+        self.bound_rgb_max = 0.0
+
+    def add(self, terms, bound):
+        taken = terms >= 0
+        self.series_texels += int(taken.sum())
+        self.direct_texels += int(terms.size - taken.sum())
+        self.terms_total += int(terms[taken].sum())
+        self.terms_max = max(self.terms_max, int(terms.max(initial=0)))
+        self.bound_rgb_max = max(self.bound_rgb_max, float(bound[taken].max(initial=0.0)))
+
+    def describe(self) -> dict:
+        return {"series_texels": self.series_texels, "direct_texels": self.direct_texels,
+                "terms_mean": self.terms_total / max(self.series_texels, 1), "terms_max": self.terms_max,
+                "bound_rgb_max": self.bound_rgb_max}
+
+
+def _series_arrays(spec):
+    """Host inputs of kernels/airy.cl's series: (coefficients, film) in the kernel's layout, float64.
+
+    coefficients (κ3, η3, cos θ, [s, p] × [C0, K, q, 1 − |q|]), 1 − |q| = −1
+    marking an evanescent film; film (D, cos θ, [X, e^{i2πXν0}]).
+    """
+    ax = {a.name: a.values() for a in spec.axes}
+    cos_t, e3, k3 = np.meshgrid(ax["cos_theta"], ax["eta3"], ax["kappa3"], indexing="ij")
+    co = series_coefficients(spec.eta1, spec.eta2, cos_t.ravel(), 0.0, e3.ravel(), k3.ravel())
+    one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
+    per_pol = [np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real, co.q[p].imag, one_minus_q[p]], -1)
+               for p in (0, 1)]
+    coefficients = np.concatenate(per_pol, -1).reshape(cos_t.shape + (12,)).transpose(2, 1, 0, 3)
+    x_nm = ax["opd_nm"][:, None] * (_signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0))[None, :]
+    turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
+    film = np.stack([x_nm, turn.real, turn.imag], -1)
+    return coefficients, film
+
+
 class OpenCLBackend:
-    """kernels/airy.cl on the default OpenCL device (PoCL unless PYOPENCL_CTX says otherwise)."""
+    """kernels/airy.cl on the default OpenCL device (PoCL unless PYOPENCL_CTX says otherwise).
+
+    ``integrator`` 'series' (the bake's default) runs the Fourier series where
+    its rule allows and the direct quadrature elsewhere (bake_rows_series);
+    'direct' runs the quadrature on every texel (bake_rows).
+    """
 
     name = "opencl"
 
-    def __init__(self, compute: str = "float64"):
+    def __init__(self, compute: str = "float64", integrator: str = "series"):
         import pyopencl as cl
 
         self.compute = compute
+        self.integrator = integrator
         self.dtype = np.float64 if compute == "float64" else np.float32
         self.ctx, program = _program(compute)
         self.kernel = cl.Kernel(program, "bake_rows")
+        self.series_kernel = cl.Kernel(program, "bake_rows_series")
         self.points_kernel = cl.Kernel(program, "reflectance_points")
         self.queue = cl.CommandQueue(self.ctx)
         self._static = None
+        self._series = None
+        self.series_stats = SeriesStats()
 
     @property
     def device_name(self) -> str:
@@ -179,6 +229,25 @@ class OpenCLBackend:
         self._static = (key, (buffers, spec.ladder.counts[0]))
         return self._static[1]
 
+    def _series_buffers(self, spec):
+        """(buffers, scalars) of the series kernel for ``spec`` (built once per spec)."""
+        import pyopencl as cl
+
+        if self._series and self._series[0] == spec.content_hash:
+            return self._series[1]
+        wt = weight_transform(spec.observer, spec.space)
+        table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
+        tail = np.concatenate([wt.mass, wt.edge, wt.variation])
+        mf = cl.mem_flags
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                   for a in (*_series_arrays(spec), table)]
+        tail_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tail.astype(self.dtype))
+        real = self.dtype
+        args = [*buffers, np.int32(table.shape[0]), real(wt.step_nm), tail_buf,
+                real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_MIN_BUDGET)]
+        self._series = (spec.content_hash, args)
+        return args
+
     def bake_rows(self, spec, y0, y1):
         import pyopencl as cl
 
@@ -192,10 +261,19 @@ class OpenCLBackend:
         out = np.empty((y1 - y0, width, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
         real = self.dtype
-        self.kernel(
-            self.queue, (cells,), None, *buffers, level_buf, real(spec.eta1), real(spec.eta2),
-            np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min),
-            out_buf)
+        args = [*buffers, level_buf, real(spec.eta1), real(spec.eta2),
+                np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min)]
+        if self.integrator == "direct":
+            self.kernel(self.queue, (cells,), None, *args, out_buf)
+        else:
+            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
+            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
+            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec),
+                               out_buf, terms_buf, bound_buf)
+            cl.enqueue_copy(self.queue, terms, terms_buf)
+            cl.enqueue_copy(self.queue, bound, bound_buf)
+            self.series_stats.add(terms, bound)
         cl.enqueue_copy(self.queue, out, out_buf)
         out_buf.release()
         level_buf.release()

@@ -177,6 +177,21 @@ inline REAL texel_reflectance(const Texel *t, REAL nu_hi, REAL nu_lo) {
     return (REAL)0.5 * (airy_r2(t->s, w, decay_factor) + airy_r2(t->p, w, decay_factor));
 }
 
+// RGB by the texel's spectral rule: Σ_j W_cj R(ν_j), compensated.
+inline void direct_rgb(const Texel *t, __global const REAL *nu_h, __global const REAL *nu_l,
+                       __global const REAL *wt, int n_nodes, __global REAL *rgb) {
+    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
+    for (int j = 0; j < n_nodes; ++j) {
+        const REAL refl = texel_reflectance(t, nu_h[j], nu_l[j]);
+        accumulate(&r, wt[j] * refl);
+        accumulate(&g, wt[n_nodes + j] * refl);
+        accumulate(&b, wt[2 * n_nodes + j] * refl);
+    }
+    rgb[0] = r.sum;
+    rgb[1] = g.sum;
+    rgb[2] = b.sum;
+}
+
 __kernel void bake_rows(
     __global const REAL *cos_axis,                            // N_cos
     __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
@@ -201,16 +216,7 @@ __kernel void bake_rows(
     const int first = n_nodes - n_min;
     __global const REAL *nu_h = nu_hi + first, *nu_l = nu_lo + first;
     __global const REAL *wt = weights + 3 * first;
-    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
-    for (int j = 0; j < n_nodes; ++j) {
-        const REAL refl = texel_reflectance(&t, nu_h[j], nu_l[j]);
-        accumulate(&r, wt[j] * refl);
-        accumulate(&g, wt[n_nodes + j] * refl);
-        accumulate(&b, wt[2 * n_nodes + j] * refl);
-    }
-    rgb_out[3 * gid + 0] = r.sum;
-    rgb_out[3 * gid + 1] = g.sum;
-    rgb_out[3 * gid + 2] = b.sum;
+    direct_rgb(&t, nu_h, nu_l, wt, n_nodes, rgb_out + 3 * gid);
 }
 
 // R at arbitrary (stack, wavenumber) points: one work-item per point. For
@@ -226,4 +232,135 @@ __kernel void reflectance_points(
     const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
                                 eta3[i], kappa3[i], eta1, eta2);
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
+}
+
+// ---------------------------------------------------------------------------
+// Fourier-series integration (lutbake/fourier.py, docs/spectral.md). Per
+// polarization |r|² = C0 + 2 Re Σ_m K q^{m−1} e^{i2πmXν}, so
+//     RGB_c = ½ Σ_pol [C0 Ŵ_c(0) + 2 Re Σ_m K q^{m−1} Ŵ_c(mX)],
+// Ŵ_c the Fourier transform of the colour weights, tabulated by the host as
+// quintic pieces of Ŵ_c(x)·e^{−i2πxν0} at x = k·h. Folding e^{i2πXν0} into
+// K and q (host: `turn`) makes each term one complex product and one table
+// evaluation. The host gives C0, K, q, 1 − |q| per (cos θ, η3, κ3) and X per
+// (cos θ, D), in float64 (lutbake.fourier.series_coefficients).
+
+typedef struct { CPLX k, q; REAL c0, one_minus_q; } SeriesPol;
+
+inline SeriesPol series_pol(__global const REAL *c) {
+    SeriesPol p = {(CPLX)(c[1], c[2]), (CPLX)(c[3], c[4]), c[0], c[5]};
+    return p;
+}
+
+// Bound on sup |Ŵ_c(y)| over y ≥ x, largest channel (tail: mass, edge, variation × 3).
+inline REAL weight_tail(__global const REAL *tail, REAL x) {
+    const REAL w = 2 * PI_R * x;
+    REAL best = 0;
+    for (int c = 0; c < 3; ++c)
+        best = fmax(best, fmin(tail[c], tail[3 + c] / w + tail[6 + c] / (w * w)));
+    return best;
+}
+
+// Σ_pol |K| |q|^m/(1 − |q|): the geometric factor of the remainder after m terms.
+inline REAL geometric_tail(SeriesPol s, SeriesPol p, REAL qs_m, REAL qp_m) {
+    const REAL ts = s.k.x == 0 && s.k.y == 0 ? (REAL)0 : length(s.k) * qs_m / s.one_minus_q;
+    const REAL tp = p.k.x == 0 && p.k.y == 0 ? (REAL)0 : length(p.k) * qp_m / p.one_minus_q;
+    return ts + tp;
+}
+
+// Demodulated Ŵ of the three channels at x = s·h (s within the table).
+inline void weight_transform(__global const REAL *table, int intervals, REAL s, CPLX out[3]) {
+    const int k = min((int)s, intervals - 1);
+    const REAL t = s - (REAL)k;
+    __global const REAL *c = table + 36 * k;      // [channel][power 0..5][re, im]
+    for (int ch = 0; ch < 3; ++ch, c += 12) {
+        CPLX v = (CPLX)(c[10], c[11]);
+        for (int j = 4; j >= 0; --j) v = v * t + (CPLX)(c[2 * j], c[2 * j + 1]);
+        out[ch] = v;
+    }
+}
+
+// The series for one texel. Returns its term count M, or −1 where the rule
+// gives the texel to the direct quadrature: out of scope (evanescent film:
+// one_minus_q < 0), the terms would leave the table, or more than `budget`
+// terms would be needed. It stops at the first M whose
+// remainder bound is ≤ tol; *bound gets that remainder plus the table's
+// interpolation error carried through the terms taken.
+inline int series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, __global const REAL *table, int intervals,
+                      REAL step, __global const REAL *tail, REAL interp, REAL tol, int budget,
+                      REAL rgb[3], REAL *bound) {
+    if (s.one_minus_q < 0) return -1;
+    const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
+    const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
+    if (x == 0) {   // Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1
+        CPLX a = (CPLX)(0, 0);
+        if (s.k.x != 0 || s.k.y != 0) a += c_div(s.k, (CPLX)(1 - s.q.x, -s.q.y));
+        if (p.k.x != 0 || p.k.y != 0) a += c_div(p.k, (CPLX)(1 - p.q.x, -p.q.y));
+        for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
+        *bound = 0;
+        return 0;
+    }
+    const REAL qs = length(s.q), qp = length(p.q);
+    const int cap = (int)fmin(floor(step * intervals / x), (REAL)budget);
+    if (geometric_tail(s, p, pow(qs, (REAL)cap), pow(qp, (REAL)cap)) * weight_tail(tail, (cap + 1) * x) > tol)
+        return -1;
+    const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
+    CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
+    REAL qs_m = 1, qp_m = 1, carried = 0;
+    REAL acc[3] = {0, 0, 0};
+    int m = 0;
+    REAL rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, x);
+    while (rest > tol && m < cap) {   // the bound met at cap: stops by then
+        ++m;
+        CPLX w[3];
+        weight_transform(table, intervals, m * x / step, w);
+        const CPLX a = ks + kp;
+        for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
+        carried += length(ks) + length(kp);
+        ks = c_mul(ks, qs_t);
+        kp = c_mul(kp, qp_t);
+        qs_m *= qs;
+        qp_m *= qp;
+        rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, (m + 1) * x);
+    }
+    for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
+    *bound = rest + carried * interp;
+    return m;
+}
+
+__kernel void bake_rows_series(
+    __global const REAL *cos_axis,
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo,
+    __global const REAL *opd_hi, __global const REAL *opd_lo,
+    __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
+    __global const REAL *nu_hi, __global const REAL *nu_lo,
+    __global const REAL *weights,
+    __global const int *levels,
+    const REAL eta1, const REAL eta2,
+    const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
+    __global const REAL *coefficients,   // per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each
+    __global const REAL *film,           // per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL)
+    __global const REAL *table, const int intervals, const REAL step,
+    __global const REAL *tail, const REAL interp, const REAL tol, const int min_budget,
+    __global REAL *rgb_out, __global int *terms_out, __global REAL *bound_out)
+{
+    const int gid = get_global_id(0);
+    const int x = gid % width, y = row0 + gid / width;
+    const int i_cos = x % n_cos, i_eta3 = x / n_cos;
+    const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
+    const int n_nodes = n_min << levels[gid];
+    __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos);
+    __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);
+    REAL rgb[3], bound = 0;
+    const int m = series_rgb(series_pol(co), series_pol(co + 6), f[0], (CPLX)(f[1], f[2]), table, intervals,
+                             step, tail, interp, tol, max(n_nodes, min_budget), rgb, &bound);
+    terms_out[gid] = m;
+    bound_out[gid] = bound;
+    if (m >= 0) {
+        for (int c = 0; c < 3; ++c) rgb_out[3 * gid + c] = rgb[c];
+        return;
+    }
+    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
+                                opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
+    const int first = n_nodes - n_min;
+    direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * gid);
 }
