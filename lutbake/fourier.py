@@ -36,7 +36,7 @@ from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from .optics import _stack_terms, normal_admittance
 
 __all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
-           "SeriesResult", "series_colour", "series_plan", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_MIN_BUDGET",
+           "SeriesResult", "series_colour", "series_plan", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
            "DEFAULT_SERIES_TOLERANCE"]
 
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
@@ -45,7 +45,7 @@ NU0_PER_NM = 0.5 * (NU_MIN_PER_NM + NU_MAX_PER_NM)   # demodulation: centre of t
 TABLE_STEP_NM = 25.0
 TABLE_MAX_NM = 4.0e5
 DEFAULT_SERIES_TOLERANCE = 1e-9   # per polarization: truncation bound on the dropped terms
-SERIES_MIN_BUDGET = 256           # terms the series may always take (the 16-node rules are only ~1e-6)
+SERIES_BUDGET = 512               # most terms a texel's series may take before the direct path is cheaper
 _NODES_PER_RADIAN = 3.0
 _X_BLOCK = 512
 
@@ -255,8 +255,8 @@ def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms):
     return np.sum(geometric, axis=0) * wt.tail_bound((terms + 1) * co.x_nm)
 
 
-def series_plan(co: SeriesCoefficients, wt: WeightTransform, direct_nodes,
-                tolerance: float = DEFAULT_SERIES_TOLERANCE):
+def series_plan(co: SeriesCoefficients, wt: WeightTransform, tolerance: float = DEFAULT_SERIES_TOLERANCE,
+                budget: int = SERIES_BUDGET):
     """Terms M per texel for the series, or −1 for the direct quadrature.
 
     The rule: the texel is in scope (propagating film), its
@@ -265,12 +265,12 @@ def series_plan(co: SeriesCoefficients, wt: WeightTransform, direct_nodes,
     terms than the direct rule has nodes (a term costs about what a node
     does). M is then the smallest count whose remainder bound is ≤ tolerance
     (X = 0: closed form, M = 0; at grazing incidence K = 0, so M = 0 and
-    R = C0 = 1). ``direct_nodes`` is per texel; the bake kernel runs this rule.
+    R = C0 = 1). The bake kernel runs this rule (series_terms in airy.cl).
     """
     n = co.x_nm.size
     with np.errstate(divide="ignore"):
         cap = np.where(co.x_nm > 0, np.floor(wt.x_max_nm / co.x_nm), 0.0)
-    cap = np.minimum(cap, np.maximum(np.asarray(direct_nodes, float), SERIES_MIN_BUDGET))
+    cap = np.minimum(cap, budget)
     ok = co.in_scope & (_remainder(co, wt, cap) <= tolerance)
     closed = co.in_scope & (co.x_nm == 0)
     lo, hi = np.zeros(n), np.where(ok & ~closed, cap, 0.0)
@@ -288,13 +288,13 @@ class SeriesResult:
     bound: np.ndarray    # (n,) enforced a-priori |ΔRGB| bound of the series (0 for direct texels)
 
 
-def series_colour(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, direct_nodes, observer="cie1931",
-                  space="rec709", basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE) -> SeriesResult:
+def series_colour(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, observer="cie1931", space="rec709",
+                  basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE, budget=SERIES_BUDGET) -> SeriesResult:
     """RGB of texels (flat arrays) by the series where the rule allows it, in float64."""
     cos_theta = np.asarray(cos_theta, float)
     wt = weight_transform(observer, space, basis)
     co = series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3)
-    terms = series_plan(co, wt, direct_nodes, tolerance)
+    terms = series_plan(co, wt, tolerance, budget)
     w0 = wt(np.zeros(1))[:, 0]
     # X = 0: Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1 (γ = 0).
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .fourier import DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_MIN_BUDGET, series_coefficients, weight_transform
+from .fourier import DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, weight_transform
 from .optics import film_reflectance, normal_admittance
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable"]
@@ -40,9 +40,38 @@ class NumpyBackend:
     name = "numpy"
     _CELLS_X_NODES = 2_000_000
 
+    def series_plan(self, spec) -> SeriesStats:
+        """The series rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+        import pyopencl as cl
+
+        if self.integrator == "direct":
+            return NumpyBackend.series_plan(spec)
+        stats = SeriesStats()
+        width, _ = spec.image_size
+        n_cos, n_opd, _, _ = spec.shape
+        mf = cl.mem_flags
+        for y0, y1 in spec.row_chunks():
+            cells = (y1 - y0) * width
+            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
+            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
+            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
+                             np.int32(y0), *self._series_buffers(spec), terms_buf, bound_buf)
+            cl.enqueue_copy(self.queue, terms, terms_buf)
+            cl.enqueue_copy(self.queue, bound, bound_buf)
+            stats.add(terms, bound)
+        return stats
+
     def bake_rows(self, spec, y0, y1):
         params = (a.ravel() for a in spec.cell_params(y0, y1))
         return self.evaluate(spec, *params).reshape(y1 - y0, -1, 3)
+
+    @staticmethod
+    def series_plan(spec) -> "SeriesStats":
+        """This path integrates every texel directly."""
+        stats = SeriesStats()
+        stats.add(np.full(spec.cells, -1), np.zeros(spec.cells))
+        return stats
 
     def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
         """RGB (n, 3) of texels given as flat parameter arrays."""
@@ -141,7 +170,7 @@ def _program(compute: str):
 
 
 class SeriesStats:
-    """What the series kernel did over a bake: its method mix and largest enforced bound."""
+    """The series rule over a bake: its method mix and largest enforced bound."""
 
     def __init__(self):
         self.series_texels = self.direct_texels = self.terms_total = self.terms_max = 0
@@ -199,11 +228,11 @@ class OpenCLBackend:
         self.ctx, program = _program(compute)
         self.kernel = cl.Kernel(program, "bake_rows")
         self.series_kernel = cl.Kernel(program, "bake_rows_series")
+        self.plan_kernel = cl.Kernel(program, "plan_rows")
         self.points_kernel = cl.Kernel(program, "reflectance_points")
         self.queue = cl.CommandQueue(self.ctx)
         self._static = None
         self._series = None
-        self.series_stats = SeriesStats()
 
     @property
     def device_name(self) -> str:
@@ -244,9 +273,31 @@ class OpenCLBackend:
         tail_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tail.astype(self.dtype))
         real = self.dtype
         args = [*buffers, np.int32(table.shape[0]), real(wt.step_nm), tail_buf,
-                real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_MIN_BUDGET)]
+                real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_BUDGET)]
         self._series = (spec.content_hash, args)
         return args
+
+    def series_plan(self, spec) -> SeriesStats:
+        """The series rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+        import pyopencl as cl
+
+        if self.integrator == "direct":
+            return NumpyBackend.series_plan(spec)
+        stats = SeriesStats()
+        width, _ = spec.image_size
+        n_cos, n_opd, _, _ = spec.shape
+        mf = cl.mem_flags
+        for y0, y1 in spec.row_chunks():
+            cells = (y1 - y0) * width
+            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
+            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
+            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
+                             np.int32(y0), *self._series_buffers(spec), terms_buf, bound_buf)
+            cl.enqueue_copy(self.queue, terms, terms_buf)
+            cl.enqueue_copy(self.queue, bound, bound_buf)
+            stats.add(terms, bound)
+        return stats
 
     def bake_rows(self, spec, y0, y1):
         import pyopencl as cl
@@ -266,14 +317,7 @@ class OpenCLBackend:
         if self.integrator == "direct":
             self.kernel(self.queue, (cells,), None, *args, out_buf)
         else:
-            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
-            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
-            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
-            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec),
-                               out_buf, terms_buf, bound_buf)
-            cl.enqueue_copy(self.queue, terms, terms_buf)
-            cl.enqueue_copy(self.queue, bound, bound_buf)
-            self.series_stats.add(terms, bound)
+            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         out_buf.release()
         level_buf.release()
@@ -311,12 +355,13 @@ class OpenCLBackend:
         return out.astype(np.float64).reshape(shape)
 
 
-def backend(name: str = "auto", compute: str = "float64"):
-    """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning)."""
+def backend(name: str = "auto", compute: str = "float64", integrator: str = "series"):
+    """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
+    ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend)."""
     if name == "numpy":
         return NumpyBackend()
     try:
-        return OpenCLBackend(compute)
+        return OpenCLBackend(compute, integrator)
     except (OpenCLUnavailable, ImportError) as exc:
         if name == "opencl":
             raise

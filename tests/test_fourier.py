@@ -9,7 +9,6 @@ from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
 from lutbake.spectral import panel_rule
 
-NO_COST_CAP = 1 << 20   # direct-rule node count that never vetoes the series
 
 
 def _transform_by_panels(x_nm, nodes_per_nm=64):
@@ -70,7 +69,7 @@ def _truth(eta1, eta2, t):
 
 def test_series_matches_the_ground_truth_on_random_texels(rng):
     t = _random_texels(rng, 300)
-    res = series_colour(1.0, 1.5, *t.values(), NO_COST_CAP)
+    res = series_colour(1.0, 1.5, *t.values())
     assert (res.terms >= 0).all()
     assert np.abs(res.values - _truth(1.0, 1.5, t)).max() <= 1e-8
     assert res.bound.max() <= 1e-8
@@ -80,7 +79,7 @@ def test_truncation_bound_is_honest_when_loose(rng):
     """With a loose tolerance the series stops early; its error stays within the recorded bound."""
     t = _random_texels(rng, 200)
     t["cos_theta"] = rng.uniform(0.02, 0.3, 200)   # high finesse: slow geometric decay
-    res = series_colour(1.0, 2.5, *t.values(), NO_COST_CAP, tolerance=1e-4)
+    res = series_colour(1.0, 2.5, *t.values(), tolerance=1e-4)
     ok = res.terms >= 0
     assert ok.sum() > 150
     err = np.abs(res.values[ok] - _truth(1.0, 2.5, t)[ok]).max(axis=1)
@@ -91,7 +90,7 @@ def test_truncation_bound_is_honest_when_loose(rng):
 def _one(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
     t = dict(cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]),
              kappa3=np.array([kappa3]))
-    return series_colour(eta1, eta2, *t.values(), NO_COST_CAP), _truth(eta1, eta2, t)
+    return series_colour(eta1, eta2, *t.values()), _truth(eta1, eta2, t)
 
 
 @pytest.mark.parametrize("name, stack, terms", [
@@ -118,8 +117,77 @@ def test_out_of_scope_texels_take_the_direct_path():
     evanescent, _ = _one(1.5, 1.2, 0.2, 1000.0, 1.5, 0.0)
     assert evanescent.terms[0] == -1 and np.isnan(evanescent.values).all()
     # |q| → 1 at a thick film: the table cannot carry the terms the bound needs
-    near_grazing = series_colour(1.0, 2.0, np.array([1e-4]), np.array([4000.0]), 2.0, 20.0, NO_COST_CAP)
+    near_grazing = series_colour(1.0, 2.0, np.array([1e-4]), np.array([4000.0]), 2.0, 20.0)
     assert near_grazing.terms[0] == -1
-    # cheaper by direct quadrature: the series is not picked
-    costly = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0, np.array([4]))
-    assert costly.terms[0] == -1
+    # more terms than the budget: the series is not picked
+    fine = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0)
+    costly = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0, budget=fine.terms[0] - 1)
+    assert fine.terms[0] > 1 and costly.terms[0] == -1
+
+
+# --- the bake kernel's series (kernels/airy.cl: bake_rows_series, plan_rows) ---
+
+def _random_grid(rng, **kw):
+    from lutbake.plan import Axis, BakeSpec
+
+    lo = [rng.uniform(0, 0.3), rng.uniform(0, 500), rng.uniform(1, 1.5), rng.uniform(0, 1)]
+    hi = [rng.uniform(0.7, 1.0), rng.uniform(2000, 6000), rng.uniform(2, 3.5), rng.uniform(2, 8)]
+    names, spacing = ["cos_theta", "opd_nm", "eta3", "kappa3"], ["sqrt", "uniform", "uniform", "sqrt"]
+    axes = tuple(Axis(n, a, b, c, s) for n, a, b, c, s in zip(names, lo, hi, (32, 64, 8, 8), spacing))
+    # 8 samples per cycle: the direct rule to ~1e-9, so it can referee the series at 1e-7
+    return BakeSpec(eta2=rng.uniform(1.2, 2.5), axes=axes, samples_per_cycle=8.0, **kw)
+
+
+@pytest.fixture(scope="module")
+def grid_spec():
+    return _random_grid(np.random.default_rng(12))
+
+
+@pytest.fixture(scope="module")
+def series_grid(grid_spec):
+    from lutbake.bake import bake_array
+
+    return bake_array(grid_spec, "opencl")
+
+
+def test_kernel_series_equals_the_direct_path_on_every_texel(grid_spec, series_grid):
+    from lutbake.bake import bake_array
+
+    direct = bake_array(grid_spec, "opencl", "direct")
+    assert np.max(np.abs(series_grid - direct)) <= 1e-7
+
+
+def test_kernel_rule_is_the_numpy_rule(grid_spec):
+    from lutbake.integrate import OpenCLBackend
+    from lutbake.fourier import series_plan
+
+    stats = OpenCLBackend("float64").series_plan(grid_spec)
+    params = [np.ravel(p) for p in grid_spec.cell_params(0, grid_spec.image_size[1])]
+    terms = series_plan(series_coefficients(grid_spec.eta1, grid_spec.eta2, *params), weight_transform())
+    assert stats.series_texels + stats.direct_texels == grid_spec.cells
+    assert abs(stats.series_texels - np.sum(terms >= 0)) <= grid_spec.cells // 10000
+    assert abs(stats.terms_total - terms[terms >= 0].sum()) <= grid_spec.cells // 1000
+    assert stats.series_texels > 0.9 * grid_spec.cells and 0 < stats.bound_rgb_max <= 1e-8
+
+
+def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid):
+    from dataclasses import replace
+
+    from lutbake.bake import bake_array
+
+    f32 = bake_array(replace(grid_spec, compute="float32"), "opencl")
+    assert np.max(np.abs(f32 - series_grid)) <= 2e-5
+
+
+def test_kernel_falls_back_to_the_direct_path_for_evanescent_films():
+    from lutbake.bake import bake_array
+    from lutbake.integrate import OpenCLBackend
+    from lutbake.plan import Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
+    spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes, samples_per_cycle=8.0)
+    stats = OpenCLBackend("float64").series_plan(spec)
+    # cos θ1 < √(1 − (1.2/1.5)²) = 0.6: evanescent film, 9 of 16 cos θ nodes
+    assert stats.direct_texels >= 9 * 16 * 16
+    assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7

@@ -279,54 +279,89 @@ inline void weight_transform(__global const REAL *table, int intervals, REAL s, 
     }
 }
 
-// The series for one texel. Returns its term count M, or −1 where the rule
-// gives the texel to the direct quadrature: out of scope (evanescent film:
-// one_minus_q < 0), the terms would leave the table, or more than `budget`
-// terms would be needed. It stops at the first M whose
-// remainder bound is ≤ tol; *bound gets that remainder plus the table's
-// interpolation error carried through the terms taken.
-inline int series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, __global const REAL *table, int intervals,
-                      REAL step, __global const REAL *tail, REAL interp, REAL tol, int budget,
-                      REAL rgb[3], REAL *bound) {
+// The rule for one texel: its term count M, or −1 where the texel goes to
+// the direct quadrature: out of scope (evanescent film: one_minus_q < 0),
+// the terms would leave the table, or more than `budget` would be needed.
+// M is the first count whose remainder bound is ≤ tol (X = 0: closed form,
+// M = 0); *bound gets that remainder plus the table's interpolation error
+// carried through the M terms. Only bounds are evaluated here (no table
+// reads), so `plan_rows` reports a bake's method mix before it runs.
+inline int series_terms(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
+                        REAL tol, int budget, REAL *bound) {
+    *bound = 0;
     if (s.one_minus_q < 0) return -1;
-    const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
-    const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
-    if (x == 0) {   // Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1
-        CPLX a = (CPLX)(0, 0);
-        if (s.k.x != 0 || s.k.y != 0) a += c_div(s.k, (CPLX)(1 - s.q.x, -s.q.y));
-        if (p.k.x != 0 || p.k.y != 0) a += c_div(p.k, (CPLX)(1 - p.q.x, -p.q.y));
-        for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
-        *bound = 0;
-        return 0;
-    }
+    if (x == 0) return 0;
     const REAL qs = length(s.q), qp = length(p.q);
-    const int cap = (int)fmin(floor(step * intervals / x), (REAL)budget);
+    const int cap = (int)fmin(floor(x_max / x), (REAL)budget);
     if (geometric_tail(s, p, pow(qs, (REAL)cap), pow(qp, (REAL)cap)) * weight_tail(tail, (cap + 1) * x) > tol)
         return -1;
-    const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
-    CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
     REAL qs_m = 1, qp_m = 1, carried = 0;
-    REAL acc[3] = {0, 0, 0};
-    int m = 0;
     REAL rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, x);
-    while (rest > tol && m < cap) {   // the bound met at cap: stops by then
+    int m = 0;
+    while (rest > tol && m < cap) {   // the bound is met at cap: stops by then
         ++m;
-        CPLX w[3];
-        weight_transform(table, intervals, m * x / step, w);
-        const CPLX a = ks + kp;
-        for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
-        carried += length(ks) + length(kp);
-        ks = c_mul(ks, qs_t);
-        kp = c_mul(kp, qp_t);
+        carried += length(s.k) * qs_m + length(p.k) * qp_m;
         qs_m *= qs;
         qp_m *= qp;
         rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, (m + 1) * x);
     }
-    for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
     *bound = rest + carried * interp;
     return m;
 }
 
+// RGB by the series' first M terms (X = 0: summed in closed form).
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, __global const REAL *table,
+                       int intervals, REAL step, __global REAL *rgb) {
+    const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
+    const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
+    REAL acc[3] = {0, 0, 0};
+    if (x == 0) {   // Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1
+        CPLX a = (CPLX)(0, 0);
+        if (s.k.x != 0 || s.k.y != 0) a += c_div(s.k, (CPLX)(1 - s.q.x, -s.q.y));
+        if (p.k.x != 0 || p.k.y != 0) a += c_div(p.k, (CPLX)(1 - p.q.x, -p.q.y));
+        for (int c = 0; c < 3; ++c) acc[c] = a.x * w0[c];
+    }
+    const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
+    CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
+    for (int m = 1; m <= terms; ++m) {
+        CPLX w[3];
+        weight_transform(table, intervals, m * x / step, w);
+        const CPLX a = ks + kp;
+        for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
+        ks = c_mul(ks, qs_t);
+        kp = c_mul(kp, qp_t);
+    }
+    for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
+}
+
+#define SERIES_ARGS \
+    __global const REAL *coefficients, /* per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each */ \
+    __global const REAL *film,         /* per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL) */           \
+    __global const REAL *table, const int intervals, const REAL step,                             \
+    __global const REAL *tail, const REAL interp, const REAL tol, const int budget
+
+// The texel's series constants, X and rule (shared by both kernels below).
+#define SERIES_TEXEL                                                                              \
+    const int x = gid % width, y = row0 + gid / width;                                           \
+    const int i_cos = x % n_cos, i_eta3 = x / n_cos;                                              \
+    const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
+    __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
+    __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);                                  \
+    const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
+    REAL bound;                                                                                    \
+    const int m = series_terms(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
+
+// The rule's outcome per texel of a band of rows: terms (−1: direct) and bound.
+__kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                        __global int *terms_out, __global REAL *bound_out)
+{
+    const int gid = get_global_id(0);
+    SERIES_TEXEL
+    terms_out[gid] = m;
+    bound_out[gid] = bound;
+}
+
+// bake_rows with the series wherever its rule allows, the direct quadrature elsewhere.
 __kernel void bake_rows_series(
     __global const REAL *cos_axis,
     __global const REAL *cos2_hi, __global const REAL *cos2_lo,
@@ -337,30 +372,17 @@ __kernel void bake_rows_series(
     __global const int *levels,
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    __global const REAL *coefficients,   // per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each
-    __global const REAL *film,           // per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL)
-    __global const REAL *table, const int intervals, const REAL step,
-    __global const REAL *tail, const REAL interp, const REAL tol, const int min_budget,
-    __global REAL *rgb_out, __global int *terms_out, __global REAL *bound_out)
+    SERIES_ARGS, __global REAL *rgb_out)
 {
     const int gid = get_global_id(0);
-    const int x = gid % width, y = row0 + gid / width;
-    const int i_cos = x % n_cos, i_eta3 = x / n_cos;
-    const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
-    const int n_nodes = n_min << levels[gid];
-    __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos);
-    __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);
-    REAL rgb[3], bound = 0;
-    const int m = series_rgb(series_pol(co), series_pol(co + 6), f[0], (CPLX)(f[1], f[2]), table, intervals,
-                             step, tail, interp, tol, max(n_nodes, min_budget), rgb, &bound);
-    terms_out[gid] = m;
-    bound_out[gid] = bound;
+    SERIES_TEXEL
     if (m >= 0) {
-        for (int c = 0; c < 3; ++c) rgb_out[3 * gid + c] = rgb[c];
+        series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), m, table, intervals, step, rgb_out + 3 * gid);
         return;
     }
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
                                 opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
+    const int n_nodes = n_min << levels[gid];
     const int first = n_nodes - n_min;
     direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * gid);
 }
