@@ -140,12 +140,13 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
     } | ({"integrator": integrator_metadata(series)} if series is not None else {})
 
 
-def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None) -> BakeResult:
+def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
+         integrator: str = "series") -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes."""
     out_path = Path(out_path)
     _check_writable(out_path)
     start = time.perf_counter()
-    integrator = make_backend(backend, spec.compute)
+    integrator = make_backend(backend, spec.compute, integrator)
     error = spectral_error(spec)
     capped = capped_error(spec)
     meta = metadata(spec, error, capped, integrator.series_plan(spec).describe())

@@ -52,14 +52,14 @@ class NumpyBackend:
         mf = cl.mem_flags
         for y0, y1 in spec.row_chunks():
             cells = (y1 - y0) * width
-            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
-            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
+            cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
             bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
             self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
-                             np.int32(y0), *self._series_buffers(spec), terms_buf, bound_buf)
-            cl.enqueue_copy(self.queue, terms, terms_buf)
+                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
+            cl.enqueue_copy(self.queue, cap, cap_buf)
             cl.enqueue_copy(self.queue, bound, bound_buf)
-            stats.add(terms, bound)
+            stats.add(cap, bound)
         return stats
 
     def bake_rows(self, spec, y0, y1):
@@ -170,24 +170,21 @@ def _program(compute: str):
 
 
 class SeriesStats:
-    """The series rule over a bake: its method mix and largest enforced bound."""
+    """The series rule over a bake: its method mix and the largest a-priori bound it enforces."""
 
     def __init__(self):
-        self.series_texels = self.direct_texels = self.terms_total = self.terms_max = 0
+        self.series_texels = self.direct_texels = 0
         self.bound_rgb_max = 0.0
 
-    def add(self, terms, bound):
-        taken = terms >= 0
+    def add(self, cap, bound):
+        taken = cap >= 0
         self.series_texels += int(taken.sum())
-        self.direct_texels += int(terms.size - taken.sum())
-        self.terms_total += int(terms[taken].sum())
-        self.terms_max = max(self.terms_max, int(terms.max(initial=0)))
+        self.direct_texels += int(cap.size - taken.sum())
         self.bound_rgb_max = max(self.bound_rgb_max, float(bound[taken].max(initial=0.0)))
 
     def describe(self) -> dict:
         return {"series_texels": self.series_texels, "direct_texels": self.direct_texels,
-                "terms_mean": self.terms_total / max(self.series_texels, 1), "terms_max": self.terms_max,
-                "bound_rgb_max": self.bound_rgb_max}
+                "series_bound_rgb_max": self.bound_rgb_max}
 
 
 def _series_arrays(spec):
@@ -266,7 +263,7 @@ class OpenCLBackend:
             return self._series[1]
         wt = weight_transform(spec.observer, spec.space)
         table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
-        tail = np.concatenate([wt.mass, wt.edge, wt.variation])
+        tail = np.array([wt.mass.max(), wt.edge.max(), wt.variation.max()])
         mf = cl.mem_flags
         buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
                    for a in (*_series_arrays(spec), table)]
@@ -289,14 +286,14 @@ class OpenCLBackend:
         mf = cl.mem_flags
         for y0, y1 in spec.row_chunks():
             cells = (y1 - y0) * width
-            terms, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
-            terms_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, terms.nbytes)
+            cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
             bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
             self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
-                             np.int32(y0), *self._series_buffers(spec), terms_buf, bound_buf)
-            cl.enqueue_copy(self.queue, terms, terms_buf)
+                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
+            cl.enqueue_copy(self.queue, cap, cap_buf)
             cl.enqueue_copy(self.queue, bound, bound_buf)
-            stats.add(terms, bound)
+            stats.add(cap, bound)
         return stats
 
     def bake_rows(self, spec, y0, y1):

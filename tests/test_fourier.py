@@ -166,8 +166,7 @@ def test_kernel_rule_is_the_numpy_rule(grid_spec):
     terms = series_plan(series_coefficients(grid_spec.eta1, grid_spec.eta2, *params), weight_transform())
     assert stats.series_texels + stats.direct_texels == grid_spec.cells
     assert abs(stats.series_texels - np.sum(terms >= 0)) <= grid_spec.cells // 10000
-    assert abs(stats.terms_total - terms[terms >= 0].sum()) <= grid_spec.cells // 1000
-    assert stats.series_texels > 0.9 * grid_spec.cells and 0 < stats.bound_rgb_max <= 1e-8
+    assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bound_rgb_max <= 1e-7
 
 
 def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid):

@@ -251,20 +251,27 @@ inline SeriesPol series_pol(__global const REAL *c) {
     return p;
 }
 
-// Bound on sup |Ŵ_c(y)| over y ≥ x, largest channel (tail: mass, edge, variation × 3).
-inline REAL weight_tail(__global const REAL *tail, REAL x) {
-    const REAL w = 2 * PI_R * x;
-    REAL best = 0;
-    for (int c = 0; c < 3; ++c)
-        best = fmax(best, fmin(tail[c], tail[3 + c] / w + tail[6 + c] / (w * w)));
-    return best;
+// A texel's remainder bound after m terms, Σ_pol |K| |q|^m/(1 − |q|) · sup_{y ≥ (m+1)X} |Ŵ(y)|,
+// with sup |Ŵ(y)| ≤ min(mass, edge/(2πy) + variation/(2πy)²) (tail: those three, largest channel).
+// Everything but |q|^m is hoisted: the rule's loop is latency-bound scalar code.
+typedef struct { REAL as, ap, qs, qp, mass, edge, variation, inv_2pi_x; } Remainder;
+
+inline Remainder remainder_setup(SeriesPol s, SeriesPol p, REAL x, __global const REAL *tail) {
+    Remainder r;
+    r.as = s.k.x == 0 && s.k.y == 0 ? (REAL)0 : length(s.k) / s.one_minus_q;
+    r.ap = p.k.x == 0 && p.k.y == 0 ? (REAL)0 : length(p.k) / p.one_minus_q;
+    r.qs = length(s.q);
+    r.qp = length(p.q);
+    r.mass = tail[0];
+    r.edge = tail[1];
+    r.variation = tail[2];
+    r.inv_2pi_x = 1 / (2 * PI_R * x);
+    return r;
 }
 
-// Σ_pol |K| |q|^m/(1 − |q|): the geometric factor of the remainder after m terms.
-inline REAL geometric_tail(SeriesPol s, SeriesPol p, REAL qs_m, REAL qp_m) {
-    const REAL ts = s.k.x == 0 && s.k.y == 0 ? (REAL)0 : length(s.k) * qs_m / s.one_minus_q;
-    const REAL tp = p.k.x == 0 && p.k.y == 0 ? (REAL)0 : length(p.k) * qp_m / p.one_minus_q;
-    return ts + tp;
+inline REAL remainder_after(const Remainder *r, REAL qs_m, REAL qp_m, int m) {
+    const REAL u = r->inv_2pi_x / (REAL)(m + 1);   // 1/(2πy), y = (m+1)X
+    return (r->as * qs_m + r->ap * qp_m) * fmin(r->mass, (r->edge + r->variation * u) * u);
 }
 
 // Demodulated Ŵ of the three channels at x = s·h (s within the table).
@@ -279,39 +286,32 @@ inline void weight_transform(__global const REAL *table, int intervals, REAL s, 
     }
 }
 
-// The rule for one texel: its term count M, or −1 where the texel goes to
-// the direct quadrature: out of scope (evanescent film: one_minus_q < 0),
-// the terms would leave the table, or more than `budget` would be needed.
-// M is the first count whose remainder bound is ≤ tol (X = 0: closed form,
-// M = 0); *bound gets that remainder plus the table's interpolation error
-// carried through the M terms. Only bounds are evaluated here (no table
-// reads), so `plan_rows` reports a bake's method mix before it runs.
-inline int series_terms(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
-                        REAL tol, int budget, REAL *bound) {
+// The rule for one texel: the most terms it may take (cap ≥ 0), or −1 where
+// it goes to the direct quadrature: out of scope (evanescent film:
+// one_minus_q < 0), or the remainder bound is not ≤ tol within the table
+// (M·X ≤ x_max) and `budget` terms. Closed form (no loop), so `plan_rows`
+// reports a bake's method mix before it runs. *bound gets the a-priori bound
+// the series then enforces: tol plus the table's interpolation error carried
+// through at most min(cap, 1/(1 − |q|)) terms of size |K|.
+inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
+                      REAL tol, int budget, REAL *bound) {
     *bound = 0;
     if (s.one_minus_q < 0) return -1;
     if (x == 0) return 0;
-    const REAL qs = length(s.q), qp = length(p.q);
+    const Remainder r = remainder_setup(s, p, x, tail);
     const int cap = (int)fmin(floor(x_max / x), (REAL)budget);
-    if (geometric_tail(s, p, pow(qs, (REAL)cap), pow(qp, (REAL)cap)) * weight_tail(tail, (cap + 1) * x) > tol)
-        return -1;
-    REAL qs_m = 1, qp_m = 1, carried = 0;
-    REAL rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, x);
-    int m = 0;
-    while (rest > tol && m < cap) {   // the bound is met at cap: stops by then
-        ++m;
-        carried += length(s.k) * qs_m + length(p.k) * qp_m;
-        qs_m *= qs;
-        qp_m *= qp;
-        rest = geometric_tail(s, p, qs_m, qp_m) * weight_tail(tail, (m + 1) * x);
-    }
-    *bound = rest + carried * interp;
-    return m;
+    // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
+    const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qs)), qp_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qp));
+    if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
+    *bound = tol + interp * (length(s.k) * fmin((REAL)cap, 1 / s.one_minus_q)
+                             + length(p.k) * fmin((REAL)cap, 1 / p.one_minus_q));
+    return cap;
 }
 
-// RGB by the series' first M terms (X = 0: summed in closed form).
-inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, __global const REAL *table,
-                       int intervals, REAL step, __global REAL *rgb) {
+// RGB by the series, term by term until the remainder bound is ≤ tol (by
+// `cap` terms at the latest); X = 0 sums it in closed form.
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __global const REAL *table,
+                       int intervals, REAL step, __global const REAL *tail, REAL tol, __global REAL *rgb) {
     const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
     const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
     REAL acc[3] = {0, 0, 0};
@@ -319,17 +319,23 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, _
         CPLX a = (CPLX)(0, 0);
         if (s.k.x != 0 || s.k.y != 0) a += c_div(s.k, (CPLX)(1 - s.q.x, -s.q.y));
         if (p.k.x != 0 || p.k.y != 0) a += c_div(p.k, (CPLX)(1 - p.q.x, -p.q.y));
-        for (int c = 0; c < 3; ++c) acc[c] = a.x * w0[c];
+        for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
+        return;
     }
+    const Remainder r = remainder_setup(s, p, x, tail);
+    const REAL x_step = x / step;
     const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
     CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
-    for (int m = 1; m <= terms; ++m) {
+    REAL qs_m = 1, qp_m = 1;
+    for (int m = 1; m <= cap && remainder_after(&r, qs_m, qp_m, m - 1) > tol; ++m) {
         CPLX w[3];
-        weight_transform(table, intervals, m * x / step, w);
+        weight_transform(table, intervals, m * x_step, w);
         const CPLX a = ks + kp;
         for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
         ks = c_mul(ks, qs_t);
         kp = c_mul(kp, qp_t);
+        qs_m *= r.qs;
+        qp_m *= r.qp;
     }
     for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
 }
@@ -338,7 +344,7 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, _
     __global const REAL *coefficients, /* per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each */ \
     __global const REAL *film,         /* per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL) */           \
     __global const REAL *table, const int intervals, const REAL step,                             \
-    __global const REAL *tail, const REAL interp, const REAL tol, const int budget
+    __global const REAL *tail, const REAL interp, const REAL tol, const int budget  /* tail: mass, edge, variation */
 
 // The texel's series constants, X and rule (shared by both kernels below).
 #define SERIES_TEXEL                                                                              \
@@ -349,15 +355,15 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, _
     __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);                                  \
     const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
     REAL bound;                                                                                    \
-    const int m = series_terms(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
+    const int cap = series_cap(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
 
-// The rule's outcome per texel of a band of rows: terms (−1: direct) and bound.
+// The rule's outcome per texel of a band of rows: term cap (−1: direct) and a-priori bound.
 __kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                        __global int *terms_out, __global REAL *bound_out)
+                        __global int *cap_out, __global REAL *bound_out)
 {
     const int gid = get_global_id(0);
     SERIES_TEXEL
-    terms_out[gid] = m;
+    cap_out[gid] = cap;
     bound_out[gid] = bound;
 }
 
@@ -376,8 +382,8 @@ __kernel void bake_rows_series(
 {
     const int gid = get_global_id(0);
     SERIES_TEXEL
-    if (m >= 0) {
-        series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), m, table, intervals, step, rgb_out + 3 * gid);
+    if (cap >= 0) {
+        series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, table, intervals, step, tail, tol, rgb_out + 3 * gid);
         return;
     }
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
