@@ -17,7 +17,8 @@ def test_lutbake_check_passes_and_reports_every_case():
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr
     doc = json.loads(out.stdout)
     groups = {c["group"] for c in doc["checks"]}
-    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation"}
+    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation",
+                      "fourier series"}
     for c in doc["checks"]:
         assert {"value", "reference", "error", "tolerance", "passed"} <= set(c)
         assert c["passed"] and np.isfinite(c["value"])
