@@ -40,28 +40,6 @@ class NumpyBackend:
     name = "numpy"
     _CELLS_X_NODES = 2_000_000
 
-    def series_plan(self, spec) -> SeriesStats:
-        """The series rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
-        import pyopencl as cl
-
-        if self.integrator == "direct":
-            return NumpyBackend.series_plan(spec)
-        stats = SeriesStats()
-        width, _ = spec.image_size
-        n_cos, n_opd, _, _ = spec.shape
-        mf = cl.mem_flags
-        for y0, y1 in spec.row_chunks():
-            cells = (y1 - y0) * width
-            cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
-            cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
-            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
-            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
-                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
-            cl.enqueue_copy(self.queue, cap, cap_buf)
-            cl.enqueue_copy(self.queue, bound, bound_buf)
-            stats.add(cap, bound)
-        return stats
-
     def bake_rows(self, spec, y0, y1):
         params = (a.ravel() for a in spec.cell_params(y0, y1))
         return self.evaluate(spec, *params).reshape(y1 - y0, -1, 3)
