@@ -101,9 +101,9 @@ def capped_error(spec: BakeSpec) -> tuple:
     return count, bound, _error_at(spec, *texels)
 
 
-def integrator_metadata(series: dict) -> dict:
+def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
     """The per-texel choice of integrator: the series' rule and its outcome over the grid."""
-    wt = weight_transform()
+    wt = weight_transform(spec.observer, spec.space)
     return {"rule": "fourier-series where in scope and within budget, else the direct spectral rule",
             "series_tolerance_per_polarization": DEFAULT_SERIES_TOLERANCE, "series_budget_terms": SERIES_BUDGET,
             "table_step_nm": wt.step_nm, "table_max_nm": wt.x_max_nm,
@@ -137,7 +137,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
         "precision": spec.precision,
         "compute": spec.compute,
         "channels": ["R", "G", "B"],
-    } | ({"integrator": integrator_metadata(series)} if series is not None else {})
+    } | ({"integrator": integrator_metadata(spec, series)} if series is not None else {})
 
 
 def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,

@@ -190,3 +190,13 @@ def test_kernel_falls_back_to_the_direct_path_for_evanescent_films():
     # cos θ1 < √(1 − (1.2/1.5)²) = 0.6: evanescent film, 9 of 16 cos θ nodes
     assert stats.direct_texels >= 9 * 16 * 16
     assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
+
+
+def test_kernel_series_for_another_observer_and_space():
+    from lutbake.bake import bake_array
+    from lutbake.plan import Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 16),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 5.0, 4))
+    spec = BakeSpec(eta2=1.7, axes=axes, observer="cie1964", space="acescg", samples_per_cycle=8.0)
+    assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
