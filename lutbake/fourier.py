@@ -36,7 +36,7 @@ from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from .optics import _stack_terms, normal_admittance
 
 __all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
-           "SeriesResult", "series_colour", "series_plan", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
+           "SeriesResult", "series_colour", "series_plan", "NU0_PER_NM", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
            "DEFAULT_SERIES_TOLERANCE"]
 
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
@@ -260,13 +260,13 @@ def series_plan(co: SeriesCoefficients, wt: WeightTransform, tolerance: float = 
                 budget: int = SERIES_BUDGET):
     """Terms M per texel for the series, or −1 for the direct quadrature.
 
-    The rule: the texel is in scope (propagating film), its
-    terms stay inside the table (M·X ≤ x_max), the remainder bound after the
-    last term table-allows is ≤ ``tolerance``, and the series needs no more
-    terms than the direct rule has nodes (a term costs about what a node
-    does). M is then the smallest count whose remainder bound is ≤ tolerance
-    (X = 0: closed form, M = 0; at grazing incidence K = 0, so M = 0 and
-    R = C0 = 1). The bake kernel runs this rule (series_terms in airy.cl).
+    The rule: the texel is in scope (propagating film) and its remainder
+    bound is ≤ ``tolerance`` within min(x_max/X, ``budget``) terms (inside
+    the table; texels needing hundreds of terms are the high-finesse ones,
+    whose direct rules are long too). M is then the smallest count whose
+    remainder bound is ≤ tolerance (X = 0: closed form, M = 0; at grazing
+    incidence K = 0, so M = 0 and R = C0 = 1). The bake kernel runs the same
+    rule (series_cap and series_rgb in kernels/airy.cl).
     """
     n = co.x_nm.size
     with np.errstate(divide="ignore"):

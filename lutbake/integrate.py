@@ -1,12 +1,14 @@
 """Integrate a bake plan to RGB, band by band: the OpenCL kernel or the numpy path.
 
-Both evaluate the same spectral rule (spectral.wavenumber_rule) for every
-texel of a band of image rows and return an array (rows, width, 3):
+Both return the RGB of every texel of a band of image rows, an array
+(rows, width, 3):
 
 * ``OpenCLBackend`` runs kernels/airy.cl through pyopencl, by default on
   PoCL's CPU device from PyPI; ``PYOPENCL_CTX`` picks any other platform
   (a GPU's driver runs the same source unchanged). The program is built
-  once per process and compute precision.
+  once per process and compute precision. By default each texel is summed
+  as the exact Fourier series (lutbake/fourier.py) where its rule allows,
+  and integrated by the spectral rule elsewhere.
 * ``NumpyBackend`` evaluates optics.film_reflectance (the ground truth's
   float64 physics) at the rule's nodes: the reference for the kernel in
   tests, and the fallback where no OpenCL platform exists.
