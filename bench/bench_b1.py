@@ -1,22 +1,25 @@
-"""Benchmark B1 (DESIGN.md): the kernel path against the numpy path, in one run.
+"""Benchmark B1 (docs/spectral.md): the kernel's series and direct paths on every OpenCL
+runtime, and an independent numpy integration at 2 nm, in one run.
 
     python bench/bench_b1.py [--points 1000] [--seed 1] [--json FILE] [--skip-numpy]
 
 Grid: η1 = 1, η2 = 1.5; cos θ ∈ [0, 1] × 64, D ∈ [0, 4000] nm × 256,
 η3 ∈ [1, 3] × 16, κ3 ∈ [0, 5] × 16 (4.19 M cells), Rec.709, CIE 1931 2°.
 Each path bakes in its own subprocess (so peak RSS is its own) and reports
-cells/s, wall time and peak RSS; the ratio between paths is the figure that
-survives a noisy machine. Accuracy: the kernel's LUT, sampled through the
-reference sampler at random in-range points, against the ground truth
-(max and p99 ΔE00, max |ΔRGB|), plus the largest difference between the two
-paths' LUTs.
+cells/s, the bake's wall time, the whole process's wall time (interpreter
+start and imports included, what `lutbake bake` costs) and peak RSS. The
+numpy path evaluates optics.film_reflectance at 360, 362, …, 830 nm with
+trapezoid weights: a straightforward independent integration. Accuracy: the
+baked texels (not interpolated points) at random grid nodes and on a stiff
+grid (thick films near grazing incidence over metals and over a base that
+reflects totally), against the ground truth (reference.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import resource
+import os
 import subprocess
 import sys
 import tempfile
@@ -25,61 +28,106 @@ from pathlib import Path
 
 import numpy as np
 
-B1 = ["--eta2", "1.5", "--eta1", "1.0", "--cos-theta", "0:1:64", "--opd", "0:4000:256",
-      "--eta3", "1:3:16", "--kappa3", "0:5:16", "--space", "rec709", "--observer", "cie1931"]
+B1_AXES = ("0:1:64", "0:4000:256", "1:3:16", "0:5:16")
+STIFF = dict(eta2=2.5, axes=("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4"))
 
 
-def child(backend: str, out: str, compute: str) -> None:
-    """Bake B1 with one backend and print a JSON line (run in a fresh process)."""
+def _spec(eta2, axes, compute="float64"):
+    from lutbake.plan import AXIS_NAMES, BakeSpec, parse_axis
+
+    return BakeSpec(eta2=eta2, compute=compute, axes=tuple(parse_axis(n, a) for n, a in zip(AXIS_NAMES, axes)))
+
+
+def numpy_2nm(spec, out: str) -> None:
+    """RGB of every texel by R at 2 nm steps and trapezoid weights; saved as .npy."""
+    from lutbake.colorimetry import colorimetry
+    from lutbake.optics import film_reflectance
+
+    lam = np.arange(360.0, 830.1, 2.0)
+    quad = np.full(lam.size, 2.0)
+    quad[[0, -1]] = 1.0
+    weights = colorimetry(spec.observer, spec.space).sensitivity(lam) * quad
+    height = spec.image_size[1]
+    image = np.concatenate([_rows_2nm(spec, y0, y1, lam, weights, film_reflectance)
+                            for y0, y1 in spec.row_chunks(1 << 14)])
+    np.save(out, image.reshape(height, -1, 3))
+
+
+def _rows_2nm(spec, y0, y1, lam, weights, film_reflectance):
+    cos_t, opd, eta3, kappa3 = (np.ravel(p)[:, None] for p in spec.cell_params(y0, y1))
+    refl = film_reflectance(spec.eta1, spec.eta2, eta3, kappa3, cos_t, opd / (2 * spec.eta2), lam)[2]
+    return refl @ weights.T
+
+
+def child(path: str, out: str, compute: str, grid: str) -> None:
+    """Bake one grid with one path and print a JSON line (run in a fresh process)."""
+    import resource
+
     from lutbake.bake import bake
-    from lutbake.plan import BakeSpec, parse_axis
 
-    spec = BakeSpec(eta2=1.5, compute=compute, axes=(
-        parse_axis("cos_theta", "0:1:64"), parse_axis("opd_nm", "0:4000:256"),
-        parse_axis("eta3", "1:3:16"), parse_axis("kappa3", "0:5:16")))
+    spec = _spec(1.5, B1_AXES, compute) if grid == "b1" else _spec(STIFF["eta2"], STIFF["axes"], compute)
     start = time.perf_counter()
-    result = bake(spec, out, backend)
+    row = {"path": path, "compute": compute}
+    if path == "numpy-2nm":
+        numpy_2nm(spec, out)
+    else:
+        bake(spec, out, "opencl", integrator=path)
+        sidecar = json.loads(Path(out).with_suffix(".json").read_text())
+        row["device"] = sidecar["baked_on"]["device"]
+        row["integrator"] = sidecar["integrator"]
     wall = time.perf_counter() - start
-    device = ""
-    if result.backend == "opencl":
-        from lutbake.integrate import OpenCLBackend
-        device = OpenCLBackend(compute).device_name
-    print(json.dumps({"backend": result.backend, "compute": compute, "device": device,
-                      "cells": result.cells, "wall_s": wall, "cells_per_s": result.cells / wall,
-                      "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
+    row.update(cells=spec.cells, wall_s=wall, cells_per_s=spec.cells / wall,
+               peak_rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    print(json.dumps(row))
 
 
-def run_path(backend: str, out: Path, compute: str = "float64") -> dict:
-    proc = subprocess.run([sys.executable, __file__, "--child", backend, "--out", str(out),
-                           "--compute", compute], capture_output=True, text=True)
+def run_path(path: str, out: Path, compute: str = "float64", device: str = "", grid: str = "b1") -> dict:
+    env = dict(os.environ, LUTBAKE_DEVICE=device) if device else os.environ
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, __file__, "--child", path, "--out", str(out), "--compute", compute,
+                           "--grid", grid], capture_output=True, text=True, env=env)
     if proc.returncode:
-        raise SystemExit(f"{backend} bake failed: {proc.stderr.strip()}")
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+        raise SystemExit(f"{path} bake failed: {proc.stderr.strip()}")
+    row = json.loads(proc.stdout.strip().splitlines()[-1])
+    row["process_wall_s"] = time.perf_counter() - start
+    return row
 
 
-def accuracy(lut_path: Path, n_points: int, seed: int) -> dict:
-    from lutbake.colorimetry import delta_e00
-    from lutbake.points import FilmPoints
-    from lutbake.reference import reference_colour
+def devices() -> list:
+    """Keys of the OpenCL devices that build the kernel (lutbake devices), the default first."""
+    from lutbake.integrate import OpenCLUnavailable, _program, device_key, opencl_devices
+
+    return [device_key(d) for d in opencl_devices() if not isinstance(_program(d, "float64"), OpenCLUnavailable)]
+
+
+def _image(path: Path) -> np.ndarray:
     from lutbake.sample import Lut
 
-    lut = Lut.load(lut_path)
+    return np.load(path) if path.suffix == ".npy" else Lut.load(path).image.astype(float)
+
+
+def texel_error(images: dict, spec, n_points: int, seed: int) -> dict:
+    """max |ΔRGB| of each image against the ground truth at random texels (all texels if fewer)."""
+    from lutbake.points import FilmPoints
+    from lutbake.reference import reference_colour
+
+    width, height = spec.image_size
     rng = np.random.default_rng(seed)
-    params = [rng.uniform(a.lo, a.hi, n_points) for a in lut.axes]
-    pts = FilmPoints.build(eta2=lut.eta2, cos_theta=params[0], opd_nm=params[1], eta3=params[2],
-                           kappa3=params[3])
-    truth = reference_colour(pts).values
-    got = lut.sample(*params)
-    de = delta_e00(got, truth)
-    return {"points": n_points, "seed": seed, "de00_max": float(de.max()),
-            "de00_p99": float(np.percentile(de, 99)), "de00_mean": float(de.mean()),
-            "rgb_abs_max": float(np.abs(got - truth).max())}
+    flat = np.arange(width * height) if n_points >= width * height else rng.choice(width * height, n_points, False)
+    y, x = np.divmod(flat, width)
+    params = [np.ravel(p)[flat] for p in spec.cell_params(0, height)]
+    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=params[0], opd_nm=params[1],
+                           eta3=params[2], kappa3=params[3])
+    truth = reference_colour(pts, spec.observer, spec.space).values
+    return {"texels": int(flat.size), **{name: float(np.abs(img[y, x] - truth).max())
+                                         for name, img in images.items()}}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child")
     ap.add_argument("--out")
+    ap.add_argument("--grid", default="b1")
     ap.add_argument("--compute", default="float64")
     ap.add_argument("--points", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=1)
@@ -87,23 +135,38 @@ def main() -> None:
     ap.add_argument("--skip-numpy", action="store_true")
     args = ap.parse_args()
     if args.child:
-        child(args.child, args.out, args.compute)
+        child(args.child, args.out, args.compute, args.grid)
         return
-    from lutbake.sample import Lut
-
+    report = {"grid": "B1", "cells": _spec(1.5, B1_AXES).cells, "runtimes": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        paths = {name: Path(tmp) / f"{name}.exr" for name in ("kernel", "kernel32", "numpy")}
-        rows = {"kernel": run_path("opencl", paths["kernel"]),
-                "kernel32": run_path("opencl", paths["kernel32"], "float32")}
+        tmp = Path(tmp)
+        images, stiff = {}, {}
+        for label in devices():
+            rows = {}
+            for path, compute in (("series", "float64"), ("direct", "float64"), ("series", "float32")):
+                key = f"{path}-{compute}"
+                out = tmp / f"{label}-{key}.exr"
+                rows[key] = run_path(path, out, compute, label)
+                images[f"{label}-{key}"] = _image(out)
+                stiff_out = tmp / f"stiff-{label}-{key}.exr"
+                run_path(path, stiff_out, compute, label, "stiff")
+                stiff[f"{label}-{key}"] = _image(stiff_out)
+            rows["series_vs_direct_speedup"] = rows["series-float64"]["cells_per_s"] / rows["direct-float64"]["cells_per_s"]
+            report["runtimes"][label] = rows
         if not args.skip_numpy:
-            rows["numpy"] = run_path("numpy", paths["numpy"])
-        report = {"grid": "B1", "cells": rows["kernel"]["cells"], "paths": rows,
-                  "accuracy_kernel_lut": accuracy(paths["kernel"], args.points, args.seed)}
-        k = Lut.load(paths["kernel"]).image.astype(float)
-        report["float32_vs_float64_rgb_max"] = float(np.abs(Lut.load(paths["kernel32"]).image - k).max())
-        if "numpy" in rows:
-            report["speedup_kernel_vs_numpy"] = rows["kernel"]["cells_per_s"] / rows["numpy"]["cells_per_s"]
-            report["kernel_vs_numpy_rgb_max"] = float(np.abs(Lut.load(paths["numpy"]).image - k).max())
+            out = tmp / "numpy-2nm.npy"
+            report["numpy_2nm"] = run_path("numpy-2nm", out)
+            images["numpy-2nm"] = _image(out)
+            for rows in report["runtimes"].values():
+                rows["series_vs_numpy_2nm_speedup"] = (rows["series-float64"]["cells_per_s"]
+                                                       / report["numpy_2nm"]["cells_per_s"])
+                rows["series_vs_numpy_2nm_process_speedup"] = (report["numpy_2nm"]["process_wall_s"]
+                                                               / rows["series-float64"]["process_wall_s"])
+        report["rgb_abs_max_vs_ground_truth"] = texel_error(images, _spec(1.5, B1_AXES), args.points, args.seed)
+        report["stiff_grid"] = {"axes": dict(zip(("cos_theta", "opd_nm", "eta3", "kappa3"), STIFF["axes"])),
+                                "eta2": STIFF["eta2"],
+                                "rgb_abs_max_vs_ground_truth": texel_error(stiff, _spec(STIFF["eta2"], STIFF["axes"]),
+                                                                            1 << 30, args.seed)}
     text = json.dumps(report, indent=2)
     print(text)
     if args.json:

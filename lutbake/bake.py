@@ -7,7 +7,10 @@ renamed into place last, after its companions.
 Before baking, the spectral rule's error is measured against the ground
 truth (reference.py) at probe cells spread over the grid, including the
 thickest film and grazing incidence, and recorded as
-``spectral.error_rgb_max``: the figure the kernel's output is held to.
+``spectral.error_rgb_max``: the figure the kernel's direct path is held to.
+The kernel integrates most texels by the Fourier series instead
+(lutbake/fourier.py); ``integrator`` records its rule, how many texels took
+it and the largest a-priori bound it enforced.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, weight_transform
 from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
 from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_text_atomic
@@ -98,7 +102,16 @@ def capped_error(spec: BakeSpec) -> tuple:
     return count, bound, _error_at(spec, *texels)
 
 
-def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)) -> dict:
+def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
+    """The per-texel choice of integrator: the series' rule and its outcome over the grid."""
+    wt = weight_transform(spec.observer, spec.space)
+    return {"rule": "fourier-series where in scope and within budget, else the direct spectral rule",
+            "series_tolerance_per_polarization": DEFAULT_SERIES_TOLERANCE, "series_budget_terms": SERIES_BUDGET,
+            "table_step_nm": wt.step_nm, "table_max_nm": wt.x_max_nm,
+            "table_interpolation_bound": float(wt.interpolation_bound.max()), **series}
+
+
+def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:
     width, height = spec.image_size
     n_cos, n_opd, _, _ = spec.shape
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
@@ -125,23 +138,24 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
         "precision": spec.precision,
         "compute": spec.compute,
         "channels": ["R", "G", "B"],
-    }
+    } | ({"integrator": integrator_metadata(spec, series)} if series is not None else {})
 
 
 def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
-         device=None) -> BakeResult:
+         integrator: str = "series", device=None) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes.
 
+    ``integrator`` is the kernel path ('series' or 'direct', integrate.OpenCLBackend);
     ``device`` picks the OpenCL device (integrate.find_device). The EXR's bytes do not
-    depend on it; the sidecar records it under ``baked_on``.
+    depend on the device; the sidecar records it under ``baked_on``.
     """
     out_path = Path(out_path)
     _check_writable(out_path)
     start = time.perf_counter()
-    integrator = make_backend(backend, spec.compute, device)
+    integrator = make_backend(backend, spec.compute, integrator, device)
     error = spectral_error(spec)
     capped = capped_error(spec)
-    meta = metadata(spec, error, capped)
+    meta = metadata(spec, error, capped, integrator.series_plan(spec).describe())
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
@@ -157,9 +171,9 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
                       error, *capped)
 
 
-def bake_array(spec: BakeSpec, backend: str = "auto", device=None) -> np.ndarray:
+def bake_array(spec: BakeSpec, backend: str = "auto", integrator: str = "series", device=None) -> np.ndarray:
     """The whole packed image (height, width, 3) in float64, in memory (tests, benchmarks)."""
-    return bake_rows_all(make_backend(backend, spec.compute, device), spec)
+    return bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec)
 
 
 def _check_writable(out_path: Path) -> None:

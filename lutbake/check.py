@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .fourier import DEFAULT_SERIES_TOLERANCE, series_colour
 from .integrate import backend as make_backend
 from .optics import film_reflectance, round_trip_amplitude
 from .plan import Axis, BakeSpec
@@ -204,10 +205,49 @@ def _truncation(paths):
     return out
 
 
+def _series(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, tolerance=DEFAULT_SERIES_TOLERANCE):
+    cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
+    return series_colour(eta1, eta2, *np.broadcast_arrays(*cols), tolerance=tolerance)
+
+
+def _fourier(paths):
+    """The Fourier series (lutbake/fourier.py, the float64 twin of the kernel's
+    bake_rows_series) at its hard cases, and its truncation bound."""
+    g = "fourier series"
+    out = []
+
+    def case(name, stack, expected, tolerance, note=""):
+        res = _series(*stack)
+        expected = np.broadcast_to(np.asarray(expected, float), res.values.shape)
+        err = float(np.max(np.abs(res.values - expected)))
+        out.append(CheckResult(g, name, float(res.values[0, 1]), float(expected[0, 1]), err, tolerance,
+                               f"{int(res.terms[0])} terms" + (f"; {note}" if note else "")))
+
+    bare = (1.0, 1.5, 0.7, 0.0, 2.0, 1.5)
+    case("X = 0: closed form C0 + 2 Re K/(1 − q)", bare, _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE)
+    case("cos θ = 0 over a matched base (q → 1, K = 0): R = 1", (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0),
+         paths.truth(1.0, 1.5, 0.0, 1000.0, 1.0, 0.0)[0], 1e-12, "RGB = Σ weights")
+    case("lossless total reflection at the base: K = 0, C0 = 1", (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
+         paths.truth(1.5, 2.0, 0.3, 5000.0, 1.0, 0.0)[0], IDENTITY_TOLERANCE)
+    for label, stack in (("high finesse: metal κ3 10 at cos θ 0.05, D 3 µm", (1.0, 1.5, 0.05, 3000.0, 1.2, 10.0)),
+                         ("thick film: D = 20 µm on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 3.0))):
+        case(label, stack, paths.truth(*stack)[0], 1e-8)
+    evanescent = _series(1.6, 1.2, 0.3, 1000.0, 2.0, 0.5)
+    out.append(CheckResult(g, "evanescent film: out of scope, left to the direct path",
+                           float(evanescent.terms[0]), -1.0, float(abs(evanescent.terms[0] + 1)), 0.0))
+    # With a loose tolerance the sum stops early: the bound it records must hold.
+    stack = (1.0, 2.5, 0.05, 4000.0, 1.2, 20.0)
+    res, truth = _series(*stack, tolerance=1e-4), paths.truth(*stack)[0]
+    out.append(CheckResult(g, "truncation: stopped at a 1e-4 bound, error within the recorded bound",
+                           float(res.values[0, 1]), float(truth[0, 1]), float(np.max(np.abs(res.values - truth))),
+                           float(res.bound[0]), f"{int(res.terms[0])} terms, |q| near 1"))
+    return out
+
+
 def run_checks(backend_name: str = "auto") -> list:
     """All cases, in groups (list of CheckResult)."""
     paths = _Paths(backend_name)
     results = []
-    for group in (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation):
+    for group in (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier):
         results.extend(group(paths))
     return results

@@ -1,12 +1,14 @@
 """Integrate a bake plan to RGB, band by band: the OpenCL kernel or the numpy path.
 
-Both evaluate the same spectral rule (spectral.wavenumber_rule) for every
-texel of a band of image rows and return an array (rows, width, 3):
+Both return the RGB of every texel of a band of image rows, an array
+(rows, width, 3):
 
 * ``OpenCLBackend`` runs kernels/airy.cl through pyopencl, by default on
   PoCL's CPU device from PyPI; ``PYOPENCL_CTX`` picks any other platform
   (a GPU's driver runs the same source unchanged). The program is built
-  once per process and compute precision.
+  once per process and compute precision. By default each texel is summed
+  as the exact Fourier series (lutbake/fourier.py) where its rule allows,
+  and integrated by the spectral rule elsewhere.
 * ``NumpyBackend`` evaluates optics.film_reflectance (the ground truth's
   float64 physics) at the rule's nodes: the reference for the kernel in
   tests, and the fallback where no OpenCL platform exists.
@@ -24,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
+                      weight_transform)
 from .optics import film_reflectance, normal_admittance
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "opencl_devices", "find_device",
@@ -44,6 +48,13 @@ class NumpyBackend:
     def bake_rows(self, spec, y0, y1):
         params = (a.ravel() for a in spec.cell_params(y0, y1))
         return self.evaluate(spec, *params).reshape(y1 - y0, -1, 3)
+
+    @staticmethod
+    def series_plan(spec) -> "SeriesStats":
+        """This path integrates every texel directly."""
+        stats = SeriesStats()
+        stats.add(np.full(spec.cells, -1), np.zeros(spec.cells))
+        return stats
 
     def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
         """RGB (n, 3) of texels given as flat parameter arrays."""
@@ -185,22 +196,34 @@ _SELF_CHECKED = {}
 
 
 def _self_check(backend, device) -> float:
-    """``self_check_error`` once per device and compute precision per process."""
-    key = (device.int_ptr, backend.compute)
+    """``self_check_error`` once per device, compute precision and integrator per process."""
+    key = (device.int_ptr, backend.compute, backend.integrator)
     if key not in _SELF_CHECKED:
         _SELF_CHECKED[key] = self_check_error(backend)
     return _SELF_CHECKED[key]
 
 
 def self_check_error(backend) -> float:
-    """max |R_kernel − R_numpy| over the self-check stacks, films η2 1.5 (η1 1) and 1.2 (η1 1.6)."""
+    """Largest error of the kernel against numpy: R at the self-check stacks (films η2 1.5 under
+    η1 1 and η2 1.2 under η1 1.6), and the baked RGB of a small grid through the backend's
+    integrator (series or direct) against the numpy path's direct quadrature."""
+    from .plan import Axis, BakeSpec
+
     cos1, opd, eta3, kappa3, lam = _SELF_CHECK.T
     worst = 0.0
     for eta1, eta2 in ((1.0, 1.5), (1.6, 1.2)):
         fast = backend.reflectance(eta1, eta2, cos1, opd, eta3, kappa3, lam)
         ref = film_reflectance(eta1, eta2, eta3, kappa3, cos1, opd / (2 * eta2), lam)[2]
         worst = max(worst, float(np.max(np.abs(fast - ref))))
-    return worst
+    grid = BakeSpec(eta2=1.5, compute=backend.compute, axes=(
+        Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 2000.0, 4), Axis("eta3", 1.0, 3.0, 2),
+        Axis("kappa3", 0.0, 4.0, 2)))
+    expected = bake_rows_all(NumpyBackend(), grid)
+    if getattr(backend, "integrator", "direct") == "series":
+        params = [np.ravel(p) for p in grid.cell_params(0, grid.image_size[1])]
+        series = series_colour(grid.eta1, grid.eta2, *params, grid.observer, grid.space).values
+        expected = np.where(np.isnan(series), expected.reshape(-1, 3), series).reshape(expected.shape)
+    return max(worst, float(np.max(np.abs(bake_rows_all(backend, grid) - expected))))
 
 
 @functools.lru_cache(maxsize=16)
@@ -215,27 +238,72 @@ def _program(device, compute: str):
         return OpenCLUnavailable(f"{device_label(device)}: {next((l for l in lines if 'error' in l), lines[0])}")
 
 
+class SeriesStats:
+    """The series rule over a bake: its method mix and the largest a-priori bound it enforces."""
+
+    def __init__(self):
+        self.series_texels = self.direct_texels = 0
+        self.bound_rgb_max = 0.0
+
+    def add(self, cap, bound):
+        taken = cap >= 0
+        self.series_texels += int(taken.sum())
+        self.direct_texels += int(cap.size - taken.sum())
+        self.bound_rgb_max = max(self.bound_rgb_max, float(bound[taken].max(initial=0.0)))
+
+    def describe(self) -> dict:
+        return {"series_texels": self.series_texels, "direct_texels": self.direct_texels,
+                "series_bound_rgb_max": self.bound_rgb_max}
+
+
+def _series_arrays(spec):
+    """Host inputs of kernels/airy.cl's series: (coefficients, film) in the kernel's layout, float64.
+
+    coefficients (κ3, η3, cos θ, [s, p] × [C0, K, q, 1 − |q|]), 1 − |q| = −1
+    marking an evanescent film; film (D, cos θ, [X, e^{i2πXν0}]).
+    """
+    ax = {a.name: a.values() for a in spec.axes}
+    cos_t, e3, k3 = np.meshgrid(ax["cos_theta"], ax["eta3"], ax["kappa3"], indexing="ij")
+    co = series_coefficients(spec.eta1, spec.eta2, cos_t.ravel(), 0.0, e3.ravel(), k3.ravel())
+    one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
+    per_pol = [np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real, co.q[p].imag, one_minus_q[p]], -1)
+               for p in (0, 1)]
+    coefficients = np.concatenate(per_pol, -1).reshape(cos_t.shape + (12,)).transpose(2, 1, 0, 3)
+    x_nm = ax["opd_nm"][:, None] * (_signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0))[None, :]
+    turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
+    film = np.stack([x_nm, turn.real, turn.imag], -1)
+    return coefficients, film
+
+
 class OpenCLBackend:
     """kernels/airy.cl on an OpenCL device: the one ``device`` names (see ``find_device``),
-    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else the first that builds the kernel
-    (PoCL first)."""
+    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else the first that builds the kernel and
+    passes its self-check (PoCL first).
+
+    ``integrator`` 'series' (the bake's default) runs the Fourier series where
+    its rule allows and the direct quadrature elsewhere (bake_rows_series);
+    'direct' runs the quadrature on every texel (bake_rows).
+    """
 
     name = "opencl"
 
-    def __init__(self, compute: str = "float64", device=None):
+    def __init__(self, compute: str = "float64", integrator: str = "series", device=None):
         import pyopencl as cl
 
         self.compute = compute
+        self.integrator = integrator
         self.dtype = np.float64 if compute == "float64" else np.float32
-        self._static = None
         reasons = []
         for candidate in _candidate_devices(device):
+            self._static = self._series = None   # buffers belong to one device's context
             built = _program(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
                 reasons.append(str(built))
                 continue
             self.ctx, program = built
             self.kernel = cl.Kernel(program, "bake_rows")
+            self.series_kernel = cl.Kernel(program, "bake_rows_series")
+            self.plan_kernel = cl.Kernel(program, "plan_rows")
             self.points_kernel = cl.Kernel(program, "reflectance_points")
             self.queue = cl.CommandQueue(self.ctx)
             error = _self_check(self, candidate)
@@ -270,6 +338,47 @@ class OpenCLBackend:
         self._static = (key, (buffers, spec.ladder.counts[0]))
         return self._static[1]
 
+    def _series_buffers(self, spec):
+        """(buffers, scalars) of the series kernel for ``spec`` (built once per spec)."""
+        import pyopencl as cl
+
+        if self._series and self._series[0] == spec.content_hash:
+            return self._series[1]
+        wt = weight_transform(spec.observer, spec.space)
+        table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
+        tail = np.array([wt.mass.max(), wt.edge.max(), wt.variation.max()])
+        mf = cl.mem_flags
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                   for a in (*_series_arrays(spec), table)]
+        tail_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tail.astype(self.dtype))
+        real = self.dtype
+        args = [*buffers, np.int32(table.shape[0]), real(wt.step_nm), tail_buf,
+                real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_BUDGET)]
+        self._series = (spec.content_hash, args)
+        return args
+
+    def series_plan(self, spec) -> SeriesStats:
+        """The series rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+        import pyopencl as cl
+
+        if self.integrator == "direct":
+            return NumpyBackend.series_plan(spec)
+        stats = SeriesStats()
+        width, _ = spec.image_size
+        n_cos, n_opd, _, _ = spec.shape
+        mf = cl.mem_flags
+        for y0, y1 in spec.row_chunks():
+            cells = (y1 - y0) * width
+            cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
+            cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
+            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
+            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
+                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
+            cl.enqueue_copy(self.queue, cap, cap_buf)
+            cl.enqueue_copy(self.queue, bound, bound_buf)
+            stats.add(cap, bound)
+        return stats
+
     def bake_rows(self, spec, y0, y1):
         import pyopencl as cl
 
@@ -283,10 +392,12 @@ class OpenCLBackend:
         out = np.empty((y1 - y0, width, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
         real = self.dtype
-        self.kernel(
-            self.queue, (cells,), None, *buffers, level_buf, real(spec.eta1), real(spec.eta2),
-            np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min),
-            out_buf)
+        args = [*buffers, level_buf, real(spec.eta1), real(spec.eta2),
+                np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min)]
+        if self.integrator == "direct":
+            self.kernel(self.queue, (cells,), None, *args, out_buf)
+        else:
+            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         out_buf.release()
         level_buf.release()
@@ -324,13 +435,14 @@ class OpenCLBackend:
         return out.astype(np.float64).reshape(shape)
 
 
-def backend(name: str = "auto", compute: str = "float64", device=None):
+def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):
     """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
-    ``device`` picks the OpenCL device (``find_device``)."""
+    ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device``
+    the OpenCL device (``find_device``)."""
     if name == "numpy":
         return NumpyBackend()
     try:
-        return OpenCLBackend(compute, device)
+        return OpenCLBackend(compute, integrator, device)
     except (OpenCLUnavailable, ImportError) as exc:
         if name == "opencl":
             raise
@@ -355,12 +467,12 @@ def survey_devices(throughput_spec=None) -> list:
                "default": device_key(device) == default}
         for compute in ("float64", "float32"):
             try:
-                fast = OpenCLBackend(compute, str(index))
+                fast = OpenCLBackend(compute, device=str(index))
                 row[compute] = {"builds": True, "self_check_error": self_check_error(fast)}
             except OpenCLUnavailable as exc:
                 row[compute] = {"builds": False, "error": str(exc)}
         if throughput_spec is not None and row["float64"].get("builds"):
-            fast = OpenCLBackend("float64", str(index))
+            fast = OpenCLBackend("float64", device=str(index))
             fast.bake_rows(throughput_spec, 0, 1)
             start = time.perf_counter()
             bake_rows_all(fast, throughput_spec)

@@ -21,7 +21,7 @@ def _cli(*args):
 def test_grazing_over_a_base_matching_the_ambient_agrees_with_mpmath(kernel_device, thickness_nm):
     """The stack where PoCL once differed by 4.7e-6: its compiler fused (η3−κ3)(η3+κ3) − η1² into
     an fma, keeping a 1e-16 rounding error of η3 ± κ3 against cos² θ1 = 1e-12."""
-    fast = integrate.OpenCLBackend("float64", kernel_device)
+    fast = integrate.OpenCLBackend("float64", device=kernel_device)
     got = fast.reflectance(1.0, 1.5, 1e-6, 3.0 * thickness_nm, 1.0, 1e-12, 550.0)
     rs, rp = airy_reflectance_mp(1.0, 1.5, 1.0, 1e-12, 1e-6, thickness_nm, 550.0)
     assert abs(float(got) - 0.5 * (rs + rp)) <= 1e-13
@@ -52,7 +52,7 @@ def test_a_device_failing_its_self_check_is_refused_and_the_next_is_used(monkeyp
     monkeypatch.setattr(integrate, "self_check_error",
                         lambda b: 1e-3 if b.device == first else real(b))
     with pytest.raises(integrate.OpenCLUnavailable, match="self-check"):
-        integrate.OpenCLBackend("float64", "0")
+        integrate.OpenCLBackend("float64", device="0")
     if len(devices) > 1:
         assert integrate.OpenCLBackend("float64").device == integrate.device_label(devices[1])
     else:

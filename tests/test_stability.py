@@ -17,7 +17,8 @@ def test_lutbake_check_passes_and_reports_every_case():
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr
     doc = json.loads(out.stdout)
     groups = {c["group"] for c in doc["checks"]}
-    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation"}
+    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation",
+                      "fourier series"}
     for c in doc["checks"]:
         assert {"value", "reference", "error", "tolerance", "passed"} <= set(c)
         assert c["passed"] and np.isfinite(c["value"])
@@ -51,7 +52,7 @@ def _extreme_inputs(rng, n):
 def test_kernel_fuzz_finite_and_within_0_1(rng, compute, eta1, eta2, kernel_device):
     """≥ 100,000 extreme inputs per configuration (800,000 in all) through the kernel, per device."""
     cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 100_000)
-    r = OpenCLBackend(compute, kernel_device).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
+    r = OpenCLBackend(compute, device=kernel_device).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
     assert np.all(np.isfinite(r))
     assert r.min() >= 0.0 and r.max() <= 1.0
     if compute == "float64":

@@ -182,6 +182,21 @@ inline REAL texel_reflectance(const Texel *t, REAL nu_hi, REAL nu_lo) {
     return (REAL)0.5 * (airy_r2(t->s, w, decay_factor) + airy_r2(t->p, w, decay_factor));
 }
 
+// RGB by the texel's spectral rule: Σ_j W_cj R(ν_j), compensated.
+inline void direct_rgb(const Texel *t, __global const REAL *nu_h, __global const REAL *nu_l,
+                       __global const REAL *wt, int n_nodes, __global REAL *rgb) {
+    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
+    for (int j = 0; j < n_nodes; ++j) {
+        const REAL refl = texel_reflectance(t, nu_h[j], nu_l[j]);
+        accumulate(&r, wt[j] * refl);
+        accumulate(&g, wt[n_nodes + j] * refl);
+        accumulate(&b, wt[2 * n_nodes + j] * refl);
+    }
+    rgb[0] = r.sum;
+    rgb[1] = g.sum;
+    rgb[2] = b.sum;
+}
+
 __kernel void bake_rows(
     __global const REAL *cos_axis,                            // N_cos
     __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
@@ -206,16 +221,7 @@ __kernel void bake_rows(
     const int first = n_nodes - n_min;
     __global const REAL *nu_h = nu_hi + first, *nu_l = nu_lo + first;
     __global const REAL *wt = weights + 3 * first;
-    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
-    for (int j = 0; j < n_nodes; ++j) {
-        const REAL refl = texel_reflectance(&t, nu_h[j], nu_l[j]);
-        accumulate(&r, wt[j] * refl);
-        accumulate(&g, wt[n_nodes + j] * refl);
-        accumulate(&b, wt[2 * n_nodes + j] * refl);
-    }
-    rgb_out[3 * gid + 0] = r.sum;
-    rgb_out[3 * gid + 1] = g.sum;
-    rgb_out[3 * gid + 2] = b.sum;
+    direct_rgb(&t, nu_h, nu_l, wt, n_nodes, rgb_out + 3 * gid);
 }
 
 // R at arbitrary (stack, wavenumber) points: one work-item per point. For
@@ -231,4 +237,163 @@ __kernel void reflectance_points(
     const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
                                 eta3[i], kappa3[i], eta1, eta2);
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
+}
+
+// ---------------------------------------------------------------------------
+// Fourier-series integration (lutbake/fourier.py, docs/spectral.md). Per
+// polarization |r|² = C0 + 2 Re Σ_m K q^{m−1} e^{i2πmXν}, so
+//     RGB_c = ½ Σ_pol [C0 Ŵ_c(0) + 2 Re Σ_m K q^{m−1} Ŵ_c(mX)],
+// Ŵ_c the Fourier transform of the colour weights, tabulated by the host as
+// quintic pieces of Ŵ_c(x)·e^{−i2πxν0} at x = k·h. Folding e^{i2πXν0} into
+// K and q (host: `turn`) makes each term one complex product and one table
+// evaluation. The host gives C0, K, q, 1 − |q| per (cos θ, η3, κ3) and X per
+// (cos θ, D), in float64 (lutbake.fourier.series_coefficients).
+
+typedef struct { CPLX k, q; REAL c0, one_minus_q; } SeriesPol;
+
+inline SeriesPol series_pol(__global const REAL *c) {
+    SeriesPol p = {(CPLX)(c[1], c[2]), (CPLX)(c[3], c[4]), c[0], c[5]};
+    return p;
+}
+
+// A texel's remainder bound after m terms, Σ_pol |K| |q|^m/(1 − |q|) · sup_{y ≥ (m+1)X} |Ŵ(y)|,
+// with sup |Ŵ(y)| ≤ min(mass, edge/(2πy) + variation/(2πy)²) (tail: those three, largest channel).
+// Everything but |q|^m is hoisted: the rule's loop is latency-bound scalar code.
+typedef struct { REAL as, ap, qs, qp, mass, edge, variation, inv_2pi_x; } Remainder;
+
+inline Remainder remainder_setup(SeriesPol s, SeriesPol p, REAL x, __global const REAL *tail) {
+    Remainder r;
+    r.as = s.k.x == 0 && s.k.y == 0 ? (REAL)0 : length(s.k) / s.one_minus_q;
+    r.ap = p.k.x == 0 && p.k.y == 0 ? (REAL)0 : length(p.k) / p.one_minus_q;
+    r.qs = length(s.q);
+    r.qp = length(p.q);
+    r.mass = tail[0];
+    r.edge = tail[1];
+    r.variation = tail[2];
+    r.inv_2pi_x = 1 / (2 * PI_R * x);
+    return r;
+}
+
+inline REAL remainder_after(const Remainder *r, REAL qs_m, REAL qp_m, int m) {
+    const REAL u = r->inv_2pi_x / (REAL)(m + 1);   // 1/(2πy), y = (m+1)X
+    return (r->as * qs_m + r->ap * qp_m) * fmin(r->mass, (r->edge + r->variation * u) * u);
+}
+
+// Demodulated Ŵ of the three channels at x = s·h (s within the table).
+inline void weight_transform(__global const REAL *table, int intervals, REAL s, CPLX out[3]) {
+    const int k = min((int)s, intervals - 1);
+    const REAL t = s - (REAL)k;
+    __global const REAL *c = table + 36 * k;      // [channel][power 0..5][re, im]
+    for (int ch = 0; ch < 3; ++ch, c += 12) {
+        CPLX v = (CPLX)(c[10], c[11]);
+        for (int j = 4; j >= 0; --j) v = v * t + (CPLX)(c[2 * j], c[2 * j + 1]);
+        out[ch] = v;
+    }
+}
+
+// The rule for one texel: the most terms it may take (cap ≥ 0), or −1 where
+// it goes to the direct quadrature: out of scope (evanescent film:
+// one_minus_q < 0), or the remainder bound is not ≤ tol within the table
+// (M·X ≤ x_max) and `budget` terms. Closed form (no loop), so `plan_rows`
+// reports a bake's method mix before it runs. *bound gets the a-priori bound
+// the series then enforces: tol plus the table's interpolation error carried
+// through at most min(cap, 1/(1 − |q|)) terms of size |K|.
+inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
+                      REAL tol, int budget, REAL *bound) {
+    *bound = 0;
+    if (s.one_minus_q < 0) return -1;
+    if (x == 0) return 0;
+    const Remainder r = remainder_setup(s, p, x, tail);
+    const int cap = (int)fmin(floor(x_max / x), (REAL)budget);
+    // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
+    const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qs)), qp_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qp));
+    if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
+    *bound = tol + interp * (length(s.k) * fmin((REAL)cap, 1 / s.one_minus_q)
+                             + length(p.k) * fmin((REAL)cap, 1 / p.one_minus_q));
+    return cap;
+}
+
+// RGB by the series, term by term until the remainder bound is ≤ tol (by
+// `cap` terms at the latest); X = 0 sums it in closed form.
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __global const REAL *table,
+                       int intervals, REAL step, __global const REAL *tail, REAL tol, __global REAL *rgb) {
+    const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
+    const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
+    REAL acc[3] = {0, 0, 0};
+    if (x == 0) {   // Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1
+        CPLX a = (CPLX)(0, 0);
+        if (s.k.x != 0 || s.k.y != 0) a += c_div(s.k, (CPLX)(1 - s.q.x, -s.q.y));
+        if (p.k.x != 0 || p.k.y != 0) a += c_div(p.k, (CPLX)(1 - p.q.x, -p.q.y));
+        for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
+        return;
+    }
+    const Remainder r = remainder_setup(s, p, x, tail);
+    const REAL x_step = x / step;
+    const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
+    CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
+    REAL qs_m = 1, qp_m = 1;
+    for (int m = 1; m <= cap && remainder_after(&r, qs_m, qp_m, m - 1) > tol; ++m) {
+        CPLX w[3];
+        weight_transform(table, intervals, m * x_step, w);
+        const CPLX a = ks + kp;
+        for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
+        ks = c_mul(ks, qs_t);
+        kp = c_mul(kp, qp_t);
+        qs_m *= r.qs;
+        qp_m *= r.qp;
+    }
+    for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
+}
+
+#define SERIES_ARGS \
+    __global const REAL *coefficients, /* per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each */ \
+    __global const REAL *film,         /* per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL) */           \
+    __global const REAL *table, const int intervals, const REAL step,                             \
+    __global const REAL *tail, const REAL interp, const REAL tol, const int budget  /* tail: mass, edge, variation */
+
+// The texel's series constants, X and rule (shared by both kernels below).
+#define SERIES_TEXEL                                                                              \
+    const int x = gid % width, y = row0 + gid / width;                                           \
+    const int i_cos = x % n_cos, i_eta3 = x / n_cos;                                              \
+    const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
+    __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
+    __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);                                  \
+    const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
+    REAL bound;                                                                                    \
+    const int cap = series_cap(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
+
+// The rule's outcome per texel of a band of rows: term cap (−1: direct) and a-priori bound.
+__kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                        __global int *cap_out, __global REAL *bound_out)
+{
+    const int gid = get_global_id(0);
+    SERIES_TEXEL
+    cap_out[gid] = cap;
+    bound_out[gid] = bound;
+}
+
+// bake_rows with the series wherever its rule allows, the direct quadrature elsewhere.
+__kernel void bake_rows_series(
+    __global const REAL *cos_axis,
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo,
+    __global const REAL *opd_hi, __global const REAL *opd_lo,
+    __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
+    __global const REAL *nu_hi, __global const REAL *nu_lo,
+    __global const REAL *weights,
+    __global const int *levels,
+    const REAL eta1, const REAL eta2,
+    const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
+    SERIES_ARGS, __global REAL *rgb_out)
+{
+    const int gid = get_global_id(0);
+    SERIES_TEXEL
+    if (cap >= 0) {
+        series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, table, intervals, step, tail, tol, rgb_out + 3 * gid);
+        return;
+    }
+    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
+                                opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
+    const int n_nodes = n_min << levels[gid];
+    const int first = n_nodes - n_min;
+    direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * gid);
 }

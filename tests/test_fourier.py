@@ -1,0 +1,202 @@
+"""The Fourier-series integrator (lutbake.fourier) against independent references."""
+
+import numpy as np
+import pytest
+
+from airy_mp import airy_reflectance_mp
+from lutbake.fourier import series_coefficients, series_colour, weight_transform
+from lutbake.points import FilmPoints
+from lutbake.reference import reference_colour
+from lutbake.spectral import panel_rule
+
+
+
+def _transform_by_panels(x_nm, nodes_per_nm=64):
+    """Ŵ_c(x) from the ground truth's own Gauss–Legendre panel rule, far finer than the table's."""
+    rule = panel_rule(nodes_per_nm)
+    return np.exp(2j * np.pi * np.outer(x_nm, 1.0 / rule.wavelength_nm)) @ rule.weights.T
+
+
+def test_table_matches_the_ground_truth_weights_within_its_stated_bound(rng):
+    wt = weight_transform()
+    assert wt.interpolation_bound.max() <= 2e-10
+    x = np.concatenate([[0.0, wt.step_nm * 3.5], rng.uniform(0, wt.x_max_nm, 200)])
+    err = np.abs(wt(x).T - _transform_by_panels(x))
+    assert err.max() <= wt.interpolation_bound.max() + 1e-12
+    assert np.allclose(wt(np.zeros(1))[:, 0], 1.0, atol=1e-12)   # flat reflectance → white
+
+
+def test_tail_bound_holds_and_decays_beyond_the_table():
+    wt = weight_transform()
+    for start in (2e3, 2e4, 2e5, 1e6, 3e6):
+        x = np.linspace(start, 1.2 * start, 400)
+        exact = np.abs(_transform_by_panels(x, 8 if start < 1e5 else 96)).max()
+        assert exact <= wt.tail_bound(start) <= 20 * exact + 1e-12
+    assert wt.tail_bound(1e6) <= 1.01e-4 * wt.tail_bound(1e4)   # 1/x² decay
+
+
+def _series_at_phase(co, phase, terms=4000):
+    """C0 + 2 Re Σ K q^{m−1} e^{imφ} for both polarizations (float64, summed to convergence)."""
+    m = np.arange(1, terms + 1)
+    z = np.exp(1j * m * phase)
+    return [co.c0[p, 0] + 2 * np.real(np.sum(co.k[p, 0] * co.q[p, 0] ** (m - 1) * z)) for p in (0, 1)]
+
+
+@pytest.mark.parametrize("stack", [
+    (1.0, 1.5, 2.2, 3.5, 0.6),     # metal base
+    (1.0, 2.8, 1.2, 20.0, 0.05),   # near-resonant: |q| ≈ 0.99
+    (1.0, 1.33, 1.0, 0.0, 0.9),    # soap film in air
+])
+def test_coefficients_give_the_textbook_airy_sum_at_50_digits(stack):
+    eta1, eta2, eta3, kappa3, cos_theta = stack
+    co = series_coefficients(eta1, eta2, np.array([cos_theta]), np.array([1000.0]), eta3, kappa3)
+    thickness = 1000.0 / (2 * eta2)
+    for lam in (400.0, 555.5, 801.0):
+        phase = 2 * np.pi * co.x_nm[0] / lam
+        got = _series_at_phase(co, phase)
+        want = airy_reflectance_mp(eta1, eta2, eta3, kappa3, cos_theta, thickness, lam)
+        assert np.allclose(got, want, rtol=0, atol=1e-12)
+
+
+def _random_texels(rng, n):
+    return dict(cos_theta=rng.uniform(0, 1, n), opd_nm=rng.uniform(0, 4000, n),
+                eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+
+
+def _truth(eta1, eta2, t):
+    return reference_colour(FilmPoints.build(eta1=eta1, eta2=eta2, **t)).values
+
+
+def test_series_matches_the_ground_truth_on_random_texels(rng):
+    t = _random_texels(rng, 300)
+    res = series_colour(1.0, 1.5, *t.values())
+    assert (res.terms >= 0).all()
+    assert np.abs(res.values - _truth(1.0, 1.5, t)).max() <= 1e-8
+    assert res.bound.max() <= 1e-8
+
+
+def test_truncation_bound_is_honest_when_loose(rng):
+    """With a loose tolerance the series stops early; its error stays within the recorded bound."""
+    t = _random_texels(rng, 200)
+    t["cos_theta"] = rng.uniform(0.02, 0.3, 200)   # high finesse: slow geometric decay
+    res = series_colour(1.0, 2.5, *t.values(), tolerance=1e-4)
+    ok = res.terms >= 0
+    assert ok.sum() > 150
+    err = np.abs(res.values[ok] - _truth(1.0, 2.5, t)[ok]).max(axis=1)
+    assert (err <= res.bound[ok] + 1e-9).all()
+    assert err.max() > 1e-7   # the tolerance did bite, so the comparison above is not vacuous
+
+
+def _one(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
+    t = dict(cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]),
+             kappa3=np.array([kappa3]))
+    return series_colour(eta1, eta2, *t.values()), _truth(eta1, eta2, t)
+
+
+@pytest.mark.parametrize("name, stack, terms", [
+    ("zero thickness: closed form", (1.0, 1.5, 0.7, 0.0, 2.0, 3.0), 0),
+    ("grazing over a matched base (q → 1, K = 0)", (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0), 0),
+    ("grazing over a metal", (1.0, 2.0, 0.0, 3000.0, 2.5, 4.0), 0),
+    ("total reflection at the base", (1.5, 1.6, 0.3, 2000.0, 1.0, 0.0), None),
+    ("thick film on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 5.0), None),
+])
+def test_hard_cases_match_the_ground_truth(name, stack, terms):
+    res, truth = _one(*stack)
+    assert np.isfinite(res.values).all(), name
+    assert np.abs(res.values - truth).max() <= 1e-8, name
+    if terms is not None:
+        assert res.terms[0] == terms, name
+
+
+def test_total_reflection_at_the_base_has_no_fringes():
+    co = series_coefficients(1.5, 1.6, np.array([0.3]), np.array([2000.0]), 1.0, 0.0)
+    assert np.allclose(co.c0, 1.0, atol=1e-15) and np.abs(co.k).max() <= 1e-15
+
+
+def test_out_of_scope_texels_take_the_direct_path():
+    evanescent, _ = _one(1.5, 1.2, 0.2, 1000.0, 1.5, 0.0)
+    assert evanescent.terms[0] == -1 and np.isnan(evanescent.values).all()
+    # |q| → 1 at a thick film: the table cannot carry the terms the bound needs
+    near_grazing = series_colour(1.0, 2.0, np.array([1e-4]), np.array([4000.0]), 2.0, 20.0)
+    assert near_grazing.terms[0] == -1
+    # more terms than the budget: the series is not picked
+    fine = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0)
+    costly = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0, budget=fine.terms[0] - 1)
+    assert fine.terms[0] > 1 and costly.terms[0] == -1
+
+
+# --- the bake kernel's series (kernels/airy.cl: bake_rows_series, plan_rows) ---
+
+def _random_grid(rng, **kw):
+    from lutbake.plan import Axis, BakeSpec
+
+    lo = [rng.uniform(0, 0.3), rng.uniform(0, 500), rng.uniform(1, 1.5), rng.uniform(0, 1)]
+    hi = [rng.uniform(0.7, 1.0), rng.uniform(2000, 6000), rng.uniform(2, 3.5), rng.uniform(2, 8)]
+    names, spacing = ["cos_theta", "opd_nm", "eta3", "kappa3"], ["sqrt", "uniform", "uniform", "sqrt"]
+    axes = tuple(Axis(n, a, b, c, s) for n, a, b, c, s in zip(names, lo, hi, (32, 64, 8, 8), spacing))
+    # 8 samples per cycle: the direct rule to ~1e-9, so it can referee the series at 1e-7
+    return BakeSpec(eta2=rng.uniform(1.2, 2.5), axes=axes, samples_per_cycle=8.0, **kw)
+
+
+@pytest.fixture(scope="module")
+def grid_spec():
+    return _random_grid(np.random.default_rng(12))
+
+
+@pytest.fixture(scope="module")
+def series_grid(grid_spec, kernel_device):
+    from lutbake.bake import bake_array
+
+    return bake_array(grid_spec, "opencl", device=kernel_device)
+
+
+def test_kernel_series_equals_the_direct_path_on_every_texel(grid_spec, series_grid, kernel_device):
+    from lutbake.bake import bake_array
+
+    direct = bake_array(grid_spec, "opencl", "direct", kernel_device)
+    assert np.max(np.abs(series_grid - direct)) <= 1e-7
+
+
+def test_kernel_rule_is_the_numpy_rule(grid_spec, kernel_device):
+    from lutbake.integrate import OpenCLBackend
+    from lutbake.fourier import series_plan
+
+    stats = OpenCLBackend("float64", device=kernel_device).series_plan(grid_spec)
+    params = [np.ravel(p) for p in grid_spec.cell_params(0, grid_spec.image_size[1])]
+    terms = series_plan(series_coefficients(grid_spec.eta1, grid_spec.eta2, *params), weight_transform())
+    assert stats.series_texels + stats.direct_texels == grid_spec.cells
+    assert abs(stats.series_texels - np.sum(terms >= 0)) <= grid_spec.cells // 10000
+    assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bound_rgb_max <= 1e-7
+
+
+def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid, kernel_device):
+    from dataclasses import replace
+
+    from lutbake.bake import bake_array
+
+    f32 = bake_array(replace(grid_spec, compute="float32"), "opencl", device=kernel_device)
+    assert np.max(np.abs(f32 - series_grid)) <= 2e-5
+
+
+def test_kernel_falls_back_to_the_direct_path_for_evanescent_films():
+    from lutbake.bake import bake_array
+    from lutbake.integrate import OpenCLBackend
+    from lutbake.plan import Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
+    spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes, samples_per_cycle=8.0)
+    stats = OpenCLBackend("float64").series_plan(spec)
+    # cos θ1 < √(1 − (1.2/1.5)²) = 0.6: evanescent film, 9 of 16 cos θ nodes
+    assert stats.direct_texels >= 9 * 16 * 16
+    assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
+
+
+def test_kernel_series_for_another_observer_and_space():
+    from lutbake.bake import bake_array
+    from lutbake.plan import Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 16),
+            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 5.0, 4))
+    spec = BakeSpec(eta2=1.7, axes=axes, observer="cie1964", space="acescg", samples_per_cycle=8.0)
+    assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
