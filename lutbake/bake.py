@@ -1,8 +1,8 @@
 """Bake: run a plan through an integrator and stream it into a LUT file set.
 
 Outputs beside each other: NAME.exr (authoritative, self-describing),
-NAME.json (the same metadata), NAME.glsl and NAME.hlsl (samplers). The EXR is
-renamed into place last, after its companions.
+NAME.json (the same metadata), NAME.glsl and NAME.hlsl (samplers), committed
+as one set (fileset.py).
 
 Before baking, the spectral rule's error is measured against the ground
 truth (reference.py) at probe cells spread over the grid, including the
@@ -22,13 +22,14 @@ import numpy as np
 from . import __version__
 from .integrate import NumpyBackend
 from .integrate import backend as make_backend
-from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_text_atomic
+from .fileset import FileSet, open_set
+from .lutfile import FORMAT, FORMAT_VERSION, exr_rows, shader_includes
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
 
-__all__ = ["BakeResult", "bake", "bake_array", "default_specs", "metadata", "spectral_error"]
+__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata", "spectral_error"]
 
 _PROBES = 48
 
@@ -128,9 +129,16 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
 
 
 def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None) -> BakeResult:
-    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes."""
+    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set."""
     out_path = Path(out_path)
     _check_writable(out_path)
+    with open_set(out_path.parent, out_path.name) as files:
+        return write_lut(spec, out_path, files, backend, on_band, chunk_cells)
+
+
+def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
+              chunk_cells=None) -> BakeResult:
+    """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute)
     error = spectral_error(spec)
@@ -138,15 +146,20 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     meta = metadata(spec, error, capped)
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    with exr_stream(out_path, width, height, meta, spec.precision) as exr:
+    with exr_rows(files.temp(out_path), width, height, meta, spec.precision) as exr:
         for y0, y1 in chunks:
             exr.write_rows(integrator.bake_rows(spec, y0, y1))
             if on_band:
                 on_band(y1 - y0, height)
-        write_text_atomic(out_path.with_suffix(".json"), json.dumps(meta, indent=2, sort_keys=True) + "\n")
-        for suffix, text in shader_includes(meta, out_path.name).items():
-            write_text_atomic(out_path.with_suffix(f".{suffix}"), text)
+    files.temp(out_path.with_suffix(".json")).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+    for suffix, text in shader_includes(meta, out_path.name).items():
+        files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
     return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, error, *capped)
+
+
+def lut_members(out_path: Path) -> list:
+    """The files of a LUT set."""
+    return [out_path.with_suffix(f".{s}") for s in ("exr", "json", "glsl", "hlsl")]
 
 
 def bake_array(spec: BakeSpec, backend: str = "auto") -> np.ndarray:
@@ -165,5 +178,6 @@ def _check_writable(out_path: Path) -> None:
         raise ValueError(f"--out folder {str(folder)!r} does not exist")
     if not os.access(folder, os.W_OK):
         raise ValueError(f"--out folder {str(folder)!r} is not writable")
-    if out_path.is_dir():
-        raise ValueError(f"--out {str(out_path)!r} is a folder, expected a file name ending in .exr")
+    for member in lut_members(out_path):
+        if member.is_dir():
+            raise ValueError(f"--out {str(out_path)!r}: {str(member)!r} is a folder, expected a file or nothing")

@@ -8,9 +8,9 @@ bit-exact; a plain float attribute would be stored as 32-bit), and flat
 ``lutbake.*`` attributes repeat the key fields for tools such as
 ``oiiotool --info -v``. docs/lut-format.md specifies it for engine authors.
 
-Every file is written to a hidden temporary in the destination folder and
-renamed into place, so an interrupted bake leaves the previous file (or
-none), never a partial one. Nothing time- or machine-dependent is written:
+A LUT's four files are one set (fileset.py): written as hidden temporaries,
+then committed together, so an interrupted or failed bake leaves the
+previous set (or none), never a partial or mixed one. Nothing time- or machine-dependent is written:
 the same inputs give the same bytes.
 """
 
@@ -26,7 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
+from .fileset import main_thread, raise_interrupt, temporary_for
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "write_text_atomic",
            "atomic_path", "shader_includes", "flat_attributes"]
 
 FORMAT = "lutbake-lut"
@@ -38,31 +40,23 @@ def atomic_path(final: Path):
     """Yield a temporary path beside ``final``; rename it into place on success.
 
     SIGTERM is turned into an exception for the duration so the temporary is
-    removed on the way out (kill -9 leaves only the hidden temporary).
+    removed on the way out (kill -9 leaves only the hidden temporary, which the
+    next bake into the folder removes). Single files only: a LUT or scene file
+    set is committed as one unit by fileset.open_set.
     """
     final = Path(final)
-    tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}")
+    tmp = temporary_for(final)
     previous = signal.getsignal(signal.SIGTERM)
-    if _main_thread():
-        signal.signal(signal.SIGTERM, _raise_interrupt)
+    if main_thread():
+        signal.signal(signal.SIGTERM, raise_interrupt)
     try:
         yield tmp
         os.replace(tmp, final)
     finally:
-        if _main_thread():
+        if main_thread():
             signal.signal(signal.SIGTERM, previous)
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
-
-
-def _main_thread() -> bool:
-    import threading
-
-    return threading.current_thread() is threading.main_thread()
-
-
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -116,16 +110,22 @@ class _ExrRows:
 
 
 @contextlib.contextmanager
+def exr_rows(path: Path, width: int, height: int, meta: dict, precision: str = "float"):
+    """Write an RGB EXR at ``path`` band by band (bounded memory); raise if left incomplete."""
+    rows = _ExrRows(path, width, height, meta, precision)
+    try:
+        yield rows
+    finally:
+        rows.file.close()
+    if rows.rows_written != height:
+        raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
+
+
+@contextlib.contextmanager
 def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str = "float"):
-    """Write an RGB EXR band by band (bounded memory); it appears only when complete."""
-    with atomic_path(path) as tmp:
-        rows = _ExrRows(tmp, width, height, meta, precision)
-        try:
-            yield rows
-        finally:
-            rows.file.close()
-        if rows.rows_written != height:
-            raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
+    """exr_rows into a temporary: the file appears only when complete."""
+    with atomic_path(path) as tmp, exr_rows(tmp, width, height, meta, precision) as rows:
+        yield rows
 
 
 def read_lut(path):
