@@ -257,7 +257,7 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
 
 
 def _bake_scene(scene_path, out, force, backend, as_json):
-    from .atlas import bake_scene
+    from .atlas import bake_scene, check_scene_outputs
     from .scene import load_scene
 
     if out is None:
@@ -265,10 +265,12 @@ def _bake_scene(scene_path, out, force, backend, as_json):
     if Path(out).suffix.lower() == ".exr":
         raise BadInput(f"--out {out!r}: a scene bakes into a folder")
     scene = load_scene(scene_path)
+    check_scene_outputs(Path(out), scene)
     _make_folder(Path(out))
     result = bake_scene(scene, out, force, backend)
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
-           "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds}
+           "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
+           "target_unmet": result.unmet}
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
@@ -276,6 +278,11 @@ def _bake_scene(scene_path, out, force, backend, as_json):
     else:
         click.echo(f"{scene_path}: computed {len(result.computed)}, reused {len(result.reused)}, "
                    f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
+    if result.unmet:
+        reached = ", ".join(f"{name} p99 ΔE00 {p99:.3f}" for name, p99 in result.unmet.items())
+        click.echo(f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
+                   "(written; see docs/scene.md)", err=True)
+        return EXIT_GATE
     return 0
 
 

@@ -67,6 +67,8 @@ class FileSet:
         return self.members[final]
 
     def commit(self) -> None:
+        if not self.members:
+            return
         entries = [[tmp.name, final.name, sha256_file(tmp)] for final, tmp in self.members.items()]
         journal = journal_path(self.folder, self.name)
         _test_stop()

@@ -53,6 +53,11 @@ class Scene:
     max_de: float
     materials: tuple
 
+    @property
+    def file_name(self) -> str:
+        """The scene file's name: what outputs record (not the path as typed, which depends on the cwd)."""
+        return Path(self.path).name
+
     def settings_key(self) -> dict:
         return {"space": self.space, "observer": self.observer, "eta1": self.eta1,
                 "precision": self.precision, "max_de": self.max_de}
