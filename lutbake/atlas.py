@@ -35,7 +35,7 @@ from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
-from .scene import Scene
+from .scene import Scene, shader_identifier
 from .sweep import TUNE_START_COUNTS
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
@@ -455,7 +455,7 @@ def _shader(manifest: dict, atlas: dict, lang: str) -> str:
              f"    return {t['fetch'].format(uv=uv)};",
              "}", ""]
     for name, e in manifest["materials"].items():
-        ident = "".join(c if c.isalnum() else "_" for c in name).upper()
+        ident = shader_identifier(name)
         if e["kind"] == "slice":
             x0, y0, w, h = e["rect"]
             th = e["axes"]["thickness_nm"]

@@ -21,11 +21,13 @@ import json
 import os
 import signal
 import string
+import sys
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
+from . import fileset
 from .fileset import main_thread, raise_interrupt, temporary_for
 
 __all__ = ["FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "write_text_atomic",
@@ -129,28 +131,108 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
 
 
 def read_lut(path):
-    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR."""
-    import OpenEXR
-
+    """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR, validated
+    against the schema of docs/lut-format.md; ValueError names the file and the field."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"LUT {str(path)!r} does not exist")
+    if fileset.journal_path(path.parent, path.name).exists():
+        raise ValueError(f"{str(path)!r} is mid-commit (a bake was interrupted or is running): bake it again")
+    meta_text, image = _read_exr(path)
     try:
-        with OpenEXR.File(str(path)) as exr:
-            header = exr.header()
-            channels = exr.channels()
+        meta = json.loads(meta_text)
+    except ValueError:
+        raise ValueError(f"{str(path)!r}: lutbake.metadata is not JSON") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT or meta.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{str(path)!r} is not a {FORMAT} v{FORMAT_VERSION} file")
+    try:
+        _check_meta(meta, image)
+    except (KeyError, TypeError, ValueError) as exc:
+        field = exc.args[0] if exc.args else "?"
+        raise ValueError(f"{str(path)!r}: metadata field {field} is missing or invalid") from None
+    return meta, image
+
+
+def _read_exr(path: Path):
+    """(lutbake.metadata text, RGB image) of an EXR; OpenEXR's own messages are silenced."""
+    import OpenEXR
+
+    try:
+        with _silenced_c_output(), OpenEXR.File(str(path)) as exr:
+            header, channels = exr.header(), exr.channels()
             if "lutbake.metadata" not in header:
-                raise ValueError(f"{str(path)!r} is an EXR without lutbake metadata")
-            meta = json.loads(header["lutbake.metadata"])
+                raise LookupError("lutbake.metadata")
+            meta_text = header["lutbake.metadata"]
             if "RGB" in channels:
                 image = np.array(channels["RGB"].pixels)
             else:
                 image = np.stack([np.array(channels[c].pixels) for c in "RGB"], axis=-1)
-    except (OSError, RuntimeError) as exc:
-        raise ValueError(f"{str(path)!r} is not a readable EXR: {exc}") from None
-    if meta.get("format") != FORMAT or meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {FORMAT} v{FORMAT_VERSION} file")
-    return meta, image
+    except LookupError:
+        raise ValueError(f"{str(path)!r} is an EXR without lutbake metadata or RGB channels") from None
+    except Exception:  # OpenEXR raises several types for damaged files; all mean the same here
+        raise ValueError(f"{str(path)!r} is not a readable EXR (damaged or truncated)") from None
+    return meta_text, image
+
+
+@contextlib.contextmanager
+def _silenced_c_output():
+    """Send file descriptors 1 and 2 to /dev/null (OpenEXR prints warnings from C++)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+_AXES = ("cos_theta", "opd_nm", "eta3", "kappa3")
+_STRINGS = ("lutbake_version", "content_hash", "observer", "illuminant", "space", "precision", "compute")
+
+
+def _check_meta(meta: dict, image: np.ndarray) -> None:
+    """Raise KeyError/TypeError/ValueError with the field name when ``meta`` breaks the schema."""
+    for key in _STRINGS:
+        _require(isinstance(meta[key], str), key)
+    axes = meta["axes"]
+    _require(isinstance(axes, list) and [a["name"] for a in axes] == list(_AXES), "axes")
+    for i, a in enumerate(axes):
+        lo, hi = _finite(a["min"], f"axes[{i}].min"), _finite(a["max"], f"axes[{i}].max")
+        _require(hi > lo, f"axes[{i}].max")
+        _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
+        _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0),
+                 f"axes[{i}].spacing")
+    n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in axes)
+    packing = meta["packing"]
+    _require(packing["width"] == n_eta3 * n_cos and packing["tile_width"] == n_cos, "packing.width")
+    _require(packing["height"] == n_kappa3 * n_opd and packing["tile_height"] == n_opd, "packing.height")
+    _require(image.shape == (packing["height"], packing["width"], 3), "packing (image size)")
+    for key in ("eta1", "eta2"):
+        _require(_finite(meta["constants"][key], f"constants.{key}") > 0, f"constants.{key}")
+    spectral = meta["spectral"]
+    _require(isinstance(spectral["counts"], list) and len(spectral["counts"]) > 0, "spectral.counts")
+    _finite(spectral["error_rgb_max"], "spectral.error_rgb_max")
+    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
+
+
+def _require(ok: bool, field: str) -> None:
+    if not ok:
+        raise ValueError(field)
+
+
+def _integer(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _finite(value, field: str) -> float:
+    _require(isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value), field)
+    return float(value)
 
 
 def shader_includes(meta: dict, lut_name: str) -> dict:
