@@ -24,7 +24,7 @@ from .integrate import NumpyBackend
 from .integrate import backend as make_backend
 from .fileset import FileSet, open_set
 from .lutfile import FORMAT, FORMAT_VERSION, exr_rows, shader_includes
-from .plan import Axis, BakeSpec
+from .plan import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
@@ -128,9 +128,11 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
     }
 
 
-def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None) -> BakeResult:
+def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
+         memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set."""
     out_path = Path(out_path)
+    spec.check_budget(memory_limit_gib)
     _check_writable(out_path)
     with open_set(out_path.parent, out_path.name) as files:
         return write_lut(spec, out_path, files, backend, on_band, chunk_cells)
