@@ -17,6 +17,7 @@ the same inputs give the same bytes.
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import os
 import signal
@@ -176,7 +177,7 @@ def _read_exr(path: Path):
 
 @contextlib.contextmanager
 def _silenced_c_output():
-    """Send file descriptors 1 and 2 to /dev/null (OpenEXR prints warnings from C++)."""
+    """Send file descriptors 1 and 2 and sys.stdout/stderr nowhere (OpenEXR prints warnings)."""
     sys.stdout.flush()
     sys.stderr.flush()
     saved = [os.dup(1), os.dup(2)]
@@ -184,12 +185,20 @@ def _silenced_c_output():
     try:
         os.dup2(null, 1)
         os.dup2(null, 2)
-        yield
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            yield  # the bindings also print through Python's sys.stdout
     finally:
+        _libc_fflush()  # C++ streams buffered while redirected must drain into /dev/null
         os.dup2(saved[0], 1)
         os.dup2(saved[1], 2)
         for fd in (*saved, null):
             os.close(fd)
+
+
+def _libc_fflush() -> None:
+    import ctypes
+
+    ctypes.CDLL(None).fflush(None)
 
 
 _AXES = ("cos_theta", "opd_nm", "eta3", "kappa3")
