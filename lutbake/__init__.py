@@ -10,13 +10,13 @@ import signal
 import sys
 
 
-def _interrupted_at_start_up(signum, frame):
+def interrupted_at_start_up(signum, frame):
     """Ctrl-C while modules load: one line and exit 130, no traceback (the CLI's main() takes over)."""
     sys.stderr.write("lutbake: interrupted\n")
     os._exit(130)
 
 
-def _start_up_handler(handler):
+def set_sigint_handler(handler):
     """Install ``handler`` for SIGINT unless SIGINT is ignored or this is not the main thread; return the old one."""
     previous = signal.getsignal(signal.SIGINT)
     if previous is not signal.SIG_IGN:
@@ -27,7 +27,7 @@ def _start_up_handler(handler):
     return previous
 
 
-_previous_sigint = _start_up_handler(_interrupted_at_start_up)
+_previous = set_sigint_handler(interrupted_at_start_up)
 
 from importlib.metadata import PackageNotFoundError, version  # noqa: E402
 
@@ -36,4 +36,4 @@ try:
 except PackageNotFoundError:  # running from a source tree
     __version__ = "0.0.0+source"
 
-_start_up_handler(_previous_sigint)  # library users keep their own Ctrl-C behaviour
+set_sigint_handler(_previous)  # library users keep their own Ctrl-C behaviour

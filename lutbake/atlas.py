@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .bake import lut_members, write_lut
 from .colorimetry import delta_e00
 from .fileset import FileSet, open_set, sha256_file
 from .lutfile import atomic_path, exr_rows, write_text_atomic
@@ -36,7 +37,7 @@ from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .scene import Scene, shader_identifier
-from .sweep import TUNE_START_COUNTS
+from .sweep import TUNE_START_COUNTS, tune
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
 
@@ -213,9 +214,6 @@ def _widen(lo, hi):
 
 def _tuned_lut(job: SliceJob, path: Path, backend: str, files: FileSet) -> dict:
     """Bake the 4D LUT at the smallest counts (sweep.tune) whose p99 ΔE00 meets the target."""
-    from .bake import write_lut
-    from .sweep import tune
-
     spec = lut_spec(job)
     result = tune(spec, job.scene.max_de, n_points=300, seed=0, backend=backend, max_rounds=6)
     axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result["counts"]))
@@ -254,12 +252,21 @@ def _cache(out: Path) -> Path:
     return path
 
 
-def _cached_slice(job: SliceJob, npy: Path, info: Path):
+def _record(path: Path) -> dict:
+    """A cache record (JSON) with integer counts and a finite p99; raises OSError, ValueError, KeyError
+    or TypeError otherwise."""
+    info = json.loads(path.read_text())
+    info["counts"] = [int(c) for c in info["counts"]]
+    if not np.isfinite(float(info["de00_p99"])):
+        raise ValueError("de00_p99")
+    return info
+
+
+def _cached_slice(npy: Path, info: Path):
     """(values, meta) of a cache entry that matches its recorded counts and is finite, else None."""
     try:
-        meta = json.loads(info.read_text())
-        n_cos, n_d = (int(c) for c in meta["counts"])
-        float(meta["de00_p99"])
+        meta = _record(info)
+        n_cos, n_d = meta["counts"]
         values = np.load(npy, allow_pickle=False)
     except (OSError, ValueError, EOFError, KeyError, TypeError):
         return None
@@ -270,7 +277,7 @@ def _cached_slice(job: SliceJob, npy: Path, info: Path):
 
 def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
     npy, info = cache / f"{job.id}.npy", cache / f"{job.id}.json"
-    cached = None if force else _cached_slice(job, npy, info)
+    cached = None if force else _cached_slice(npy, info)
     if cached is not None:
         reused.append(job.id)
         return cached
@@ -286,12 +293,9 @@ def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
 
 def _cached_lut(path: Path, info_path: Path):
     """The cache record of a 4D LUT whose set is complete and whose EXR has the recorded hash, else None."""
-    from .bake import lut_members
-
     try:
-        info = json.loads(info_path.read_text())
+        info = _record(info_path)
         ok = all(p.is_file() for p in lut_members(path)) and sha256_file(path) == info["sha256"]
-        [int(c) for c in info["counts"]], float(info["de00_p99"]), bool(info["target_met"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
     return info if ok else None
@@ -305,8 +309,6 @@ def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict:
         paths["atlas"] = out / f"{stem}.exr"
     for job in plan.jobs:
         if job.kind == "lut":
-            from .bake import lut_members
-
             paths.update({f"{job.id}{p.suffix}": p for p in lut_members(out / f"{job.id}.exr")})
     return paths
 

@@ -29,7 +29,8 @@ from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
 
-__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata", "spectral_error"]
+__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
+           "spectral_error"]
 
 _PROBES = 48
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 import signal
 import sys
 
-from . import _interrupted_at_start_up, _start_up_handler
+from . import interrupted_at_start_up, set_sigint_handler
 
-_start_up_handler(_interrupted_at_start_up)  # until main() runs
+set_sigint_handler(interrupted_at_start_up)  # until main() runs
 
 import json  # noqa: E402  (after the start-up SIGINT handler)
 from dataclasses import replace  # noqa: E402
@@ -35,7 +35,7 @@ class BadInput(click.ClickException):
 
 def main(argv=None):
     """Entry point: turn ValueError and click usage errors into one-line exit-2 errors."""
-    _start_up_handler(signal.default_int_handler)
+    set_sigint_handler(signal.default_int_handler)
     try:
         rv = cli.main(args=argv, prog_name="lutbake", standalone_mode=False)
     except (click.exceptions.Abort, KeyboardInterrupt):
@@ -334,7 +334,8 @@ def _bake_one(path, spec, backend, quiet, max_memory_gib):
     if not show:
         return bake(spec, path, backend, memory_limit_gib=max_memory_gib)
     with click.progressbar(length=spec.image_size[1], label=f"baking {path.name}", file=sys.stderr) as bar:
-        return bake(spec, path, backend, on_band=lambda rows, total: bar.update(rows), memory_limit_gib=max_memory_gib)
+        return bake(spec, path, backend, on_band=lambda rows, total: bar.update(rows),
+                    memory_limit_gib=max_memory_gib)
 
 
 def _bake_summary(result):

@@ -41,10 +41,11 @@ MAX_COUNT = 1 << 24
 MAX_CELLS = 2_000_000_000
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
 _CHUNK_CELLS = 1 << 20
-# Peak memory model, fitted to bench/bench_memory.py (≈ 360 MiB at 1 Mi-cell bands): the process and
-# its libraries, float64 intermediates per cell of a band, and the node-cap screen over (cos θ, η3, κ3).
+# Peak memory, an upper estimate: the process and its libraries, float64 intermediates per cell of a
+# band, and the node-cap screen over (cos θ, η3, κ3). 864 MiB at 1 Mi-cell bands, against 363 MiB
+# (kernel, bench/memory-result.json) and 850 MiB (numpy, bench/b1-result.json) measured.
 _PROCESS_BYTES = 320 << 20
-_BAND_BYTES_PER_CELL = 256
+_BAND_BYTES_PER_CELL = 544
 _SCREEN_BYTES_PER_CELL = 96
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}

@@ -35,8 +35,9 @@ SIZES = {
     "count 1e20": (_with_axis("--cos-theta", "0:1:99999999999999999999"), {2}),
     "counts 2^32 x 2^32": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:4294967296", "--opd", "0:1:4294967296",
                             "--out", "x.exr"], {2}),
-    "count 2.5e8 under the old cell limit": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:250000000", "--opd",
-                                             "0:1000:2", "--eta3", "1:2:2", "--kappa3", "0:1:2", "--out", "x.exr"], {2}),
+    "count 2.5e8 under the old cell limit": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:250000000",
+                                             "--opd", "0:1000:2", "--eta3", "1:2:2", "--kappa3", "0:1:2",
+                                             "--out", "x.exr"], {2}),
     "peak memory over the budget": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:4000000", "--opd", "0:1000:2",
                                      "--eta3", "1:2:100", "--kappa3", "0:1:2", "--out", "x.exr"], {2}),
     "cells over the limit": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:10000", "--opd", "0:1000:10000",
@@ -385,3 +386,26 @@ def test_hostile_paths(argv, tmp_path, capfd, monkeypatch):
     (tmp_path / "f.txt").write_text("a file")
     run_case(argv, tmp_path, capfd, monkeypatch, {2})
     assert not (tmp_path / "S").exists() and not (tmp_path / "T").exists()
+
+
+# --- budgets ---------------------------------------------------------------------------------------
+
+def test_cells_are_exact_integers_checked_before_work():
+    """2^24 × 2^24 × 2 × 2 overflows int64 arithmetic nowhere: the limit sees the exact count."""
+    from lutbake.plan import MAX_COUNT, Axis, BakeSpec
+
+    axes = (Axis("cos_theta", 0.0, 1.0, MAX_COUNT), Axis("opd_nm", 0.0, 1.0, MAX_COUNT),
+            Axis("eta3", 1.0, 2.0, 2), Axis("kappa3", 0.0, 1.0, 2))
+    with pytest.raises(ValueError, match=f"grid of {4 * MAX_COUNT ** 2} cells exceeds"):
+        BakeSpec(eta2=1.5, axes=axes)
+
+
+def test_peak_memory_estimate_covers_the_measured_peaks():
+    from lutbake.bake import default_specs
+
+    root = Path(__file__).resolve().parents[1] / "bench"
+    measured = [row["peak_rss_mib"] for row in json.loads((root / "b1-result.json").read_text())["paths"].values()]
+    measured += [row["peak_rss_mib"] for row in json.loads((root / "memory-result.json").read_text())]
+    budget = next(iter(default_specs().values())).budget()
+    assert budget["peak_memory_bytes"] >= max(measured) * (1 << 20)
+    assert budget["output_bytes"] == 32 * 128 * 16 * 16 * 3 * 2
