@@ -409,3 +409,15 @@ def test_peak_memory_estimate_covers_the_measured_peaks():
     budget = next(iter(default_specs().values())).budget()
     assert budget["peak_memory_bytes"] >= max(measured) * (1 << 20)
     assert budget["output_bytes"] == 32 * 128 * 16 * 16 * 3 * 2
+
+
+def test_scene_target_not_met_at_the_cap_exits_1_with_what_was_reached(tmp_path, capfd, monkeypatch):
+    """A target no slice within the cap can meet: the set is written, exit 1, the reached p99 named."""
+    import lutbake.atlas
+
+    monkeypatch.setattr(lutbake.atlas, "_MAX_COUNT", 8)  # a small cap keeps the case fast
+    (tmp_path / "s.toml").write_text("[scene]\nmax_de = 0.01\n" + _mat("soap", thickness="[100, 2000]"))
+    _, _, err = run_case(["bake", "--scene", "s.toml", "--out", "T"], tmp_path, capfd, monkeypatch, {1})
+    manifest = json.loads((tmp_path / "T" / "s.json").read_text())
+    reached = manifest["materials"]["soap"]["de00_p99"]
+    assert reached > 0.01 and f"soap p99 ΔE00 {reached:.3f}" in err and len(err.strip().splitlines()) == 1
