@@ -74,7 +74,7 @@ class FileSet:
         _test_stop()
         _write_durably(temporary_for(journal), json.dumps({"set": self.name, "members": entries}))
         os.replace(temporary_for(journal), journal)
-        _roll_forward(self.folder, entries)
+        _roll_forward(self.folder, entries, journal)
         journal.unlink()
         self.members = {}
 
@@ -117,7 +117,7 @@ def recover(folder: Path) -> None:
             entries = json.loads(journal.read_text())["members"]
         except (ValueError, KeyError, TypeError):
             raise ValueError(f"commit journal {str(journal)!r} is damaged: remove it and bake again") from None
-        _roll_forward(Path(folder), entries)
+        _roll_forward(Path(folder), entries, journal)
         journal.unlink()
 
 
@@ -129,14 +129,15 @@ def remove_stale_temporaries(folder: Path) -> None:
                 path.unlink()
 
 
-def _roll_forward(folder: Path, entries) -> None:
+def _roll_forward(folder: Path, entries, journal: Path) -> None:
     for tmp_name, final_name, digest in entries:
         tmp, final = folder / tmp_name, folder / final_name
         if tmp.is_file():
             _test_stop()
             os.replace(tmp, final)
         elif not (final.is_file() and sha256_file(final) == digest):
-            raise ValueError(f"{str(final)!r}: interrupted commit cannot be completed: bake again with --force")
+            raise ValueError(f"{str(final)!r} changed after an interrupted commit: remove {str(journal)!r} "
+                             "and bake again")
     _fsync_folder(folder)
 
 
