@@ -12,7 +12,11 @@ includes holding the material table.
 
 Incremental: each slice and LUT is keyed by a content hash. An unchanged
 scene writes nothing; a changed material recomputes only its slice (the
-others come from DIR/.lutbake-cache); --force recomputes all.
+others come from DIR/.lutbake-cache, each entry checked for shape and
+finiteness and recomputed when it fails); --force recomputes all. The
+atlas, includes, 4D LUTs and manifest are one file set (fileset.py): the
+manifest records every member's SHA-256, and "up to date" means the
+manifest's scene hash and every member's hash match.
 """
 
 from __future__ import annotations
@@ -24,15 +28,17 @@ from pathlib import Path
 
 import numpy as np
 
+from .bake import lut_members, write_lut
 from .colorimetry import delta_e00
-from .lutfile import (ATLAS_FORMAT, atomic_path, exr_stream, shader_ident, shader_template, warn_texture_size,
+from .fileset import FileSet, open_set, sha256_file
+from .lutfile import (ATLAS_FORMAT, atomic_path, exr_rows, shader_ident, shader_template, warn_texture_size,
                       write_text_atomic)
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .scene import Scene
-from .sweep import TUNE_START_COUNTS
+from .sweep import TUNE_START_COUNTS, tune
 
 __all__ = ["ScenePlan", "plan_scene", "bake_scene"]
 
@@ -89,7 +95,7 @@ class ScenePlan:
                 row["seconds_estimate"] = 20.0  # a few tune rounds of small 4D bakes
             rows.append(row)
         generic = 32 * 128 * 16 * 16 * (6 if self.scene.precision == "half" else 12)
-        return {"scene": self.scene.path, "settings": self.scene.settings_key(), "jobs": rows,
+        return {"scene": self.scene.file_name, "settings": self.scene.settings_key(), "jobs": rows,
                 "bytes_start_total": sum(r["bytes_start"] for r in rows), "generic_4d_bytes": generic}
 
 
@@ -206,16 +212,14 @@ def _widen(lo, hi):
     return (lo, hi) if hi > lo else (lo, lo + 1e-6 * max(1.0, abs(lo)))
 
 
-def _tuned_lut(job: SliceJob, path: Path, backend: str) -> dict:
+def _tuned_lut(job: SliceJob, path: Path, backend: str, files: FileSet) -> dict:
     """Bake the 4D LUT at the smallest counts (sweep.tune) whose p99 ΔE00 meets the target."""
-    from .bake import bake
-    from .sweep import tune
-
     spec = lut_spec(job)
     result = tune(spec, job.scene.max_de, n_points=300, seed=0, backend=backend, max_rounds=6)
     axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result["counts"]))
-    bake(replace(spec, axes=axes), path, backend)
-    return {"counts": result["counts"], "de00_p99": result["result"]["de00_p99"], "target_met": result["met"]}
+    write_lut(replace(spec, axes=axes), path, files, backend)
+    return {"counts": result["counts"], "de00_p99": result["result"]["de00_p99"], "target_met": result["met"],
+            "sha256": sha256_file(files.members[path])}
 
 
 def lut_spec(job: SliceJob) -> BakeSpec:
@@ -239,6 +243,7 @@ class SceneResult:
     reused: list
     up_to_date: bool
     seconds: float
+    unmet: dict = field(default_factory=dict)  # material -> p99 ΔE00 reached, where above the target
 
 
 def _cache(out: Path) -> Path:
@@ -247,11 +252,35 @@ def _cache(out: Path) -> Path:
     return path
 
 
+def _record(path: Path) -> dict:
+    """A cache record (JSON) with integer counts and a finite p99; raises OSError, ValueError, KeyError
+    or TypeError otherwise."""
+    info = json.loads(path.read_text())
+    info["counts"] = [int(c) for c in info["counts"]]
+    if not np.isfinite(float(info["de00_p99"])):
+        raise ValueError("de00_p99")
+    return info
+
+
+def _cached_slice(npy: Path, info: Path):
+    """(values, meta) of a cache entry that matches its recorded counts and is finite, else None."""
+    try:
+        meta = _record(info)
+        n_cos, n_d = meta["counts"]
+        values = np.load(npy, allow_pickle=False)
+    except (OSError, ValueError, EOFError, KeyError, TypeError):
+        return None
+    if values.shape != (n_d, n_cos, 3) or not np.isfinite(values).all():
+        return None
+    return values, meta
+
+
 def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
     npy, info = cache / f"{job.id}.npy", cache / f"{job.id}.json"
-    if not force and npy.is_file() and info.is_file():
+    cached = None if force else _cached_slice(npy, info)
+    if cached is not None:
         reused.append(job.id)
-        return np.load(npy), json.loads(info.read_text())
+        return cached
     values, counts, p99, held_out = refine_slice(job)
     meta = {"counts": list(counts), "de00_p99": p99, "held_out_points": _HELD_OUT,
             "constant_index_de00_p99": constant_index_error(job, held_out)}
@@ -262,63 +291,118 @@ def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
     return values, meta
 
 
+def _cached_lut(path: Path, info_path: Path):
+    """The cache record of a 4D LUT whose set is complete and whose EXR has the recorded hash, else None."""
+    try:
+        info = _record(info_path)
+        ok = all(p.is_file() for p in lut_members(path)) and sha256_file(path) == info["sha256"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return info if ok else None
+
+
+def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict:
+    """Role -> path of every file of the scene's set (4D LUTs by job id)."""
+    stem = Path(scene.path).stem
+    paths = {"manifest": out / f"{stem}.json", "glsl": out / f"{stem}.glsl", "hlsl": out / f"{stem}.hlsl"}
+    if any(j.kind == "slice" for j in plan.jobs):
+        paths["atlas"] = out / f"{stem}.exr"
+    for job in plan.jobs:
+        if job.kind == "lut":
+            paths.update({f"{job.id}{p.suffix}": p for p in lut_members(out / f"{job.id}.exr")})
+    return paths
+
+
+def check_scene_outputs(out: Path, scene: Scene) -> None:
+    """Refuse before any write when an output or the cache path is taken by the wrong kind of entry."""
+    for path in scene_outputs(out, scene, plan_scene(scene)).values():
+        if path.is_dir():
+            raise ValueError(f"--out {str(out)!r}: {str(path)!r} is a folder, expected a file or nothing")
+    cache = out / ".lutbake-cache"
+    if cache.exists() and not cache.is_dir():
+        raise ValueError(f"--out {str(out)!r}: {str(cache)!r} is a file, expected the cache folder")
+
+
+def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> bool:
+    """The manifest is this scene's and every member it lists exists with the recorded hash."""
+    try:
+        manifest = json.loads(manifest_path.read_text())
+        files = manifest["files"]
+        if manifest["scene_hash"] != scene_hash or sorted(files) != sorted(p.name for p in outputs.values()
+                                                                           if p != manifest_path):
+            return False
+        return all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False
+
+
 def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto") -> SceneResult:
     start = time.perf_counter()
     out = Path(out_dir)
+    check_scene_outputs(out, scene)
     out.mkdir(parents=True, exist_ok=True)
     stem = Path(scene.path).stem
     plan = plan_scene(scene)
     scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials])
-    manifest_path = out / f"{stem}.json"
-    outputs = [manifest_path, out / f"{stem}.glsl", out / f"{stem}.hlsl"]
-    if any(j.kind == "slice" for j in plan.jobs):
-        outputs.append(out / f"{stem}.exr")
-    outputs += [out / f"{j.id}.exr" for j in plan.jobs if j.kind == "lut"]
-    if not force and all(p.is_file() for p in outputs):
-        if json.loads(manifest_path.read_text()).get("scene_hash") == scene_hash:
-            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start)
-    cache, computed, reused, written = _cache(out), [], [], []
-    slices, entries = [], {}
-    for job in plan.jobs:
-        if job.kind == "slice":
-            values, info = _load_or_compute_slice(job, cache, force, computed, reused)
-            slices.append((job, values, info))
-            continue
-        path = out / f"{job.id}.exr"
-        info_path = cache / f"{job.id}.json"
-        if not force and path.is_file() and info_path.is_file():
-            reused.append(job.id)
-            info = json.loads(info_path.read_text())
-        else:
-            info = _tuned_lut(job, path, backend)
-            write_text_atomic(info_path, json.dumps(info, indent=2) + "\n")
-            computed.append(job.id)
-            written.append(path)
-        for name in job.materials:
-            entries[name] = {"kind": "lut", "job": job.id, "file": path.name, "counts": info["counts"],
-                             "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
-    atlas = _pack(slices)
-    warn_texture_size(atlas["width"], atlas["height"], f"{stem}.exr")
-    if slices:
-        exr_path = out / f"{stem}.exr"
-        meta = {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
-                "space": scene.space, "observer": scene.observer, "encoding": "linear", "precision": scene.precision,
-                "eta1": scene.eta1, "slices": [_slice_meta(j, rect) for (j, _, _), rect in zip(slices, atlas["rects"])]}
-        with exr_stream(exr_path, atlas["width"], atlas["height"], meta, scene.precision) as exr:
-            exr.write_rows(atlas["image"])
-        written.append(exr_path)
-        for (job, values, info), rect in zip(slices, atlas["rects"]):
+    outputs = scene_outputs(out, scene, plan)
+    with open_set(out, f"scene-{stem}") as files:
+        if not force and _up_to_date(outputs["manifest"], scene_hash, outputs):
+            entries = json.loads(outputs["manifest"].read_text())["materials"]
+            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start,
+                               _unmet(entries, scene.max_de))
+        cache, computed, reused = _cache(out), [], []
+        slices, entries = [], {}
+        for job in plan.jobs:
+            if job.kind == "slice":
+                values, info = _load_or_compute_slice(job, cache, force, computed, reused)
+                slices.append((job, values, info))
+                continue
+            info = _scene_lut(job, out, cache, force, backend, files, computed, reused)
             for name in job.materials:
-                entries[name] = _slice_entry(job, info, rect, atlas, exr_path.name)
-    manifest = {"format": "lutbake-scene-manifest", "format_version": 1, "scene": scene.path,
-                "scene_hash": scene_hash, "settings": scene.settings_key(),
-                "materials": {m.name: entries[m.name] for m in scene.materials}}
-    for lang in _SHADER:
-        write_text_atomic(out / f"{stem}.{lang}", _shader(manifest, atlas, lang))
-        written.append(out / f"{stem}.{lang}")
-    write_text_atomic(manifest_path, json.dumps(manifest, indent=2) + "\n")
-    written.append(manifest_path)
-    return SceneResult(out, written, computed, reused, False, time.perf_counter() - start)
+                entries[name] = {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": info["counts"],
+                                 "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
+        atlas = _pack(slices)
+        warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else stem)
+        if slices:
+            exr_path = outputs["atlas"]
+            meta = {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
+                    "space": scene.space, "observer": scene.observer, "encoding": "linear",
+                    "precision": scene.precision, "eta1": scene.eta1,
+                    "slices": [_slice_meta(j, rect) for (j, _, _), rect in zip(slices, atlas["rects"])]}
+            with exr_rows(files.temp(exr_path), atlas["width"], atlas["height"], meta, scene.precision) as exr:
+                exr.write_rows(atlas["image"])
+            for (job, values, info), rect in zip(slices, atlas["rects"]):
+                for name in job.materials:
+                    entries[name] = _slice_entry(job, info, rect, atlas, exr_path.name)
+        manifest = {"format": "lutbake-scene-manifest", "format_version": 1, "scene": scene.file_name,
+                    "scene_hash": scene_hash, "settings": scene.settings_key(),
+                    "materials": {m.name: entries[m.name] for m in scene.materials}}
+        for lang in _SHADER:
+            files.temp(outputs[lang]).write_text(_shader(manifest, atlas, lang))
+        manifest["files"] = {p.name: sha256_file(files.members.get(p, p))
+                             for p in outputs.values() if p != outputs["manifest"]}
+        files.temp(outputs["manifest"]).write_text(json.dumps(manifest, indent=2) + "\n")
+        written = sorted(files.members)
+    return SceneResult(out, written, computed, reused, False, time.perf_counter() - start,
+                       _unmet(manifest["materials"], scene.max_de))
+
+
+def _unmet(entries: dict, max_de: float) -> dict:
+    """Materials whose p99 ΔE00 stayed above the target at the resolution cap."""
+    return {name: e["de00_p99"] for name, e in entries.items() if e["de00_p99"] > max_de}
+
+
+def _scene_lut(job, out: Path, cache: Path, force: bool, backend: str, files: FileSet, computed, reused):
+    """The cache record of a ranged-base 4D LUT: reused when intact, else tuned and written."""
+    path, info_path = out / f"{job.id}.exr", cache / f"{job.id}.json"
+    info = None if force else _cached_lut(path, info_path)
+    if info is not None:
+        reused.append(job.id)
+    else:
+        info = _tuned_lut(job, path, backend, files)
+        write_text_atomic(info_path, json.dumps(info, indent=2) + "\n")
+        computed.append(job.id)
+    return info
 
 
 def _slice_meta(job, rect) -> dict:

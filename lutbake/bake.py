@@ -1,8 +1,8 @@
 """Bake: run a plan through an integrator and stream it into a LUT file set.
 
 Outputs beside each other: NAME.exr (authoritative, self-describing),
-NAME.json (the same metadata), NAME.glsl and NAME.hlsl (samplers). The EXR is
-renamed into place last, after its companions.
+NAME.json (the same metadata), NAME.glsl and NAME.hlsl (samplers), committed
+as one set (fileset.py).
 
 Before baking, the spectral rule's error is measured against the ground
 truth (reference.py) at probe cells spread over the grid, including the
@@ -26,13 +26,15 @@ from . import __version__
 from .fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, weight_transform
 from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
-from .lutfile import FORMAT, FORMAT_VERSION, exr_stream, shader_includes, write_text_atomic
-from .plan import Axis, BakeSpec
+from .fileset import FileSet, open_set
+from .lutfile import FORMAT, FORMAT_VERSION, exr_rows, shader_includes
+from .plan import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
 
-__all__ = ["BakeResult", "bake", "bake_array", "default_specs", "metadata", "spectral_error"]
+__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
+           "spectral_error"]
 
 _PROBES = 48
 
@@ -142,15 +144,24 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
 
 
 def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
-         integrator: str = "series", device=None) -> BakeResult:
-    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes.
+         integrator: str = "series", device=None,
+         memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> BakeResult:
+    """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set.
 
     ``integrator`` is the kernel path ('series' or 'direct', integrate.OpenCLBackend);
     ``device`` picks the OpenCL device (integrate.find_device). The EXR's bytes do not
     depend on the device; the sidecar records it under ``baked_on``.
     """
     out_path = Path(out_path)
+    spec.check_budget(memory_limit_gib)
     _check_writable(out_path)
+    with open_set(out_path.parent, out_path.name) as files:
+        return write_lut(spec, out_path, files, backend, on_band, chunk_cells, integrator, device)
+
+
+def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
+              chunk_cells=None, integrator: str = "series", device=None) -> BakeResult:
+    """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute, integrator, device)
     error = spectral_error(spec)
@@ -159,16 +170,21 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    with exr_stream(out_path, width, height, meta, spec.precision) as exr:
+    with exr_rows(files.temp(out_path), width, height, meta, spec.precision) as exr:
         for y0, y1 in chunks:
             exr.write_rows(integrator.bake_rows(spec, y0, y1))
             if on_band:
                 on_band(y1 - y0, height)
-        write_text_atomic(out_path.with_suffix(".json"), json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
-        for suffix, text in shader_includes(meta, out_path.name).items():
-            write_text_atomic(out_path.with_suffix(f".{suffix}"), text)
+    files.temp(out_path.with_suffix(".json")).write_text(json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
+    for suffix, text in shader_includes(meta, out_path.name).items():
+        files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
     return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device,
                       error, *capped)
+
+
+def lut_members(out_path: Path) -> list:
+    """The files of a LUT set."""
+    return [out_path.with_suffix(f".{s}") for s in ("exr", "json", "glsl", "hlsl")]
 
 
 def bake_array(spec: BakeSpec, backend: str = "auto", integrator: str = "series", device=None) -> np.ndarray:
@@ -186,5 +202,6 @@ def _check_writable(out_path: Path) -> None:
         raise ValueError(f"--out folder {str(folder)!r} does not exist")
     if not os.access(folder, os.W_OK):
         raise ValueError(f"--out folder {str(folder)!r} is not writable")
-    if out_path.is_dir():
-        raise ValueError(f"--out {str(out_path)!r} is a folder, expected a file name ending in .exr")
+    for member in lut_members(out_path):
+        if member.is_dir():
+            raise ValueError(f"--out {str(out_path)!r}: {str(member)!r} is a folder, expected a file or nothing")

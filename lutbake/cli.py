@@ -6,16 +6,22 @@ stderr naming the value and what is allowed; nothing written).
 
 from __future__ import annotations
 
-import json
+import signal
 import sys
-from dataclasses import replace
-from pathlib import Path
 
-import click
-import numpy as np
+from . import interrupted_at_start_up, set_sigint_handler
 
-from . import __version__
-from .colorimetry import OBSERVERS, SPACES
+set_sigint_handler(interrupted_at_start_up)  # until main() runs
+
+import json  # noqa: E402  (after the start-up SIGINT handler)
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import click  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import __version__  # noqa: E402
+from .colorimetry import OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
 
@@ -29,9 +35,10 @@ class BadInput(click.ClickException):
 
 def main(argv=None):
     """Entry point: turn ValueError and click usage errors into one-line exit-2 errors."""
+    set_sigint_handler(signal.default_int_handler)
     try:
         rv = cli.main(args=argv, prog_name="lutbake", standalone_mode=False)
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt):
         click.echo("lutbake: interrupted", err=True)
         sys.exit(130)
     except click.ClickException as exc:
@@ -229,8 +236,10 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
               help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
+@click.option("--max-memory-gib", type=click.FloatRange(0.5, 4096), default=8.0, show_default=True,
+              help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).")
 def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
-             samples_per_cycle, backend, scene, force, out, quiet, as_json):
+             samples_per_cycle, backend, scene, force, out, quiet, as_json, max_memory_gib):
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
     Without --eta2, bakes the default LUT set into a folder.
@@ -248,17 +257,19 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         folder = Path(out or DEFAULT_OUT_DIR)
         if folder.suffix.lower() == ".exr":
             raise BadInput(f"--out {str(folder)!r}: the default set goes into a folder, not one .exr")
-        _make_folder(folder)
         common = dict(eta1=eta1, space=space, observer=observer, compute=compute, method=method)
         if samples_per_cycle is not None:
             common["samples_per_cycle"] = samples_per_cycle
         jobs = [(folder / f"{name}.exr", replace(spec, **common))
                 for name, spec in default_specs(precision or "half").items()]
+        for _, spec in jobs:
+            spec.check_budget(max_memory_gib)
+        _make_folder(folder)
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
         jobs = [(Path(out), domain_spec(**flags))]
-    results = [_bake_one(path, spec, backend, quiet or as_json) for path, spec in jobs]
+    results = [_bake_one(path, spec, backend, quiet or as_json, max_memory_gib) for path, spec in jobs]
     summary = [_bake_summary(r) for r in results]
     if as_json:
         echo_json({"luts": summary})
@@ -276,7 +287,7 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
 
 
 def _bake_scene(scene_path, out, force, backend, as_json):
-    from .atlas import bake_scene
+    from .atlas import bake_scene, check_scene_outputs
     from .scene import load_scene
 
     if out is None:
@@ -284,10 +295,12 @@ def _bake_scene(scene_path, out, force, backend, as_json):
     if Path(out).suffix.lower() == ".exr":
         raise BadInput(f"--out {out!r}: a scene bakes into a folder")
     scene = load_scene(scene_path)
+    check_scene_outputs(Path(out), scene)
     _make_folder(Path(out))
     result = bake_scene(scene, out, force, backend)
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
-           "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds}
+           "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
+           "target_unmet": result.unmet}
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
@@ -295,6 +308,11 @@ def _bake_scene(scene_path, out, force, backend, as_json):
     else:
         click.echo(f"{scene_path}: computed {len(result.computed)}, reused {len(result.reused)}, "
                    f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
+    if result.unmet:
+        reached = ", ".join(f"{name} p99 ΔE00 {p99:.3f}" for name, p99 in result.unmet.items())
+        click.echo(f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
+                   "(written; see docs/scene.md)", err=True)
+        return EXIT_GATE
     return 0
 
 
@@ -328,14 +346,15 @@ def _make_folder(folder: Path):
         raise BadInput(f"--out folder {str(folder)!r} cannot be created: {exc.strerror}") from None
 
 
-def _bake_one(path, spec, backend, quiet):
+def _bake_one(path, spec, backend, quiet, max_memory_gib):
     from .bake import bake
 
     show = not quiet and sys.stderr.isatty()
     if not show:
-        return bake(spec, path, backend)
+        return bake(spec, path, backend, memory_limit_gib=max_memory_gib)
     with click.progressbar(length=spec.image_size[1], label=f"baking {path.name}", file=sys.stderr) as bar:
-        return bake(spec, path, backend, on_band=lambda rows, total: bar.update(rows))
+        return bake(spec, path, backend, on_band=lambda rows, total: bar.update(rows),
+                    memory_limit_gib=max_memory_gib)
 
 
 def _bake_summary(result):

@@ -8,26 +8,31 @@ bit-exact; a plain float attribute would be stored as 32-bit), and flat
 ``lutbake.*`` attributes repeat the key fields for tools such as
 ``oiiotool --info -v``. docs/lut-format.md specifies it for engine authors.
 
-Every file is written to a hidden temporary in the destination folder and
-renamed into place, so an interrupted bake leaves the previous file (or
-none), never a partial one. Nothing time- or machine-dependent is written:
+A LUT's four files are one set (fileset.py): written as hidden temporaries,
+then committed together, so an interrupted or failed bake leaves the
+previous set (or none), never a partial or mixed one. Nothing time- or machine-dependent is written:
 the same inputs give the same bytes.
 """
 
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import os
 import signal
 import string
+import sys
 import warnings
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_stream", "read_lut", "write_text_atomic",
+from . import fileset
+from .fileset import main_thread, raise_interrupt, temporary_for
+
+__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "write_text_atomic",
            "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
            "MAX_TEXTURE_SIZE"]
 
@@ -43,31 +48,23 @@ def atomic_path(final: Path):
     """Yield a temporary path beside ``final``; rename it into place on success.
 
     SIGTERM is turned into an exception for the duration so the temporary is
-    removed on the way out (kill -9 leaves only the hidden temporary).
+    removed on the way out (kill -9 leaves only the hidden temporary, which the
+    next bake into the folder removes). Single files only: a LUT or scene file
+    set is committed as one unit by fileset.open_set.
     """
     final = Path(final)
-    tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}")
+    tmp = temporary_for(final)
     previous = signal.getsignal(signal.SIGTERM)
-    if _main_thread():
-        signal.signal(signal.SIGTERM, _raise_interrupt)
+    if main_thread():
+        signal.signal(signal.SIGTERM, raise_interrupt)
     try:
         yield tmp
         os.replace(tmp, final)
     finally:
-        if _main_thread():
+        if main_thread():
             signal.signal(signal.SIGTERM, previous)
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
-
-
-def _main_thread() -> bool:
-    import threading
-
-    return threading.current_thread() is threading.main_thread()
-
-
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -121,42 +118,154 @@ class _ExrRows:
 
 
 @contextlib.contextmanager
+def exr_rows(path: Path, width: int, height: int, meta: dict, precision: str = "float"):
+    """Write an RGB EXR at ``path`` band by band (bounded memory); raise if left incomplete."""
+    rows = _ExrRows(path, width, height, meta, precision)
+    try:
+        yield rows
+    finally:
+        rows.file.close()
+    if rows.rows_written != height:
+        raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
+
+
+@contextlib.contextmanager
 def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str = "float"):
-    """Write an RGB EXR band by band (bounded memory); it appears only when complete."""
-    with atomic_path(path) as tmp:
-        rows = _ExrRows(tmp, width, height, meta, precision)
-        try:
-            yield rows
-        finally:
-            rows.file.close()
-        if rows.rows_written != height:
-            raise RuntimeError(f"LUT incomplete: {rows.rows_written} of {height} rows written")
+    """exr_rows into a temporary: the file appears only when complete."""
+    with atomic_path(path) as tmp, exr_rows(tmp, width, height, meta, precision) as rows:
+        yield rows
 
 
 def read_lut(path, formats=(FORMAT,)):
     """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR whose format is
-    one of ``formats`` (version 1)."""
-    import OpenEXR
-
+    one of ``formats`` (version 1), validated against the schema of docs/lut-format.md;
+    ValueError names the file and the field."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"LUT {str(path)!r} does not exist")
+    if fileset.journal_path(path.parent, path.name).exists():
+        raise ValueError(f"{str(path)!r} is mid-commit (a bake was interrupted or is running): bake it again")
+    meta_text, image = _read_exr(path)
     try:
-        with OpenEXR.File(str(path)) as exr:
-            header = exr.header()
-            channels = exr.channels()
+        meta = json.loads(meta_text)
+    except ValueError:
+        raise ValueError(f"{str(path)!r}: lutbake.metadata is not JSON") from None
+    if not isinstance(meta, dict) or meta.get("format") not in formats or meta.get("format_version") != FORMAT_VERSION:
+        raise ValueError(f"{str(path)!r} is not a {' or '.join(formats)} v{FORMAT_VERSION} file")
+    try:
+        (_check_meta if meta["format"] == FORMAT else _check_atlas_meta)(meta, image)
+    except (KeyError, TypeError, ValueError) as exc:
+        field = exc.args[0] if exc.args else "?"
+        raise ValueError(f"{str(path)!r}: metadata field {field} is missing or invalid") from None
+    return meta, image
+
+
+def _read_exr(path: Path):
+    """(lutbake.metadata text, RGB image) of an EXR; OpenEXR's own messages are silenced."""
+    import OpenEXR
+
+    try:
+        with _silenced_c_output(), OpenEXR.File(str(path)) as exr:
+            header, channels = exr.header(), exr.channels()
             if "lutbake.metadata" not in header:
-                raise ValueError(f"{str(path)!r} is an EXR without lutbake metadata")
-            meta = json.loads(header["lutbake.metadata"])
+                raise LookupError("lutbake.metadata")
+            meta_text = header["lutbake.metadata"]
             if "RGB" in channels:
                 image = np.array(channels["RGB"].pixels)
             else:
                 image = np.stack([np.array(channels[c].pixels) for c in "RGB"], axis=-1)
-    except (OSError, RuntimeError) as exc:
-        raise ValueError(f"{str(path)!r} is not a readable EXR: {exc}") from None
-    if meta.get("format") not in formats or meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {' or '.join(formats)} v{FORMAT_VERSION} file")
-    return meta, image
+    except LookupError:
+        raise ValueError(f"{str(path)!r} is an EXR without lutbake metadata or RGB channels") from None
+    except Exception:  # OpenEXR raises several types for damaged files; all mean the same here
+        raise ValueError(f"{str(path)!r} is not a readable EXR (damaged or truncated)") from None
+    return meta_text, image
+
+
+@contextlib.contextmanager
+def _silenced_c_output():
+    """Send file descriptors 1 and 2 and sys.stdout/stderr nowhere (OpenEXR prints warnings)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            yield  # the bindings also print through Python's sys.stdout
+    finally:
+        _libc_fflush()  # C++ streams buffered while redirected must drain into /dev/null
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+def _libc_fflush() -> None:
+    import ctypes
+
+    ctypes.CDLL(None).fflush(None)
+
+
+_AXES = ("cos_theta", "opd_nm", "eta3", "kappa3")
+_STRINGS = ("lutbake_version", "content_hash", "observer", "illuminant", "space", "precision", "compute")
+
+
+def _check_meta(meta: dict, image: np.ndarray) -> None:
+    """Raise KeyError/TypeError/ValueError with the field name when ``meta`` breaks the schema."""
+    for key in _STRINGS:
+        _require(isinstance(meta[key], str), key)
+    axes = meta["axes"]
+    _require(isinstance(axes, list) and [a["name"] for a in axes] == list(_AXES), "axes")
+    for i, a in enumerate(axes):
+        lo, hi = _finite(a["min"], f"axes[{i}].min"), _finite(a["max"], f"axes[{i}].max")
+        _require(hi > lo, f"axes[{i}].max")
+        _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
+        _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0),
+                 f"axes[{i}].spacing")
+    n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in axes)
+    packing = meta["packing"]
+    _require(packing["width"] == n_eta3 * n_cos and packing["tile_width"] == n_cos, "packing.width")
+    _require(packing["height"] == n_kappa3 * n_opd and packing["tile_height"] == n_opd, "packing.height")
+    _require(image.shape == (packing["height"], packing["width"], 3), "packing (image size)")
+    for key in ("eta1", "eta2"):
+        _require(_finite(meta["constants"][key], f"constants.{key}") > 0, f"constants.{key}")
+    spectral = meta["spectral"]
+    _require(isinstance(spectral["counts"], list) and len(spectral["counts"]) > 0, "spectral.counts")
+    _finite(spectral["error_rgb_max"], "spectral.error_rgb_max")
+    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
+
+
+def _check_atlas_meta(meta: dict, image: np.ndarray) -> None:
+    """The atlas schema (docs/lut-format.md): slices whose rects lie in the image, named materials,
+    a finite thickness range and ambient index."""
+    _require(_finite(meta["eta1"], "eta1") > 0, "eta1")
+    height, width, _ = image.shape
+    _require(isinstance(meta["slices"], list) and len(meta["slices"]) > 0, "slices")
+    for i, s in enumerate(meta["slices"]):
+        x0, y0, w, h = s["rect"]
+        _require(all(_integer(v) for v in (x0, y0, w, h)) and x0 >= 0 and y0 >= 0 and w >= 2 and h >= 1
+                 and x0 + w <= width and y0 + h <= height, f"slices[{i}].rect")
+        _require(isinstance(s["materials"], list) and all(isinstance(m, str) and m for m in s["materials"]),
+                 f"slices[{i}].materials")
+        th = s["axes"]["thickness_nm"]
+        _require(_finite(th["max"], f"slices[{i}].axes.thickness_nm.max")
+                 >= _finite(th["min"], f"slices[{i}].axes.thickness_nm.min"), f"slices[{i}].axes.thickness_nm")
+    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
+
+
+def _require(ok: bool, field: str) -> None:
+    if not ok:
+        raise ValueError(field)
+
+
+def _integer(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _finite(value, field: str) -> float:
+    _require(isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value), field)
+    return float(value)
 
 
 def shader_includes(meta: dict, lut_name: str) -> dict:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -34,8 +35,20 @@ SPACINGS = ("uniform", "sqrt")
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
 METHODS = ("spectral",)
+# Budget limits, checked before any work (docs/lut-format.md, "Limits"). Counts are bounded before
+# they are multiplied; cells are multiplied as Python integers (no overflow).
+MAX_COUNT = 1 << 24
 MAX_CELLS = 2_000_000_000
+DEFAULT_MEMORY_LIMIT_GIB = 8.0
 _CHUNK_CELLS = 1 << 20
+# Peak memory, an upper estimate: the process and its libraries, float64 intermediates per cell of a
+# band, and the node-cap screen over (cos θ, η3, κ3). 864 MiB at 1 Mi-cell bands, against 363 MiB
+# (kernel, bench/memory-result.json) and 850 MiB (numpy, bench/b1-result.json) measured.
+_PROCESS_BYTES = 320 << 20
+_BAND_BYTES_PER_CELL = 544
+_SCREEN_BYTES_PER_CELL = 96
+# Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
+_CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 
 
 @dataclass(frozen=True)
@@ -102,8 +115,8 @@ def validate_axis(axis: Axis) -> Axis:
             raise ValueError(f"{flag}: {exc}") from None
     if not axis.hi > axis.lo:
         raise ValueError(f"{flag} range {axis.lo:g}:{axis.hi:g} is empty or reversed: need A < B")
-    if axis.count < 2:
-        raise ValueError(f"{flag} count {axis.count} is too small: need N >= 2")
+    if not 2 <= axis.count <= MAX_COUNT:
+        raise ValueError(f"{flag} count {axis.count} is not allowed: need 2 <= N <= {MAX_COUNT}")
     if axis.spacing not in SPACINGS:
         raise ValueError(f"{flag} spacing {axis.spacing!r} is not one of {', '.join(SPACINGS)}")
     return axis
@@ -142,7 +155,7 @@ class BakeSpec:
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
         if self.cells > MAX_CELLS:
-            raise ValueError(f"grid of {self.cells} cells exceeds the {MAX_CELLS} cell limit")
+            raise ValueError(f"grid of {self.cells} cells exceeds the {MAX_CELLS} cell limit: use fewer nodes")
 
     @property
     def axis(self) -> dict:
@@ -154,7 +167,27 @@ class BakeSpec:
 
     @property
     def cells(self) -> int:
-        return int(np.prod(self.shape, dtype=np.int64))
+        return math.prod(self.shape)
+
+    def budget(self) -> dict:
+        """Cells, output bytes, estimated peak memory and bake seconds (per backend), before any work."""
+        n_cos, _, n_eta3, n_kappa3 = self.shape
+        width, _ = self.image_size
+        band_cells = max(_CHUNK_CELLS, width)  # a band holds at least one image row
+        peak = (_PROCESS_BYTES + band_cells * _BAND_BYTES_PER_CELL
+                + n_cos * n_eta3 * n_kappa3 * _SCREEN_BYTES_PER_CELL)
+        return {"cells": self.cells, "output_bytes": self.cells * 3 * (2 if self.precision == "half" else 4),
+                "peak_memory_bytes": peak,
+                "seconds_estimate": {name: self.cells / rate for name, rate in _CELLS_PER_SECOND.items()}}
+
+    def check_budget(self, memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> dict:
+        """The budget, or ValueError when its peak memory exceeds the limit (raise it with --max-memory-gib)."""
+        b = self.budget()
+        if b["peak_memory_bytes"] > memory_limit_gib * (1 << 30):
+            raise ValueError(f"grid {' x '.join(map(str, self.shape))} needs about "
+                             f"{b['peak_memory_bytes'] / (1 << 30):.1f} GiB of memory, over the "
+                             f"{memory_limit_gib:g} GiB limit: use fewer nodes or raise --max-memory-gib")
+        return b
 
     @property
     def image_size(self) -> tuple:

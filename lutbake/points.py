@@ -17,22 +17,31 @@ import numpy as np
 from .materials import material
 from .optics import thickness_from_opd
 
-__all__ = ["FilmPoints", "check_value", "CSV_COLUMNS"]
+__all__ = ["FilmPoints", "check_value", "dielectric_film", "CSV_COLUMNS"]
 
 CSV_COLUMNS = ("eta1", "eta2", "thickness_nm", "opd_nm", "cos_theta", "angle_deg", "eta3", "kappa3")
 
-# name → (test, what is allowed); the one table every entry point validates with.
+# name → (test, what is allowed); the one table every entry point validates with. Bounds are where the
+# model stops being meaningful in float64 or physics (docs/stability.md, "Input domain"): indices in
+# [0.01, 10] (no natural material lies outside in the visible; squares of 1e308 overflow to NaN),
+# κ3 ≤ 1000, films up to 100 µm thick and optical path D = 2·η2·d up to 200 µm (the checked range;
+# fringes there are far below what any observer resolves, and the spectral cost grows with D).
+MAX_INDEX, MIN_INDEX, MAX_KAPPA = 10.0, 0.01, 1000.0
+MAX_THICKNESS_NM, MAX_OPD_NM = 1e5, 2e5
+# A named film whose κ exceeds this somewhere in 360–830 nm is refused: the model's film is lossless.
+MAX_FILM_KAPPA = 0.01
+_INDEX = (lambda v: (v >= MIN_INDEX) & (v <= MAX_INDEX), f"a number in [{MIN_INDEX:g}, {MAX_INDEX:g}]")
 _DOMAIN = {
-    "eta1": (lambda v: v > 0, "a finite number > 0"),
-    "eta2": (lambda v: v > 0, "a finite number > 0"),
-    "eta3": (lambda v: v > 0, "a finite number > 0"),
-    "kappa3": (lambda v: v >= 0, "a finite number >= 0"),
-    "thickness_nm": (lambda v: v >= 0, "a finite number >= 0"),
-    "opd_nm": (lambda v: v >= 0, "a finite number >= 0"),
+    "eta1": _INDEX,
+    "eta2": _INDEX,
+    "eta3": _INDEX,
+    "kappa3": (lambda v: (v >= 0) & (v <= MAX_KAPPA), f"a number in [0, {MAX_KAPPA:g}]"),
+    "thickness_nm": (lambda v: (v >= 0) & (v <= MAX_THICKNESS_NM), f"a number in [0, {MAX_THICKNESS_NM:g}]"),
+    "opd_nm": (lambda v: (v >= 0) & (v <= MAX_OPD_NM), f"a number in [0, {MAX_OPD_NM:g}]"),
     "cos_theta": (lambda v: (v >= 0) & (v <= 1), "a number in [0, 1]"),
     "angle_deg": (lambda v: (v >= 0) & (v <= 90), "a number in [0, 90]"),
     "wavelength_nm": (lambda v: (v >= 360) & (v <= 830), "a number in [360, 830]"),
-    "max_de": (lambda v: v > 0, "a finite number > 0"),
+    "max_de": (lambda v: (v >= 0.01) & (v <= 100), "a number in [0.01, 100]"),
 }
 
 
@@ -79,7 +88,7 @@ class FilmPoints:
     def build(cls, *, eta1=1.0, eta2=None, thickness_nm=None, opd_nm=None, cos_theta=None,
               angle_deg=None, eta3=None, kappa3=0.0, film=None, base=None) -> "FilmPoints":
         """Validate and broadcast keyword columns (scalars or arrays)."""
-        film_mat = material(film) if film else None
+        film_mat = dielectric_film(film) if film else None
         base_mat = material(base) if base else None
         _require_one("thickness_nm", thickness_nm, "opd_nm", opd_nm)
         _require_one("cos_theta", cos_theta, "angle_deg", angle_deg)
@@ -103,6 +112,8 @@ class FilmPoints:
             cols["thickness_nm"] = check_value("thickness_nm", thickness_nm)
         else:
             cols["thickness_nm"] = thickness_from_opd(check_value("opd_nm", opd_nm), cols["eta2"])
+        eta2_max = np.max(film_mat.index(np.array([360.0, 830.0]))[0]) if film_mat else cols["eta2"]
+        check_value("opd_nm", 2.0 * eta2_max * cols["thickness_nm"])
         arrays = dict(zip(cols, np.broadcast_arrays(*cols.values())))
         return cls(**{k: np.ascontiguousarray(v) for k, v in arrays.items()},
                    film=film_mat, base=base_mat)
@@ -115,6 +126,9 @@ class FilmPoints:
         if len(rows) < 2:
             raise ValueError("points CSV needs a header row and at least one data row")
         header = [h.strip() for h in rows[0]]
+        repeated = [h for i, h in enumerate(header) if h in header[:i]]
+        if repeated:
+            raise ValueError(f"points CSV column {repeated[0]!r} appears twice: each column once")
         unknown = [h for h in header if h not in CSV_COLUMNS]
         if unknown:
             raise ValueError(f"points CSV column {unknown[0]!r} is unknown: allowed {', '.join(CSV_COLUMNS)}")
@@ -128,6 +142,17 @@ class FilmPoints:
                 except ValueError:
                     raise ValueError(f"points CSV line {line}: {h} = {cell.strip()!r} is not a number") from None
         return cls.build(**{**defaults, **{k: np.array(v) for k, v in columns.items()}})
+
+
+def dielectric_film(name: str):
+    """The named material, refused when it absorbs (κ > MAX_FILM_KAPPA in 360–830 nm): the film layer
+    of the model is lossless, so its κ would be dropped silently."""
+    film = material(name)
+    kappa = film.index(np.linspace(360.0, 830.0, 95))[1]
+    if np.max(kappa) > MAX_FILM_KAPPA:
+        raise ValueError(f"film {name!r} absorbs (kappa up to {np.max(kappa):.3g} in 360-830 nm): the film "
+                         f"must be a dielectric with kappa <= {MAX_FILM_KAPPA:g}; use it as the base instead")
+    return film
 
 
 def _require_one(name_a, a, name_b, b):

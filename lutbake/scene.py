@@ -14,8 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .colorimetry import OBSERVERS, SPACES
+from .lutfile import shader_ident
 from .materials import material
-from .points import check_value
+from .points import check_value, dielectric_film
 
 __all__ = ["Scene", "SceneMaterial", "load_scene"]
 
@@ -52,6 +53,11 @@ class Scene:
     precision: str
     max_de: float
     materials: tuple
+
+    @property
+    def file_name(self) -> str:
+        """The scene file's name: what outputs record (not the path as typed, which depends on the cwd)."""
+        return Path(self.path).name
 
     def settings_key(self) -> dict:
         return {"space": self.space, "observer": self.observer, "eta1": self.eta1,
@@ -112,10 +118,29 @@ def load_scene(path) -> Scene:
     eta1 = _number(loc, "scene", "eta1", settings.get("eta1", 1.0), "eta1")
     max_de = _number(loc, "scene", "max_de", settings.get("max_de", 1.0), "max_de")
     materials = doc.get("materials", {})
+    if not isinstance(materials, dict):
+        raise ValueError(f"{path}:{_top_line(loc, 'materials')}: materials must be tables [materials.NAME], "
+                         f"not {type(materials).__name__}")
     if not materials:
         raise loc.error("scene", None, "no materials: add at least one [materials.NAME] table")
+    _check_names(loc, list(materials))
     parsed = tuple(_material(loc, name, body) for name, body in materials.items())
     return Scene(str(path), space, observer, eta1, precision, max_de, parsed)
+
+
+def _check_names(loc, names):
+    """Names become shader identifiers: ASCII letters, digits, '-' and '_', distinct once sanitised."""
+    seen = {}
+    for name in names:
+        table = f"materials.{name}"
+        if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,63}", name):
+            raise loc.error(table, None, f"material name {name!r} is not allowed: use 1-64 ASCII letters, "
+                                         "digits, '-' or '_', starting with a letter")
+        ident = shader_ident(name)
+        if ident in seen:
+            raise loc.error(table, None, f"material names {seen[ident]!r} and {name!r} both become "
+                                         f"{ident} in shaders: rename one")
+        seen[ident] = name
 
 
 def _top_line(loc, key):
@@ -161,9 +186,11 @@ def _range_or_number(loc, table, key, value, domain):
     return v, v
 
 
-def _named(loc, table, key, name):
+def _named(loc, table, key, name, lookup=material):
+    if not isinstance(name, str):
+        raise loc.error(table, key, f"{table}.{key} = {name!r} is not a material name")
     try:
-        material(name)
+        lookup(name)
     except ValueError as exc:
         raise loc.error(table, key, f"{table}.{key}: {exc}") from None
     return name
@@ -176,7 +203,8 @@ def _material(loc, name, body) -> SceneMaterial:
         if key not in body:
             raise loc.error(table, None, f"{table} is missing the field {key!r}")
     film = body["film"]
-    film = _named(loc, table, "film", film) if isinstance(film, str) else _number(loc, table, "film", film, "eta2")
+    film = (_named(loc, table, "film", film, dielectric_film) if isinstance(film, str)
+            else _number(loc, table, "film", film, "eta2"))
     thickness = _range_or_number(loc, table, "thickness_nm", body["thickness_nm"], "thickness_nm")
     base = body["base"]
     if isinstance(base, str):

@@ -80,11 +80,15 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     from .lutfile import write_text_atomic
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    grid = variants(spec)  # every variant validated before anything is written
+    for path in (out / "sweep.json", out / "pareto.png"):
+        if out.exists() and not out.is_dir() or path.is_dir():
+            raise ValueError(f"--out {str(out)!r}: {str(path)!r} cannot be written (a file or folder is in the way)")
     with tempfile.TemporaryDirectory() as tmp:
         pts = _points_for(spec, n_points, seed)
-        rows = [_measure(name, v, tmp, pts, backend) for name, v in variants(spec).items()]
+        rows = [_measure(name, v, tmp, pts, backend) for name, v in grid.items()]
     rows += _approximation_rows(spec, pts)
+    out.mkdir(parents=True, exist_ok=True)
     pareto_plot(rows, out / "pareto.png")
     doc = {"domain": spec.describe(), "points": n_points, "seed": seed, "rows": rows, "figure": "pareto.png"}
     write_text_atomic(out / "sweep.json", json.dumps(doc, indent=2) + "\n")

@@ -220,7 +220,7 @@ def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
 
 @pytest.mark.parametrize("args, named", [
     (["--eta2", "1.5", "--opd", "100:50:8"], "--opd range 100:50 is empty or reversed"),
-    (["--eta2", "1.5", "--eta3", "1:3:1"], "--eta3 count 1 is too small"),
+    (["--eta2", "1.5", "--eta3", "1:3:1"], "--eta3 count 1 is not allowed"),
     (["--eta2", "1.5", "--cos-theta", "0:1.5:8"], "cos_theta = 1.5"),
     (["--eta2", "1.5", "--kappa3", "0:5:8:log"], "spacing 'log'"),
     (["--eta2", "0", "--opd", "0:100:8"], "eta2 = 0.0"),
