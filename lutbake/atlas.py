@@ -29,6 +29,7 @@ from .lutfile import atomic_path, exr_stream, write_text_atomic
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 from .scene import Scene
 from .sweep import TUNE_START_COUNTS
@@ -262,7 +263,9 @@ def _load_or_compute_slice(job, cache: Path, force: bool, computed, reused):
     return values, meta
 
 
-def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto") -> SceneResult:
+def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto",
+                progress=no_progress) -> SceneResult:
+    """Bake what ``scene`` needs into ``out_dir``; ``progress(done, total, note)`` before each job."""
     start = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -279,7 +282,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start)
     cache, computed, reused, written = _cache(out), [], [], []
     slices, entries = [], {}
-    for job in plan.jobs:
+    for done, job in enumerate(plan.jobs):
+        progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
         if job.kind == "slice":
             values, info = _load_or_compute_slice(job, cache, force, computed, reused)
             slices.append((job, values, info))
