@@ -9,6 +9,7 @@ import numpy as np
 from .approximations import APPROXIMATIONS
 from .colorimetry import delta_e00
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 from .sample import Lut
 
@@ -58,7 +59,7 @@ def _domain_title(lut: Lut, n_points: int) -> str:
     return f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst of {n_points} held-out points"
 
 
-def delta_e_maps(rep, out_png: Path, n: int = 48) -> Path:
+def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
     """ΔE00 of the LUT against the ground truth over (cos θ, D), at the (η3, κ3) of the report's
     worst points (off the η3/κ3 nodes, where interpolation error peaks), on one colour scale."""
     plt = _pyplot()
@@ -66,8 +67,9 @@ def delta_e_maps(rep, out_png: Path, n: int = 48) -> Path:
     ax = {a.name: a for a in lut.axes}
     cos_t, opd = np.meshgrid(ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n),
                              ax["opd_nm"].from_unit((np.arange(n) + 0.5) / n))
-    maps = []
-    for eta3, kappa3 in _worst_slices(rep):
+    maps, slices = [], _worst_slices(rep)
+    for i, (eta3, kappa3) in enumerate(slices):
+        progress(i, len(slices), f"figure: ΔE00 map at η3 {eta3:.3f}, κ3 {kappa3:.3f} ({n * n} truth points)")
         truth = _truth(lut, cos_t.ravel(), opd.ravel(), eta3, kappa3)
         de = delta_e00(lut.sample(cos_t.ravel(), opd.ravel(), eta3, kappa3), truth,
                        lut.meta["observer"], lut.meta["space"]).reshape(n, n)

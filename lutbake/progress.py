@@ -58,8 +58,6 @@ class Meter:
         if total:
             filled = int(_BAR_WIDTH * min(done / total, 1.0))
             parts.append(f"[{'#' * filled}{'.' * (_BAR_WIDTH - filled)}] {done}/{total}")
-        elif done:
-            parts.append(str(done))
         parts.append(f"{format_seconds(elapsed)} elapsed")
         if eta is not None:
             parts.append(f"ETA {format_seconds(eta)}")

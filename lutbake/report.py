@@ -116,9 +116,9 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     ``progress(done, total, note)`` is called before each phase."""
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
-    progress(0, 2, f"ground truth at {n_points} held-out points")
+    progress(0, None, f"ground truth at {n_points} held-out points")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, n_points, seed)
-    progress(1, 2, "sampling the LUT and the approximations")
+    progress(0, None, "sampling the LUT and the approximations")
     rgb, seconds = _timed(lut.sample, *pts.params)
     lut_stats = score("lut", rgb, pts, space, observer, seconds / len(pts))
     rows = []
@@ -132,7 +132,6 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
               "eta3": float(pts.params[2][i]), "kappa3": float(pts.params[3][i]), "kind": str(pts.kind[i]),
               "de00": float(lut_stats.de00[i]), "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
              for i in order]
-    progress(2, 2, "scored")
     return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst)
 
 
@@ -154,12 +153,10 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
     summary = gate(rep.summary(), max_de)
     figures = []
     if maps:
-        progress(0, 2, "figure: ΔE00 maps at the worst slices")
         figures.append(("ΔE00 of the LUT over (cos θ, D) at the (η3, κ3) of its worst held-out points",
-                        delta_e_maps(rep, out / "delta_e_maps.png")))
-        progress(1, 2, "figure: swatch strips")
+                        delta_e_maps(rep, out / "delta_e_maps.png", progress=progress)))
+        progress(0, None, "figure: swatch strips")
         figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / "swatches.png")))
-        progress(2, 2, "figures written")
     summary["figures"] = [f.name for _, f in figures]
     write_text_atomic(out / "summary.json", dumps(summary) + "\n")
     write_text_atomic(out / "report.html", _html(summary, figures))
