@@ -13,8 +13,7 @@ from pathlib import Path
 
 import click
 
-from . import __version__
-from .colorimetry import OBSERVERS, SPACES
+from .names import OBSERVERS, SPACES
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
 
@@ -65,8 +64,17 @@ def _quiet_broken_pipe():
     os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
+def _print_version(ctx, param, value):
+    if value and not ctx.resilient_parsing:
+        from . import __version__
+
+        click.echo(f"lutbake, version {__version__}")
+        ctx.exit()
+
+
 @click.group()
-@click.version_option(__version__, prog_name="lutbake")
+@click.option("--version", is_flag=True, expose_value=False, is_eager=True, callback=_print_version,
+              help="Show the version and exit.")
 def cli():
     """Bake thin-film iridescence (exact spectral Airy summation) into EXR LUTs."""
 

@@ -22,6 +22,8 @@ import warnings
 
 import numpy as np
 
+from .names import OBSERVERS, SPACES
+
 __all__ = [
     "OBSERVERS",
     "SPACES",
@@ -35,17 +37,6 @@ __all__ = [
 WAVELENGTH_MIN_NM = 360.0
 WAVELENGTH_MAX_NM = 830.0
 
-OBSERVERS = {
-    "cie1931": "CIE 1931 2 Degree Standard Observer",
-    "cie1964": "CIE 1964 10 Degree Standard Observer",
-}
-
-SPACES = {
-    "rec709": "Linear Rec.709 (sRGB)",
-    "acescg": "ACEScg",
-    "rec2020": "Linear Rec.2020",
-    "p3": "Linear P3-D65",
-}
 
 
 @functools.lru_cache(maxsize=1)
