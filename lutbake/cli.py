@@ -392,11 +392,18 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
               help="Scene manifest (TOML) to plan.")
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
 def plan_cmd(scene_path, as_json):
-    """What `bake --scene` would bake: slices, axes, counts, bytes, estimated time (bakes nothing)."""
-    from .atlas import plan_scene
+    """What `bake --scene` would bake: slices, axes, counts, bytes, and time (bakes nothing).
+
+    Times are ranges: the ground-truth points each job evaluates (few if its starting
+    counts meet the target, many if it grows to its cap) at a rate measured now, here.
+    """
+    from .atlas import plan_scene, truth_rate
     from .scene import load_scene
 
-    doc = plan_scene(load_scene(scene_path)).describe()
+    plan = plan_scene(load_scene(scene_path))
+    rate = truth_rate(plan)
+    doc = plan.describe(rate)
+    doc["seconds_per_truth_point"] = rate
     if as_json:
         echo_json(doc)
         return
@@ -405,10 +412,20 @@ def plan_cmd(scene_path, as_json):
                f"target p99 ΔE00 ≤ {s['max_de']:g}")
     for job in doc["jobs"]:
         shape = " × ".join(str(c) for c in job["counts"])
+        low, high = job["seconds_estimate"]
         click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
-                   f"{job['bytes_start']} bytes, ~{job['seconds_estimate']:.1f} s")
+                   f"{job['bytes_start']} bytes, {_seconds_range(low, high)}")
+    low, high = (sum(j["seconds_estimate"][i] for j in doc["jobs"]) for i in (0, 1))
     click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
                f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
+    click.echo(f"time {_seconds_range(low, high)}: estimated from {rate * 1e3:.1f} ms per ground-truth point, "
+               f"measured on this machine just now")
+
+
+def _seconds_range(low, high):
+    from .progress import format_seconds
+
+    return f"~{format_seconds(low)} to {format_seconds(high)}"
 
 
 def _make_folder(folder: Path):
