@@ -1,4 +1,4 @@
-"""Benchmark B1 (DESIGN.md): the kernel path against the numpy path, in one run.
+"""Benchmark B1 (the design brief's first benchmark): the kernel path against the numpy path, in one run.
 
     python bench/bench_b1.py [--points 1000] [--seed 1] [--json FILE] [--skip-numpy]
 

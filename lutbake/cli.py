@@ -175,7 +175,7 @@ def echo_json(doc):
               help="Report Rs, Rp, R at one wavelength (nm) instead of colour.")
 @click.option("--fast", is_flag=True,
               help="Batch path: the bake's integrator (OpenCL kernel) instead of the converged ground truth; "
-                   "|ΔRGB| ≤ 2e-6 below the spectral node cap; constant indices only.")
+                   "|ΔRGB| ≤ 3e-6 below the spectral node cap; constant indices only.")
 @click.option("--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True,
               help="With --fast: auto: OpenCL, else numpy with a warning.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")

@@ -181,8 +181,8 @@ def test_fast_batch_path_matches_the_per_point_ground_truth(rng):
     pts = _random_points(rng, 300)
     rgb, xyz, bound = fast_colours(pts, "cie1931", "rec709")
     assert np.all(bound == 0)
-    assert np.max(np.abs(rgb - reference_colour(pts).values)) <= 2e-6
-    assert np.max(np.abs(xyz - reference_colour(pts, basis="xyz").values)) <= 2e-6
+    assert np.max(np.abs(rgb - reference_colour(pts).values)) <= 3e-6
+    assert np.max(np.abs(xyz - reference_colour(pts, basis="xyz").values)) <= 3e-6
 
 
 def test_one_pass_truth_matches_the_two_separate_integrals(rng):
