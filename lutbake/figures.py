@@ -127,8 +127,8 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
         x = np.array([r[key] for r in luts])
         y = np.array([r["de00_p99"] for r in luts])
         a.scatter(x, y, c="C0", zorder=3)
-        for i, r in enumerate(luts, start=1):
-            a.annotate(str(i), (r[key], r["de00_p99"]), fontsize=8, xytext=(4, 2), textcoords="offset points")
+        for (xv, yv), numbers in _coincident(x, y).items():
+            a.annotate(",".join(numbers), (xv, yv), fontsize=8, xytext=(4, 2), textcoords="offset points")
         front = _pareto_front(x, y)
         a.plot(x[front], y[front], "C0-", lw=1, label="Pareto front (LUTs)")
         for i, r in enumerate(r for r in rows if r["kind"] == "approximation"):
@@ -147,6 +147,16 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     fig.savefig(out_png, dpi=90)
     plt.close(fig)
     return Path(out_png)
+
+
+def _coincident(x, y) -> dict:
+    """Point numbers (1-based) grouped where points fall within ~2 % of each other on log axes,
+    so one label lists them all instead of several labels printing over each other."""
+    groups = {}
+    for i, (xv, yv) in enumerate(zip(x, y), start=1):
+        cell = (round(float(np.log10(max(xv, 1e-300))), 2), round(float(np.log10(max(yv, 1e-300))), 2))
+        groups.setdefault(cell, (xv, yv, []))[2].append(str(i))
+    return {(xv, yv): numbers for xv, yv, numbers in groups.values()}
 
 
 def _pareto_front(x, y):
