@@ -27,13 +27,15 @@ def set_sigint_handler(handler):
     return previous
 
 
-_previous = set_sigint_handler(interrupted_at_start_up)
+def __getattr__(name):
+    """``__version__`` on first use: importlib.metadata costs ~0.1 s that `--help` need not pay."""
+    if name != "__version__":
+        raise AttributeError(f"module 'lutbake' has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
 
-from importlib.metadata import PackageNotFoundError, version  # noqa: E402
-
-try:
-    __version__ = version("lutbake")
-except PackageNotFoundError:  # running from a source tree
-    __version__ = "0.0.0+source"
-
-set_sigint_handler(_previous)  # library users keep their own Ctrl-C behaviour
+    try:
+        value = version("lutbake")
+    except PackageNotFoundError:  # running from a source tree
+        value = "0.0.0+source"
+    globals()["__version__"] = value
+    return value

@@ -36,6 +36,7 @@ from .lutfile import (ATLAS_FORMAT, atomic_path, exr_rows, shader_ident, shader_
 from .materials import material
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 from .scene import Scene
 from .sweep import TUNE_START_COUNTS, tune
@@ -80,7 +81,9 @@ class ScenePlan:
     scene: Scene
     jobs: list
 
-    def describe(self) -> dict:
+    def describe(self, seconds_per_truth_point=None) -> dict:
+        """Jobs, axes, counts, bytes; with a measured ``seconds_per_truth_point`` (see
+        ``truth_rate``), each job's time as a [low, high] range from its ground-truth work."""
         rows = []
         for job in self.jobs:
             row = {"id": job.id, "kind": job.kind, "materials": job.materials, "counts": list(job.counts),
@@ -88,15 +91,57 @@ class ScenePlan:
             if job.kind == "slice":
                 row["axes"] = {"cos_theta": [0.0, 1.0, "sqrt"], "thickness_nm": job.key["thickness_nm"]}
                 row["bytes_max"] = job.bytes_estimate((_MAX_COUNT, _MAX_COUNT if job.counts[1] > 1 else 1))
-                row["seconds_estimate"] = 2e-3 * int(np.prod(job.counts))
             else:
                 spec = lut_spec(job)
                 row["axes"] = [{k: v for k, v in a.describe().items() if k != "count"} for a in spec.axes]
-                row["seconds_estimate"] = 20.0  # a few tune rounds of small 4D bakes
+            if seconds_per_truth_point is not None:
+                row["seconds_estimate"] = [seconds_per_truth_point * n for n in _truth_points(job)]
             rows.append(row)
         generic = 32 * 128 * 16 * 16 * (6 if self.scene.precision == "half" else 12)
         return {"scene": self.scene.file_name, "settings": self.scene.settings_key(), "jobs": rows,
                 "bytes_start_total": sum(r["bytes_start"] for r in rows), "generic_4d_bytes": generic}
+
+
+# Ground-truth points a tuned LUT job evaluates: tune's held-out points, then per trial bake the
+# spectral-error probes (48) and the capped-texel probes (≤ 64); 6 bakes at the least (start, one
+# round, final), 31 at the most (6 rounds of 4 trials, trims, final).
+_LUT_TRUTH_POINTS = (300 + 6 * 112, 300 + 31 * 112)
+
+
+def _truth_points(job: SliceJob) -> tuple:
+    """(fewest, most) ground-truth points the job evaluates: the bulk of its time."""
+    if job.kind == "lut":
+        return _LUT_TRUTH_POINTS
+    held_out = 2 * _HELD_OUT  # the slice's held-out truth, and the constant-index comparison
+    counts, most = job.counts, int(np.prod(job.counts))
+    while max(counts) < _MAX_COUNT:  # refine_slice doubles one axis per round up to the cap
+        grow_d = counts[1] > 1 and counts[1] <= 2 * counts[0]
+        counts = (counts[0], 2 * counts[1]) if grow_d else (2 * counts[0], counts[1])
+        most += int(np.prod(counts))
+    return held_out + int(np.prod(job.counts)), held_out + most
+
+
+def truth_rate(plan: ScenePlan, points: int = 32) -> float:
+    """Seconds per ground-truth point, measured now on this machine over a sample of each job's
+    range (colour tables and rules are built by an untimed warm-up first)."""
+    rng = np.random.default_rng(0)
+    for job in plan.jobs:
+        _sample_truth(job, rng, 2)
+    start = time.perf_counter()
+    for job in plan.jobs:
+        _sample_truth(job, rng, points)
+    return (time.perf_counter() - start) / (points * max(len(plan.jobs), 1))
+
+
+def _sample_truth(job: SliceJob, rng, n: int) -> None:
+    cos_t, d = rng.uniform(0.0, 1.0, n) ** 2, rng.uniform(*job.key["thickness_nm"], n)
+    if job.kind == "slice":
+        _truth(job, cos_t, d)
+        return
+    (e_lo, e_hi), (k_lo, k_hi) = job.key["base"]
+    pts = FilmPoints.build(eta1=job.scene.eta1, eta2=float(job.key["film"]), cos_theta=cos_t, thickness_nm=d,
+                           eta3=rng.uniform(e_lo, e_hi, n), kappa3=rng.uniform(k_lo, k_hi, n))
+    reference_colour(pts, job.scene.observer, job.scene.space)
 
 
 def _initial_counts(scene: Scene, key: dict, film_index: float) -> tuple:
@@ -336,7 +381,10 @@ def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> bool:
         return False
 
 
-def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto") -> SceneResult:
+def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto",
+               progress=no_progress) -> SceneResult:
+    """Bake what ``scene`` needs into ``out_dir`` as one file set; ``progress(done, total, note)``
+    before each job."""
     start = time.perf_counter()
     out = Path(out_dir)
     check_scene_outputs(out, scene)
@@ -352,7 +400,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
                                _unmet(entries, scene.max_de))
         cache, computed, reused = _cache(out), [], []
         slices, entries = [], {}
-        for job in plan.jobs:
+        for done, job in enumerate(plan.jobs):
+            progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
             if job.kind == "slice":
                 values, info = _load_or_compute_slice(job, cache, force, computed, reused)
                 slices.append((job, values, info))

@@ -18,6 +18,7 @@ from .integrate import backend as make_backend
 from .optics import film_reflectance, round_trip_amplitude
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 
 __all__ = ["CheckResult", "run_checks"]
@@ -244,10 +245,12 @@ def _fourier(paths):
     return out
 
 
-def run_checks(backend_name: str = "auto") -> list:
-    """All cases, in groups (list of CheckResult)."""
+def run_checks(backend_name: str = "auto", progress=no_progress) -> list:
+    """All cases, in groups (list of CheckResult); ``progress(done, total, note)`` before each group."""
     paths = _Paths(backend_name)
     results = []
-    for group in (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier):
+    groups = (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier)
+    for i, group in enumerate(groups):
+        progress(i, len(groups), group.__name__.strip("_").replace("_", " "))
         results.extend(group(paths))
     return results

@@ -22,9 +22,7 @@ import warnings
 
 import numpy as np
 
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore")
-    import colour
+from .names import OBSERVERS, SPACES
 
 __all__ = [
     "OBSERVERS",
@@ -39,17 +37,16 @@ __all__ = [
 WAVELENGTH_MIN_NM = 360.0
 WAVELENGTH_MAX_NM = 830.0
 
-OBSERVERS = {
-    "cie1931": "CIE 1931 2 Degree Standard Observer",
-    "cie1964": "CIE 1964 10 Degree Standard Observer",
-}
 
-SPACES = {
-    "rec709": "Linear Rec.709 (sRGB)",
-    "acescg": "ACEScg",
-    "rec2020": "Linear Rec.2020",
-    "p3": "Linear P3-D65",
-}
+
+@functools.lru_cache(maxsize=1)
+def _colour():
+    """colour-science, imported on first use: it pulls in matplotlib (~1 s), which `--help` never needs."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        import colour
+
+    return colour
 
 
 class Colorimetry:
@@ -61,6 +58,7 @@ class Colorimetry:
         if space not in SPACES:
             raise ValueError(f"space {space!r} is not one of {', '.join(SPACES)}")
         self.observer, self.space = observer, space
+        colour = _colour()
         self.colourspace = colour.RGB_COLOURSPACES[SPACES[space]]
         self.wavelength_nm = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5, 1.0)
         cmfs = colour.MSDS_CMFS[OBSERVERS[observer]]
@@ -80,6 +78,7 @@ class Colorimetry:
         white chromaticity.
         """
         lam = self.wavelength_nm
+        colour = _colour()
         daylight = colour.sd_CIE_illuminant_D_series(np.asarray(self.colourspace.whitepoint, float))
         series = np.interp(lam, daylight.wavelengths, daylight.values)
         if self.colourspace.whitepoint_name != "D65":
@@ -116,7 +115,7 @@ def delta_e00(rgb_a, rgb_b, observer: str = "cie1931", space: str = "rec709") ->
 
     Reflectance is taken as Y ≤ 1 (the white reflector has Y = 1).
     """
-    cm = colorimetry(observer, space)
+    cm, colour = colorimetry(observer, space), _colour()
     xy_white = colour.XYZ_to_xy(cm.rgb_to_xyz(np.ones(3)))
     lab = [colour.XYZ_to_Lab(cm.rgb_to_xyz(v), xy_white) for v in (rgb_a, rgb_b)]
     return np.asarray(colour.delta_E(lab[0], lab[1], method="CIE 2000"))

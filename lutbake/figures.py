@@ -9,6 +9,7 @@ import numpy as np
 from .approximations import APPROXIMATIONS
 from .colorimetry import delta_e00
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 from .sample import Lut
 
@@ -42,24 +43,47 @@ def _truth(lut, cos_t, opd, eta3, kappa3):
     return reference_colour(pts, lut.meta["observer"], lut.meta["space"]).values
 
 
-def delta_e_maps(lut_path, out_png: Path, n: int = 40) -> Path:
-    """ΔE00 of the LUT against the ground truth over (cos θ, D) at three (η3, κ3)."""
+def _worst_slices(rep, count: int = 3) -> list:
+    """(η3, κ3) of the worst held-out points, distinct, worst first: where the LUT is most wrong."""
+    out = []
+    for w in rep.worst:
+        key = (w["eta3"], w["kappa3"])
+        if key not in out:
+            out.append(key)
+    return out[:count]
+
+
+def _domain_title(lut: Lut, n_points: int) -> str:
+    ax = {a.name: a for a in lut.axes}
+    ranges = ", ".join(f"{name} [{a.lo:g}, {a.hi:g}]" for name, a in ax.items())
+    return f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst of {n_points} held-out points"
+
+
+def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
+    """ΔE00 of the LUT against the ground truth over (cos θ, D), at the (η3, κ3) of the report's
+    worst points (off the η3/κ3 nodes, where interpolation error peaks), on one colour scale."""
     plt = _pyplot()
-    lut = Lut.load(lut_path)
+    lut = Lut.load(rep.path)
     ax = {a.name: a for a in lut.axes}
     cos_t, opd = np.meshgrid(ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n),
                              ax["opd_nm"].from_unit((np.arange(n) + 0.5) / n))
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
-    for a, (eta3, kappa3) in zip(axes, _slices(lut)):
+    maps, slices = [], _worst_slices(rep)
+    for i, (eta3, kappa3) in enumerate(slices):
+        progress(i, len(slices), f"figure: ΔE00 map at η3 {eta3:.3f}, κ3 {kappa3:.3f} ({n * n} truth points)")
         truth = _truth(lut, cos_t.ravel(), opd.ravel(), eta3, kappa3)
         de = delta_e00(lut.sample(cos_t.ravel(), opd.ravel(), eta3, kappa3), truth,
                        lut.meta["observer"], lut.meta["space"]).reshape(n, n)
-        im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=max(1.0, float(de.max())))
-        a.set_title(f"η3 {eta3:.2f}, κ3 {kappa3:.2f}: p99 {np.percentile(de, 99):.2f}, max {de.max():.2f}", fontsize=9)
-        a.set_xlabel("cos θ")
-        fig.colorbar(im, ax=a, label="ΔE00")
-    axes[0].set_ylabel("D (nm)")
-    fig.savefig(out_png, dpi=80)
+        maps.append((eta3, kappa3, de))
+    vmax = max(1.0, max(float(de.max()) for _, _, de in maps))
+    fig, axes = plt.subplots(1, len(maps), figsize=(4.6 * len(maps), 4.4), constrained_layout=True, squeeze=False)
+    for a, (eta3, kappa3, de) in zip(axes[0], maps):
+        im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=vmax)
+        a.set_title(f"η3 {eta3:.3f}, κ3 {kappa3:.3f}\np99 {np.percentile(de, 99):.2f}, max {de.max():.2f}", fontsize=11)
+        a.set_xlabel("cos θ", fontsize=11)
+    axes[0][0].set_ylabel("D = 2·η2·d (nm)", fontsize=11)
+    fig.colorbar(im, ax=axes[0].tolist(), label="ΔE00 (one scale for all panels)")
+    fig.suptitle(_domain_title(lut, len(rep.points)), fontsize=11)
+    fig.savefig(out_png, dpi=90)
     plt.close(fig)
     return Path(out_png)
 
@@ -91,29 +115,48 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
     return Path(out_png)
 
 
-def pareto_plot(rows: list, out_png: Path) -> Path:
-    """p99 ΔE00 against bake time (LUT variants) with approximation rows as lines."""
+def pareto_plot(doc: dict, out_png: Path) -> Path:
+    """p99 ΔE00 against bake time and bytes (LUT variants), approximation rows as lines.
+
+    Labels sit in a numbered key beside each panel, so close points never overlap."""
     plt = _pyplot()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    rows = doc["rows"]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
     luts = [r for r in rows if r["kind"] == "lut"]
     for a, key, label in ((a1, "bake_seconds", "bake time (s)"), (a2, "bytes", "LUT size (bytes)")):
         x = np.array([r[key] for r in luts])
         y = np.array([r["de00_p99"] for r in luts])
-        a.scatter(x, y, c="C0")
-        for r in luts:
-            a.annotate(r["name"], (r[key], r["de00_p99"]), fontsize=6, xytext=(3, 3), textcoords="offset points")
+        a.scatter(x, y, c="C0", zorder=3)
+        for (xv, yv), numbers in _coincident(x, y).items():
+            a.annotate(",".join(numbers), (xv, yv), fontsize=8, xytext=(4, 2), textcoords="offset points")
         front = _pareto_front(x, y)
-        a.plot(x[front], y[front], "C0-", lw=1)
+        a.plot(x[front], y[front], "C0-", lw=1, label="Pareto front (LUTs)")
         for i, r in enumerate(r for r in rows if r["kind"] == "approximation"):
             a.axhline(r["de00_p99"], color=f"C{i + 1}", ls="--", lw=1, label=f"{r['name']} (no LUT)")
         a.set_xscale("log")
         a.set_yscale("log")
         a.set_xlabel(label)
         a.set_ylabel("p99 ΔE00")
-        a.legend(fontsize=7)
-    fig.savefig(out_png, dpi=80)
+        a.legend(fontsize=8, loc="upper right")
+    key_text = "\n".join(f"{i}  {r['name']}  {r['shape']}" for i, r in enumerate(luts, start=1))
+    a2.text(1.03, 1.0, key_text, transform=a2.transAxes, va="top", fontsize=8, family="monospace")
+    d = doc["domain"]
+    ranges = ", ".join(f"{a['name']} [{a['min']:g}, {a['max']:g}]" for a in d["axes"])
+    fig.suptitle(f"Error against cost: film η2 = {d['eta2']:g} over {ranges}; "
+                 f"{doc['points']} {doc['point_kind']} held-out points", fontsize=11)
+    fig.savefig(out_png, dpi=90)
     plt.close(fig)
     return Path(out_png)
+
+
+def _coincident(x, y) -> dict:
+    """Point numbers (1-based) grouped where points fall within ~2 % of each other on log axes,
+    so one label lists them all instead of several labels printing over each other."""
+    groups = {}
+    for i, (xv, yv) in enumerate(zip(x, y), start=1):
+        cell = (round(float(np.log10(max(xv, 1e-300))), 2), round(float(np.log10(max(yv, 1e-300))), 2))
+        groups.setdefault(cell, (xv, yv, []))[2].append(str(i))
+    return {(xv, yv): numbers for xv, yv, numbers in groups.values()}
 
 
 def _pareto_front(x, y):

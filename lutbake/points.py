@@ -52,7 +52,7 @@ def check_value(name: str, values) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         bad = ~np.isfinite(arr) | ~test(arr)
     if bad.any():
-        raise ValueError(f"{name} = {arr[bad][0]!r} is not allowed: must be {allowed}")
+        raise ValueError(f"{name} = {float(arr[bad][0])!r} is not allowed: must be {allowed}")
     return arr
 
 

@@ -22,9 +22,9 @@ import numpy as np
 
 from .optics import film_reflectance
 from .points import FilmPoints
-from .spectral import panel_rule
+from .spectral import SpectralRule, panel_rule
 
-__all__ = ["ReferenceResult", "reference_colour", "spectral_reflectance"]
+__all__ = ["ReferenceResult", "reference_colour", "spectral_reflectance", "subset"]
 
 DEFAULT_TOLERANCE = 1e-9
 _START_NODES_PER_NM = 2
@@ -50,32 +50,43 @@ def spectral_reflectance(points: FilmPoints, wavelength_nm):
 
 
 def _integrate(points: FilmPoints, rule) -> np.ndarray:
-    out = np.empty((len(points), 3))
+    out = np.empty((len(points), rule.weights.shape[0]))
     step = max(1, _CELLS_PER_CHUNK // rule.count)
     for start in range(0, len(points), step):
-        part = _subset(points, slice(start, start + step))
+        part = subset(points, slice(start, start + step))
         out[start:start + step] = spectral_reflectance(part, rule.wavelength_nm)[2] @ rule.weights.T
     return out
 
 
-def _subset(points: FilmPoints, index) -> FilmPoints:
+def subset(points: FilmPoints, index) -> FilmPoints:
+    """The points at ``index`` (a slice or an index array)."""
     return FilmPoints(points.eta1[index], points.eta2[index], points.eta3[index],
                       points.kappa3[index], points.cos_theta[index], points.thickness_nm[index],
                       film=points.film, base=points.base)
 
 
+def _rule(nodes_per_nm: int, observer: str, space: str, basis: str) -> SpectralRule:
+    """The panel rule of ``basis`` ('rgb', 'xyz', or 'rgb+xyz': six rows, one reflectance pass)."""
+    rules = [panel_rule(nodes_per_nm, observer, space, b) for b in basis.split("+")]
+    if len(rules) == 1:
+        return rules[0]
+    return SpectralRule(rules[0].wavelength_nm, np.vstack([r.weights for r in rules]), basis)
+
+
 def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str = "rec709",
                      basis: str = "rgb", tolerance: float = DEFAULT_TOLERANCE) -> ReferenceResult:
-    """Integrate each point until successive refinements agree to ``tolerance``."""
+    """Integrate each point until successive refinements agree to ``tolerance`` in every channel.
+
+    ``basis`` 'rgb' or 'xyz' gives (P, 3); 'rgb+xyz' gives (P, 6), RGB then XYZ."""
     n = len(points)
     nodes = _START_NODES_PER_NM
-    previous = _integrate(points, panel_rule(nodes, observer, space, basis))
+    previous = _integrate(points, _rule(nodes, observer, space, basis))
     values = previous.copy()
     needed = np.full(n, nodes)
     active = np.arange(n)
     while active.size and nodes < _MAX_NODES_PER_NM:
         nodes *= 2
-        finer = _integrate(_subset(points, active), panel_rule(nodes, observer, space, basis))
+        finer = _integrate(subset(points, active), _rule(nodes, observer, space, basis))
         done = np.max(np.abs(finer - previous[active]), axis=1) <= tolerance
         values[active], needed[active] = finer, nodes
         previous[active] = finer

@@ -13,7 +13,6 @@ Numbers depend only on the LUT and the seed.
 from __future__ import annotations
 
 import html
-import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 from .approximations import APPROXIMATIONS
 from .colorimetry import delta_e00
 from .points import FilmPoints
+from .progress import no_progress
 from .reference import reference_colour
 from .sample import Atlas, Lut
 
@@ -100,17 +100,25 @@ class LutReport:
     worst: list
 
     def summary(self) -> dict:
+        kinds, counts = np.unique(self.points.kind, return_counts=True)
         return {"lut": self.path, "content_hash": self.meta["content_hash"], "points": len(self.points),
+                "point_kinds": {str(k): int(c) for k, c in zip(kinds, counts)},
+                "eta2": self.meta["constants"]["eta2"], "axes": self.meta["axes"],
                 "space": self.meta["space"], "observer": self.meta["observer"],
                 "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
                 "worst_points": self.worst}
 
 
-def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True) -> LutReport:
-    """Score a LUT (and the approximations) at held-out points against the ground truth."""
+def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True,
+               progress=no_progress) -> LutReport:
+    """Score a LUT (and the approximations) at held-out points against the ground truth.
+
+    ``progress(done, total, note)`` is called before each phase."""
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
+    progress(0, None, f"ground truth at {n_points} held-out points")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, n_points, seed)
+    progress(0, None, "sampling the LUT and the approximations")
     rgb, seconds = _timed(lut.sample, *pts.params)
     lut_stats = score("lut", rgb, pts, space, observer, seconds / len(pts))
     rows = []
@@ -162,20 +170,30 @@ def _slice_held_out(s: dict, n_points: int, rng):
     return u ** 2, th["min"] + (th["max"] - th["min"]) * v
 
 
-def write_report(rep: LutReport, out_dir, maps: bool = True) -> dict:
+def gate(summary: dict, max_de) -> dict:
+    """``summary`` with the gate verdict (p99 ΔE00 ≤ ``max_de``) added when a gate is set."""
+    if max_de is not None:
+        summary["gate"] = {"max_de00_p99": max_de, "passed": bool(summary["lut_error"]["de00_p99"] <= max_de)}
+    return summary
+
+
+def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progress=no_progress) -> dict:
     """summary.json, PNG figures and report.html in ``out_dir``; returns the summary."""
     from .figures import delta_e_maps, swatch_strips
     from .lutfile import write_text_atomic
+    from .strictjson import dumps
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    summary = rep.summary()
+    summary = gate(rep.summary(), max_de)
     figures = []
     if maps:
-        figures.append(("ΔE00 of the LUT over (cos θ, D) slices", delta_e_maps(rep.path, out / "delta_e_maps.png")))
+        figures.append(("ΔE00 of the LUT over (cos θ, D) at the (η3, κ3) of its worst held-out points",
+                        delta_e_maps(rep, out / "delta_e_maps.png", progress=progress)))
+        progress(0, None, "figure: swatch strips")
         figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / "swatches.png")))
     summary["figures"] = [f.name for _, f in figures]
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(out / "summary.json", dumps(summary) + "\n")
     write_text_atomic(out / "report.html", _html(summary, figures))
     return summary
 
@@ -193,7 +211,27 @@ def _html(summary: dict, figures) -> str:
     figs = "".join(f"<h2>{html.escape(t)}</h2><img src='{f.name}' style='max-width:100%'>" for t, f in figures)
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>lutbake report</title>"
             f"<style>body{{font-family:sans-serif;margin:2em}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>"
-            f"<h1>LUT error report</h1><p>{html.escape(summary['lut'])} — {summary['points']} held-out points, "
-            f"{summary['space']} / {summary['observer']}, ΔE00 against the ground truth.</p>"
+            f"<h1>LUT error report</h1><p>{html.escape(summary['lut'])}: film η2 = {summary['eta2']:g}, "
+            f"{html.escape(_domain_text(summary['axes']))}; {html.escape(_points_text(summary))}, "
+            f"{summary['space']} / {summary['observer']}, ΔE00 against the ground truth.</p>{_gate_html(summary)}"
             f"<table>{head}{body}</table><h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
             f"<th>η3</th><th>κ3</th><th>kind</th><th>ΔE00</th></tr>{worst}</table>{figs}</body></html>\n")
+
+
+def _domain_text(axes) -> str:
+    return ", ".join(f"{a['name']} [{a['min']:g}, {a['max']:g}]×{a['count']}" for a in axes)
+
+
+def _points_text(summary: dict) -> str:
+    kinds = " + ".join(f"{n} {k}" for k, n in summary["point_kinds"].items())
+    return f"{summary['points']} held-out points ({kinds})"
+
+
+def _gate_html(summary: dict) -> str:
+    if "gate" not in summary:
+        return "<p>No gate set (<code>--max-de</code>).</p>"
+    g = summary["gate"]
+    verdict = "PASS" if g["passed"] else "FAIL"
+    colour = "#070" if g["passed"] else "#b00"
+    return (f"<p style='font-size:1.3em;color:{colour}'><b>Gate {verdict}</b>: p99 ΔE00 "
+            f"{summary['lut_error']['de00_p99']:.3f} {'≤' if g['passed'] else '>'} {g['max_de00_p99']:g}</p>")

@@ -8,17 +8,16 @@ bytes for LUTs, against nanoseconds per evaluation for the approximations.
 
 from __future__ import annotations
 
-import json
 import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 
 from .approximations import APPROXIMATIONS
 from .bake import bake
 from .plan import Axis, BakeSpec
+from .progress import no_progress
 from .report import held_out_points, score
 from .sample import Lut
 
@@ -36,7 +35,7 @@ def _scaled(spec: BakeSpec, factors) -> BakeSpec:
 def variants(spec: BakeSpec) -> dict:
     """Named variants of ``spec``: resolution, spectral sampling, storage and compute precision."""
     out = {f"res×{f:g}": _scaled(spec, (f,) * 4) for f in (0.5, 1.0, 2.0)}
-    out.update({f"(cos,D)×2": _scaled(spec, (2, 2, 1, 1)), f"(η3,κ3)×2": _scaled(spec, (1, 1, 2, 2))})
+    out.update({"(cos,D)×2": _scaled(spec, (2, 2, 1, 1)), "(η3,κ3)×2": _scaled(spec, (1, 1, 2, 2))})
     out.update({f"spc {s:g}": replace(spec, samples_per_cycle=s) for s in (1.0, 2.0, 4.0)})
     out["half" if spec.precision == "float" else "float"] = replace(
         spec, precision="half" if spec.precision == "float" else "float")
@@ -67,6 +66,9 @@ def _approximation_rows(spec, pts):
     return rows
 
 
+POINT_KIND = "uniform"  # sweep and tune score uniform points only; `report` adds cell centres
+
+
 def _points_for(spec, n_points, seed):
     """Held-out points for the domain of ``spec``: uniform only, since the variants compared
     have different grids (a cell centre of one is a node of another)."""
@@ -74,40 +76,65 @@ def _points_for(spec, n_points, seed):
                            centre_fraction=0.0)
 
 
-def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto") -> dict:
-    """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``."""
+def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto",
+          progress=no_progress) -> dict:
+    """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
+
+    ``progress(done, total, note)`` is called before each step (truth, each variant, plot)."""
     from .figures import pareto_plot
     from .lutfile import write_text_atomic
+    from .strictjson import dumps
 
     out = Path(out_dir)
     grid = variants(spec)  # every variant validated before anything is written
     for path in (out / "sweep.json", out / "pareto.png"):
         if out.exists() and not out.is_dir() or path.is_dir():
             raise ValueError(f"--out {str(out)!r}: {str(path)!r} cannot be written (a file or folder is in the way)")
+    total = len(grid) + 2
+    progress(0, total, f"ground truth at {n_points} uniform points")
+    pts = _points_for(spec, n_points, seed)
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        pts = _points_for(spec, n_points, seed)
-        rows = [_measure(name, v, tmp, pts, backend) for name, v in grid.items()]
+        for i, (name, v) in enumerate(grid.items(), start=1):
+            progress(i, total, f"variant {name} ({'×'.join(str(a.count) for a in v.axes)})")
+            rows.append(_measure(name, v, tmp, pts, backend))
+    progress(total - 1, total, "approximations and Pareto plot")
     rows += _approximation_rows(spec, pts)
+    doc = {"domain": spec.describe(), "points": n_points, "point_kind": POINT_KIND, "seed": seed, "rows": rows,
+           "figure": "pareto.png"}
     out.mkdir(parents=True, exist_ok=True)
-    pareto_plot(rows, out / "pareto.png")
-    doc = {"domain": spec.describe(), "points": n_points, "seed": seed, "rows": rows, "figure": "pareto.png"}
-    write_text_atomic(out / "sweep.json", json.dumps(doc, indent=2) + "\n")
+    pareto_plot(doc, out / "pareto.png")
+    write_text_atomic(out / "sweep.json", dumps(doc) + "\n")
+    progress(total, total, "done")
     return doc
 
 
 def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, backend: str = "auto",
-         max_rounds: int = 12) -> dict:
+         max_rounds: int = 12, progress=no_progress, on_round=None) -> dict:
     """Smallest per-axis counts (greedy) whose p99 ΔE00 at held-out points meets ``max_de``.
 
     Start from 8 × 16 × 4 × 4; each round doubles the axis that lowers p99
     most per added byte, until the target is met; then each axis is cut back
-    by a quarter while the target still holds.
+    by a quarter while the target still holds. ``on_round(row)`` is called with
+    each accepted round as it happens; ``progress`` before each trial bake.
     """
+    history = []
+
+    def accept(row):
+        history.append(row)
+        if on_round:
+            on_round(_round_row(row))
+        return row
+
+    def measure(label, trial):
+        progress(len(history), None, f"{label}: baking {'×'.join(str(a.count) for a in trial.axes)}")
+        return _measure(label, trial, tmp, pts, backend)
+
+    progress(0, None, f"ground truth at {n_points} uniform points")
+    pts = _points_for(spec, n_points, seed)
     with tempfile.TemporaryDirectory() as tmp:
-        pts = _points_for(spec, n_points, seed)
         current = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, TUNE_START_COUNTS)))
-        best = _measure("start", current, tmp, pts, backend)
-        history = [best]
+        best = accept(measure("start", current))
         for _ in range(max_rounds):
             if best["de00_p99"] <= max_de:
                 break
@@ -116,11 +143,11 @@ def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, back
                 factors = [1.0] * 4
                 factors[i] = 2.0
                 trial = _scaled(current, factors)
-                row = _measure(f"axis {i}", trial, tmp, pts, backend)
+                row = measure(f"round {len(history)}, {spec.axes[i].name} ×2", trial)
                 gain = (best["de00_p99"] - row["de00_p99"]) / max(row["bytes"] - best["bytes"], 1)
                 trials.append((gain, trial, row))
             _, current, best = max(trials, key=lambda t: t[0])
-            history.append(best)
+            accept(best)
         met = best["de00_p99"] <= max_de
         if met:
             for i in range(4):
@@ -129,10 +156,13 @@ def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, back
                 trial = _scaled(current, factors)
                 if trial.axes[i].count == current.axes[i].count:
                     continue
-                row = _measure(f"trim {i}", trial, tmp, pts, backend)
+                row = measure(f"trim {spec.axes[i].name} ×0.75", trial)
                 if row["de00_p99"] <= max_de:
-                    current, best = trial, row
-                    history.append(best)
+                    current, best = trial, accept(row)
     return {"target_de00_p99": max_de, "met": bool(met), "counts": [a.count for a in current.axes],
-            "axes": [a.describe() for a in current.axes], "result": best,
-            "rounds": [{k: r[k] for k in ("shape", "de00_p99", "bake_seconds", "bytes")} for r in history]}
+            "axes": [a.describe() for a in current.axes], "result": best, "point_kind": POINT_KIND,
+            "rounds": [_round_row(r) for r in history]}
+
+
+def _round_row(row: dict) -> dict:
+    return {k: row[k] for k in ("shape", "de00_p99", "bake_seconds", "bytes")}

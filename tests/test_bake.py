@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from lutbake.bake import bake, bake_array
-from lutbake.integrate import NumpyBackend, OpenCLBackend
+from lutbake.integrate import NumpyBackend
 from lutbake.plan import Axis, BakeSpec
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour

@@ -30,7 +30,7 @@ def test_check_exits_1_on_a_failure(monkeypatch):
     from lutbake.cli import cli
 
     failing = check.CheckResult("angles", "planted failure", 1.0, 0.0, 1.0, 1e-9)
-    monkeypatch.setattr(check, "run_checks", lambda backend="auto": [failing])
+    monkeypatch.setattr(check, "run_checks", lambda backend="auto", progress=None: [failing])
     result = CliRunner().invoke(cli, ["check"], standalone_mode=False)
     assert result.return_value == 1 and "FAIL planted failure" in result.output
 

@@ -1,0 +1,5 @@
+"""`python -m lutbake`: the same command line as the `lutbake` script."""
+
+from .cli import main
+
+main()

@@ -1,0 +1,17 @@
+"""Names of the CIE observers and working spaces, and colour-science's names for them.
+
+Kept apart from colorimetry.py, with no imports, so the command line can list
+the choices at start-up without loading numpy or colour-science.
+"""
+
+OBSERVERS = {
+    "cie1931": "CIE 1931 2 Degree Standard Observer",
+    "cie1964": "CIE 1964 10 Degree Standard Observer",
+}
+
+SPACES = {
+    "rec709": "Linear Rec.709 (sRGB)",
+    "acescg": "ACEScg",
+    "rec2020": "Linear Rec.2020",
+    "p3": "Linear P3-D65",
+}
