@@ -1,4 +1,4 @@
-// lutbake scene material table for examples/butanol-films.toml (scene hash a786d6c6b0cda1eb), atlas butanol-films.exr
+// lutbake scene material table for butanol-films.toml (scene hash a786d6c6b0cda1eb), atlas butanol-films.exr
 // Sample the atlas with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
 // Call: lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
 // Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's last scanline unless

@@ -1,4 +1,4 @@
-// lutbake scene material table for examples/ergun-table.toml (scene hash 8ac9cb30b3fc3741), atlas ergun-table.exr
+// lutbake scene material table for ergun-table.toml (scene hash 8ac9cb30b3fc3741), atlas ergun-table.exr
 // Use a sampler with MIN_MAG_LINEAR filtering, CLAMP addressing and a single mip level.
 // Call: lutbake_atlas_sample(atlas, linear_clamp, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
 // Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's scanline 0 unless

@@ -1,4 +1,4 @@
-// lutbake scene material table for examples/soap-bubble.toml (scene hash 87275fdbb3cef532), atlas soap-bubble.exr
+// lutbake scene material table for soap-bubble.toml (scene hash 87275fdbb3cef532), atlas soap-bubble.exr
 // Sample the atlas with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
 // Call: lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
 // Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's last scanline unless

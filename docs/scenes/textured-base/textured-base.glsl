@@ -1,4 +1,4 @@
-// lutbake scene material table for examples/textured-base.toml (scene hash a30f2029af326920), atlas textured-base.exr
+// lutbake scene material table for textured-base.toml (scene hash a30f2029af326920), atlas textured-base.exr
 // Sample the atlas with LINEAR min/mag filtering, CLAMP_TO_EDGE wrapping and no mipmaps.
 // Call: lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm).
 // Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's last scanline unless
