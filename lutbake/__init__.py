@@ -3,39 +3,57 @@
 Data flow, one module per stage: points/plan (spec, validate) → spectral,
 reference (ground truth) / integrate (kernel or numpy) → lutfile (EXR,
 sidecar, shader includes) → sample (reference sampler) → report.
+
+The public API is the names in ``__all__`` (docs/api.md). They load on first
+use, so ``import lutbake`` (and the command line's ``--help``) stays fast;
+importing lutbake changes no process state (signal handlers, environment).
 """
 
-import os
-import signal
-import sys
+# public name -> the module (lutbake.<module>) that defines it
+_API = {
+    "Axis": "plan",
+    "BakeSpec": "plan",
+    "FilmPoints": "points",
+    "reference_colour": "reference",
+    "reference_rgb": "reference",
+    "bake": "bake",
+    "BakeResult": "bake",
+    "default_specs": "bake",
+    "Lut": "sample",
+    "Atlas": "sample",
+    "report_lut": "report",
+    "write_report": "report",
+    "load_scene": "scene",
+    "plan_scene": "atlas",
+    "bake_scene": "atlas",
+    "run_checks": "check",
+}
 
-
-def interrupted_at_start_up(signum, frame):
-    """Ctrl-C while modules load: one line and exit 130, no traceback (the CLI's main() takes over)."""
-    sys.stderr.write("lutbake: interrupted\n")
-    os._exit(130)
-
-
-def set_sigint_handler(handler):
-    """Install ``handler`` for SIGINT unless SIGINT is ignored or this is not the main thread; return the old one."""
-    previous = signal.getsignal(signal.SIGINT)
-    if previous is not signal.SIG_IGN:
-        try:
-            signal.signal(signal.SIGINT, handler)
-        except ValueError:  # imported from another thread
-            pass
-    return previous
+__all__ = sorted(_API) + ["__version__"]
 
 
 def __getattr__(name):
-    """``__version__`` on first use: importlib.metadata costs ~0.1 s that `--help` need not pay."""
-    if name != "__version__":
+    """Public names and ``__version__`` on first use (importlib.metadata alone costs ~0.1 s)."""
+    if name == "__version__":
+        value = _version()
+    elif name in _API:
+        from importlib import import_module
+
+        value = getattr(import_module(f"{__name__}.{_API[name]}"), name)
+    else:
         raise AttributeError(f"module 'lutbake' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+def _version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 
     try:
-        value = version("lutbake")
+        return version("lutbake")
     except PackageNotFoundError:  # running from a source tree
-        value = "0.0.0+source"
-    globals()["__version__"] = value
-    return value
+        return "0.0.0+source"

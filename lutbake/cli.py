@@ -12,9 +12,9 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from . import interrupted_at_start_up, set_sigint_handler
+from .signals import interrupted_at_start_up, raise_interrupt, set_handler
 
-set_sigint_handler(interrupted_at_start_up)  # until main() runs
+set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
@@ -36,7 +36,8 @@ def main(argv=None):
     The context is driven directly rather than through ``cli.main``, which maps a
     closed pipe to exit 1; a reader that stops early is not a failure here (exit 0).
     """
-    set_sigint_handler(signal.default_int_handler)
+    set_handler(signal.SIGINT, signal.default_int_handler)
+    set_handler(signal.SIGTERM, raise_interrupt)  # unwind like Ctrl-C: half-written sets are discarded
     args = sys.argv[1:] if argv is None else list(argv)
     try:
         with cli.make_context("lutbake", args) as ctx:

@@ -27,7 +27,6 @@ import json
 import os
 import re
 import signal
-import threading
 from pathlib import Path
 
 __all__ = ["open_set", "FileSet", "sha256_file", "journal_path", "recover", "remove_stale_temporaries"]
@@ -87,14 +86,12 @@ class FileSet:
 @contextlib.contextmanager
 def open_set(folder, name: str):
     """Lock ``folder``, finish interrupted commits, drop dead temporaries; yield a FileSet
-    that is committed when the block succeeds and discarded when it raises (SIGTERM included)."""
+    that is committed when the block succeeds and discarded when it raises (the CLI turns
+    SIGTERM into an exception: signals.py)."""
     folder = Path(folder)
     fd = os.open(folder, os.O_RDONLY)
-    previous = signal.getsignal(signal.SIGTERM) if main_thread() else None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        if main_thread():
-            signal.signal(signal.SIGTERM, raise_interrupt)
         recover(folder)
         remove_stale_temporaries(folder)
         files = FileSet(folder, name)
@@ -105,8 +102,6 @@ def open_set(folder, name: str):
             raise
         files.commit()
     finally:
-        if main_thread():
-            signal.signal(signal.SIGTERM, previous)
         os.close(fd)
 
 
@@ -172,10 +167,3 @@ def _test_stop() -> None:
     if os.environ.get(_STOP_HOOK) == "1":
         os.kill(os.getpid(), signal.SIGSTOP)
 
-
-def main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
-
-
-def raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")

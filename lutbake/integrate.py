@@ -16,6 +16,7 @@ Both return the RGB of every texel of a band of image rows, an array
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
@@ -87,26 +88,31 @@ def _split(values, dtype):
     return np.ascontiguousarray(hi), np.ascontiguousarray(lo)
 
 
-def _register_intel_cpu_runtime():
-    """Make Intel's CPU OpenCL runtime (PyPI: opencl-rt) visible to pyopencl's ICD loader.
+@contextlib.contextmanager
+def _intel_cpu_runtime_visible():
+    """Make Intel's CPU OpenCL runtime (PyPI: opencl-rt) visible to the platform query inside.
 
     PoCL 3.0 from PyPI compiles kernels with LLVM 14, which cannot name CPUs
     newer than it (AMD family 1Ah, Zen 5: "unknown target CPU 'generic'").
     The test extra installs Intel's CPU runtime into the environment's lib/;
     registering it gives such machines a second OpenCL CPU device that runs
-    the same kernel source. An explicit OCL_ICD_VENDORS is left alone.
+    the same kernel source. The ICD loader reads its vendor list once, at the
+    process's first platform query, so the .icd file (in a private temporary
+    folder) and OCL_ICD_VENDORS exist only for that query and are gone after
+    it. An explicit OCL_ICD_VENDORS is left alone; a process that queried
+    platforms before lutbake did sees only the runtimes it registered itself.
     """
     lib = Path(sys.prefix) / "lib" / "libintelocl.so"
     if "OCL_ICD_VENDORS" in os.environ or not lib.is_file():
+        yield
         return
-    vendors = Path(tempfile.gettempdir()) / f"lutbake-icd-{os.getuid()}"
-    vendors.mkdir(exist_ok=True)
-    icd = vendors / "intel-cpu.icd"
-    if not icd.is_file() or icd.read_text() != f"{lib}\n":
-        tmp = icd.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text(f"{lib}\n")
-        os.replace(tmp, icd)
-    os.environ["OCL_ICD_VENDORS"] = str(vendors)
+    with tempfile.TemporaryDirectory(prefix="lutbake-icd-") as vendors:
+        (Path(vendors) / "intel-cpu.icd").write_text(f"{lib}\n")
+        os.environ["OCL_ICD_VENDORS"] = vendors
+        try:
+            yield
+        finally:
+            del os.environ["OCL_ICD_VENDORS"]
 
 
 RUNTIME_KEYS = {"Portable Computing Language": "pocl", "Intel(R) OpenCL": "intel"}
@@ -127,11 +133,11 @@ def device_label(device) -> str:
 
 def opencl_devices() -> list:
     """Every OpenCL device, PoCL's first (the design's runtime), then the rest in platform order."""
-    _register_intel_cpu_runtime()
     import pyopencl as cl
 
     try:
-        platforms = cl.get_platforms()
+        with _intel_cpu_runtime_visible():
+            platforms = cl.get_platforms()
     except cl.Error as exc:
         raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
     platforms.sort(key=lambda p: "Portable Computing Language" not in p.name)
@@ -147,8 +153,8 @@ def _candidate_devices(selector=None):
     if selector:
         return [find_device(selector)]
     if os.environ.get("PYOPENCL_CTX"):
-        _register_intel_cpu_runtime()
-        return [cl.create_some_context(interactive=False).devices[0]]
+        with _intel_cpu_runtime_visible():
+            return [cl.create_some_context(interactive=False).devices[0]]
     return opencl_devices()
 
 

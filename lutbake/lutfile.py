@@ -20,7 +20,6 @@ import contextlib
 import io
 import json
 import os
-import signal
 import string
 import sys
 import warnings
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fileset
-from .fileset import main_thread, raise_interrupt, temporary_for
+from .fileset import temporary_for
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "write_text_atomic",
            "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
@@ -47,22 +46,17 @@ MAX_TEXTURE_SIZE = 8192
 def atomic_path(final: Path):
     """Yield a temporary path beside ``final``; rename it into place on success.
 
-    SIGTERM is turned into an exception for the duration so the temporary is
-    removed on the way out (kill -9 leaves only the hidden temporary, which the
-    next bake into the folder removes). Single files only: a LUT or scene file
-    set is committed as one unit by fileset.open_set.
+    The temporary is removed when the block raises (the CLI turns SIGTERM into
+    an exception; a process killed outright leaves only the hidden temporary,
+    which the next bake into the folder removes). Single files only: a LUT or
+    scene file set is committed as one unit by fileset.open_set.
     """
     final = Path(final)
     tmp = temporary_for(final)
-    previous = signal.getsignal(signal.SIGTERM)
-    if main_thread():
-        signal.signal(signal.SIGTERM, raise_interrupt)
     try:
         yield tmp
         os.replace(tmp, final)
     finally:
-        if main_thread():
-            signal.signal(signal.SIGTERM, previous)
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .materials import material
-from .optics import thickness_from_opd
+from .optics import opd_from_thickness, thickness_from_opd
 
 __all__ = ["FilmPoints", "check_value", "dielectric_film", "CSV_COLUMNS"]
 
@@ -72,6 +72,11 @@ class FilmPoints:
 
     def __len__(self) -> int:
         return self.cos_theta.size
+
+    @property
+    def opd_nm(self) -> np.ndarray:
+        """Optical path difference at normal incidence, D = 2·η2·d (nm): a LUT's second axis."""
+        return opd_from_thickness(self.thickness_nm, self.eta2)
 
     def indices(self, wavelength_nm):
         """(η2, η3, κ3) at each point × wavelength, shape (P, M)."""

@@ -24,7 +24,7 @@ from .optics import film_reflectance
 from .points import FilmPoints
 from .spectral import SpectralRule, panel_rule
 
-__all__ = ["ReferenceResult", "reference_colour", "spectral_reflectance", "subset"]
+__all__ = ["ReferenceResult", "reference_colour", "reference_rgb", "spectral_reflectance", "subset"]
 
 DEFAULT_TOLERANCE = 1e-9
 _START_NODES_PER_NM = 2
@@ -94,3 +94,36 @@ def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str =
     converged = np.ones(n, bool)
     converged[active] = False
     return ReferenceResult(values, needed, converged)
+
+
+def reference_rgb(stack: FilmPoints, observer: str = "cie1931", space: str = "rec709",
+                  tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
+    """Ground-truth linear RGB of film stacks: the converged spectral integral.
+
+    Parameters
+    ----------
+    stack : FilmPoints
+        P film stacks (``FilmPoints.build``): indices, cos θ1, thickness in nm.
+    observer : str
+        Colour-matching functions: 'cie1931' (2°) or 'cie1964' (10°).
+    space : str
+        Linear RGB space of the result: 'rec709' (sRGB primaries, D65), 'rec2020', 'p3' or 'acescg'.
+    tolerance : float
+        Largest change in any channel between the last two refinements (default 1e-9).
+
+    Returns
+    -------
+    numpy.ndarray
+        (P, 3) linear RGB; 1 is the reflectance of a perfect mirror (white).
+
+    Examples
+    --------
+    A film too thin to interfere reflects like its bare base: glass (η = 1.5) at normal incidence
+    reflects ((1.5 − 1)/(1.5 + 1))² = 4 % in every channel.
+
+    >>> import lutbake
+    >>> bare = lutbake.FilmPoints.build(eta2=1.33, thickness_nm=0.0, cos_theta=1.0, eta3=1.5)
+    >>> [round(v, 6) for v in lutbake.reference_rgb(bare)[0].tolist()]
+    [0.04, 0.04, 0.04]
+    """
+    return reference_colour(stack, observer, space, "rgb", tolerance).values

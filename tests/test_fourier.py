@@ -200,3 +200,21 @@ def test_kernel_series_for_another_observer_and_space():
             Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 5.0, 4))
     spec = BakeSpec(eta2=1.7, axes=axes, observer="cie1964", space="acescg", samples_per_cycle=8.0)
     assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
+
+
+def test_table_cache_lives_in_the_user_cache_and_survives_corruption(tmp_path, monkeypatch):
+    """The Ŵ table persists in $LUTBAKE_CACHE_DIR (not the shared temp folder); an unreadable or
+    truncated cache file is rebuilt, giving the same table as a fresh build."""
+    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path / "cache"))
+    args = dict(space="p3", step_nm=50.0, x_max_nm=3000.0)
+    weight_transform.cache_clear()
+    fresh = weight_transform(**args)
+    (cached,) = (tmp_path / "cache").iterdir()
+    good = cached.read_bytes()
+    for damage in (b"not a numpy file", good[: len(good) // 2]):
+        cached.write_bytes(damage)
+        weight_transform.cache_clear()
+        rebuilt = weight_transform(**args)
+        np.testing.assert_array_equal(rebuilt.coefficients, fresh.coefficients)
+        assert cached.read_bytes() == good
+    weight_transform.cache_clear()

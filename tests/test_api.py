@@ -1,0 +1,84 @@
+"""The public Python API: the README's example, each public name's doctest, no process-state changes."""
+
+import doctest
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import lutbake
+
+ROOT = Path(__file__).resolve().parents[1]
+PUBLIC = [name for name in lutbake.__all__ if name != "__version__"]
+
+
+def _run_doctests(text: str, name: str, globs=None):
+    test = doctest.DocTestParser().get_doctest(text, dict(globs or {}), name, name, 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    runner.run(test)
+    return runner.summarize(verbose=False), len(test.examples)
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
+    assert blocks, "README has no Python example"
+    result, examples = _run_doctests("".join(blocks), "README.md")
+    assert examples >= 5 and result.failed == 0
+    assert {p.name for p in tmp_path.iterdir()} >= {"soap.exr", "soap.json", "soap.glsl", "soap.hlsl"}
+
+
+@pytest.mark.parametrize("name", PUBLIC)
+def test_public_name_is_documented_with_a_passing_example(name, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    obj = getattr(lutbake, name)
+    doc = obj.__doc__ or ""
+    assert "Examples\n" in doc and ">>> " in doc, f"lutbake.{name} has no Examples section"
+    result, examples = _run_doctests(doc, f"lutbake.{name}")
+    assert examples and result.failed == 0
+
+
+def test_every_public_name_is_in_docs_api():
+    text = (ROOT / "docs" / "api.md").read_text()
+    missing = [name for name in PUBLIC if f"`{name}" not in text]
+    assert not missing
+
+
+def test_unknown_attribute_is_an_attribute_error():
+    with pytest.raises(AttributeError, match="no_such_name"):
+        lutbake.no_such_name  # noqa: B018
+
+
+_PROBE = """
+import json, os, signal, sys, tempfile
+before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+import lutbake
+imported = sorted(m for m in ("numpy", "pyopencl", "colour", "matplotlib") if m in sys.modules)
+spec = lutbake.BakeSpec(eta2=1.5, axes=(lutbake.Axis("cos_theta", 0, 1, 4), lutbake.Axis("opd_nm", 0, 800, 8),
+                                        lutbake.Axis("eta3", 1, 2, 2), lutbake.Axis("kappa3", 0, 1, 2)))
+baked = lutbake.bake(spec, os.path.join(sys.argv[1], "x.exr"))
+after = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+print(json.dumps({"imported_by_import": imported, "handlers_kept": before == after,
+                  "icd_env": os.environ.get("OCL_ICD_VENDORS"), "device": baked.device,
+                  "temp": sorted(os.listdir(tempfile.gettempdir()))}))
+"""
+
+
+def test_library_use_changes_no_process_state(tmp_path):
+    """Importing lutbake loads nothing heavy; a bake leaves signal handlers, the environment and the
+    temporary folder as they were (the Intel runtime's registration is scoped to the platform query)."""
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("OCL_ICD_VENDORS", "LUTBAKE_DEVICE")}
+    env.update(TMPDIR=str(temp), PYTHONPATH=str(ROOT))
+    proc = subprocess.run([sys.executable, "-c", _PROBE, str(tmp_path)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    seen = json.loads(proc.stdout)
+    assert seen == {"imported_by_import": [], "handlers_kept": True, "icd_env": None,
+                    "device": seen["device"], "temp": []}
+    assert (tmp_path / "x.exr").is_file()
