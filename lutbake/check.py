@@ -246,7 +246,28 @@ def _fourier(paths):
 
 
 def run_checks(backend_name: str = "auto", progress=no_progress) -> list:
-    """All cases, in groups (list of CheckResult); ``progress(done, total, note)`` before each group."""
+    """Every stiff and extreme case, each against an independent reference and a stated tolerance.
+
+    Parameters
+    ----------
+    backend_name : str
+        The fast path to check: 'auto' (the default OpenCL device, else numpy), 'opencl' or 'numpy'.
+    progress : callable
+        ``progress(done, total, note)`` before each group.
+
+    Returns
+    -------
+    list of CheckResult
+        One per case: group, name, value, reference, error, tolerance, note, ``passed``
+        (docs/stability.md lists the cases).
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> results = lutbake.run_checks()
+    >>> len(results) > 20, all(r.passed for r in results)
+    (True, True)
+    """
     paths = _Paths(backend_name)
     results = []
     groups = (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier)

@@ -58,7 +58,36 @@ def check_value(name: str, values) -> np.ndarray:
 
 @dataclass
 class FilmPoints:
-    """P film stacks: ambient η1 | film η2, thickness d | base η3 + iκ3, at cos θ1."""
+    """P film stacks: ambient η1 | film η2, thickness d | base η3 + iκ3, lit at cos θ1.
+
+    Build with ``FilmPoints.build`` (keyword-only, validated, broadcast); every
+    column is a float64 array of shape (P,).
+
+    Attributes
+    ----------
+    eta1, eta2 : numpy.ndarray
+        Refractive index of the ambient and of the film (real, ≥ 1 for the ambient).
+    eta3, kappa3 : numpy.ndarray
+        Base index: real part and extinction coefficient (κ3 = 0 for a dielectric).
+    cos_theta : numpy.ndarray
+        Cosine of the angle of incidence in the ambient, in [0, 1].
+    thickness_nm : numpy.ndarray
+        Physical film thickness d in nm (``opd_nm`` = 2·η2·d, the LUT axis).
+    film, base : Material or None
+        Named dispersive materials (``lutbake materials``); their indices are taken per wavelength
+        and the constant columns are placeholders.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> soap = lutbake.FilmPoints.build(eta2=1.33, thickness_nm=[200.0, 400.0], angle_deg=60.0, eta3=1.33)
+    >>> len(soap), soap.cos_theta.round(3).tolist(), soap.opd_nm.tolist()
+    (2, [0.5, 0.5], [532.0, 1064.0])
+    >>> lutbake.FilmPoints.build(eta2=1.33, thickness_nm=-1.0, cos_theta=1.0, eta3=1.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: thickness_nm = -1.0 is not allowed: must be a number in [0, 100000]
+    """
 
     eta1: np.ndarray
     eta2: np.ndarray

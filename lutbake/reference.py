@@ -77,7 +77,35 @@ def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str =
                      basis: str = "rgb", tolerance: float = DEFAULT_TOLERANCE) -> ReferenceResult:
     """Integrate each point until successive refinements agree to ``tolerance`` in every channel.
 
-    ``basis`` 'rgb' or 'xyz' gives (P, 3); 'rgb+xyz' gives (P, 6), RGB then XYZ."""
+    Parameters
+    ----------
+    points : FilmPoints
+        P film stacks.
+    observer, space : str
+        CIE observer ('cie1931', 'cie1964') and linear RGB space ('rec709', 'rec2020', 'p3', 'acescg').
+    basis : str
+        'rgb' or 'xyz' gives (P, 3) values; 'rgb+xyz' gives (P, 6), RGB then XYZ.
+    tolerance : float
+        Largest change in any channel between the last two refinements.
+
+    Returns
+    -------
+    ReferenceResult
+        ``values`` (P, 3 or 6), ``nodes_per_nm`` each point needed, ``converged`` (False only where
+        2048 nodes per nm were not enough).
+
+    Examples
+    --------
+    Thick films need finer spectral sampling: their fringes are narrower.
+
+    >>> import lutbake
+    >>> films = lutbake.FilmPoints.build(eta2=1.5, thickness_nm=[100.0, 20000.0], cos_theta=1.0, eta3=1.0)
+    >>> result = lutbake.reference_colour(films, basis="xyz")
+    >>> result.values.shape, result.converged.tolist()
+    ((2, 3), [True, True])
+    >>> bool(result.nodes_per_nm[1] > result.nodes_per_nm[0])
+    True
+    """
     n = len(points)
     nodes = _START_NODES_PER_NM
     previous = _integrate(points, _rule(nodes, observer, space, basis))
