@@ -9,14 +9,16 @@ use, so ``import lutbake`` (and the command line's ``--help``) stays fast;
 importing lutbake changes no process state (signal handlers, environment).
 """
 
-# public name -> the module (lutbake.<module>) that defines it
+# public name -> the module (lutbake.<module>) that defines it, and its name there when it differs
+# (the function bake.bake is public as bake_lut: a package attribute named like a submodule is
+# replaced by the submodule when that is imported)
 _API = {
     "Axis": "plan",
     "BakeSpec": "plan",
     "FilmPoints": "points",
     "reference_colour": "reference",
     "reference_rgb": "reference",
-    "bake": "bake",
+    "bake_lut": ("bake", "bake"),
     "BakeResult": "bake",
     "default_specs": "bake",
     "Lut": "sample",
@@ -39,7 +41,8 @@ def __getattr__(name):
     elif name in _API:
         from importlib import import_module
 
-        value = getattr(import_module(f"{__name__}.{_API[name]}"), name)
+        module, attr = _API[name] if isinstance(_API[name], tuple) else (_API[name], name)
+        value = getattr(import_module(f"{__name__}.{module}"), attr)
     else:
         raise AttributeError(f"module 'lutbake' has no attribute {name!r}")
     globals()[name] = value

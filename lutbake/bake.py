@@ -67,7 +67,7 @@ class BakeResult:
     >>> import lutbake
     >>> spec = lutbake.default_specs()["lutbake-eta2-1.50"]
     >>> small = replace(spec, axes=tuple(replace(axis, count=4) for axis in spec.axes))
-    >>> result = lutbake.bake(small, "small.exr")
+    >>> result = lutbake.bake_lut(small, "small.exr")
     >>> result.cells, result.path.name, bool(result.spectral_error_rgb_max < 1e-6)
     (256, 'small.exr', True)
     """
@@ -229,7 +229,7 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     >>> import lutbake
     >>> axes = (lutbake.Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), lutbake.Axis("opd_nm", 0.0, 2000.0, 32),
     ...         lutbake.Axis("eta3", 1.0, 3.0, 4), lutbake.Axis("kappa3", 0.0, 5.0, 4, "sqrt"))
-    >>> result = lutbake.bake(lutbake.BakeSpec(eta2=2.0, axes=axes), "oxide.exr")
+    >>> result = lutbake.bake_lut(lutbake.BakeSpec(eta2=2.0, axes=axes), "oxide.exr")
     >>> sorted(p.name for p in result.path.parent.glob("oxide.*"))
     ['oxide.exr', 'oxide.glsl', 'oxide.hlsl', 'oxide.json']
     """

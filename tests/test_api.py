@@ -48,6 +48,16 @@ def test_every_public_name_is_in_docs_api():
     assert not missing
 
 
+def test_public_names_survive_their_modules_being_imported():
+    """A package attribute named like a submodule is replaced when the submodule loads: none is."""
+    import importlib
+    import types
+
+    for module in {m if isinstance(m, str) else m[0] for m in lutbake._API.values()}:
+        importlib.import_module(f"lutbake.{module}")
+    assert not [n for n in PUBLIC if isinstance(getattr(lutbake, n), types.ModuleType)]
+
+
 def test_unknown_attribute_is_an_attribute_error():
     with pytest.raises(AttributeError, match="no_such_name"):
         lutbake.no_such_name  # noqa: B018
@@ -60,7 +70,7 @@ import lutbake
 imported = sorted(m for m in ("numpy", "pyopencl", "colour", "matplotlib") if m in sys.modules)
 spec = lutbake.BakeSpec(eta2=1.5, axes=(lutbake.Axis("cos_theta", 0, 1, 4), lutbake.Axis("opd_nm", 0, 800, 8),
                                         lutbake.Axis("eta3", 1, 2, 2), lutbake.Axis("kappa3", 0, 1, 2)))
-baked = lutbake.bake(spec, os.path.join(sys.argv[1], "x.exr"))
+baked = lutbake.bake_lut(spec, os.path.join(sys.argv[1], "x.exr"))
 after = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 print(json.dumps({"imported_by_import": imported, "handlers_kept": before == after,
                   "icd_env": os.environ.get("OCL_ICD_VENDORS"), "device": baked.device,
