@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .fourier import DEFAULT_SERIES_TOLERANCE, series_colour
-from .integrate import backend as make_backend
+from .integrate import backend as make_backend, device_key
 from .optics import film_reflectance, round_trip_amplitude
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
@@ -55,16 +55,21 @@ def _spec(eta2, eta1=1.0, compute="float64"):
 class _Paths:
     """The fast path (per compute precision) and the ground truth at single stacks."""
 
-    def __init__(self, backend_name):
-        self.backend_name = backend_name
-        self._fast = {}
+    def __init__(self, fast):
+        self._fast = {"float64": make_backend(fast) if isinstance(fast, str) else fast}
+
+    def _backend(self, compute):
+        """The float64 backend, or its device's float32 build (numpy has one precision)."""
+        if compute not in self._fast:
+            first = self._fast["float64"]
+            self._fast[compute] = first if first.name == "numpy" else make_backend(
+                "opencl", compute, first.integrator, device_key(first.ctx.devices[0]))
+        return self._fast[compute]
 
     def fast(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, compute="float64"):
-        if compute not in self._fast:
-            self._fast[compute] = make_backend(self.backend_name, compute)
         spec = _spec(eta2, eta1, compute)
         cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
-        return self._fast[compute].evaluate(spec, *np.broadcast_arrays(*cols))
+        return self._backend(compute).evaluate(spec, *np.broadcast_arrays(*cols))
 
     @staticmethod
     def truth(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
@@ -245,13 +250,14 @@ def _fourier(paths):
     return out
 
 
-def run_checks(backend_name: str = "auto", progress=no_progress) -> list:
+def run_checks(backend="auto", progress=no_progress) -> list:
     """Every stiff and extreme case, each against an independent reference and a stated tolerance.
 
     Parameters
     ----------
-    backend_name : str
-        The fast path to check: 'auto' (the default OpenCL device, else numpy), 'opencl' or 'numpy'.
+    backend : str or backend
+        The fast path to check: 'auto' (the default OpenCL device, else numpy), 'opencl', 'numpy', or a
+        float64 backend already made (``integrate.backend``; its device's float32 build is checked too).
     progress : callable
         ``progress(done, total, note)`` before each group.
 
@@ -268,7 +274,7 @@ def run_checks(backend_name: str = "auto", progress=no_progress) -> list:
     >>> len(results) > 20, all(r.passed for r in results)
     (True, True)
     """
-    paths = _Paths(backend_name)
+    paths = _Paths(backend)
     results = []
     groups = (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier)
     for i, group in enumerate(groups):

@@ -791,9 +791,10 @@ def check_cmd(backend, as_json, quiet, force_progress):
     from .check import run_checks
     from .integrate import backend as make_backend
 
-    device = make_backend(backend).device
+    fast = make_backend(backend)   # one backend: one fallback warning, the device named below
+    device = fast.device
     meter = progress_meter("check", quiet, force_progress)
-    results = run_checks(backend, progress=meter)
+    results = run_checks(fast, progress=meter)
     meter.close()
     failed = [r for r in results if not r.passed]
     if as_json:
