@@ -16,13 +16,11 @@ from .sample import Lut
 __all__ = ["delta_e_maps", "swatch_strips", "pareto_plot", "display_srgb"]
 
 
-def _pyplot():
-    import matplotlib
+def _figure(figsize):
+    """A figure outside pyplot: no global backend switch, nothing to close (PNG through Agg on save)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(figsize=figsize, layout="constrained")
 
 
 def display_srgb(rgb, exposure=1.0):
@@ -62,7 +60,6 @@ def _domain_title(lut: Lut, n_points: int) -> str:
 def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
     """ΔE00 of the LUT against the ground truth over (cos θ, D), at the (η3, κ3) of the report's
     worst points (off the η3/κ3 nodes, where interpolation error peaks), on one colour scale."""
-    plt = _pyplot()
     lut = Lut.load(rep.path)
     ax = {a.name: a for a in lut.axes}
     cos_t, opd = np.meshgrid(ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n),
@@ -75,7 +72,8 @@ def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
                        lut.meta["observer"], lut.meta["space"]).reshape(n, n)
         maps.append((eta3, kappa3, de))
     vmax = max(1.0, max(float(de.max()) for _, _, de in maps))
-    fig, axes = plt.subplots(1, len(maps), figsize=(4.6 * len(maps), 4.4), constrained_layout=True, squeeze=False)
+    fig = _figure((4.6 * len(maps), 4.4))
+    axes = fig.subplots(1, len(maps), squeeze=False)
     for a, (eta3, kappa3, de) in zip(axes[0], maps):
         im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=vmax)
         a.set_title(f"η3 {eta3:.3f}, κ3 {kappa3:.3f}\np99 {np.percentile(de, 99):.2f}, max {de.max():.2f}", fontsize=11)
@@ -84,13 +82,11 @@ def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
     fig.colorbar(im, ax=axes[0].tolist(), label="ΔE00 (one scale for all panels)")
     fig.suptitle(_domain_title(lut, len(rep.points)), fontsize=11)
     fig.savefig(out_png, dpi=90)
-    plt.close(fig)
     return Path(out_png)
 
 
 def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
     """Colour along D at fixed angles: ground truth, LUT, and each approximation."""
-    plt = _pyplot()
     lut = Lut.load(lut_path)
     ax = {a.name: a for a in lut.axes}
     opd = ax["opd_nm"].from_unit(np.linspace(0, 1, n))
@@ -102,7 +98,8 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
             strips += [(name, fn(lut.eta1, lut.eta2, eta3, kappa3, cos_t, opd, lut.meta["space"],
                                  lut.meta["observer"])) for name, fn in APPROXIMATIONS.items()]
             rows.append((f"η3 {eta3:.2f} κ3 {kappa3:.2f} cos θ {cos_t}", strips))
-    fig, axes = plt.subplots(len(rows), 1, figsize=(10, 1.3 * len(rows)), constrained_layout=True)
+    fig = _figure((10, 1.3 * len(rows)))
+    axes = fig.subplots(len(rows), 1)
     for a, (title, strips) in zip(np.atleast_1d(axes), rows):
         exposure = 1.0 / max(np.percentile(strips[0][1], 98), 1e-3)
         image = np.stack([display_srgb(rgb, exposure) for _, rgb in strips])
@@ -111,7 +108,6 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
         a.set_title(title, fontsize=8, loc="left")
     np.atleast_1d(axes)[-1].set_xlabel("D (nm)")
     fig.savefig(out_png, dpi=80)
-    plt.close(fig)
     return Path(out_png)
 
 
@@ -119,9 +115,9 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     """p99 ΔE00 against bake time and bytes (LUT variants), approximation rows as lines.
 
     Labels sit in a numbered key beside each panel, so close points never overlap."""
-    plt = _pyplot()
     rows = doc["rows"]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5.2), constrained_layout=True)
+    fig = _figure((13, 5.2))
+    a1, a2 = fig.subplots(1, 2)
     luts = [r for r in rows if r["kind"] == "lut"]
     for a, key, label in ((a1, "bake_seconds", "bake time (s)"), (a2, "bytes", "LUT size (bytes)")):
         x = np.array([r[key] for r in luts])
@@ -145,7 +141,6 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     fig.suptitle(f"Error against cost: film η2 = {d['eta2']:g} over {ranges}; "
                  f"{doc['points']} {doc['point_kind']} held-out points", fontsize=11)
     fig.savefig(out_png, dpi=90)
-    plt.close(fig)
     return Path(out_png)
 
 

@@ -71,24 +71,27 @@ imported = sorted(m for m in ("numpy", "pyopencl", "colour", "matplotlib") if m 
 spec = lutbake.BakeSpec(eta2=1.5, axes=(lutbake.Axis("cos_theta", 0, 1, 4), lutbake.Axis("opd_nm", 0, 800, 8),
                                         lutbake.Axis("eta3", 1, 2, 2), lutbake.Axis("kappa3", 0, 1, 2)))
 baked = lutbake.bake_lut(spec, os.path.join(sys.argv[1], "x.exr"))
+lutbake.write_report(lutbake.report_lut(baked.path, n_points=40), os.path.join(sys.argv[1], "report"))
 after = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 print(json.dumps({"imported_by_import": imported, "handlers_kept": before == after,
+                  "matplotlib_backend": sys.modules["matplotlib"].get_backend(),
                   "icd_env": os.environ.get("OCL_ICD_VENDORS"), "device": baked.device,
                   "temp": sorted(os.listdir(tempfile.gettempdir()))}))
 """
 
 
 def test_library_use_changes_no_process_state(tmp_path):
-    """Importing lutbake loads nothing heavy; a bake leaves signal handlers, the environment and the
-    temporary folder as they were (the Intel runtime's registration is scoped to the platform query)."""
+    """Importing lutbake loads nothing heavy; a bake and a report leave signal handlers, the environment,
+    matplotlib's backend and the temporary folder as they were (the Intel
+    runtime's registration is scoped to the platform query)."""
     temp = tmp_path / "tmp"
     temp.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("OCL_ICD_VENDORS", "LUTBAKE_DEVICE")}
-    env.update(TMPDIR=str(temp), PYTHONPATH=str(ROOT))
+    env.update(TMPDIR=str(temp), PYTHONPATH=str(ROOT), MPLBACKEND="svg")  # a report must not switch it
     proc = subprocess.run([sys.executable, "-c", _PROBE, str(tmp_path)], env=env, capture_output=True,
                           text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     seen = json.loads(proc.stdout)
-    assert seen == {"imported_by_import": [], "handlers_kept": True, "icd_env": None,
+    assert seen == {"imported_by_import": [], "handlers_kept": True, "matplotlib_backend": "svg", "icd_env": None,
                     "device": seen["device"], "temp": []}
     assert (tmp_path / "x.exr").is_file()
