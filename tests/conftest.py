@@ -37,14 +37,17 @@ def pytest_generate_tests(metafunc):
         metafunc.parametrize("kernel_device", keys, ids=keys, scope="module")
 
 
-_DEVICE_OF = {}   # test nodeid -> device key
-
-
 def pytest_collection_modifyitems(items):
+    """Tag each kernel test with its device key; user properties travel with the test's reports,
+    so the summary counts correctly when pytest-xdist runs tests in worker processes."""
     for item in items:
         key = getattr(item, "callspec", None) and item.callspec.params.get("kernel_device")
         if key:
-            _DEVICE_OF[item.nodeid] = key
+            item.user_properties.append(("kernel_device", key))
+
+
+def _device_of(report):
+    return dict(report.user_properties).get("kernel_device")
 
 
 def pytest_terminal_summary(terminalreporter):
@@ -52,7 +55,7 @@ def pytest_terminal_summary(terminalreporter):
     tr = terminalreporter
     tr.section("OpenCL runtimes exercised by the kernel tests")
     for key, label in _DEVICES:
-        counts = {outcome: sum(_DEVICE_OF.get(r.nodeid) == key for r in tr.stats.get(outcome, [])
+        counts = {outcome: sum(_device_of(r) == key for r in tr.stats.get(outcome, [])
                                if r.when == "call" or outcome == "error")
                   for outcome in ("passed", "failed", "error", "skipped")}
         ran = ", ".join(f"{n} {o}" for o, n in counts.items() if n) or "no kernel test ran"
