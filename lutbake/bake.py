@@ -26,6 +26,7 @@ from . import __version__
 from .fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, weight_transform
 from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
+from .errors import ParameterError
 from .fileset import FileSet, open_set
 from .lutfile import FORMAT, FORMAT_VERSION, exr_rows, shader_includes
 from .plan import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
@@ -277,12 +278,13 @@ def _check_writable(out_path: Path) -> None:
     import os
 
     if out_path.suffix.lower() != ".exr":
-        raise ValueError(f"--out {str(out_path)!r} must end in .exr")
+        raise ParameterError("{out_path} {path} must end in .exr", path=repr(str(out_path)))
     folder = out_path.parent
     if not folder.is_dir():
-        raise ValueError(f"--out folder {str(folder)!r} does not exist")
+        raise ParameterError("{out_path} folder {path} does not exist", path=repr(str(folder)))
     if not os.access(folder, os.W_OK):
-        raise ValueError(f"--out folder {str(folder)!r} is not writable")
+        raise ParameterError("{out_path} folder {path} is not writable", path=repr(str(folder)))
     for member in lut_members(out_path):
         if member.is_dir():
-            raise ValueError(f"--out {str(out_path)!r}: {str(member)!r} is a folder, expected a file or nothing")
+            raise ParameterError("{out_path} {path}: {member} is a folder, expected a file or nothing",
+                                 path=repr(str(out_path)), member=repr(str(member)))

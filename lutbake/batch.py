@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import ParameterError
 from .plan import Axis, BakeSpec
 from .points import FilmPoints
 from .progress import no_progress
@@ -51,8 +52,8 @@ def fast_colours(points: FilmPoints, observer: str, space: str, backend: str = "
     from .integrate import backend as make_backend
 
     if points.film or points.base:
-        raise ValueError("--fast takes constant indices (--eta2, --eta3, --kappa3): named materials need "
-                         "the ground truth (omit --fast)")
+        raise ParameterError("{fast} takes constant indices ({eta2}, {eta3}, {kappa3}): named materials "
+                             "({film}, {base}) need the ground truth (omit {fast})")
     integrator = make_backend(backend)
     n = len(points)
     rgb, bound = np.empty((n, 3)), np.zeros(n)

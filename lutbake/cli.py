@@ -65,9 +65,24 @@ def main(argv=None):
         _quiet_broken_pipe()
         sys.exit(0)
     except (ValueError, OSError) as exc:
-        BadInput(str(exc)).show()
+        BadInput(_in_flags(exc)).show()
         sys.exit(EXIT_BAD_INPUT)
     sys.exit(rv or 0)
+
+
+# The library's parameter names (errors.ParameterError) as this command line spells them.
+FLAG_OF_PARAMETER = {
+    "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
+    "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
+    "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
+}
+
+
+def _in_flags(exc: Exception) -> str:
+    """The error's one line, with library parameter names shown as the flags that set them."""
+    from .errors import ParameterError
+
+    return exc.render(FLAG_OF_PARAMETER) if isinstance(exc, ParameterError) else str(exc)
 
 
 def _quiet_broken_pipe():

@@ -178,7 +178,7 @@ def _build(device, compute: str):
     import pyopencl as cl
 
     if compute == "float64" and "cl_khr_fp64" not in device.extensions:
-        raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64; use --compute float32")
+        raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64: bake with compute float32")
     ctx = cl.Context([device])
     source = resources.files("lutbake").joinpath("kernels/airy.cl").read_text()
     options = ["-DLUTBAKE_FP64"] if compute == "float64" else []

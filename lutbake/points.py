@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .materials import material
+from .errors import ParameterError
 from .optics import opd_from_thickness, thickness_from_opd
 
 __all__ = ["FilmPoints", "check_value", "dielectric_film", "CSV_COLUMNS"]
@@ -127,11 +128,11 @@ class FilmPoints:
         _require_one("thickness_nm", thickness_nm, "opd_nm", opd_nm)
         _require_one("cos_theta", cos_theta, "angle_deg", angle_deg)
         if film_mat is None and eta2 is None:
-            raise ValueError("eta2 is missing: give --eta2 or --film NAME")
+            raise ParameterError("{eta2} is missing: give {eta2} or {film}")
         if base_mat is None and eta3 is None:
-            raise ValueError("eta3 is missing: give --eta3 (and --kappa3) or --base NAME")
+            raise ParameterError("{eta3} is missing: give {eta3} (and {kappa3}) or {base}")
         if opd_nm is not None and film_mat is not None:
-            raise ValueError("opd_nm needs a constant eta2; with --film give --thickness")
+            raise ParameterError("{opd_nm} needs a constant eta2; with {film} give {thickness_nm}")
         cols = {
             "eta1": check_value("eta1", eta1),
             "eta2": check_value("eta2", 1.0 if eta2 is None else eta2),

@@ -95,3 +95,21 @@ def test_library_use_changes_no_process_state(tmp_path):
     assert seen == {"imported_by_import": [], "handlers_kept": True, "matplotlib_backend": "svg", "icd_env": None,
                     "device": seen["device"], "temp": []}
     assert (tmp_path / "x.exr").is_file()
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: lutbake.FilmPoints.build(thickness_nm=100.0, cos_theta=1.0, eta3=1.5),
+     "eta2 is missing: give eta2 or film"),
+    (lambda: lutbake.FilmPoints.build(film="SiO2", opd_nm=100.0, cos_theta=1.0, eta3=1.5),
+     "opd_nm needs a constant eta2; with film give thickness_nm"),
+    (lambda: lutbake.bake_lut(lutbake.default_specs()["lutbake-eta2-1.50"], "lut.txt"),
+     "out_path 'lut.txt' must end in .exr"),
+])
+def test_library_errors_name_parameters_not_flags(call, message, tmp_path, monkeypatch):
+    """The library speaks Python names; the command line shows the same line with its flags
+    (tests/test_hostile.py checks the CLI's side)."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError) as caught:
+        call()
+    assert str(caught.value) == message
+    assert not list(tmp_path.iterdir())
