@@ -413,7 +413,7 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
     meter.close("up to date" if result.up_to_date else "done")
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
            "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
-           "target_unmet": result.unmet}
+           "target_unmet": result.unmet, "device": result.device}
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
@@ -752,31 +752,33 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
 
     Each accepted round is printed as it happens (with --json: one document at the end).
     """
-    from .sweep import tune
+    from .refine import tune, tune_document
 
     if not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
     meter = progress_meter("tune", quiet, force_progress)
 
-    def print_round(r):
+    def print_round(trial):
+        r = trial.row()
         meter.clear()
         click.echo(f"  {r['shape']:>16}  p99 ΔE00 {r['de00_p99']:.3f}  bake {r['bake_seconds']:.2f} s  {r['bytes']} bytes")
 
     if not as_json:
-        click.echo(f"p99 ΔE00 at {n_points} uniform held-out points, round by round:")
-    result = tune(domain_spec(**flags), max_de, n_points, seed, backend, progress=meter,
-                  on_round=None if as_json else print_round)
+        click.echo(f"p99 ΔE00 at {n_points} uniform held-out points, round by round (bytes: the texture as stored):")
+    spec = domain_spec(**flags)
+    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round)
     meter.close()
+    doc = tune_document(spec, result)
     if as_json:
-        echo_json(result)
+        echo_json(doc)
     else:
-        best = result["result"]
+        best = doc["result"]
         axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{':sqrt' if a['spacing'] == 'sqrt' else ''}"
-                        for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), result["axes"]))
-        state = "met" if result["met"] else "NOT met"
+                        for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
+        state = "met" if result.met else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "
                    f"(p99 {best['de00_p99']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
-    return 0 if result["met"] else EXIT_GATE
+    return 0 if result.met else EXIT_GATE
 
 
 @cli.command("check")

@@ -41,7 +41,7 @@ _SCREEN_NM = np.linspace(360.0, 830.0, 48)
 # |ΔRGB| a dispersive slice's rule is converged to: ~100× below the smallest colour step the scene targets
 # resolve (ΔE00 0.5 is ~3e-3 in RGB), and what tests hold it to against the ground truth.
 DISPERSIVE_TOLERANCE = 1e-5
-_PROBES = 9
+_PROBE_COS = np.array([0.01, 0.25, 0.5, 0.75, 1.0])
 
 
 class SliceStack:
@@ -49,6 +49,7 @@ class SliceStack:
 
     def __init__(self, eta1: float, film, base):
         self.eta1, self.film, self.base = float(eta1), film, base
+        self.material_levels = {}  # (thickness range, observer, space) -> _material_level, found once
 
     @property
     def dispersive(self) -> bool:
@@ -73,8 +74,11 @@ def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observe
     cos_axis, thickness = slice_grid(counts, thickness_nm)
     if not stack.dispersive:
         return _kernel_tile(stack, cos_axis, thickness, integrator, observer, space)
+    key = (tuple(thickness_nm), observer, space)
+    if key not in stack.material_levels:
+        stack.material_levels[key] = _material_level(stack, thickness_nm, integrator, rule_ladder(observer=observer, space=space))
     cos_t, d = (g.ravel() for g in np.meshgrid(cos_axis.values(), thickness))
-    rgb = _direct_per_wavelength(stack.points(cos_t, d), integrator, observer, space)
+    rgb = _direct_per_wavelength(stack.points(cos_t, d), stack.material_levels[key], integrator, observer, space)
     return rgb.reshape(thickness.size, cos_axis.count, 3)
 
 
@@ -104,14 +108,15 @@ def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.
     return band[rows, i_eta3 * n_cos:(i_eta3 + 1) * n_cos]
 
 
-def _direct_per_wavelength(points: FilmPoints, integrator, observer: str, space: str) -> np.ndarray:
-    """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks)."""
+def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer: str, space: str) -> np.ndarray:
+    """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
+    no lower than ``floor``."""
     ladder = rule_ladder(observer=observer, space=space)
     eta2, eta3, kappa3 = points.indices(_SCREEN_NM)
     g2 = normal_admittance(eta2.max(axis=1), 0.0, points.eta1, points.cos_theta).real
     cycles = 2.0 * points.thickness_nm * g2 * WAVENUMBER_SPAN_PER_NM
     finesse = round_trip_amplitude(points.eta1[:, None], eta2, eta3, kappa3, points.cos_theta[:, None]).max(axis=1)
-    levels = np.maximum(ladder.level(cycles, finesse), _material_level(points, integrator, ladder))
+    levels = np.maximum(ladder.level(cycles, finesse), floor)
     out = np.empty((len(points), 3))
     for level in np.unique(levels):
         cells = np.flatnonzero(levels == level)
@@ -119,12 +124,12 @@ def _direct_per_wavelength(points: FilmPoints, integrator, observer: str, space:
     return out
 
 
-def _material_level(points: FilmPoints, integrator, ladder) -> int:
+def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
     """The coarsest ladder level that resolves the materials' own spectra (their tables' kinks, which
     the ladder's fringe rule does not see): it and the next finer rule agree to DISPERSIVE_TOLERANCE / 4
     at probe texels spread over the slice (the thinnest and thickest film at five angles)."""
-    order = np.lexsort((points.cos_theta, points.thickness_nm))
-    probes = subset(points, order[np.linspace(0, len(points) - 1, _PROBES).round().astype(int)])
+    cos_t, d = np.meshgrid(_PROBE_COS, thickness_nm)
+    probes = stack.points(cos_t.ravel(), d.ravel())
     coarse = _rule_colour(probes, ladder.rule(0), integrator)
     for level in range(len(ladder.counts) - 1):
         fine = _rule_colour(probes, ladder.rule(level + 1), integrator)
