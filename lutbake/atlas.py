@@ -39,17 +39,12 @@ from .progress import no_progress
 from .reference import reference_colour
 from .refine import Trial, refine, tune
 from .sample import Atlas
-from .scene import MAX_SLICE_COUNT, Scene, SceneJob, plan_scene
+from .scene import HELD_OUT_POINTS, MAX_SLICE_COUNT, TRUTH_TOLERANCE, Scene, SceneJob, plan_scene
 from .slices import integrate_slice
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs"]
 
-_HELD_OUT = 160
-# Held-out truth converged to |ΔRGB| ≤ 1e-5: ~300× below the colour step of the finest target a scene
-# may set (ΔE00 0.01 is ~3e-3 in RGB at its most sensitive). Tighter costs seconds at near-grazing
-# points (Airy dips narrower than the 1 nm panels), where 1e-7 needs 2048 nodes per nm.
-_TRUTH_TOLERANCE = 1e-5
-_LUT_HELD_OUT = 300
+_HELD_OUT = HELD_OUT_POINTS["slice"]
 _LUT_MAX_ROUNDS = 6
 
 
@@ -61,7 +56,7 @@ def _held_out(job: SceneJob, seed: int = 0):
     cos_t = rng.uniform(0.0, 1.0, _HELD_OUT) ** 2
     d = rng.uniform(*job.thickness_nm, _HELD_OUT)
     pts = job.stack().points(cos_t, d)
-    return cos_t, d, reference_colour(pts, job.scene.observer, job.scene.space, tolerance=_TRUTH_TOLERANCE).values
+    return cos_t, d, reference_colour(pts, job.scene.observer, job.scene.space, tolerance=TRUTH_TOLERANCE).values
 
 
 def _slice_measure(job: SceneJob, held_out, integrator):
@@ -115,7 +110,7 @@ def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
 def _tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet) -> dict:
     """Bake the 4D LUT at the smallest counts (refine.tune) whose p99 ΔE00 meets the target."""
     spec = job.lut_spec()
-    result = tune(spec, job.scene.max_de, n_points=_LUT_HELD_OUT, seed=0, backend=backend,
+    result = tune(spec, job.scene.max_de, n_points=HELD_OUT_POINTS["lut"], seed=0, backend=backend,
                   max_rounds=_LUT_MAX_ROUNDS, start=job.counts, frozen=(1,) if job.fixed_thickness else ())
     axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result.counts))
     write_lut(replace(spec, axes=axes), path, files, backend)

@@ -436,11 +436,11 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
 def plan_cmd(scene_path, as_json):
     """What `bake --scene` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
-    Times are ranges: the ground-truth points each job evaluates (few if its starting
-    counts meet the target, many if it grows to its cap) at a rate measured now, here.
+    The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
+    rate measured now, here; the grids themselves go through the bake's integrator.
     """
-    from .atlas import plan_scene, truth_rate
-    from .scene import load_scene
+    from .progress import format_seconds
+    from .scene import load_scene, plan_scene, truth_rate
 
     plan = plan_scene(load_scene(scene_path))
     rate = truth_rate(plan)
@@ -454,20 +454,13 @@ def plan_cmd(scene_path, as_json):
                f"target p99 ΔE00 ≤ {s['max_de']:g}")
     for job in doc["jobs"]:
         shape = " × ".join(str(c) for c in job["counts"])
-        low, high = job["seconds_estimate"]
         click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
-                   f"{job['bytes_start']} bytes, {_seconds_range(low, high)}")
-    low, high = (sum(j["seconds_estimate"][i] for j in doc["jobs"]) for i in (0, 1))
+                   f"{job['bytes_start']} bytes, ~{format_seconds(job['truth_seconds_estimate'])} of ground truth")
+    total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
     click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
                f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
-    click.echo(f"time {_seconds_range(low, high)}: estimated from {rate * 1e3:.1f} ms per ground-truth point, "
-               f"measured on this machine just now")
-
-
-def _seconds_range(low, high):
-    from .progress import format_seconds
-
-    return f"~{format_seconds(low)} to {format_seconds(high)}"
+    click.echo(f"time ~{format_seconds(total)} of ground truth at the held-out points, from {rate * 1e3:.1f} ms per "
+               "point measured on this machine just now, plus the integration and the OpenCL start-up")
 
 
 def _make_folder(folder: Path):
