@@ -82,8 +82,12 @@ def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observe
     return rgb.reshape(thickness.size, cos_axis.count, 3)
 
 
-def _pinned_axis(name: str, value: float, top: float) -> tuple:
-    """(two-node Axis with ``value`` exactly at one node, that node's index): the node above when room."""
+def _pinned_axis(name: str, value: float, top: float, partner: float | None = None) -> tuple:
+    """(two-node Axis with ``value`` exactly at one node, that node's index). The other node is
+    ``partner`` when given and distinct, else ``value`` nudged up (down at the domain's top)."""
+    if partner is not None and partner != value:
+        lo, hi = sorted((value, partner))
+        return Axis(name, lo, hi, 2), int(value == hi)
     step = 1e-6 * max(1.0, abs(value))
     if value + step <= top:
         return Axis(name, value, value + step, 2), 0
@@ -93,7 +97,8 @@ def _pinned_axis(name: str, value: float, top: float) -> tuple:
 def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.ndarray:
     eta2 = float(stack.film)
     opd = 2.0 * eta2 * thickness
-    eta3_axis, i_eta3 = _pinned_axis("eta3", float(stack.base[0]), MAX_INDEX)
+    # The η3 tile baked beside the slice's is a base matching the film (r23 = 0 at κ3 = 0): a one-term series.
+    eta3_axis, i_eta3 = _pinned_axis("eta3", float(stack.base[0]), MAX_INDEX, partner=eta2)
     kappa3_axis, i_kappa3 = _pinned_axis("kappa3", float(stack.base[1]), np.inf)
     if opd.size == 1:
         opd_axis, rows = _pinned_axis("opd_nm", float(opd[0]), MAX_OPD_NM)
