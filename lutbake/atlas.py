@@ -30,8 +30,8 @@ from .bake import lut_members, write_lut
 from .batch import fast_colours
 from .colorimetry import delta_e00
 from .fileset import FileSet, open_set, sha256_file
-from .lutfile import (ATLAS_FORMAT, atomic_path, exr_rows, shader_ident, shader_template, warn_texture_size,
-                      write_text_atomic)
+from .lutfile import (ATLAS_FORMAT, atomic_path, pack_atlas, shader_ident, shader_template, warn_texture_size,
+                      write_atlas, write_text_atomic)
 from .integrate import backend as make_backend
 from .materials import material
 from .points import FilmPoints
@@ -250,7 +250,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             for name in job.materials:
                 entries[name] = {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": info["counts"],
                                  "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
-        atlas = _pack(slices)
+        atlas = pack_atlas([values for _, values, _ in slices])
         warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else stem)
         if slices:
             exr_path = outputs["atlas"]
@@ -258,8 +258,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
                     "space": scene.space, "observer": scene.observer, "encoding": "linear",
                     "precision": scene.precision, "eta1": scene.eta1,
                     "slices": [_slice_meta(j, rect) for (j, _, _), rect in zip(slices, atlas["rects"])]}
-            with exr_rows(files.temp(exr_path), atlas["width"], atlas["height"], meta, scene.precision) as exr:
-                exr.write_rows(atlas["image"])
+            write_atlas(files.temp(exr_path), atlas, meta, scene.precision)
             for (job, values, info), rect in zip(slices, atlas["rects"]):
                 for name in job.materials:
                     entries[name] = _slice_entry(job, info, rect, atlas, exr_path.name)
@@ -321,21 +320,6 @@ def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
             "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
             "de00_p99": info["de00_p99"], "constant_index_de00_p99": info["constant_index_de00_p99"],
             "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
-
-
-def _pack(slices) -> dict:
-    """Stack slices vertically, left-aligned: each a rect of texels; sampling stays inside it."""
-    if not slices:
-        return {"width": 0, "height": 0, "rects": [], "image": None}
-    width = max(v.shape[1] for _, v, _ in slices)
-    height = sum(v.shape[0] for _, v, _ in slices)
-    image = np.zeros((height, width, 3))
-    rects, y = [], 0
-    for _, v, _ in slices:
-        image[y:y + v.shape[0], :v.shape[1]] = v
-        rects.append([0, y, v.shape[1], v.shape[0]])
-        y += v.shape[0]
-    return {"width": width, "height": height, "rects": rects, "image": image}
 
 
 _SHADER = {

@@ -32,12 +32,12 @@ import numpy as np
 from . import fileset
 from .fileset import main_thread, raise_interrupt, temporary_for
 
-__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "write_text_atomic",
-           "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
+__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "pack_atlas",
+           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
            "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
-ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py)
+ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
 FORMAT_VERSION = 1
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
@@ -134,6 +134,27 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
     """exr_rows into a temporary: the file appears only when complete."""
     with atomic_path(path) as tmp, exr_rows(tmp, width, height, meta, precision) as rows:
         yield rows
+
+
+def pack_atlas(slices) -> dict:
+    """A scene atlas's layout: slices (each (rows, columns, 3)) stacked vertically, left-aligned, each a
+    rect [x0, y0, width, height] of texels that sampling stays inside; the image zero elsewhere."""
+    if not slices:
+        return {"width": 0, "height": 0, "rects": [], "image": None}
+    width, height = max(v.shape[1] for v in slices), sum(v.shape[0] for v in slices)
+    image = np.zeros((height, width, 3))
+    rects, y = [], 0
+    for v in slices:
+        image[y:y + v.shape[0], :v.shape[1]] = v
+        rects.append([0, y, v.shape[1], v.shape[0]])
+        y += v.shape[0]
+    return {"width": width, "height": height, "rects": rects, "image": image}
+
+
+def write_atlas(path: Path, atlas: dict, meta: dict, precision: str) -> None:
+    """Write a packed atlas (``pack_atlas``) with its header (format ATLAS_FORMAT, read by ``read_lut``)."""
+    with exr_rows(path, atlas["width"], atlas["height"], meta, precision) as exr:
+        exr.write_rows(atlas["image"])
 
 
 def read_lut(path, formats=(FORMAT,)):
