@@ -33,8 +33,8 @@ from . import fileset
 from .fileset import main_thread, raise_interrupt, temporary_for
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "pack_atlas",
-           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes", "shader_ident", "shader_template", "flat_attributes",
-           "MAX_TEXTURE_SIZE"]
+           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes", "shader_ident", "shader_template",
+           "flat_attributes", "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
