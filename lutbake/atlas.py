@@ -30,8 +30,8 @@ from .bake import lut_members, write_lut
 from .batch import fast_colours
 from .colorimetry import delta_e00
 from .fileset import FileSet, open_set, sha256_file
-from .lutfile import (ATLAS_FORMAT, atomic_path, pack_atlas, shader_ident, shader_template, warn_texture_size,
-                      write_atlas, write_text_atomic)
+from .lutfile import (ATLAS_FORMAT, atlas_includes, atomic_path, pack_atlas, warn_texture_size, write_atlas,
+                      write_text_atomic)
 from .integrate import backend as make_backend
 from .materials import material
 from .points import FilmPoints
@@ -265,8 +265,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         manifest = {"format": "lutbake-scene-manifest", "format_version": 1, "scene": scene.file_name,
                     "scene_hash": scene_hash, "settings": scene.settings_key(),
                     "materials": {m.name: entries[m.name] for m in scene.materials}}
-        for lang in _SHADER:
-            files.temp(outputs[lang]).write_text(_shader(manifest, atlas, lang))
+        for lang, text in atlas_includes(manifest, atlas).items():
+            files.temp(outputs[lang]).write_text(text)
         manifest["files"] = {p.name: sha256_file(files.members.get(p, p))
                              for p in outputs.values() if p != outputs["manifest"]}
         files.temp(outputs["manifest"]).write_text(json.dumps(manifest, indent=2) + "\n")
@@ -320,30 +320,3 @@ def _slice_entry(job, info, rect, atlas, exr_name) -> dict:
             "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
             "de00_p99": info["de00_p99"], "constant_index_de00_p99": info["constant_index_de00_p99"],
             "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
-
-
-_SHADER = {
-    "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
-             "// {name}: 4D LUT {file} (sample it with {stem}.glsl)"),
-    "hlsl": ("static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
-             "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)"),
-}
-
-
-def _shader(manifest: dict, atlas: dict, lang: str) -> str:
-    """The scene's atlas sampler and one LutbakeSlice constant per material, in GLSL or HLSL."""
-    slice_line, lut_line = _SHADER[lang]
-    scene = Path(manifest["scene"]).stem
-    size = ", ".join(str(float(v)) for v in (atlas["width"], atlas["height"]))
-    lines = []
-    for name, e in manifest["materials"].items():
-        if e["kind"] == "slice":
-            th = e["axes"]["thickness_nm"]
-            lines.append(slice_line.format(ident=shader_ident(f"{scene}_{name}"), size=size,
-                                           rect=", ".join(str(float(v)) for v in e["rect"]),
-                                           thick=f"{float(th['min'])}, {float(th['max'])}"))
-        else:
-            lines.append(lut_line.format(name=name, file=e["file"], stem=Path(e["file"]).stem))
-    return shader_template(f"atlas.{lang}.in").substitute(
-        scene=manifest["scene"], scene_hash=manifest["scene_hash"][:16], atlas=f"{scene}.exr",
-        materials="\n".join(lines))
