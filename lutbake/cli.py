@@ -429,7 +429,7 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
     meter.close("up to date" if result.up_to_date else "done")
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
            "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
-           "target_unmet": result.unmet}
+           "target_unmet": result.unmet, "device": result.device}
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
@@ -452,11 +452,11 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
 def plan_cmd(scene_path, as_json):
     """What `bake --scene` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
-    Times are ranges: the ground-truth points each job evaluates (few if its starting
-    counts meet the target, many if it grows to its cap) at a rate measured now, here.
+    The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
+    rate measured now, here; the grids themselves go through the bake's integrator.
     """
-    from .atlas import plan_scene, truth_rate
-    from .scene import load_scene
+    from .progress import format_seconds
+    from .scene import load_scene, plan_scene, truth_rate
 
     plan = plan_scene(load_scene(scene_path))
     rate = truth_rate(plan)
@@ -470,20 +470,13 @@ def plan_cmd(scene_path, as_json):
                f"target p99 ΔE00 ≤ {s['max_de']:g}")
     for job in doc["jobs"]:
         shape = " × ".join(str(c) for c in job["counts"])
-        low, high = job["seconds_estimate"]
         click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
-                   f"{job['bytes_start']} bytes, {_seconds_range(low, high)}")
-    low, high = (sum(j["seconds_estimate"][i] for j in doc["jobs"]) for i in (0, 1))
+                   f"{job['bytes_start']} bytes, ~{format_seconds(job['truth_seconds_estimate'])} of ground truth")
+    total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
     click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
                f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
-    click.echo(f"time {_seconds_range(low, high)}: estimated from {rate * 1e3:.1f} ms per ground-truth point, "
-               f"measured on this machine just now")
-
-
-def _seconds_range(low, high):
-    from .progress import format_seconds
-
-    return f"~{format_seconds(low)} to {format_seconds(high)}"
+    click.echo(f"time ~{format_seconds(total)} of ground truth at the held-out points, from {rate * 1e3:.1f} ms per "
+               "point measured on this machine just now, plus the integration and the OpenCL start-up")
 
 
 def _make_folder(folder: Path):
@@ -768,31 +761,33 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
 
     Each accepted round is printed as it happens (with --json: one document at the end).
     """
-    from .sweep import tune
+    from .refine import tune, tune_document
 
     if not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
     meter = progress_meter("tune", quiet, force_progress)
 
-    def print_round(r):
+    def print_round(trial):
+        r = trial.row()
         meter.clear()
         click.echo(f"  {r['shape']:>16}  p99 ΔE00 {r['de00_p99']:.3f}  bake {r['bake_seconds']:.2f} s  {r['bytes']} bytes")
 
     if not as_json:
-        click.echo(f"p99 ΔE00 at {n_points} uniform held-out points, round by round:")
-    result = tune(domain_spec(**flags), max_de, n_points, seed, backend, progress=meter,
-                  on_round=None if as_json else print_round)
+        click.echo(f"p99 ΔE00 at {n_points} uniform held-out points, round by round (bytes: the texture as stored):")
+    spec = domain_spec(**flags)
+    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round)
     meter.close()
+    doc = tune_document(spec, result)
     if as_json:
-        echo_json(result)
+        echo_json(doc)
     else:
-        best = result["result"]
+        best = doc["result"]
         axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{':sqrt' if a['spacing'] == 'sqrt' else ''}"
-                        for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), result["axes"]))
-        state = "met" if result["met"] else "NOT met"
+                        for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
+        state = "met" if result.met else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "
                    f"(p99 {best['de00_p99']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
-    return 0 if result["met"] else EXIT_GATE
+    return 0 if result.met else EXIT_GATE
 
 
 @cli.command("check")

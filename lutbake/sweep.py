@@ -1,4 +1,4 @@
-"""Error against cost: sweep LUT variants over one domain, and tune counts to a target.
+"""Error against cost: sweep LUT variants over one domain (`tune` is refine.py).
 
 Every variant is baked (timed), its file measured in bytes, and scored at the
 same held-out points (uniform over the domain) as the approximations engines
@@ -13,17 +13,15 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-
 from .approximations import APPROXIMATIONS
 from .bake import bake
 from .plan import Axis, BakeSpec
 from .progress import no_progress
-from .report import held_out_points, score
+from .refine import POINT_KIND, uniform_points
+from .report import score
 from .sample import Lut
 
-__all__ = ["sweep", "tune", "variants", "TUNE_START_COUNTS"]
-
-TUNE_START_COUNTS = (8, 16, 4, 4)
+__all__ = ["sweep", "variants"]
 
 
 def _scaled(spec: BakeSpec, factors) -> BakeSpec:
@@ -66,16 +64,6 @@ def _approximation_rows(spec, pts):
     return rows
 
 
-POINT_KIND = "uniform"  # sweep and tune score uniform points only; `report` adds cell centres
-
-
-def _points_for(spec, n_points, seed):
-    """Held-out points for the domain of ``spec``: uniform only, since the variants compared
-    have different grids (a cell centre of one is a node of another)."""
-    return held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed,
-                           centre_fraction=0.0)
-
-
 def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto",
           progress=no_progress) -> dict:
     """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
@@ -92,7 +80,7 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
             raise ValueError(f"--out {str(out)!r}: {str(path)!r} cannot be written (a file or folder is in the way)")
     total = len(grid) + 2
     progress(0, total, f"ground truth at {n_points} uniform points")
-    pts = _points_for(spec, n_points, seed)
+    pts = uniform_points(spec, n_points, seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
@@ -107,62 +95,3 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     write_text_atomic(out / "sweep.json", dumps(doc) + "\n")
     progress(total, total, "done")
     return doc
-
-
-def tune(spec: BakeSpec, max_de: float, n_points: int = 600, seed: int = 0, backend: str = "auto",
-         max_rounds: int = 12, progress=no_progress, on_round=None) -> dict:
-    """Smallest per-axis counts (greedy) whose p99 ΔE00 at held-out points meets ``max_de``.
-
-    Start from 8 × 16 × 4 × 4; each round doubles the axis that lowers p99
-    most per added byte, until the target is met; then each axis is cut back
-    by a quarter while the target still holds. ``on_round(row)`` is called with
-    each accepted round as it happens; ``progress`` before each trial bake.
-    """
-    history = []
-
-    def accept(row):
-        history.append(row)
-        if on_round:
-            on_round(_round_row(row))
-        return row
-
-    def measure(label, trial):
-        progress(len(history), None, f"{label}: baking {'×'.join(str(a.count) for a in trial.axes)}")
-        return _measure(label, trial, tmp, pts, backend)
-
-    progress(0, None, f"ground truth at {n_points} uniform points")
-    pts = _points_for(spec, n_points, seed)
-    with tempfile.TemporaryDirectory() as tmp:
-        current = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, TUNE_START_COUNTS)))
-        best = accept(measure("start", current))
-        for _ in range(max_rounds):
-            if best["de00_p99"] <= max_de:
-                break
-            trials = []
-            for i in range(4):
-                factors = [1.0] * 4
-                factors[i] = 2.0
-                trial = _scaled(current, factors)
-                row = measure(f"round {len(history)}, {spec.axes[i].name} ×2", trial)
-                gain = (best["de00_p99"] - row["de00_p99"]) / max(row["bytes"] - best["bytes"], 1)
-                trials.append((gain, trial, row))
-            _, current, best = max(trials, key=lambda t: t[0])
-            accept(best)
-        met = best["de00_p99"] <= max_de
-        if met:
-            for i in range(4):
-                factors = [1.0] * 4
-                factors[i] = 0.75
-                trial = _scaled(current, factors)
-                if trial.axes[i].count == current.axes[i].count:
-                    continue
-                row = measure(f"trim {spec.axes[i].name} ×0.75", trial)
-                if row["de00_p99"] <= max_de:
-                    current, best = trial, accept(row)
-    return {"target_de00_p99": max_de, "met": bool(met), "counts": [a.count for a in current.axes],
-            "axes": [a.describe() for a in current.axes], "result": best, "point_kind": POINT_KIND,
-            "rounds": [_round_row(r) for r in history]}
-
-
-def _round_row(row: dict) -> dict:
-    return {k: row[k] for k in ("shape", "de00_p99", "bake_seconds", "bytes")}

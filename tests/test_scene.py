@@ -8,11 +8,14 @@ import textwrap
 import numpy as np
 import pytest
 
-from lutbake.atlas import bake_scene, plan_scene, sample_slice
+from lutbake.atlas import _held_out, bake_scene
+from lutbake.refine import Trial, refine
+from lutbake.sample import load_table
+from lutbake.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.colorimetry import delta_e00
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
-from lutbake.scene import load_scene
+from lutbake.scene import load_scene, plan_scene
 
 
 def write(tmp_path, text, name="scene.toml"):
@@ -82,12 +85,11 @@ def test_dispersive_copper_slice_meets_the_target_against_ground_truth(tmp_path)
     result = bake_scene(scene, tmp_path / "out")
     manifest = json.loads((tmp_path / "out" / "scene.json").read_text())
     entry = manifest["materials"]["copper_coat"]
-    values = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")
+    atlas = load_table(tmp_path / "out" / "scene.exr")  # the half values as shipped
     rng = np.random.default_rng(11)  # fresh points, not the ones the bake refined against
     cos_t, d = rng.uniform(0, 1, 300), rng.uniform(100, 300, 300)
     truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=cos_t, thickness_nm=d, base="Cu")).values
-    job = plan_scene(scene).jobs[0]
-    de = delta_e00(sample_slice(values, job, cos_t, d), truth)
+    de = delta_e00(atlas.sample("copper_coat", cos_t, d), truth)
     assert np.percentile(de, 99) <= 0.5
     assert entry["constant_index_de00_p99"] > 5 * entry["de00_p99"]  # a constant index is far off
     assert result.computed == [entry["job"]]
@@ -173,3 +175,67 @@ def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
     assert (lut.axes[2].lo, lut.axes[2].hi, lut.axes[3].lo, lut.axes[3].hi) == (1.2, 2.0, 0.5, 2.0)
     assert result.computed == [entry["job"]]
     assert bake_scene(scene, tmp_path / "out").up_to_date
+
+
+@pytest.mark.parametrize("film, base, thickness_nm, tolerance", [
+    (1.33, (1.0, 0.0), (100, 1000), 1e-8),         # constant indices: the kernel's 4D path, series per texel
+    (3.0, (1.43, 0.0), (15.1667, 15.1667), 1e-8),  # one thickness row
+    (2.9, "Fe", (10, 70), DISPERSIVE_TOLERANCE),   # dispersive base: the kernel's reflectance per node
+    ("butanol", "Ag", (100, 600), DISPERSIVE_TOLERANCE),  # dispersive film: numpy per node; silver's kinks
+])
+def test_slice_integration_matches_the_ground_truth_at_its_texels(film, base, thickness_nm, tolerance):
+    from lutbake.integrate import backend
+
+    stack, counts = SliceStack(1.0, film, base), (24, 1 if thickness_nm[0] == thickness_nm[1] else 12)
+    values = integrate_slice(stack, counts, thickness_nm, backend(), "cie1931", "rec709")
+    cos_axis, d = slice_grid(counts, thickness_nm)
+    cos_t, dd = (g.ravel() for g in np.meshgrid(cos_axis.values(), d))
+    pick = np.random.default_rng(3).choice(cos_t.size, 24, replace=False)
+    truth = reference_colour(stack.points(cos_t[pick], dd[pick]), tolerance=1e-9).values
+    assert np.max(np.abs(values.reshape(-1, 3)[pick] - truth)) <= tolerance
+
+
+def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
+    """The manifest's p99 is what the shipped half texels score at the held-out points."""
+    scene = load_scene(write(tmp_path, """
+        [materials.steel]
+        film = 2.9
+        thickness_nm = [10, 70]
+        base = { eta3 = 2.7, kappa3 = 2.8 }
+        """))
+    bake_scene(scene, tmp_path / "out")
+    entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["steel"]
+    cos_t, d, truth = _held_out(plan_scene(scene).jobs[0])
+    stored = load_table(tmp_path / "out" / "scene.exr").sample("steel", cos_t, d)
+    assert entry["de00_p99"] == float(np.percentile(delta_e00(stored, truth), 99))
+    float64 = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")
+    assert not np.array_equal(float64.astype(np.float16).astype(float), float64)  # rounding is real
+
+
+def _synthetic(error_per_axis):
+    """A measure whose p99 is a sum of per-axis terms falling as 1/count (bytes: the texel count)."""
+    seen = []
+
+    def measure(counts, label):
+        seen.append(counts)
+        p99 = sum(e / c for e, c in zip(error_per_axis, counts))
+        return Trial(counts, p99, int(np.prod(counts)), 0.0), f"grid {counts}"
+
+    return measure, seen
+
+
+def test_refine_grows_the_axis_that_pays_most_per_byte_then_trims():
+    measure, seen = _synthetic((8.0, 1.0))
+    result = refine(measure, (4, 4), 1.2)
+    assert result.met and result.best.de00_p99 <= 1.2
+    assert [t.counts for t in result.rounds[:3]] == [(4, 4), (8, 4), (16, 4)]  # axis 0 carries the error
+    assert (4, 8) in seen and (8, 8) in seen  # each round tried both axes
+    assert result.counts == (12, 3)  # then each axis cut by a quarter while the target held
+    assert result.artefact == "grid (12, 3)"  # what measure built for the best trial
+
+
+def test_refine_respects_frozen_axes_and_the_cap():
+    measure, seen = _synthetic((8.0, 8.0))
+    result = refine(measure, (4, 1), 0.01, frozen=(1,), cap=32)
+    assert not result.met and result.counts == (32, 1)
+    assert all(c[1] == 1 and c[0] <= 32 for c in seen)

@@ -33,6 +33,6 @@ highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp flo
 }
 #endif
 
-const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_GLASS = LutbakeSlice(vec4(0.0, 0.0, 32.0, 43.0), vec2(100.0, 600.0), vec2(32.0, 172.0));
-const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_SILVER = LutbakeSlice(vec4(0.0, 43.0, 32.0, 43.0), vec2(100.0, 600.0), vec2(32.0, 172.0));
-const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_COPPER = LutbakeSlice(vec4(0.0, 86.0, 32.0, 86.0), vec2(100.0, 600.0), vec2(32.0, 172.0));
+const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_GLASS = LutbakeSlice(vec4(0.0, 0.0, 32.0, 32.0), vec2(100.0, 600.0), vec2(32.0, 182.0));
+const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_SILVER = LutbakeSlice(vec4(0.0, 32.0, 12.0, 86.0), vec2(100.0, 600.0), vec2(32.0, 182.0));
+const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_COPPER = LutbakeSlice(vec4(0.0, 118.0, 32.0, 64.0), vec2(100.0, 600.0), vec2(32.0, 182.0));

@@ -33,6 +33,6 @@ float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, 
 }
 #endif
 
-static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_GLASS = {float4(0.0, 0.0, 32.0, 43.0), float2(100.0, 600.0), float2(32.0, 172.0)};
-static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_SILVER = {float4(0.0, 43.0, 32.0, 43.0), float2(100.0, 600.0), float2(32.0, 172.0)};
-static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_COPPER = {float4(0.0, 86.0, 32.0, 86.0), float2(100.0, 600.0), float2(32.0, 172.0)};
+static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_GLASS = {float4(0.0, 0.0, 32.0, 32.0), float2(100.0, 600.0), float2(32.0, 182.0)};
+static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_SILVER = {float4(0.0, 32.0, 12.0, 86.0), float2(100.0, 600.0), float2(32.0, 182.0)};
+static const LutbakeSlice LUTBAKE_BUTANOL_FILMS_BUTANOL_ON_COPPER = {float4(0.0, 118.0, 32.0, 64.0), float2(100.0, 600.0), float2(32.0, 182.0)};

@@ -33,11 +33,11 @@ highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp flo
 }
 #endif
 
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_1 = LutbakeSlice(vec4(0.0, 0.0, 16.0, 1.0), vec2(15.1667, 15.1667), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_1 = LutbakeSlice(vec4(0.0, 0.0, 12.0, 1.0), vec2(15.1667, 15.1667), vec2(16.0, 8.0));
 const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_2 = LutbakeSlice(vec4(0.0, 1.0, 16.0, 1.0), vec2(158.333, 158.333), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_3 = LutbakeSlice(vec4(0.0, 2.0, 16.0, 1.0), vec2(103.333, 103.333), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_4 = LutbakeSlice(vec4(0.0, 3.0, 16.0, 1.0), vec2(109.541, 109.541), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_5 = LutbakeSlice(vec4(0.0, 4.0, 16.0, 1.0), vec2(168.782, 168.782), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_6 = LutbakeSlice(vec4(0.0, 5.0, 16.0, 1.0), vec2(284.916, 284.916), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_7 = LutbakeSlice(vec4(0.0, 6.0, 16.0, 1.0), vec2(313.559, 313.559), vec2(16.0, 8.0));
-const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_8 = LutbakeSlice(vec4(0.0, 7.0, 16.0, 1.0), vec2(289.34, 289.34), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_3 = LutbakeSlice(vec4(0.0, 2.0, 12.0, 1.0), vec2(103.333, 103.333), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_4 = LutbakeSlice(vec4(0.0, 3.0, 12.0, 1.0), vec2(109.541, 109.541), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_5 = LutbakeSlice(vec4(0.0, 4.0, 12.0, 1.0), vec2(168.782, 168.782), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_6 = LutbakeSlice(vec4(0.0, 5.0, 12.0, 1.0), vec2(284.916, 284.916), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_7 = LutbakeSlice(vec4(0.0, 6.0, 12.0, 1.0), vec2(313.559, 313.559), vec2(16.0, 8.0));
+const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_8 = LutbakeSlice(vec4(0.0, 7.0, 12.0, 1.0), vec2(289.34, 289.34), vec2(16.0, 8.0));

@@ -33,11 +33,11 @@ float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, 
 }
 #endif
 
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_1 = {float4(0.0, 0.0, 16.0, 1.0), float2(15.1667, 15.1667), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_1 = {float4(0.0, 0.0, 12.0, 1.0), float2(15.1667, 15.1667), float2(16.0, 8.0)};
 static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_2 = {float4(0.0, 1.0, 16.0, 1.0), float2(158.333, 158.333), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_3 = {float4(0.0, 2.0, 16.0, 1.0), float2(103.333, 103.333), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_4 = {float4(0.0, 3.0, 16.0, 1.0), float2(109.541, 109.541), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_5 = {float4(0.0, 4.0, 16.0, 1.0), float2(168.782, 168.782), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_6 = {float4(0.0, 5.0, 16.0, 1.0), float2(284.916, 284.916), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_7 = {float4(0.0, 6.0, 16.0, 1.0), float2(313.559, 313.559), float2(16.0, 8.0)};
-static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_8 = {float4(0.0, 7.0, 16.0, 1.0), float2(289.34, 289.34), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_3 = {float4(0.0, 2.0, 12.0, 1.0), float2(103.333, 103.333), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_4 = {float4(0.0, 3.0, 12.0, 1.0), float2(109.541, 109.541), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_5 = {float4(0.0, 4.0, 12.0, 1.0), float2(168.782, 168.782), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_6 = {float4(0.0, 5.0, 12.0, 1.0), float2(284.916, 284.916), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_7 = {float4(0.0, 6.0, 12.0, 1.0), float2(313.559, 313.559), float2(16.0, 8.0)};
+static const LutbakeSlice LUTBAKE_ERGUN_TABLE_ERGUN_8 = {float4(0.0, 7.0, 12.0, 1.0), float2(289.34, 289.34), float2(16.0, 8.0)};

@@ -33,4 +33,4 @@ highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp flo
 }
 #endif
 
-const LutbakeSlice LUTBAKE_OIL_ON_WATER_OIL_SLICK = LutbakeSlice(vec4(0.0, 0.0, 32.0, 82.0), vec2(100.0, 1000.0), vec2(32.0, 82.0));
+const LutbakeSlice LUTBAKE_OIL_ON_WATER_OIL_SLICK = LutbakeSlice(vec4(0.0, 0.0, 24.0, 82.0), vec2(100.0, 1000.0), vec2(24.0, 82.0));

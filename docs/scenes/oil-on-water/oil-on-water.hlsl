@@ -33,4 +33,4 @@ float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, 
 }
 #endif
 
-static const LutbakeSlice LUTBAKE_OIL_ON_WATER_OIL_SLICK = {float4(0.0, 0.0, 32.0, 82.0), float2(100.0, 1000.0), float2(32.0, 82.0)};
+static const LutbakeSlice LUTBAKE_OIL_ON_WATER_OIL_SLICK = {float4(0.0, 0.0, 24.0, 82.0), float2(100.0, 1000.0), float2(24.0, 82.0)};

@@ -33,4 +33,4 @@ highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp flo
 }
 #endif
 
-const LutbakeSlice LUTBAKE_SOAP_BUBBLE_SOAP = LutbakeSlice(vec4(0.0, 0.0, 64.0, 73.0), vec2(100.0, 1000.0), vec2(64.0, 73.0));
+const LutbakeSlice LUTBAKE_SOAP_BUBBLE_SOAP = LutbakeSlice(vec4(0.0, 0.0, 48.0, 73.0), vec2(100.0, 1000.0), vec2(48.0, 73.0));

@@ -33,4 +33,4 @@ float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, 
 }
 #endif
 
-static const LutbakeSlice LUTBAKE_SOAP_BUBBLE_SOAP = {float4(0.0, 0.0, 64.0, 73.0), float2(100.0, 1000.0), float2(64.0, 73.0)};
+static const LutbakeSlice LUTBAKE_SOAP_BUBBLE_SOAP = {float4(0.0, 0.0, 48.0, 73.0), float2(100.0, 1000.0), float2(48.0, 73.0)};

@@ -33,5 +33,5 @@ highp vec3 lutbake_atlas_sample(highp sampler2D atlas, LutbakeSlice s, highp flo
 }
 #endif
 
-const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_CONSTANT = LutbakeSlice(vec4(0.0, 0.0, 32.0, 48.0), vec2(10.0, 70.0), vec2(32.0, 96.0));
-const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_WERNER = LutbakeSlice(vec4(0.0, 48.0, 32.0, 48.0), vec2(10.0, 70.0), vec2(32.0, 96.0));
+const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_CONSTANT = LutbakeSlice(vec4(0.0, 0.0, 24.0, 48.0), vec2(10.0, 70.0), vec2(32.0, 84.0));
+const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_WERNER = LutbakeSlice(vec4(0.0, 48.0, 32.0, 36.0), vec2(10.0, 70.0), vec2(32.0, 84.0));

@@ -33,5 +33,5 @@ float3 lutbake_atlas_sample(Texture2D<float3> atlas, SamplerState linear_clamp, 
 }
 #endif
 
-static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_CONSTANT = {float4(0.0, 0.0, 32.0, 48.0), float2(10.0, 70.0), float2(32.0, 96.0)};
-static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_WERNER = {float4(0.0, 48.0, 32.0, 48.0), float2(10.0, 70.0), float2(32.0, 96.0)};
+static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_CONSTANT = {float4(0.0, 0.0, 24.0, 48.0), float2(10.0, 70.0), float2(32.0, 84.0)};
+static const LutbakeSlice LUTBAKE_TEMPERED_STEEL_STEEL_WERNER = {float4(0.0, 48.0, 32.0, 36.0), float2(10.0, 70.0), float2(32.0, 84.0)};

@@ -1,0 +1,87 @@
+"""Scene bakes: each example scene (examples/*.toml) baked from scratch, timed.
+
+    python bench/bench_scenes.py [--json bench/scenes-result.json]
+
+Each scene runs `lutbake bake --scene examples/X.toml --out TMP --force --json`
+in a fresh interpreter with the repository first on PYTHONPATH. Recorded per
+scene: the bake's own seconds (`seconds` in the JSON: bake_scene from plan to
+commit, including the OpenCL device's start-up and self-check), the wall time
+of the whole command (adds the interpreter and imports), the CPU seconds of
+the whole command (user + system, every thread: less sensitive than wall time
+to other work on a shared machine), the jobs computed,
+the device that ran them, and the largest p99 ΔE00 reached against the
+scene's target. The target of issue 12 is < 2 s of compute per scene. Also
+recorded once: what every bake pays before its first job, measured in a fresh
+interpreter the same way (colour-science's import and the OpenCL program's
+build and self-check), so it can be told apart from the scene's own work.
+"""
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _children_cpu() -> float:
+    """User + system CPU seconds of finished child processes (all their threads): less sensitive than
+    wall time to other work on a shared machine."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def bake(scene: Path, out: Path) -> dict:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    args = [sys.executable, "-m", "lutbake", "bake", "--scene", str(scene), "--out", str(out), "--force", "--json"]
+    start, cpu = time.perf_counter(), _children_cpu()
+    done = subprocess.run(args, capture_output=True, text=True, env=env)
+    wall, cpu = time.perf_counter() - start, _children_cpu() - cpu
+    if done.returncode not in (0, 1):
+        raise SystemExit(f"{scene.name}: exit {done.returncode}: {done.stderr.strip()}")
+    doc = json.loads(done.stdout)
+    manifest = json.loads((out / f"{scene.stem}.json").read_text())
+    p99 = max(m["de00_p99"] for m in manifest["materials"].values())
+    return {"scene": scene.name, "bake_seconds": doc["seconds"], "wall_seconds": wall, "cpu_seconds": cpu,
+            "device": doc["device"],
+            "jobs_computed": len(doc["computed"]), "de00_p99_max": p99,
+            "target_de00_p99": manifest["settings"]["max_de"], "exit": done.returncode}
+
+
+STARTUP = ("import time; t = time.perf_counter(); from lutbake.integrate import backend; backend(); "
+           "print(time.perf_counter() - t)")
+
+
+def startup_seconds() -> float:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", STARTUP], capture_output=True, text=True, env=env, check=True)
+    return float(done.stdout)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, help="also write the results here")
+    opts = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene in sorted((ROOT / "examples").glob("*.toml")):
+            rows.append(bake(scene, Path(tmp) / scene.stem))
+            r = rows[-1]
+            print(f"{r['scene']:<22} bake {r['bake_seconds']:6.2f} s  wall {r['wall_seconds']:6.2f} s  "
+                  f"CPU {r['cpu_seconds']:6.2f} s  "
+                  f"jobs {r['jobs_computed']}  p99 ΔE00 {r['de00_p99_max']:.3f} (target {r['target_de00_p99']:g})  "
+                  f"{r['device']}", flush=True)
+    startup = startup_seconds()
+    print(f"device start-up (colour-science import, kernel build and self-check): {startup:.2f} s")
+    if opts.json:
+        doc = {"load_average_1min": os.getloadavg()[0], "device_startup_seconds": startup, "scenes": rows}
+        opts.json.write_text(json.dumps(doc, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
