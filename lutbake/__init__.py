@@ -26,7 +26,7 @@ _API = {
     "report_lut": "report",
     "write_report": "report",
     "load_scene": "scene",
-    "plan_scene": "atlas",
+    "plan_scene": "scene",
     "bake_scene": "atlas",
     "run_checks": "check",
 }

@@ -110,7 +110,42 @@ class _Locator:
 
 
 def load_scene(path) -> Scene:
-    """Parse and validate a scene manifest; ValueError names file, line and field."""
+    """Parse and validate a scene manifest (TOML, docs/scene.md).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The manifest: ``[scene]`` settings and one ``[materials.NAME]`` table per material (film index
+        or name, thickness in nm as a number or [min, max], base as an index, {eta3, kappa3}, ranges of
+        them, or a named material).
+
+    Returns
+    -------
+    Scene
+        Settings (space, observer, precision, η1, target ``max_de``) and the materials, in file order.
+
+    Raises
+    ------
+    ValueError
+        One line naming the file, line and field, the value and what is allowed.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> _ = open("films.toml", "w").write('''
+    ... [materials.soap]
+    ... film = 1.33
+    ... thickness_nm = [200, 600]
+    ... base = 1.0
+    ... [materials.oxide]
+    ... film = 2.9
+    ... thickness_nm = 40
+    ... base = "Fe"
+    ... ''')
+    >>> scene = lutbake.load_scene("films.toml")
+    >>> [m.name for m in scene.materials], scene.max_de
+    (['soap', 'oxide'], 1.0)
+    """
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"scene {str(path)!r} does not exist")
@@ -345,7 +380,31 @@ def _initial_counts(job: SceneJob) -> tuple:
 
 
 def plan_scene(scene: Scene) -> ScenePlan:
-    """One job per distinct (kind, film, thickness, base), in the scene's material order."""
+    """The jobs a scene needs: one per distinct (kind, film, thickness, base), in material order.
+
+    A fixed base needs a 2D slice over (cos θ, thickness) ('slice'); a base given as η3/κ3 ranges needs
+    a 4D LUT over just those ranges ('lut'). Materials that share film, thickness and base share a job.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> _ = open("films.toml", "w").write('''
+    ... [materials.soap]
+    ... film = 1.33
+    ... thickness_nm = [200, 600]
+    ... base = 1.0
+    ... [materials.bubble]
+    ... film = 1.33
+    ... thickness_nm = [200, 600]
+    ... base = 1.0
+    ... [materials.coating]
+    ... film = 1.5
+    ... thickness_nm = [100, 400]
+    ... base = { eta3 = [1.2, 2.0], kappa3 = [0.0, 1.0] }
+    ... ''')
+    >>> [(job.kind, job.materials) for job in lutbake.plan_scene(lutbake.load_scene("films.toml")).jobs]
+    [('slice', ['soap', 'bubble']), ('lut', ['coating'])]
+    """
     jobs = {}
     for m in scene.materials:
         kind = "lut" if m.base_is_range else "slice"

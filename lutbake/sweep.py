@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .approximations import APPROXIMATIONS
 from .bake import bake
+from .errors import ParameterError
 from .plan import Axis, BakeSpec
 from .progress import no_progress
 from .refine import POINT_KIND, uniform_points
@@ -77,7 +78,8 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     grid = variants(spec)  # every variant validated before anything is written
     for path in (out / "sweep.json", out / "pareto.png"):
         if out.exists() and not out.is_dir() or path.is_dir():
-            raise ValueError(f"--out {str(out)!r}: {str(path)!r} cannot be written (a file or folder is in the way)")
+            raise ParameterError("{out_dir} {out}: {path} cannot be written (a file or folder is in the way)",
+                                 out=repr(str(out)), path=repr(str(path)))
     total = len(grid) + 2
     progress(0, total, f"ground truth at {n_points} uniform points")
     pts = uniform_points(spec, n_points, seed)
