@@ -24,15 +24,13 @@ picks it over the direct quadrature (the bake kernel runs the same rule).
 from __future__ import annotations
 
 import functools
-import hashlib
-import os
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from .optics import _stack_terms, normal_admittance
+from .usercache import cached_arrays
 
 __all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
            "SeriesResult", "series_colour", "series_plan", "NU0_PER_NM", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
@@ -111,36 +109,6 @@ def _panel_nodes(x_max_nm):
     return lam[order], quad[order]
 
 
-def _cache_path(key: bytes) -> Path | None:
-    """The table's file in the user's cache folder ($LUTBAKE_CACHE_DIR, else $XDG_CACHE_HOME/lutbake,
-    else ~/.cache/lutbake), or None when that folder cannot be made (the table is then rebuilt per process)."""
-    home = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    folder = Path(os.environ.get("LUTBAKE_CACHE_DIR") or Path(home) / "lutbake")
-    try:
-        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
-    except OSError:
-        return None
-    return folder / f"fourier-{hashlib.sha256(key).hexdigest()[:24]}.npy"
-
-
-def _load_cached(path: Path | None, shape: tuple):
-    """The cached table, or None when absent or unreadable, of another shape, or not finite."""
-    try:
-        f = np.load(path, allow_pickle=False) if path is not None else None
-    except (OSError, ValueError):
-        return None
-    return f if f is not None and f.shape == shape and np.isfinite(f).all() else None
-
-
-def _save_atomic(path: Path, array) -> None:
-    tmp = path.with_suffix(f".tmp{os.getpid()}.npy")
-    try:
-        np.save(tmp, array)
-        os.replace(tmp, path)
-    except OSError:  # a read-only or full cache folder costs a rebuild next time, nothing else
-        tmp.unlink(missing_ok=True)
-
-
 def _demodulated_samples(weights, nu, step_nm, count):
     """f, f', f'' (3 each, count) of f(x) = Σ_j weights_cj e^{i2πx(ν_j − ν0)} at x = k·step.
 
@@ -205,14 +173,9 @@ def weight_transform(observer: str = "cie1931", space: str = "rec709", basis: st
     lam, quad = _panel_nodes(x_max_nm)
     weights = cm.sensitivity(lam, basis) * quad
     n = int(np.ceil(x_max_nm / step_nm))
-    # The table depends only on these inputs: cached on disk, written atomically.
-    cache = _cache_path(b"".join([weights.tobytes(), lam.tobytes(), np.float64(step_nm).tobytes(),
-                                  np.int64(n).tobytes()]))
-    f = _load_cached(cache, (3, 3, n + 1))
-    if f is None:
-        f = _demodulated_samples(weights, 1.0 / lam, step_nm, n + 1)
-        if cache is not None:
-            _save_atomic(cache, f)
+    key = b"".join([weights.tobytes(), lam.tobytes(), np.float64(step_nm).tobytes(), np.int64(n).tobytes()])
+    f = cached_arrays("fourier", key, {"f": (3, 3, n + 1)},
+                      lambda: {"f": _demodulated_samples(weights, 1.0 / lam, step_nm, n + 1)})["f"]
     table = cm.rgb_table if basis == "rgb" else cm.xyz_table
     edge, variation = _decay_constants(cm.wavelength_nm, table)
     # f is band-limited to |ν − ν0| ≤ ν_half: |f⁽⁶⁾| ≤ (2πν_half)⁶ ∫|w|, and the
