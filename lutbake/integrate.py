@@ -422,21 +422,22 @@ class OpenCLBackend:
         return out
 
     def reflectance(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, wavelength_nm):
-        """The kernel's unpolarized R at points (broadcast arrays): its physics, node by node."""
+        """The kernel's unpolarized R at points (broadcast arrays; η1 a number, every other argument may
+        vary per point, η2 and opd_nm = 2·η2·d together for a dispersive film): its physics, node by node."""
         import pyopencl as cl
 
         cols = np.broadcast_arrays(*(np.asarray(v, np.float64) for v in
-                                     (cos_theta, opd_nm, eta3, kappa3, wavelength_nm)))
+                                     (cos_theta, opd_nm, eta2, eta3, kappa3, wavelength_nm)))
         shape = cols[0].shape
-        cos1, opd, e3, k3, lam = (c.ravel() for c in cols)
-        arrays = [cos1, *_split(_signed_cos_theta2(eta1, eta2, cos1), self.dtype), *_split(opd, self.dtype),
-                  e3, k3, *_split(1.0 / lam, self.dtype)]
+        cos1, opd, e2, e3, k3, lam = (c.ravel() for c in cols)
+        arrays = [cos1, *_split(_signed_cos_theta2(eta1, e2, cos1), self.dtype), *_split(opd, self.dtype),
+                  e2, e3, k3, *_split(1.0 / lam, self.dtype)]
         mf = cl.mem_flags
         bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
                 for a in arrays]
         out = np.empty(cos1.size, self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), self.dtype(eta2), out_buf)
+        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).reshape(shape)
 

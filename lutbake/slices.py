@@ -12,8 +12,8 @@ paths, chosen by the slice's materials:
   λ, so every texel takes the direct quadrature, at the node count the
   spectral rule ladder gives its fringes (cycles at the film's largest
   index, |r21·r23| at its largest over the visible), with the indices taken
-  at each node: by the kernel's reflectance where the film is constant
-  (the base may vary per node), by numpy where the film itself disperses.
+  at each node, by the kernel's reflectance (film and base indices per node;
+  numpy only where no OpenCL device exists).
   The materials' tables are linear between samples, and their kinks converge
   the rule far more slowly than fringes do (measured: silver needs 2048
   nodes for 1e-6, water 32), so a slice also takes at least the ladder
@@ -145,12 +145,11 @@ def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
 
 
 def _rule_colour(points: FilmPoints, rule, integrator) -> np.ndarray:
-    """RGB (P, 3) at one rule's nodes: the kernel's reflectance where the film is constant, else numpy."""
+    """RGB (P, 3) at one rule's nodes, indices per node: the kernel's reflectance (numpy without OpenCL)."""
     kernel = getattr(integrator, "reflectance", None)
-    if kernel is None or points.film is not None:
+    if kernel is None:
         return spectral_reflectance(points, rule.wavelength_nm)[2] @ rule.weights.T
-    _, eta3, kappa3 = points.indices(rule.wavelength_nm)
-    opd = (2.0 * points.eta2 * points.thickness_nm)[:, None]
-    refl = kernel(float(points.eta1[0]), float(points.eta2[0]), points.cos_theta[:, None], opd, eta3, kappa3,
-                  rule.wavelength_nm[None, :])
+    eta2, eta3, kappa3 = points.indices(rule.wavelength_nm)
+    refl = kernel(float(points.eta1[0]), eta2, points.cos_theta[:, None], 2.0 * eta2 * points.thickness_nm[:, None],
+                  eta3, kappa3, rule.wavelength_nm[None, :])
     return refl @ rule.weights.T

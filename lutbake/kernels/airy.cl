@@ -224,18 +224,19 @@ __kernel void bake_rows(
     direct_rgb(&t, nu_h, nu_l, wt, n_nodes, rgb_out + 3 * gid);
 }
 
-// R at arbitrary (stack, wavenumber) points: one work-item per point. For
-// tests and `lutbake check` (the kernel's own physics, wavelength by wavelength).
+// R at arbitrary (stack, wavenumber) points, film and base indices per point
+// (dispersive materials, taken at each point's wavelength): one work-item per
+// point. Scene slices of named materials, `lutbake check` and the tests.
 __kernel void reflectance_points(
     __global const REAL *cos1, __global const REAL *cos2_hi, __global const REAL *cos2_lo,
-    __global const REAL *opd_hi, __global const REAL *opd_lo,
+    __global const REAL *opd_hi, __global const REAL *opd_lo, __global const REAL *eta2,
     __global const REAL *eta3, __global const REAL *kappa3,
     __global const REAL *nu_hi, __global const REAL *nu_lo,
-    const REAL eta1, const REAL eta2, __global REAL *r_out)
+    const REAL eta1, __global REAL *r_out)
 {
     const int i = get_global_id(0);
     const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
-                                eta3[i], kappa3[i], eta1, eta2);
+                                eta3[i], kappa3[i], eta1, eta2[i]);
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
 }
 
