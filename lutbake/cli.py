@@ -261,8 +261,9 @@ CAPPED_WARNING = 1e-4  # |ΔRGB| measured at texels past the spectral node cap
 
 
 def axis_option(flag, name):
-    return click.option(flag, name, metavar="A:B:N[:sqrt]",
-                        help=f"{name} axis: N nodes from A to B (uniform, or uniform in sqrt).")
+    return click.option(flag, name, metavar="A:B:N[:SPACING]",
+                        help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt, or (eta3 only) "
+                             "'admittance': uniform in sqrt(eta3^2 - (eta1 sin theta1)^2).")
 
 
 def _use_device(ctx, param, selector):
@@ -771,7 +772,7 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
         echo_json(result)
     else:
         best = result["result"]
-        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{':sqrt' if a['spacing'] == 'sqrt' else ''}"
+        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{'' if a['spacing'] == 'uniform' else ':' + a['spacing']}"
                         for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), result["axes"]))
         state = "met" if result["met"] else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "
