@@ -320,10 +320,18 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
         raise BadInput("--eta2 is required (the film index)")
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
     template = next(iter(default_specs().values())).axes
-    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
+    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
     extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
     return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
                     precision=precision or default_precision, compute=compute, method=method, **extra)
+
+
+def _default_axis(axis, eta1: float):
+    """A default axis as is, except η3's admittance spacing under an ambient above its low end (where
+    that spacing is undefined): uniform there."""
+    if axis.spacing == "admittance" and axis.lo < eta1:
+        return replace(axis, spacing="uniform")
+    return axis
 
 
 @cli.command("bake")

@@ -328,3 +328,13 @@ def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(t
                            kappa3=kappa3.ravel())
     truth = reference_colour(pts, spec.observer, spec.space).values
     assert np.max(np.abs(stored.reshape(-1, 3) - truth)) <= 1e-5
+
+
+def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_end():
+    from lutbake.cli import domain_spec
+
+    def eta3_spacing(eta1):
+        spec = domain_spec(1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "float64", "spectral", None)
+        return spec.axis["eta3"].spacing
+
+    assert eta3_spacing(1.0) == "admittance" and eta3_spacing(1.33) == "uniform"
