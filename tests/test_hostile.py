@@ -303,7 +303,12 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 2": lambda m, im: ({**m, "format_version": 2}, im),
+    "format version 3": lambda m, im: ({**m, "format_version": 3}, im),
+    "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
+    "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
+        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),
+    "admittance below eta1": lambda m, im: ({**m, "axes": [
+        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance", "min": 0.5}, m["axes"][3]]}, im),
     "spectral counts empty": lambda m, im: ({**m, "spectral": {**m["spectral"], "counts": []}}, im),
 }
 
