@@ -162,6 +162,9 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     res = {r["name"]: r for r in doc["rows"]}
     assert res["res×2"]["de00_p99"] < res["res×0.5"]["de00_p99"]
     assert res["res×2"]["bytes"] > res["res×0.5"]["bytes"]
+    assert res["uniform grid"]["shape"] == res["√ grid"]["shape"] == res["res×1"]["shape"]
+    assert res["uniform grid"]["de00_p99"] == res["res×1"]["de00_p99"]  # this spec's axes are all uniform
+    assert res["√ grid"]["de00_p99"] != res["uniform grid"]["de00_p99"]
     result = tune(spec, max_de=1.0, n_points=120, seed=0)
     assert result["met"] and result["result"]["de00_p99"] <= 1.0
     assert result["rounds"][0]["de00_p99"] > 1.0  # the search had to grow the grid
