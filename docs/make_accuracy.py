@@ -16,7 +16,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "accuracy"
 POINTS = 5000
-METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "main/Cr/Johnson")
+METALS = {"Au": "Au", "Ag": "Ag", "Cu": "Cu", "Al": "Al", "Fe": "Fe", "Ti": "Ti", "Cr": "main/Cr/Johnson"}
 
 
 def lutbake(*args):
@@ -46,8 +46,8 @@ def metal_ranges() -> dict:
 
     wavelength_nm = np.linspace(400.0, 700.0, 301)
     out = {}
-    for name in METALS:
-        eta3, kappa3 = material(name).index(wavelength_nm)
+    for name, page in METALS.items():
+        eta3, kappa3 = material(page).index(wavelength_nm)
         out[name] = (eta3.min(), eta3.max(), kappa3.min(), kappa3.max())
     return out
 
@@ -90,8 +90,9 @@ def render(reports, sweep, metals):
         lines.append(f"| {name} | {e0:.2f}–{e1:.2f} | {k0:.2f}–{k1:.2f} | {inside} |")
     lines += [
         "",
-        "Au, Ag and Cu (η3 < 1) and Al and Fe (κ3 up to ~8.5) fall outside: covering them would more than",
-        "double the (η3, κ3) area and put η3 below η1, where the admittance spacing is undefined. Named",
+        "Au, Ag and Cu (η3 < 1) and Al and Fe (κ3 up to ~8.5) fall outside, Cr only at the red end (η3 past",
+        "3): covering them would more than double the (η3, κ3) area and put η3 below η1, where the",
+        "admittance spacing is undefined. Named",
         "materials are what scene atlases serve exactly (`lutbake bake --scene`, [scene.md](scene.md)), so",
         "the generic LUT keeps the dielectric range.",
         "",
@@ -126,7 +127,9 @@ def render(reports, sweep, metals):
             lines.append(f"| {r['name']} | (no LUT) | {r['de00_p99']:.2f} | | | {r['ns_per_eval']:.0f} |")
     lines += ["", "Bake times are wall-clock on the machine that ran the script (2 cores, CPU OpenCL) and",
               "include measuring the spectral error; compare rows within one run. A GPU sampling a LUT pays",
-              "4 bilinear fetches and 3 lerps whatever its size; the approximations' cost is shader ALU.", ""]
+              "4 bilinear fetches and 3 lerps whatever its size (the admittance spacing adds one square root);",
+              "the approximations' cost is shader ALU. The `uniform grid` and `√ grid` rows are the default",
+              "counts without the admittance spacing (docs/reports.md).", ""]
     return "\n".join(lines)
 
 
