@@ -414,7 +414,7 @@ def test_peak_memory_estimate_covers_the_measured_peaks():
     measured += [row["peak_rss_mib"] for row in json.loads((root / "memory-result.json").read_text())]
     budget = next(iter(default_specs().values())).budget()
     assert budget["peak_memory_bytes"] >= max(measured) * (1 << 20)
-    assert budget["output_bytes"] == 32 * 128 * 16 * 16 * 3 * 2
+    assert budget["output_bytes"] == 40 * 160 * 20 * 20 * 3 * 2
 
 
 def test_scene_target_not_met_at_the_cap_exits_1_with_what_was_reached(tmp_path, capfd, monkeypatch):
