@@ -277,8 +277,9 @@ CAPPED_WARNING = 1e-4  # |ΔRGB| measured at texels past the spectral node cap
 
 
 def axis_option(flag, name):
-    return click.option(flag, name, metavar="A:B:N[:sqrt]",
-                        help=f"{name} axis: N nodes from A to B (uniform, or uniform in sqrt).")
+    return click.option(flag, name, metavar="A:B:N[:SPACING]",
+                        help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt, or (eta3 only) "
+                             "'admittance': uniform in sqrt(eta3^2 - (eta1 sin theta1)^2).")
 
 
 def _use_device(ctx, param, selector):
@@ -335,10 +336,18 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
         raise BadInput("--eta2 is required (the film index)")
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
     template = next(iter(default_specs().values())).axes
-    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else a for a in template)
+    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
     extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
     return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
                     precision=precision or default_precision, compute=compute, method=method, **extra)
+
+
+def _default_axis(axis, eta1: float):
+    """A default axis as is, except η3's admittance spacing under an ambient above its low end (where
+    that spacing is undefined): uniform there."""
+    if axis.spacing == "admittance" and axis.lo < eta1:
+        return replace(axis, spacing="uniform")
+    return axis
 
 
 @cli.command("bake")
@@ -782,7 +791,7 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
         echo_json(doc)
     else:
         best = doc["result"]
-        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{':sqrt' if a['spacing'] == 'sqrt' else ''}"
+        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{'' if a['spacing'] == 'uniform' else ':' + a['spacing']}"
                         for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
         state = "met" if result.met else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "

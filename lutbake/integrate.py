@@ -269,7 +269,10 @@ def _series_arrays(spec):
     marking an evanescent film; film (D, cos θ, [X, e^{i2πXν0}]).
     """
     ax = {a.name: a.values() for a in spec.axes}
-    cos_t, e3, k3 = np.meshgrid(ax["cos_theta"], ax["eta3"], ax["kappa3"], indexing="ij")
+    n_cos, n_eta3 = ax["cos_theta"].size, ax["eta3"].size
+    cos_t = np.broadcast_to(ax["cos_theta"][:, None, None], (n_cos, n_eta3, ax["kappa3"].size))
+    e3 = np.broadcast_to(spec.eta3_columns().reshape(n_eta3, n_cos).T[:, :, None], cos_t.shape)
+    k3 = np.broadcast_to(ax["kappa3"][None, None, :], cos_t.shape)
     co = series_coefficients(spec.eta1, spec.eta2, cos_t.ravel(), 0.0, e3.ravel(), k3.ravel())
     one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
     per_pol = [np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real, co.q[p].imag, one_minus_q[p]], -1)
@@ -337,7 +340,7 @@ class OpenCLBackend:
         cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"])
         # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0).
         arrays = [ax["cos_theta"], *_split(cos2, self.dtype), *_split(ax["opd_nm"], self.dtype),
-                  ax["eta3"], ax["kappa3"], *_split(nu, self.dtype), weights]
+                  spec.eta3_columns(), ax["kappa3"], *_split(nu, self.dtype), weights]
         mf = cl.mem_flags
         buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
                              hostbuf=np.ascontiguousarray(a, self.dtype)) for a in arrays]

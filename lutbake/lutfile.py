@@ -37,7 +37,9 @@ __all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream",
 
 FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
-FORMAT_VERSION = 1
+# LUT v2 adds the η3 axis's "admittance" spacing (docs/lut-format.md); v1 LUTs (no such axis) still read.
+FORMAT_VERSION = 2
+_READABLE_VERSIONS = {FORMAT: (1, 2), ATLAS_FORMAT: (1,)}
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -153,7 +155,7 @@ def write_atlas(path: Path, atlas: dict, meta: dict, precision: str) -> None:
 
 def read_lut(path, formats=(FORMAT,)):
     """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR whose format is
-    one of ``formats`` (version 1), validated against the schema of docs/lut-format.md;
+    one of ``formats`` (a version this reader knows), validated against the schema of docs/lut-format.md;
     ValueError names the file and the field."""
     path = Path(path)
     if not path.is_file():
@@ -165,8 +167,10 @@ def read_lut(path, formats=(FORMAT,)):
         meta = json.loads(meta_text)
     except ValueError:
         raise ValueError(f"{str(path)!r}: lutbake.metadata is not JSON") from None
-    if not isinstance(meta, dict) or meta.get("format") not in formats or meta.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {' or '.join(formats)} v{FORMAT_VERSION} file")
+    if (not isinstance(meta, dict) or meta.get("format") not in formats
+            or meta.get("format_version") not in _READABLE_VERSIONS[meta["format"]]):
+        known = " or ".join(f"{f} v{'/'.join(map(str, _READABLE_VERSIONS[f]))}" for f in formats)
+        raise ValueError(f"{str(path)!r} is not a {known} file")
     try:
         (_check_meta if meta["format"] == FORMAT else _check_atlas_meta)(meta, image)
     except (KeyError, TypeError, ValueError) as exc:
@@ -236,8 +240,9 @@ def _check_meta(meta: dict, image: np.ndarray) -> None:
         lo, hi = _finite(a["min"], f"axes[{i}].min"), _finite(a["max"], f"axes[{i}].max")
         _require(hi > lo, f"axes[{i}].max")
         _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
-        _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0),
-                 f"axes[{i}].spacing")
+        _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
+                 or a["spacing"] == "admittance" and a["name"] == "eta3" and meta["format_version"] >= 2
+                 and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
     n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in axes)
     packing = meta["packing"]
     _require(packing["width"] == n_eta3 * n_cos and packing["tile_width"] == n_cos, "packing.width")
@@ -300,6 +305,7 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
+        "admittance": "1.0" if axes[2]["spacing"] == "admittance" else "0.0",
     }
     return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 

@@ -8,8 +8,13 @@ by η3 and along y by κ3. A texel (x, y) is therefore
     x = i_eta3 · N_cos + i_cos,   y = i_kappa3 · N_opd + i_opd.
 
 Axes are uniform, or warped uniform in √v (denser near the low end, where
-thin-film colour changes fastest along D and κ3). Chunks are bands of whole
-image rows, so a grid of any size bakes and streams in bounded memory.
+thin-film colour changes fastest along D and κ3). The η3 axis may instead be
+uniform in the base's real admittance √(η3² − (η1 sin θ1)²) between its ends
+at each cos θ1 ("admittance"): the base's Fresnel terms are smooth in it, and
+its nodes crowd towards η3 = η1 at grazing, where they change fastest in η3.
+Its nodes then depend on the tile's cos θ1 node, so η3 is given per image
+column (``eta3_columns``). Chunks are bands of whole image rows, so a grid of
+any size bakes and streams in bounded memory.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ __all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIO
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
-SPACINGS = ("uniform", "sqrt")
+SPACINGS = ("uniform", "sqrt", "admittance")
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
 METHODS = ("spectral",)
@@ -65,27 +70,39 @@ class Axis:
     def unit(self) -> str:
         return AXIS_UNITS[self.name]
 
-    def values(self) -> np.ndarray:
-        """Node values (float64), exact at both ends."""
+    def values(self, snell2=0.0) -> np.ndarray:
+        """Node values (float64), exact at both ends; ``snell2`` = (η1 sin θ1)² for "admittance"."""
         u = np.linspace(0.0, 1.0, self.count)
-        v = self.from_unit(u)
+        v = self.from_unit(u, snell2)
         v[0], v[-1] = self.lo, self.hi
         return v
 
-    def from_unit(self, u):
-        u = np.asarray(u, float)
+    def _warp(self, v, snell2):
+        """The coordinate in which the nodes are uniform."""
         if self.spacing == "sqrt":
-            a, b = np.sqrt(self.lo), np.sqrt(self.hi)
-            return (a + (b - a) * u) ** 2
-        return self.lo + (self.hi - self.lo) * u
+            return np.sqrt(np.maximum(v, 0.0))
+        if self.spacing == "admittance":
+            return np.sqrt(np.maximum(v * v - snell2, 0.0))
+        return v
 
-    def to_unit(self, v):
-        """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped)."""
-        v = np.asarray(v, float)
+    def _unwarp(self, w, snell2):
         if self.spacing == "sqrt":
-            a, b = np.sqrt(self.lo), np.sqrt(self.hi)
-            return (np.sqrt(np.maximum(v, 0.0)) - a) / (b - a)
-        return (v - self.lo) / (self.hi - self.lo)
+            return w * w
+        if self.spacing == "admittance":
+            return np.sqrt(w * w + snell2)
+        return w
+
+    def from_unit(self, u, snell2=0.0):
+        """Value at the normalized coordinate u in [0, 1] (at the incidence ``snell2`` for "admittance")."""
+        u, snell2 = np.asarray(u, float), np.asarray(snell2, float)
+        a, b = self._warp(np.float64(self.lo), snell2), self._warp(np.float64(self.hi), snell2)
+        return self._unwarp(a + (b - a) * u, snell2)
+
+    def to_unit(self, v, snell2=0.0):
+        """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped)."""
+        v, snell2 = np.asarray(v, float), np.asarray(snell2, float)
+        a, b = self._warp(np.float64(self.lo), snell2), self._warp(np.float64(self.hi), snell2)
+        return (self._warp(v, snell2) - a) / (b - a)
 
     def describe(self) -> dict:
         return {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
@@ -119,6 +136,8 @@ def validate_axis(axis: Axis) -> Axis:
         raise ValueError(f"{flag} count {axis.count} is not allowed: need 2 <= N <= {MAX_COUNT}")
     if axis.spacing not in SPACINGS:
         raise ValueError(f"{flag} spacing {axis.spacing!r} is not one of {', '.join(SPACINGS)}")
+    if axis.spacing == "admittance" and axis.name != "eta3":
+        raise ValueError(f"{flag} spacing 'admittance' is allowed only on --eta3")
     return axis
 
 
@@ -152,6 +171,9 @@ class BakeSpec:
             raise ValueError(f"axes must be {', '.join(AXIS_NAMES)} in that order")
         for axis in self.axes:
             validate_axis(axis)
+        eta3 = self.axis["eta3"]
+        if eta3.spacing == "admittance" and eta3.lo < self.eta1:
+            raise ValueError(f"--eta3 admittance spacing needs A >= eta1 ({self.eta1:g}), got {eta3.lo:g}")
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
         if self.cells > MAX_CELLS:
@@ -189,6 +211,18 @@ class BakeSpec:
                              f"{memory_limit_gib:g} GiB limit: use fewer nodes or raise --max-memory-gib")
         return b
 
+    def snell2(self, cos_theta):
+        """(η1 sin θ1)², the tangential wavenumber squared that the "admittance" spacing subtracts."""
+        return self.eta1 ** 2 * (1.0 - np.square(cos_theta))
+
+    def eta3_columns(self) -> np.ndarray:
+        """η3 of each image column x = i_eta3 · N_cos + i_cos (nodes at that column's cos θ1 node)."""
+        cos_t, eta3 = self.axis["cos_theta"].values(), self.axis["eta3"]
+        u = np.linspace(0.0, 1.0, eta3.count)[:, None]
+        v = np.broadcast_to(eta3.from_unit(u, self.snell2(cos_t)[None, :]), (eta3.count, cos_t.size)).copy()
+        v[0], v[-1] = eta3.lo, eta3.hi
+        return v.ravel()
+
     @property
     def image_size(self) -> tuple:
         """(width, height) of the packed image in texels."""
@@ -218,7 +252,7 @@ class BakeSpec:
         x, y = np.arange(width), np.arange(y0, y1)
         k_index = y // n_opd
         kappa_rows = np.unique(k_index)
-        rt = round_trip_amplitude(self.eta1, self.eta2, v["eta3"][x // n_cos][None, :],
+        rt = round_trip_amplitude(self.eta1, self.eta2, self.eta3_columns()[None, :],
                                   v["kappa3"][kappa_rows][:, None], v["cos_theta"][x % n_cos][None, :])
         rt_rows = rt[np.searchsorted(kappa_rows, k_index)]
         g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][x % n_cos]).real
@@ -234,11 +268,11 @@ class BakeSpec:
         (cos θ, D, η3, κ3) arrays).
 
         Cycles, hence the need for nodes and the bound, grow with D, so each
-        (cos θ, η3, κ3) column is screened at its largest D first.
+        (image column, κ3) pair is screened at its largest D first.
         """
         v = {a.name: a.values() for a in self.axes}
-        cos_t, eta3, kappa3 = (g.ravel() for g in np.meshgrid(v["cos_theta"], v["eta3"], v["kappa3"],
-                                                              indexing="ij"))
+        x, kappa3 = (g.ravel() for g in np.meshgrid(np.arange(self.image_size[0]), v["kappa3"], indexing="ij"))
+        cos_t, eta3 = v["cos_theta"][x % v["cos_theta"].size], self.eta3_columns()[x]
         screen = self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3)
         cols = np.flatnonzero(screen)
         if cols.size == 0:
@@ -264,7 +298,7 @@ class BakeSpec:
         y = np.arange(y0, y1)
         v = {a.name: a.values() for a in self.axes}
         cos_t = np.broadcast_to(v["cos_theta"][x % n_cos], (y.size, width))
-        eta3 = np.broadcast_to(v["eta3"][x // n_cos], (y.size, width))
+        eta3 = np.broadcast_to(self.eta3_columns(), (y.size, width))
         opd = np.broadcast_to(v["opd_nm"][y % n_opd][:, None], (y.size, width))
         kappa3 = np.broadcast_to(v["kappa3"][y // n_opd][:, None], (y.size, width))
         return cos_t, opd, eta3, kappa3

@@ -51,7 +51,9 @@ def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n
     rng = np.random.default_rng(seed)
     n_centre = int(n_points * centre_fraction)
     uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in axes]
-    centres = [a.from_unit((rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1)) for a in axes]
+    units = [(rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1) for a in axes]
+    snell2 = eta1 ** 2 * (1.0 - axes[0].from_unit(units[0]) ** 2)   # η3's "admittance" cells lie along cos θ
+    centres = [a.from_unit(u, snell2) for a, u in zip(axes, units)]
     params = tuple(np.concatenate([u, c]) for u, c in zip(uniform, centres))
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
     pts = HeldOutPoints(params, kind, eta1, eta2)

@@ -1,8 +1,8 @@
 """Reference sampler: what a GPU returns when it samples a lutbake LUT or scene atlas.
 
 It reads only the EXR (metadata from its header) and follows the shader
-includes step by step: each axis value → its warp → a continuous node
-coordinate clamped to [0, N − 1]; (cos θ, D) through hardware bilinear
+includes step by step: each axis value → its warp (η3's "admittance" warp at
+the point's own cos θ1) → a continuous node coordinate clamped to [0, N − 1]; (cos θ, D) through hardware bilinear
 filtering inside a tile (texel centres, clamp-to-edge addressing); the four
 tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
 bilinear fetch inside its material's rect. ``filter_bits`` quantizes the
@@ -55,8 +55,10 @@ class Lut:
 
     def node_coords(self, cos_theta, opd_nm, eta3, kappa3) -> list:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
-        return [np.clip(axis.to_unit(v), 0.0, 1.0) * (axis.count - 1)
-                for axis, v in zip(self.axes, np.broadcast_arrays(cos_theta, opd_nm, eta3, kappa3))]
+        values = np.broadcast_arrays(cos_theta, opd_nm, eta3, kappa3)
+        snell2 = self.eta1 ** 2 * (1.0 - np.square(np.clip(values[0], 0.0, 1.0)))
+        return [np.clip(axis.to_unit(v, snell2), 0.0, 1.0) * (axis.count - 1)
+                for axis, v in zip(self.axes, values)]
 
     def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None) -> np.ndarray:
         """Linear RGB (…, 3) at the given film parameters."""

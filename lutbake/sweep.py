@@ -31,9 +31,17 @@ def _scaled(spec: BakeSpec, factors) -> BakeSpec:
     return replace(spec, axes=axes)
 
 
+def _spaced(spec: BakeSpec, spacings) -> BakeSpec:
+    return replace(spec, axes=tuple(replace(a, spacing=s) for a, s in zip(spec.axes, spacings)))
+
+
 def variants(spec: BakeSpec) -> dict:
-    """Named variants of ``spec``: resolution, spectral sampling, storage and compute precision."""
+    """Named variants of ``spec``: resolution; parameterization (its counts on a uniform grid, and on
+    the √ grid: √ cos θ and κ3, uniform D and η3, the default before η3's admittance spacing); spectral
+    sampling, storage and compute precision."""
     out = {f"res×{f:g}": _scaled(spec, (f,) * 4) for f in (0.5, 1.0, 2.0)}
+    out.update({"uniform grid": _spaced(spec, ("uniform",) * 4),
+                "√ grid": _spaced(spec, ("sqrt", "uniform", "uniform", "sqrt"))})
     out.update({"(cos,D)×2": _scaled(spec, (2, 2, 1, 1)), "(η3,κ3)×2": _scaled(spec, (1, 1, 2, 2))})
     out.update({f"spc {s:g}": replace(spec, samples_per_cycle=s) for s in (1.0, 2.0, 4.0)})
     out["half" if spec.precision == "float" else "float"] = replace(

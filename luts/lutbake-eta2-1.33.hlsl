@@ -1,5 +1,5 @@
 // lutbake thin-film LUT sampler (HLSL) for lutbake-eta2-1.33.exr
-// content hash 4678ba198e81fd291bf4bba9ea5b3a5fa647032953c9e4ddaffd02afd9e38a84; film eta2 = 1.33 under ambient eta1 = 1.0; linear rec709 RGB.
+// content hash 50c5f1e900c26cee9c1005256926e7780e194be54cb3434a9f79952543d9e2bc; film eta2 = 1.33 under ambient eta1 = 1.0; linear rec709 RGB.
 // Use a sampler with MIN_MAG_LINEAR filtering, CLAMP addressing and a single mip level.
 // Call: lutbake_sample(lut, linear_clamp, LUTBAKE_ETA2_1_33, cos_theta, opd_nm, eta3, kappa3),
 // opd_nm = 2 * eta2 * thickness_nm.
@@ -8,28 +8,39 @@
 // Several LUT includes and scene atlas includes can share one shader: the sampler is guarded, the
 // constants are named per LUT.
 
-#ifndef LUTBAKE_LUT_SAMPLER_V1
-#define LUTBAKE_LUT_SAMPLER_V1
+#ifndef LUTBAKE_LUT_SAMPLER_V2
+#define LUTBAKE_LUT_SAMPLER_V2
 #ifndef LUTBAKE_SCANLINE0_AT_V0
 #define LUTBAKE_SCANLINE0_AT_V0 1
 #endif
 
-// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value).
+// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value);
+// eta3_admittance 1: eta3 nodes uniform in sqrt(eta3^2 - (eta1 sin theta1)^2) at the point's cos theta1.
 struct LutbakeLut {
     float4 lo;
     float4 hi;
     float4 count;
     float4 sqrt_spacing;
+    float eta3_admittance;
     float eta1;
     float eta2;
 };
 
+// Axis values in the coordinate their nodes are uniform in. ((v - eta1)(v + eta1) + (eta1 cos)^2 is
+// v^2 - (eta1 sin theta1)^2 without cancellation near v = eta1 at grazing.)
+float4 lutbake_warp(LutbakeLut l, float4 v, float cos_theta) {
+    float4 w = lerp(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
+    float e1c = l.eta1 * cos_theta;
+    w.z = lerp(w.z, sqrt(max((v.z - l.eta1) * (v.z + l.eta1) + e1c * e1c, 0.0)), l.eta3_admittance);
+    return w;
+}
+
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
 float4 lutbake_node_coord(LutbakeLut l, float4 v) {
-    float4 w = lerp(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
-    float4 lo = lerp(l.lo, sqrt(l.lo), l.sqrt_spacing);
-    float4 hi = lerp(l.hi, sqrt(l.hi), l.sqrt_spacing);
-    return saturate((w - lo) / (hi - lo)) * (l.count - 1.0);
+    float c = saturate(v.x);
+    float4 lo = lutbake_warp(l, l.lo, c);
+    float4 hi = lutbake_warp(l, l.hi, c);
+    return saturate((lutbake_warp(l, v, c) - lo) / (hi - lo)) * (l.count - 1.0);
 }
 
 // Texture coordinate of a texel-space position measured in scanlines from the top.
@@ -59,8 +70,8 @@ float3 lutbake_sample(Texture2D<float3> lut, SamplerState linear_clamp, LutbakeL
 }
 #endif
 
-// lutbake-eta2-1.33.exr: axis minima, maxima, node counts, sqrt spacing; eta1; eta2.
+// lutbake-eta2-1.33.exr: axis minima, maxima, node counts, sqrt spacing; eta3 admittance spacing; eta1; eta2.
 static const LutbakeLut LUTBAKE_ETA2_1_33 = {
     float4(0.0, 0.0, 1.0, 0.0), float4(1.0, 3000.0, 3.0, 5.0),
-    float4(32.0, 128.0, 16.0, 16.0), float4(1.0, 0.0, 0.0, 1.0),
+    float4(40.0, 160.0, 20.0, 20.0), float4(1.0, 0.0, 0.0, 1.0), 1.0,
     1.0, 1.33};

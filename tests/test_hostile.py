@@ -303,7 +303,12 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 2": lambda m, im: ({**m, "format_version": 2}, im),
+    "format version 3": lambda m, im: ({**m, "format_version": 3}, im),
+    "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
+    "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
+        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),
+    "admittance below eta1": lambda m, im: ({**m, "axes": [
+        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance", "min": 0.5}, m["axes"][3]]}, im),
     "spectral counts empty": lambda m, im: ({**m, "spectral": {**m["spectral"], "counts": []}}, im),
 }
 
@@ -409,7 +414,7 @@ def test_peak_memory_estimate_covers_the_measured_peaks():
     measured += [row["peak_rss_mib"] for row in json.loads((root / "memory-result.json").read_text())]
     budget = next(iter(default_specs().values())).budget()
     assert budget["peak_memory_bytes"] >= max(measured) * (1 << 20)
-    assert budget["output_bytes"] == 32 * 128 * 16 * 16 * 3 * 2
+    assert budget["output_bytes"] == 40 * 160 * 20 * 20 * 3 * 2
 
 
 def test_scene_target_not_met_at_the_cap_exits_1_with_what_was_reached(tmp_path, capfd, monkeypatch):

@@ -163,6 +163,25 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     res = {r["name"]: r for r in doc["rows"]}
     assert res["res×2"]["de00_p99"] < res["res×0.5"]["de00_p99"]
     assert res["res×2"]["bytes"] > res["res×0.5"]["bytes"]
+    assert res["uniform grid"]["shape"] == res["√ grid"]["shape"] == res["res×1"]["shape"]
+    assert res["uniform grid"]["de00_p99"] == res["res×1"]["de00_p99"]  # this spec's axes are all uniform
+    assert res["√ grid"]["de00_p99"] != res["uniform grid"]["de00_p99"]
     result = tune(spec, max_de=1.0, n_points=120, seed=0)
     assert result.met and result.best.de00_p99 <= 1.0
     assert result.rounds[0].de00_p99 > 1.0  # the search had to grow the grid
+
+
+def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():
+    """Held-out 'cell-centre' points are at half-integer node coordinates on every axis, η3's taken in its
+    admittance coordinate at the point's own cos θ (what the sampler interpolates in)."""
+    from lutbake.report import held_out_points
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 8),
+            Axis("eta3", 1.0, 3.0, 5, "admittance"), Axis("kappa3", 0.0, 4.0, 4, "sqrt"))
+    pts = held_out_points(axes, 1.0, 1.4, "cie1931", "rec709", 40, 3)
+    centre = pts.kind == "cell-centre"
+    lut = Lut({"axes": [a.describe() for a in axes], "constants": {"eta1": 1.0, "eta2": 1.4}}, None)
+    coords = np.stack(lut.node_coords(*pts.params), axis=1)[centre]
+    assert np.allclose(coords % 1.0, 0.5, atol=1e-9)
+    uniform_eta3 = Axis("eta3", 1.0, 3.0, 5).to_unit(pts.params[2][centre]) * 4
+    assert not np.allclose(uniform_eta3 % 1.0, 0.5, atol=1e-3)   # the admittance cells are not η3's

@@ -60,7 +60,8 @@ def baked(tmp_path_factory):
     axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 1000.0, 8),
             Axis("eta3", 1.0, 2.0, 2), Axis("kappa3", 0.0, 1.0, 2, "sqrt"))
     bake(BakeSpec(eta2=1.4, axes=axes), folder / "lut.exr")
-    bake(BakeSpec(eta2=2.0, axes=axes), folder / "2nd-lut.exr")
+    admittance = (*axes[:2], Axis("eta3", 1.0, 2.0, 3, "admittance"), axes[3])   # the other sampler path
+    bake(BakeSpec(eta2=2.0, axes=admittance), folder / "2nd-lut.exr")
     scene = folder / "scene.toml"
     scene.write_text(textwrap.dedent("""
         [scene]

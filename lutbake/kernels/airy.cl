@@ -201,7 +201,8 @@ __kernel void bake_rows(
     __global const REAL *cos_axis,                            // N_cos
     __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
     __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd
-    __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
+    __global const REAL *eta3_column,                         // η3 per image column (width)
+    __global const REAL *kappa3_axis,
     __global const REAL *nu_hi, __global const REAL *nu_lo,     // all ladder rules' nodes (1/nm)
     __global const REAL *weights,                             // per rule: 3 × count, row-major
     __global const int *levels,                               // rule level of each texel
@@ -211,10 +212,10 @@ __kernel void bake_rows(
 {
     const int gid = get_global_id(0);
     const int x = gid % width, y = row0 + gid / width;
-    const int i_cos = x % n_cos, i_eta3 = x / n_cos;
+    const int i_cos = x % n_cos;
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
-                                opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
+                                opd_lo[i_opd], eta3_column[x], kappa3_axis[i_kappa3], eta1, eta2);
 
     // Ladder rule k has n_min·2^k nodes, stored after those of rules 0 … k−1.
     const int n_nodes = n_min << levels[gid];
@@ -378,7 +379,7 @@ __kernel void bake_rows_series(
     __global const REAL *cos_axis,
     __global const REAL *cos2_hi, __global const REAL *cos2_lo,
     __global const REAL *opd_hi, __global const REAL *opd_lo,
-    __global const REAL *eta3_axis, __global const REAL *kappa3_axis,
+    __global const REAL *eta3_column, __global const REAL *kappa3_axis,
     __global const REAL *nu_hi, __global const REAL *nu_lo,
     __global const REAL *weights,
     __global const int *levels,
@@ -393,7 +394,7 @@ __kernel void bake_rows_series(
         return;
     }
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
-                                opd_lo[i_opd], eta3_axis[i_eta3], kappa3_axis[i_kappa3], eta1, eta2);
+                                opd_lo[i_opd], eta3_column[x], kappa3_axis[i_kappa3], eta1, eta2);
     const int n_nodes = n_min << levels[gid];
     const int first = n_nodes - n_min;
     direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * gid);
