@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .colorimetry import OBSERVERS, SPACES
+from .errors import ParameterError
 from .points import check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
@@ -58,7 +59,26 @@ _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 
 @dataclass(frozen=True)
 class Axis:
-    """One LUT axis: ``count`` nodes from ``lo`` to ``hi`` with a spacing."""
+    """One LUT axis: ``count`` nodes from ``lo`` to ``hi``, uniform in the spacing's coordinate.
+
+    Parameters
+    ----------
+    name : str
+        'cos_theta' (cosine of the angle of incidence), 'opd_nm' (D = 2·η2·d, nm), 'eta3' or 'kappa3'.
+    lo, hi : float
+        The range, in the axis's unit.
+    count : int
+        Nodes, including both ends (2 ≤ count).
+    spacing : str
+        'uniform'; 'sqrt' (uniform in √value: nodes crowd towards lo); 'admittance' (η3 only: uniform in
+        √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing).
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> lutbake.Axis("cos_theta", 0.0, 1.0, 5, "sqrt").values().tolist()
+    [0.0, 0.0625, 0.25, 0.5625, 1.0]
+    """
 
     name: str
     lo: float
@@ -113,41 +133,73 @@ def parse_axis(name: str, text: str) -> Axis:
     """Parse 'A:B:N' or 'A:B:N:sqrt' into a validated Axis."""
     parts = text.split(":")
     if len(parts) not in (3, 4):
-        raise ValueError(f"--{_flag(name)} {text!r} is not A:B:N or A:B:N:SPACING")
+        raise ParameterError(f"{{{name}}} {{text}} is not A:B:N or A:B:N:SPACING", text=repr(text))
     try:
         lo, hi = float(parts[0]), float(parts[1])
         count = int(parts[2])
     except ValueError:
-        raise ValueError(f"--{_flag(name)} {text!r}: A and B must be numbers and N an integer") from None
+        raise ParameterError(f"{{{name}}} {{text}}: A and B must be numbers and N an integer",
+                             text=repr(text)) from None
     spacing = parts[3] if len(parts) == 4 else "uniform"
     return validate_axis(Axis(name, lo, hi, count, spacing))
 
 
 def validate_axis(axis: Axis) -> Axis:
-    flag = f"--{_flag(axis.name)}"
+    """``axis``, or ParameterError naming the axis (its parameter name) and what is allowed."""
+    field = f"{{{axis.name}}}"
     for v in (axis.lo, axis.hi):
         try:
             check_value(axis.name, v)
         except ValueError as exc:
-            raise ValueError(f"{flag}: {exc}") from None
+            raise ParameterError(field + ": {detail}", detail=str(exc)) from None
     if not axis.hi > axis.lo:
-        raise ValueError(f"{flag} range {axis.lo:g}:{axis.hi:g} is empty or reversed: need A < B")
+        raise ParameterError(field + " range {range} is empty or reversed: need A < B",
+                             range=f"{axis.lo:g}:{axis.hi:g}")
     if not 2 <= axis.count <= MAX_COUNT:
-        raise ValueError(f"{flag} count {axis.count} is not allowed: need 2 <= N <= {MAX_COUNT}")
+        raise ParameterError(field + " count {count} is not allowed: need 2 <= N <= {most}",
+                             count=axis.count, most=MAX_COUNT)
     if axis.spacing not in SPACINGS:
-        raise ValueError(f"{flag} spacing {axis.spacing!r} is not one of {', '.join(SPACINGS)}")
+        raise ParameterError(field + " spacing {spacing} is not one of {allowed}", spacing=repr(axis.spacing),
+                             allowed=", ".join(SPACINGS))
     if axis.spacing == "admittance" and axis.name != "eta3":
-        raise ValueError(f"{flag} spacing 'admittance' is allowed only on --eta3")
+        raise ParameterError(field + " spacing 'admittance' is allowed only on {eta3}")
     return axis
-
-
-def _flag(name: str) -> str:
-    return {"opd_nm": "opd", "cos_theta": "cos-theta"}.get(name, name)
 
 
 @dataclass(frozen=True)
 class BakeSpec:
-    """Everything that determines a LUT's bytes."""
+    """Everything that determines a LUT's bytes: the film, the four axes, colour and storage settings.
+
+    Parameters
+    ----------
+    eta2 : float
+        The film's refractive index (constant over wavelength).
+    axes : tuple of Axis
+        cos_theta, opd_nm, eta3, kappa3, in that order.
+    eta1 : float
+        The ambient's index (1 = air).
+    space, observer : str
+        Linear RGB space ('rec709', 'rec2020', 'p3', 'acescg') and CIE observer ('cie1931', 'cie1964').
+    precision : str
+        Storage: 'half' or 'float'.
+    compute : str
+        Kernel arithmetic: 'float64' or 'float32'.
+    method, samples_per_cycle
+        The direct quadrature's spectral rule (docs/spectral.md).
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> spec = lutbake.BakeSpec(eta2=1.5, axes=(
+    ...     lutbake.Axis("cos_theta", 0.0, 1.0, 32, "sqrt"), lutbake.Axis("opd_nm", 0.0, 3000.0, 128),
+    ...     lutbake.Axis("eta3", 1.0, 3.0, 16), lutbake.Axis("kappa3", 0.0, 5.0, 16, "sqrt")), precision="half")
+    >>> spec.shape, spec.cells, spec.image_size
+    ((32, 128, 16, 16), 1048576, (512, 2048))
+    >>> lutbake.BakeSpec(eta2=1.5, axes=spec.axes[:3] + (lutbake.Axis("kappa3", 0.0, 5.0, 1),))
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: kappa3 count 1 is not allowed: need 2 <= N <= ...
+    """
 
     eta2: float
     axes: tuple
@@ -173,7 +225,8 @@ class BakeSpec:
             validate_axis(axis)
         eta3 = self.axis["eta3"]
         if eta3.spacing == "admittance" and eta3.lo < self.eta1:
-            raise ValueError(f"--eta3 admittance spacing needs A >= eta1 ({self.eta1:g}), got {eta3.lo:g}")
+            raise ParameterError("{eta3} admittance spacing needs A >= eta1 ({eta1}), got {lo}",
+                                 eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
         if self.cells > MAX_CELLS:
@@ -203,12 +256,12 @@ class BakeSpec:
                 "seconds_estimate": {name: self.cells / rate for name, rate in _CELLS_PER_SECOND.items()}}
 
     def check_budget(self, memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> dict:
-        """The budget, or ValueError when its peak memory exceeds the limit (raise it with --max-memory-gib)."""
+        """The budget, or ParameterError when its peak memory exceeds ``memory_limit_gib``."""
         b = self.budget()
         if b["peak_memory_bytes"] > memory_limit_gib * (1 << 30):
-            raise ValueError(f"grid {' x '.join(map(str, self.shape))} needs about "
-                             f"{b['peak_memory_bytes'] / (1 << 30):.1f} GiB of memory, over the "
-                             f"{memory_limit_gib:g} GiB limit: use fewer nodes or raise --max-memory-gib")
+            raise ParameterError("grid {grid} needs about {need} GiB of memory, over the {limit} GiB limit: use "
+                                 "fewer nodes or raise {memory_limit_gib}", grid=" x ".join(map(str, self.shape)),
+                                 need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}", limit=f"{memory_limit_gib:g}")
         return b
 
     def snell2(self, cos_theta):

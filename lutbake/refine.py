@@ -137,7 +137,7 @@ def lut_measure(spec, pts, integrator):
         start = time.perf_counter()
         image = bake_rows_all(integrator, grid).astype(stored)
         seconds = time.perf_counter() - start
-        lut = Lut({"axes": [a.describe() for a in grid.axes]}, image)
+        lut = Lut.in_memory(grid, image)
         stats = score(label, lut.sample(*pts.params), pts, spec.space, spec.observer).summary()
         return Trial(tuple(counts), stats["de00_p99"], image.nbytes, seconds, stats), None
 

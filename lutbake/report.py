@@ -115,7 +115,41 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
                progress=no_progress) -> LutReport:
     """Score a LUT (and the approximations) at held-out points against the ground truth.
 
-    ``progress(done, total, note)`` is called before each phase."""
+    Held-out points are half uniform over the LUT's domain and half at the centres of its cells (where
+    interpolation errs most); the LUT is sampled from its stored texels as a GPU would.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The LUT's EXR.
+    n_points : int
+        Held-out points.
+    seed : int
+        Their random seed (the same seed gives the same numbers).
+    approximations : bool
+        Also score the real-time approximations (Belcour & Barla; KHR_materials_iridescence / three.js).
+    progress : callable
+        ``progress(done, total, note)`` before each phase.
+
+    Returns
+    -------
+    LutReport
+        ``lut`` (ErrorStats: ΔE00 per point; ``summary()`` gives mean, p50, p95, p99, max and |ΔRGB| max),
+        ``approximations``, the ``worst`` points, and ``summary()`` of it all (the JSON `report` writes).
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> axes = (lutbake.Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), lutbake.Axis("opd_nm", 0.0, 1000.0, 48),
+    ...         lutbake.Axis("eta3", 1.2, 2.0, 4), lutbake.Axis("kappa3", 0.0, 0.5, 2))
+    >>> _ = lutbake.bake_lut(lutbake.BakeSpec(eta2=1.5, axes=axes), "coat.exr")
+    >>> rep = lutbake.report_lut("coat.exr", n_points=100)
+    >>> error = rep.lut.summary()
+    >>> len(rep.points), error["de00_max"] >= error["de00_p99"] >= error["de00_p50"]
+    (100, True)
+    >>> [a.name for a in rep.approximations]
+    ['belcour-barla-2017', 'khr-iridescence-threejs']
+    """
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
     progress(0, None, f"ground truth at {n_points} held-out points")
@@ -180,7 +214,38 @@ def gate(summary: dict, max_de) -> dict:
 
 
 def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progress=no_progress) -> dict:
-    """summary.json, PNG figures and report.html in ``out_dir``; returns the summary."""
+    """Write ``rep`` as summary.json, PNG figures (ΔE00 maps, swatch strips) and report.html in ``out_dir``.
+
+    Parameters
+    ----------
+    rep : LutReport
+        From ``report_lut``.
+    out_dir : str or os.PathLike
+        Created if absent; each file is written atomically.
+    maps : bool
+        Draw the figures (ΔE00 maps and swatch strips: ground truth on grids, the slow part).
+    max_de : float, optional
+        Gate: adds ``gate`` (passed when p99 ΔE00 ≤ max_de) to the summary.
+    progress : callable
+        ``progress(done, total, note)`` before each figure.
+
+    Returns
+    -------
+    dict
+        The summary written to summary.json.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> axes = (lutbake.Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), lutbake.Axis("opd_nm", 0.0, 1000.0, 48),
+    ...         lutbake.Axis("eta3", 1.2, 2.0, 4), lutbake.Axis("kappa3", 0.0, 0.5, 2))
+    >>> _ = lutbake.bake_lut(lutbake.BakeSpec(eta2=1.5, axes=axes), "coat.exr")
+    >>> summary = lutbake.write_report(lutbake.report_lut("coat.exr", n_points=100), "report", maps=False,
+    ...                                max_de=100.0)
+    >>> from pathlib import Path
+    >>> summary["gate"]["passed"], sorted(p.name for p in Path("report").iterdir())
+    (True, ['report.html', 'summary.json'])
+    """
     from .figures import delta_e_maps, swatch_strips
     from .lutfile import write_text_atomic
     from .strictjson import dumps

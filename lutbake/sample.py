@@ -25,13 +25,47 @@ __all__ = ["Lut", "Atlas", "load_table"]
 
 @dataclass
 class Lut:
+    """A 4D LUT as an engine samples it: the reference for what a shader include must return.
+
+    ``sample`` interpolates linearly in each axis's own coordinate (√cos θ, D, η3's spacing, √κ3)
+    with the GPU's bilinear fetches: 4 per sample (docs/lut-format.md).
+
+    Attributes
+    ----------
+    meta : dict
+        The EXR header's metadata (axes, constants η1 and η2, space, observer, integrator, ...).
+    image : numpy.ndarray
+        (height, width, 3) texels as stored (float16 or float32), linear RGB.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> axes = (lutbake.Axis("cos_theta", 0.0, 1.0, 24, "sqrt"), lutbake.Axis("opd_nm", 0.0, 1200.0, 96),
+    ...         lutbake.Axis("eta3", 1.0, 1.5, 6, "admittance"), lutbake.Axis("kappa3", 0.0, 0.5, 2))
+    >>> _ = lutbake.bake_lut(lutbake.BakeSpec(eta2=1.33, axes=axes), "soap.exr")
+    >>> lut = lutbake.Lut.load("soap.exr")
+    >>> [(a.name, a.count) for a in lut.axes], lut.eta2
+    ([('cos_theta', 24), ('opd_nm', 96), ('eta3', 6), ('kappa3', 2)], 1.33)
+    >>> soap = lutbake.FilmPoints.build(eta2=1.33, thickness_nm=300.0, angle_deg=45.0, eta3=1.0)
+    >>> rgb = lut.sample(soap.cos_theta, soap.opd_nm, soap.eta3, soap.kappa3)
+    >>> bool(abs(rgb - lutbake.reference_rgb(soap)).max() < 0.01)
+    True
+    """
+
     meta: dict
     image: np.ndarray  # (height, width, 3), as stored
 
     @classmethod
     def load(cls, path) -> "Lut":
+        """Read a LUT EXR (refused in one line when it is not a complete, valid lutbake LUT)."""
         meta, image = read_lut(path)
         return cls(meta, image)
+
+    @classmethod
+    def in_memory(cls, spec, image) -> "Lut":
+        """The LUT of ``spec`` whose texels are ``image`` (as stored), without a file: what tune scores."""
+        return cls({"axes": [a.describe() for a in spec.axes],
+                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}}, image)
 
     @property
     def axes(self) -> list:
@@ -79,10 +113,38 @@ class Lut:
 
 @dataclass
 class Atlas:
-    """A scene atlas: one (cos θ, thickness) slice per rect, each serving named materials."""
+    """A scene atlas: one (cos θ, thickness) slice per rect, each serving named materials.
+
+    ``sample(material, cos_theta, thickness_nm)`` is one bilinear fetch in the material's rect, at
+    (√cos θ, thickness) node coordinates: what the scene's include returns.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> _ = open("steel.toml", "w").write('''
+    ... [materials.oxide]
+    ... film = 2.9
+    ... thickness_nm = [10, 70]
+    ... base = "Fe"
+    ... ''')
+    >>> _ = lutbake.bake_scene(lutbake.load_scene("steel.toml"), "baked")
+    >>> atlas = lutbake.Atlas.load("baked/steel.exr")
+    >>> list(atlas.materials)
+    ['oxide']
+    >>> oxide = lutbake.FilmPoints.build(**atlas.film_stack("oxide"), thickness_nm=40.0, cos_theta=0.8)
+    >>> rgb = atlas.sample("oxide", oxide.cos_theta, oxide.thickness_nm)
+    >>> bool(abs(rgb - lutbake.reference_rgb(oxide)).max() < 0.01)
+    True
+    """
 
     meta: dict
     image: np.ndarray  # (height, width, 3), as stored
+
+    @classmethod
+    def load(cls, path) -> "Atlas":
+        """Read a scene atlas EXR (refused in one line when it is not a valid lutbake atlas)."""
+        meta, image = read_lut(path, (ATLAS_FORMAT,))
+        return cls(meta, image)
 
     @property
     def materials(self) -> dict:
