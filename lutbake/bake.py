@@ -164,8 +164,6 @@ def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
 
 
 def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:
-    width, height = spec.image_size
-    n_cos, n_opd, _, _ = spec.shape
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
     return {
         "format": FORMAT,
@@ -173,9 +171,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
         "lutbake_version": __version__,
         "content_hash": spec.content_hash,
         "axes": [a.describe() for a in spec.axes],
-        "packing": {"layout": "tiles", "width": width, "height": height,
-                    "tile_x": "cos_theta", "tile_y": "opd_nm", "tiles_x": "eta3", "tiles_y": "kappa3",
-                    "tile_width": n_cos, "tile_height": n_opd},
+        "packing": spec.layout.packing(),
         "constants": {"eta1": spec.eta1, "eta2": spec.eta2},
         "observer": spec.observer,
         "illuminant": illuminant,

@@ -30,6 +30,7 @@ import numpy as np
 
 from . import fileset
 from .fileset import temporary_for
+from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "pack_atlas",
            "write_atlas", "atlas_includes", "write_text_atomic", "atomic_path", "shader_includes", "shader_ident",
@@ -243,10 +244,9 @@ def _check_meta(meta: dict, image: np.ndarray) -> None:
         _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
                  or a["spacing"] == "admittance" and a["name"] == "eta3" and meta["format_version"] >= 2
                  and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
-    n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in axes)
-    packing = meta["packing"]
-    _require(packing["width"] == n_eta3 * n_cos and packing["tile_width"] == n_cos, "packing.width")
-    _require(packing["height"] == n_kappa3 * n_opd and packing["tile_height"] == n_opd, "packing.height")
+    packing, expected = meta["packing"], TileLayout(*(a["count"] for a in axes)).packing()
+    for key in ("width", "height", "tile_width", "tile_height"):
+        _require(packing[key] == expected[key], f"packing.{key}")
     _require(image.shape == (packing["height"], packing["width"], 3), "packing (image size)")
     for key in ("eta1", "eta2"):
         _require(_finite(meta["constants"][key], f"constants.{key}") > 0, f"constants.{key}")

@@ -28,6 +28,7 @@ import numpy as np
 
 from .colorimetry import OBSERVERS, SPACES
 from .errors import ParameterError
+from .layout import _CHUNK_CELLS, TileLayout
 from .points import check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
@@ -46,7 +47,6 @@ METHODS = ("spectral",)
 MAX_COUNT = 1 << 24
 MAX_CELLS = 2_000_000_000
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
-_CHUNK_CELLS = 1 << 20
 # Peak memory, an upper estimate: the process and its libraries, float64 intermediates per cell of a
 # band, and the node-cap screen over (cos θ, η3, κ3). 864 MiB at 1 Mi-cell bands, against 363 MiB
 # (kernel, bench/memory-result.json) and 850 MiB (numpy, bench/b1-result.json) measured.
@@ -269,7 +269,7 @@ class BakeSpec:
         return self.eta1 ** 2 * (1.0 - np.square(cos_theta))
 
     def eta3_columns(self) -> np.ndarray:
-        """η3 of each image column x = i_eta3 · N_cos + i_cos (nodes at that column's cos θ1 node)."""
+        """η3 of each image column, in column order (layout.TileLayout: η3 nodes at the column's cos θ1 node)."""
         cos_t, eta3 = self.axis["cos_theta"].values(), self.axis["eta3"]
         u = np.linspace(0.0, 1.0, eta3.count)[:, None]
         v = np.broadcast_to(eta3.from_unit(u, self.snell2(cos_t)[None, :]), (eta3.count, cos_t.size)).copy()
@@ -277,10 +277,14 @@ class BakeSpec:
         return v.ravel()
 
     @property
+    def layout(self) -> TileLayout:
+        """How the grid is packed into the image (layout.py: the one statement of the tile formula)."""
+        return TileLayout(*self.shape)
+
+    @property
     def image_size(self) -> tuple:
         """(width, height) of the packed image in texels."""
-        n_cos, n_opd, n_eta3, n_kappa3 = self.shape
-        return n_eta3 * n_cos, n_kappa3 * n_opd
+        return self.layout.size
 
     @property
     def ladder(self):
@@ -299,17 +303,15 @@ class BakeSpec:
     def row_levels(self, y0: int, y1: int) -> np.ndarray:
         """Levels of every texel in rows [y0, y1), flat: equal to cell_levels on cell_params,
         but |r21·r23| is evaluated once per (x, κ3) and cycles once per (cos θ, D)."""
-        n_cos, n_opd, _, _ = self.shape
         width, _ = self.image_size
         v = {a.name: a.values() for a in self.axes}
-        x, y = np.arange(width), np.arange(y0, y1)
-        k_index = y // n_opd
+        i_cos, i_opd, _, k_index = self.layout.nodes(np.arange(width), np.arange(y0, y1))
         kappa_rows = np.unique(k_index)
         rt = round_trip_amplitude(self.eta1, self.eta2, self.eta3_columns()[None, :],
-                                  v["kappa3"][kappa_rows][:, None], v["cos_theta"][x % n_cos][None, :])
+                                  v["kappa3"][kappa_rows][:, None], v["cos_theta"][i_cos][None, :])
         rt_rows = rt[np.searchsorted(kappa_rows, k_index)]
-        g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][x % n_cos]).real
-        cycles = v["opd_nm"][y % n_opd][:, None] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
+        g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][i_cos]).real
+        cycles = v["opd_nm"][i_opd][:, None] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
         return self.ladder.level(cycles, rt_rows).ravel()
 
     def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
@@ -325,7 +327,7 @@ class BakeSpec:
         """
         v = {a.name: a.values() for a in self.axes}
         x, kappa3 = (g.ravel() for g in np.meshgrid(np.arange(self.image_size[0]), v["kappa3"], indexing="ij"))
-        cos_t, eta3 = v["cos_theta"][x % v["cos_theta"].size], self.eta3_columns()[x]
+        cos_t, eta3 = v["cos_theta"][self.layout.nodes(x, 0)[0]], self.eta3_columns()[x]
         screen = self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3)
         cols = np.flatnonzero(screen)
         if cols.size == 0:
@@ -339,22 +341,16 @@ class BakeSpec:
 
     def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""
-        width, height = self.image_size
-        rows = max(1, chunk_cells // width)
-        return [(y, min(y + rows, height)) for y in range(0, height, rows)]
+        return self.layout.row_chunks(chunk_cells)
 
     def cell_params(self, y0: int, y1: int):
         """(cos θ1, D, η3, κ3) of every texel in rows [y0, y1), each (y1 − y0, width)."""
-        n_cos, n_opd, _, _ = self.shape
         width, _ = self.image_size
-        x = np.arange(width)
-        y = np.arange(y0, y1)
+        i_cos, i_opd, _, i_kappa3 = self.layout.nodes(np.arange(width)[None, :], np.arange(y0, y1)[:, None])
+        shape = (y1 - y0, width)
         v = {a.name: a.values() for a in self.axes}
-        cos_t = np.broadcast_to(v["cos_theta"][x % n_cos], (y.size, width))
-        eta3 = np.broadcast_to(self.eta3_columns(), (y.size, width))
-        opd = np.broadcast_to(v["opd_nm"][y % n_opd][:, None], (y.size, width))
-        kappa3 = np.broadcast_to(v["kappa3"][y // n_opd][:, None], (y.size, width))
-        return cos_t, opd, eta3, kappa3
+        return (np.broadcast_to(v["cos_theta"][i_cos], shape), np.broadcast_to(v["opd_nm"][i_opd], shape),
+                np.broadcast_to(self.eta3_columns(), shape), np.broadcast_to(v["kappa3"][i_kappa3], shape))
 
     def describe(self) -> dict:
         """The inputs that define the LUT (hashed into ``content_hash``)."""

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
 
@@ -97,14 +98,13 @@ class Lut:
     def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None) -> np.ndarray:
         """Linear RGB (…, 3) at the given film parameters."""
         f_cos, f_opd, f_eta3, f_kappa3 = self.node_coords(cos_theta, opd_nm, eta3, kappa3)
-        n_cos, n_opd, n_eta3, n_kappa3 = (a.count for a in self.axes)
-        i_e, t_e = _lower_node(f_eta3, n_eta3)
-        i_k, t_k = _lower_node(f_kappa3, n_kappa3)
+        layout = TileLayout(*(a.count for a in self.axes))
+        i_e, t_e = _lower_node(f_eta3, layout.n_eta3)
+        i_k, t_k = _lower_node(f_kappa3, layout.n_kappa3)
         corners = {}
         for de in (0, 1):
-            for dk in (0, 1):
-                x = (i_e + de) * n_cos + f_cos
-                y = (i_k + dk) * n_opd + f_opd
+            for dk in (0, 1):  # (cos θ, D) bilinear within the tile of η3 node i_e + de, κ3 node i_k + dk
+                x, y = layout.texel(f_cos, f_opd, i_e + de, i_k + dk)
                 corners[de, dk] = _bilinear(self.image, x, y, filter_bits)
         lower = _lerp(corners[0, 0], corners[1, 0], t_e)
         upper = _lerp(corners[0, 1], corners[1, 1], t_e)

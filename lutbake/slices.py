@@ -107,10 +107,11 @@ def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.
         opd_axis, rows = Axis("opd_nm", float(opd[0]), float(opd[-1]), opd.size), slice(None)
     spec = BakeSpec(eta2=eta2, eta1=stack.eta1, axes=(cos_axis, opd_axis, eta3_axis, kappa3_axis),
                     observer=observer, space=space)
-    n_cos, n_opd = cos_axis.count, opd_axis.count
-    y0 = i_kappa3 * n_opd  # only the rows of the base's κ3 node: at most 2 × 256 × 256 cells
-    band = integrator.bake_rows(spec, y0, y0 + n_opd)
-    return band[rows, i_eta3 * n_cos:(i_eta3 + 1) * n_cos]
+    # Only the rows of the base's κ3 node (at most 2 × 256 × 256 cells), then its η3 tile's columns.
+    layout = spec.layout
+    (x0, y0), (x1, y1) = layout.texel(0, 0, i_eta3, i_kappa3), layout.texel(0, 0, i_eta3 + 1, i_kappa3 + 1)
+    band = integrator.bake_rows(spec, y0, y1)
+    return band[rows, x0:x1]
 
 
 def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer: str, space: str) -> np.ndarray:

@@ -212,7 +212,7 @@ __kernel void bake_rows(
 {
     const int gid = get_global_id(0);
     const int x = gid % width, y = row0 + gid / width;
-    const int i_cos = x % n_cos;
+    const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
                                 opd_lo[i_opd], eta3_column[x], kappa3_axis[i_kappa3], eta1, eta2);
@@ -356,7 +356,7 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
 // The texel's series constants, X and rule (shared by both kernels below).
 #define SERIES_TEXEL                                                                              \
     const int x = gid % width, y = row0 + gid / width;                                           \
-    const int i_cos = x % n_cos, i_eta3 = x / n_cos;                                              \
+    const int i_cos = x % n_cos, i_eta3 = x / n_cos;   /* the tile packing: lutbake/layout.py */  \
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
     __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
     __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);                                  \
