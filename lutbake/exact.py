@@ -39,13 +39,17 @@ from .lutfile import EXACT_FORMAT, FORMAT_VERSION, exr_rows, read_lut, shader_te
 
 __all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
            "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
-           "exact_includes"]
+           "exact_includes", "RGB_WAVELENGTHS_NM", "METALS", "base_rgb"]
 
 TABLE_STEP_NM = 2.0        # linear interpolation error of Ŵ ≤ 3.3e-6 at this step (measured; bound in the header)
 TABLE_TEXELS = 32768       # x from 0 to 65,534 nm: 64 terms of the thickest KHR film at normal incidence
 TABLE_WIDTH = 2048         # WebGL2 and OpenGL ES 3.0 guarantee textures this wide
 DEFAULT_TOLERANCE = 1e-4   # |ΔRGB| the truncation rule allows
 DEFAULT_MAX_TERMS = 64     # the shader's loop cap (a #define the engine may change)
+# Per-channel base indices for lutbake_exact_rgb: a named material's n, k at the dominant wavelengths
+# of the Rec.709 primaries (docs/engines.md measures what this costs against the dispersive truth).
+RGB_WAVELENGTHS_NM = (611.0, 549.0, 464.0)
+METALS = {"Au": "Au", "Ag": "Ag", "Al": "Al", "Cu": "Cu", "Fe": "Fe", "Cr": "main/Cr/Johnson"}
 
 
 @dataclass(frozen=True)
@@ -83,6 +87,14 @@ class ExactResult:
     values: np.ndarray   # (n, 3) linear RGB
     terms: np.ndarray    # (n,) terms taken
     bound: np.ndarray    # (n,) the rule's remainder bound where it stopped (> tolerance: capped or past the table)
+
+
+def base_rgb(name: str):
+    """(η3, κ3), each (3,), of a named material at RGB_WAVELENGTHS_NM."""
+    from .materials import material
+
+    eta, kappa = material(METALS.get(name, name)).index(np.array(RGB_WAVELENGTHS_NM))
+    return np.asarray(eta, float), np.asarray(kappa, float)
 
 
 def table_samples(observer: str = "cie1931", space: str = "rec709") -> np.ndarray:
