@@ -33,24 +33,35 @@ async function loadText(url) {
   return response.text();
 }
 
-// Evaluate `call` (a GLSL expression of vec4 p) at every point; one fragment per point, read back as float.
-// `include` is one URL or a list; `prelude` goes before them (the test's negative control defines
-// LUTBAKE_SCANLINE0_AT_V0 there).
-async function evaluate({ exr, include, call, points, prelude = '' }) {
-  const lut = await new EXRLoader().loadAsync(exr);
+// Evaluate `call` (a GLSL expression of vec4 p, and of q and r when a point has 8 or 12 numbers) at every
+// point; one fragment per point, read back as float. `include` is one URL or a list; `prelude` goes before
+// them (the test's negative control defines LUTBAKE_SCANLINE0_AT_V0 there). `float`: load the EXR as 32-bit
+// floats read with texelFetch (NearestFilter: WebGL2 cannot filter float32 textures linearly without
+// OES_texture_float_linear), as the exact mode's table needs.
+async function evaluate({ exr, include, call, points, prelude = '', float = false }) {
+  const loader = new EXRLoader();
+  if (float) loader.setDataType(THREE.FloatType);
+  const lut = await loader.loadAsync(exr);
+  if (float) lut.minFilter = lut.magFilter = THREE.NearestFilter;
   const width = 64;
   const height = Math.ceil(points.length / width);
-  const data = new Float32Array(width * height * 4);
-  points.forEach((p, i) => data.set(p, 4 * i));
-  const pointTexture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
-  pointTexture.needsUpdate = true;
+  const names = ['p', 'q', 'r'].slice(0, Math.ceil(points[0].length / 4));
+  const pointTextures = names.map((_, k) => {
+    const data = new Float32Array(width * height * 4);
+    points.forEach((p, i) => data.set(p.slice(4 * k, 4 * k + 4), 4 * i));
+    const texture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
+    texture.needsUpdate = true;
+    return texture;
+  });
+  const textures = { lut };
+  names.forEach((name, k) => { textures[`points_${name}`] = pointTextures[k]; });
   const material = lutbakeMaterial({
-    textures: { lut, points_in: pointTexture },
+    textures,
     includes: [prelude, ...(await Promise.all([].concat(include).map(loadText)))],
     vertexShader: FULLSCREEN_VS,
     body: `layout(location = 0) out highp vec4 colour;
     void main() {
-      highp vec4 p = texelFetch(points_in, ivec2(gl_FragCoord.xy), 0);
+      ${names.map((n) => `highp vec4 ${n} = texelFetch(points_${n}, ivec2(gl_FragCoord.xy), 0);`).join('\n')}
       colour = vec4(${call}, 1.0);
     }`,
   });
@@ -69,7 +80,7 @@ async function evaluate({ exr, include, call, points, prelude = '' }) {
   renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
   const rgb = [];
   for (let i = 0; i < points.length; i++) rgb.push(Array.from(pixels.subarray(4 * i, 4 * i + 3)));
-  [lut, pointTexture, target, material].forEach((o) => o.dispose());
+  [lut, ...pointTextures, target, material].forEach((o) => o.dispose());
   return { exr, texture: { width: lut.image.width, height: lut.image.height, type: lut.type, flipY: lut.flipY }, rgb };
 }
 
