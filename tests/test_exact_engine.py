@@ -18,6 +18,9 @@ from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
 from test_engine import ENGINE, ROOT, require_engine
 
+sys.path.insert(0, str(ROOT / "docs"))
+import make_dropin  # noqa: E402  (the side-by-side page of docs/engines.md)
+
 TABLE = ROOT / "engine" / "exact" / "lutbake-exact.exr"
 PER_BASE = 250
 RGB_CALL = "lutbake_exact_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
@@ -115,3 +118,26 @@ def test_the_engine_matches_the_ground_truth(exact_run):
 def test_the_check_fails_with_the_other_row_order(exact_run):
     got, expected, _, _, _ = exact_run
     assert np.abs(got["control"] - expected).max() > 0.1
+
+
+@pytest.fixture(scope="module")
+def dropin(tmp_path_factory):
+    """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)."""
+    require_engine()
+    image = tmp_path_factory.mktemp("dropin") / "dropin.png"
+    rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
+    return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
+
+
+def test_the_drop_in_exact_mode_matches_the_ground_truth(dropin):
+    image, rows = dropin
+    assert image.stat().st_size > 10_000
+    for label, *_ in make_dropin.MATERIALS:
+        worst, n = rows[(label, "exact")]
+        assert n >= 500 and worst <= 0.1, (label, worst)
+
+
+def test_the_drop_in_check_can_fail(dropin):
+    """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
+    _, rows = dropin
+    assert min(rows[(label, "three")][0] for label, *_ in make_dropin.MATERIALS) > 1.0
