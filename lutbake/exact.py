@@ -124,11 +124,12 @@ def _interpolation_bound(mass: np.ndarray) -> float:
     return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * half) ** 2 * mass.max())
 
 
-def table_metadata(observer: str, space: str, precision: str, stored: np.ndarray,
+def table_metadata(observer: str, space: str, precision: str, exact: np.ndarray, stored: np.ndarray,
                    tolerance: float, max_terms: int) -> dict:
+    """The header: ``exact`` the float64 samples, ``stored`` the image as written."""
     wt = weight_transform(observer, space)
-    exact = table_samples(observer, space)
-    digest = hashlib.sha256(json.dumps([observer, space, precision, TABLE_STEP_NM, TABLE_TEXELS]).encode())
+    digest = hashlib.sha256(json.dumps([__version__, observer, space, precision, TABLE_STEP_NM, TABLE_TEXELS,
+                                        repr(tolerance), max_terms]).encode())
     return {
         "format": EXACT_FORMAT,
         "format_version": FORMAT_VERSION,
@@ -165,9 +166,10 @@ def write_exact_table(out_path, observer: str = "cie1931", space: str = "rec709"
     if not (1 <= max_terms <= 4096):
         raise ValueError(f"--max-terms {max_terms} must lie in [1, 4096]")
     _check_writable(out_path)
-    image = _pack(table_samples(observer, space))
+    exact = table_samples(observer, space)
+    image = _pack(exact)
     stored = image.astype(np.float16 if precision == "half" else np.float32)
-    meta = table_metadata(observer, space, precision, stored, tolerance, max_terms)
+    meta = table_metadata(observer, space, precision, exact, stored, tolerance, max_terms)
     with open_set(out_path.parent, out_path.name) as files:
         with exr_rows(files.temp(out_path), image.shape[1], image.shape[0], meta, precision) as exr:
             exr.write_rows(image)

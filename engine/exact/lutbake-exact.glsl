@@ -1,5 +1,5 @@
 // lutbake exact thin-film reflectance (GLSL: ES 3.00 / WebGL2, 3.30+, Vulkan) for lutbake-exact.exr
-// content hash 5f453858b9726669; linear rec709 RGB, observer cie1931.
+// content hash d347f1bbe9cad148; linear rec709 RGB, observer cie1931.
 // Bind lutbake-exact.exr as a float (or half) RGB texture; it is read with texelFetch only (no filtering needed).
 // Call: lutbake_exact(table, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3)            (one base index)
 //       lutbake_exact_rgb(table, cos_theta, thickness_nm, eta1, eta2, eta3_rgb, kappa3_rgb) (per channel)
