@@ -5,7 +5,7 @@
 //       lutbake_exact_rgb(table, cos_theta, thickness_nm, eta1, eta2, eta3_rgb, kappa3_rgb) (per channel)
 // It sums the Fourier series of the Airy reflectance (docs/spectral.md): stops when the bound on the
 // dropped terms is <= LUTBAKE_EXACT_TOLERANCE, at LUTBAKE_EXACT_MAX_TERMS terms, or at the table's end
-// (define either before this include to change it). Each term: 4 texel fetches and ~50 ALU.
+// (define either before this include to change it). Each term: 4 texel fetches, ~100 scalar operations.
 // Needs a propagating film: eta2 >= eta1 sin(theta1) (always so for a film in air).
 // Row order as for LUTs (docs/lut-format.md): v = 0 is the EXR's last scanline, as three.js's EXRLoader
 // uploads it. If your loader puts scanline 0 at v = 0, #define LUTBAKE_SCANLINE0_AT_V0 1 first.
