@@ -1,6 +1,7 @@
 // Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
 // Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
+//        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/test_exact_engine.py)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
@@ -84,7 +85,19 @@ if (command === 'evaluate') {
     }, labels);
     writeAtomic(output, await page.locator('canvas').screenshot());
   });
+} else if (command === 'dropin') {
+  const spec = JSON.parse(readFileSync(input, 'utf8'));
+  const result = await withPage(async (page, errors) => {
+    try {
+      const out = await page.evaluate((s) => window.lutbakeDropin(s), spec);
+      writeAtomic(process.argv[5], await page.locator('body > canvas').last().screenshot());
+      return out;
+    } catch (e) {
+      throw new Error(`${e.message}\n${errors.join('\n')}`);
+    }
+  });
+  writeAtomic(output, JSON.stringify(result));
 } else {
-  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png');
+  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png');
   process.exit(2);
 }

@@ -33,24 +33,35 @@ async function loadText(url) {
   return response.text();
 }
 
-// Evaluate `call` (a GLSL expression of vec4 p) at every point; one fragment per point, read back as float.
-// `include` is one URL or a list; `prelude` goes before them (the test's negative control defines
-// LUTBAKE_SCANLINE0_AT_V0 there).
-async function evaluate({ exr, include, call, points, prelude = '' }) {
-  const lut = await new EXRLoader().loadAsync(exr);
+// Evaluate `call` (a GLSL expression of vec4 p, and of q and r when a point has 8 or 12 numbers) at every
+// point; one fragment per point, read back as float. `include` is one URL or a list; `prelude` goes before
+// them (the test's negative control defines LUTBAKE_SCANLINE0_AT_V0 there). `float`: load the EXR as 32-bit
+// floats read with texelFetch (NearestFilter: WebGL2 cannot filter float32 textures linearly without
+// OES_texture_float_linear), as the exact mode's table needs.
+async function evaluate({ exr, include, call, points, prelude = '', float = false }) {
+  const loader = new EXRLoader();
+  if (float) loader.setDataType(THREE.FloatType);
+  const lut = await loader.loadAsync(exr);
+  if (float) lut.minFilter = lut.magFilter = THREE.NearestFilter;
   const width = 64;
   const height = Math.ceil(points.length / width);
-  const data = new Float32Array(width * height * 4);
-  points.forEach((p, i) => data.set(p, 4 * i));
-  const pointTexture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
-  pointTexture.needsUpdate = true;
+  const names = ['p', 'q', 'r'].slice(0, Math.ceil(points[0].length / 4));
+  const pointTextures = names.map((_, k) => {
+    const data = new Float32Array(width * height * 4);
+    points.forEach((p, i) => data.set(p.slice(4 * k, 4 * k + 4), 4 * i));
+    const texture = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
+    texture.needsUpdate = true;
+    return texture;
+  });
+  const textures = { lut };
+  names.forEach((name, k) => { textures[`points_${name}`] = pointTextures[k]; });
   const material = lutbakeMaterial({
-    textures: { lut, points_in: pointTexture },
+    textures,
     includes: [prelude, ...(await Promise.all([].concat(include).map(loadText)))],
     vertexShader: FULLSCREEN_VS,
     body: `layout(location = 0) out highp vec4 colour;
     void main() {
-      highp vec4 p = texelFetch(points_in, ivec2(gl_FragCoord.xy), 0);
+      ${names.map((n) => `highp vec4 ${n} = texelFetch(points_${n}, ivec2(gl_FragCoord.xy), 0);`).join('\n')}
       colour = vec4(${call}, 1.0);
     }`,
   });
@@ -69,7 +80,7 @@ async function evaluate({ exr, include, call, points, prelude = '' }) {
   renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
   const rgb = [];
   for (let i = 0; i < points.length; i++) rgb.push(Array.from(pixels.subarray(4 * i, 4 * i + 3)));
-  [lut, pointTexture, target, material].forEach((o) => o.dispose());
+  [lut, ...pointTextures, target, material].forEach((o) => o.dispose());
   return { exr, texture: { width: lut.image.width, height: lut.image.height, type: lut.type, flipY: lut.flipY }, rgb };
 }
 
@@ -140,4 +151,87 @@ window.lutbakeView = async (spheres, { size = 256 } = {}) => {
   }
   if (shaderErrors.length) throw new Error(`shader does not compile: ${shaderErrors.join('\n')}`);
   return labels;
+};
+
+// --- drop-in comparison: MeshPhysicalMaterial's iridescence by three.js, lutbake exact and a lutbake LUT ---
+// For each material and mode a sphere is rendered (orthographic, size² pixels) with the film's Fresnel term as
+// output, read back as float, together with the parameters each pixel used; a 2D canvas shows the terms
+// (sRGB-encoded) in a grid, one row per mode and a row of ground-truth swatches the caller computed.
+const DROPIN_MODES = ['three', 'exact', 'lut'];
+
+async function renderOutput(material, size, output) {
+  const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
+  const scene = new THREE.Scene();
+  scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 256, 128), material));
+  scene.add(new THREE.DirectionalLight(0xffffff, 1.0));
+  const camera = new THREE.OrthographicCamera(-1.02, 1.02, 1.02, -1.02, 0.1, 10);
+  camera.position.set(0, 0, 3);
+  renderer.setRenderTarget(target);
+  renderer.setClearColor(0x000000, 0);
+  renderer.clear();
+  renderer.render(scene, camera);
+  renderer.setRenderTarget(null);
+  if (shaderErrors.length) throw new Error(`shader does not compile: ${shaderErrors.join('\n')}`);
+  const pixels = new Float32Array(size * size * 4);
+  renderer.readRenderTargetPixels(target, 0, 0, size, size, pixels);
+  target.dispose();
+  return pixels;
+}
+
+function physicalMaterial(m) {
+  const material = new THREE.MeshPhysicalMaterial({
+    metalness: m.metal ? 1 : 0, roughness: 0.3, ior: m.ior, iridescence: 1, iridescenceIOR: m.iridescenceIOR,
+    iridescenceThicknessMinimum: m.thickness, iridescenceThicknessMaximum: m.thickness });
+  // three's metallic base is its colour as F0 (the artist mapping); lutbake takes the metal's n, k.
+  if (m.metal) material.color.setRGB(...m.metal.f0, THREE.LinearSRGBColorSpace);
+  return material;
+}
+
+function encode(v) { return 255 * Math.min(1, Math.max(0, v <= 0.0031308 ? 12.92 * v : 1.055 * v ** (1 / 2.4) - 0.055)); }
+
+window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) => {
+  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut } = await import('./lutbake-iridescence.js');
+  const exact = await loadLutbakeExact(materials[0].exact);
+  const canvas = document.createElement('canvas');
+  const label = 90;
+  canvas.width = label + size * materials.length;
+  canvas.height = 24 + size * (DROPIN_MODES.length + 1);
+  document.body.appendChild(canvas);
+  const ctx = canvas.getContext('2d');
+  ctx.fillStyle = '#202020';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  ctx.fillStyle = '#ddd';
+  ctx.font = '12px sans-serif';
+  ['three.js', 'lutbake exact', 'lutbake LUT', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
+  const cells = [];
+  for (const [j, m] of materials.entries()) {
+    ctx.fillStyle = '#ddd';
+    ctx.fillText(m.label, label + size * j + 4, 16);
+    const lut = await loadLutbakeLut(m.lut);
+    for (const [i, mode] of DROPIN_MODES.entries()) {
+      const options = { mode, exact, lut, metal: m.metal || undefined };
+      const fresnel = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'fresnel' }), size, 'fresnel');
+      const params = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'parameters' }), size, 'parameters');
+      const image = ctx.createImageData(size, size);
+      const samples = [];
+      for (let y = 0; y < size; y++) {
+        for (let x = 0; x < size; x++) {
+          const k = 4 * ((size - 1 - y) * size + x);   // WebGL rows are bottom-up
+          const o = 4 * (y * size + x);
+          if (fresnel[k + 3] === 0) { image.data.set([32, 32, 32, 255], o); continue; }
+          image.data.set([encode(fresnel[k]), encode(fresnel[k + 1]), encode(fresnel[k + 2]), 255], o);
+          if (x % stride === 0 && y % stride === 0) samples.push([...fresnel.subarray(k, k + 3), ...params.subarray(k, k + 3)]);
+        }
+      }
+      ctx.putImageData(image, label + size * j, 24 + size * i);
+      cells.push({ material: m.label, mode, samples });
+    }
+    // Ground-truth swatches: one stripe per cos theta, normal incidence on the left.
+    const w = size / swatches[j].length;
+    swatches[j].forEach((rgb, s) => {
+      ctx.fillStyle = `rgb(${rgb.map(encode).join(',')})`;
+      ctx.fillRect(label + size * j + s * w, 24 + size * DROPIN_MODES.length, Math.ceil(w), size);
+    });
+  }
+  return { three: THREE.REVISION, cells };
 };

@@ -526,6 +526,36 @@ def _bake_summary(result):
             "capped_error_rgb_max": result.capped_error_rgb_max}
 
 
+@cli.command("exact-table")
+@colour_options
+@click.option("--out", "out", type=click.Path(), required=True, help="FILE.exr (with FILE.json, .glsl, .hlsl).")
+@click.option("--precision", type=click.Choice(["float", "half"]), default="float", show_default=True,
+              help="Storage precision of the table (half: ~5e-4 per value, see docs/engines.md).")
+@click.option("--tolerance", type=float, default=None,
+              help="The includes' default truncation tolerance in |ΔRGB| (default 1e-4).")
+@click.option("--max-terms", type=int, default=None, help="The includes' default term cap (default 64).")
+@click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
+def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_json):
+    """Write the exact runtime mode's table (Fourier transform of the colour weights) and its includes.
+
+    Shaders call lutbake_exact(table, cos θ, d, η1, η2, η3, κ3): the exact series per pixel, any
+    film and base index, no LUT domain (docs/engines.md).
+    """
+    from .exact import DEFAULT_MAX_TERMS, DEFAULT_TOLERANCE, write_exact_table
+
+    if Path(out).suffix.lower() != ".exr":
+        raise BadInput(f"--out {out!r} must end in .exr")
+    meta = write_exact_table(out, observer, space, precision, DEFAULT_TOLERANCE if tolerance is None else tolerance,
+                             DEFAULT_MAX_TERMS if max_terms is None else max_terms)
+    if as_json:
+        echo_json(meta)
+        return
+    table = meta["table"]
+    click.echo(f"wrote {out} ({table['texels']} texels, step {table['step_nm']:g} nm to {table['x_max_nm']:g} nm, "
+               f"{precision}; interpolation ≤ {meta['error']['interpolation_bound']:.1e}, "
+               f"storage ≤ {meta['error']['storage_max']:.1e}) with .json, .glsl, .hlsl")
+
+
 @cli.command("inspect")
 @click.argument("lut", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")

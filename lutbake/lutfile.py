@@ -32,15 +32,17 @@ from . import fileset
 from .fileset import temporary_for
 from .layout import TileLayout
 
-__all__ = ["FORMAT", "ATLAS_FORMAT", "FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut", "pack_atlas",
-           "write_atlas", "atlas_includes", "write_text_atomic", "atomic_path", "shader_includes", "shader_ident",
-           "shader_template", "flat_attributes", "MAX_TEXTURE_SIZE"]
+__all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
+           "pack_atlas", "write_atlas", "atlas_includes", "write_text_atomic", "atomic_path", "shader_includes",
+           "shader_ident", "shader_template", "flat_attributes", "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
+EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
 # LUT v2 adds the η3 axis's "admittance" spacing (docs/lut-format.md); v1 LUTs (no such axis) still read.
 FORMAT_VERSION = 2
-_READABLE_VERSIONS = {FORMAT: (1, 2), ATLAS_FORMAT: (1,)}
+EXACT_FORMAT_VERSION = 1
+_READABLE_VERSIONS = {FORMAT: (1, 2), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -173,7 +175,8 @@ def read_lut(path, formats=(FORMAT,)):
         known = " or ".join(f"{f} v{'/'.join(map(str, _READABLE_VERSIONS[f]))}" for f in formats)
         raise ValueError(f"{str(path)!r} is not a {known} file")
     try:
-        (_check_meta if meta["format"] == FORMAT else _check_atlas_meta)(meta, image)
+        {FORMAT: _check_meta, ATLAS_FORMAT: _check_atlas_meta, EXACT_FORMAT: _check_exact_meta}[meta["format"]](
+            meta, image)
     except (KeyError, TypeError, ValueError) as exc:
         field = exc.args[0] if exc.args else "?"
         raise ValueError(f"{str(path)!r}: metadata field {field} is missing or invalid") from None
@@ -271,6 +274,21 @@ def _check_atlas_meta(meta: dict, image: np.ndarray) -> None:
         th = s["axes"]["thickness_nm"]
         _require(_finite(th["max"], f"slices[{i}].axes.thickness_nm.max")
                  >= _finite(th["min"], f"slices[{i}].axes.thickness_nm.min"), f"slices[{i}].axes.thickness_nm")
+    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
+
+
+def _check_exact_meta(meta: dict, image: np.ndarray) -> None:
+    """The exact table's schema (docs/lut-format.md): its layout matches the image, finite bounds."""
+    table = meta["table"]
+    _require(_finite(table["step_nm"], "table.step_nm") > 0, "table.step_nm")
+    _require(_integer(table["width"]) and _integer(table["rows_per_part"]) and _integer(table["texels"])
+             and table["texels"] == table["width"] * table["rows_per_part"] >= 2, "table.texels")
+    _require(image.shape == (2 * table["rows_per_part"], table["width"], 3), "table (image size)")
+    _finite(table["nu0_per_nm"], "table.nu0_per_nm")
+    for key in ("mass", "edge", "variation"):
+        _require(_finite(meta["tail"][key], f"tail.{key}") >= 0, f"tail.{key}")
+    _require(0 < _finite(meta["include"]["tolerance"], "include.tolerance") < 1, "include.tolerance")
+    _require(_integer(meta["include"]["max_terms"]) and meta["include"]["max_terms"] >= 1, "include.max_terms")
     _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
 
 

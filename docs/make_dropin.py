@@ -1,0 +1,119 @@
+"""The three.js iridescence drop-in side by side (docs/img/dropin.png, the table in docs/engines.md).
+
+MeshPhysicalMaterial spheres with KHR_materials_iridescence parameters, their film Fresnel term by three.js's
+built-in evalIridescence, by lutbake's exact mode and by a shipped lutbake LUT (engine/lutbake-iridescence.js),
+read back per pixel with the parameters each pixel used, against the ground truth at those parameters
+(constant indices: the dielectric's ior, the metal's n, k at 611/549/464 nm per channel) and, for metals,
+against the dispersive metal (its n, k at every wavelength): what the per-channel mapping costs.
+
+Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium)
+"""
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from lutbake.colorimetry import delta_e00  # noqa: E402
+from lutbake.exact import METALS, base_rgb  # noqa: E402
+from lutbake.points import FilmPoints  # noqa: E402
+from lutbake.reference import reference_colour  # noqa: E402
+
+IMAGE = ROOT / "docs" / "img" / "dropin.png"
+# (label, iridescenceIOR, thickness nm, base: an ior or a metal's name, LUT)
+MATERIALS = [
+    ("soap bubble, 400 nm", 1.33, 400.0, 1.0, "luts/lutbake-eta2-1.33"),
+    ("soap on glass, 300 nm", 1.33, 300.0, 1.5, "luts/lutbake-eta2-1.33"),
+    ("oxide on Cu, 150 nm", 2.0, 150.0, "Cu", "luts/lutbake-eta2-2.00"),
+    ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00"),
+]
+SWATCH_COS = np.linspace(1.0, 0.05, 16)
+
+
+def _base(base):
+    """(η3, κ3), each (3,), per channel."""
+    if isinstance(base, float):
+        return np.full(3, base), np.zeros(3)
+    return base_rgb(base)
+
+
+def truth(cos, thickness, eta2, base) -> np.ndarray:
+    """Ground truth with constant indices per channel (channel c with the base's c-th n, k)."""
+    eta3, kappa3 = _base(base)
+    out = np.empty((np.size(cos), 3))
+    for c in range(3):
+        pts = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c],
+                               kappa3=kappa3[c])
+        out[:, c] = reference_colour(pts).values[:, c]
+    return out
+
+
+def dispersive_truth(cos, thickness, eta2, metal) -> np.ndarray:
+    pts = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, base=METALS[metal])
+    return reference_colour(pts).values
+
+
+def spec() -> dict:
+    materials, swatches = [], []
+    for label, eta2, thickness, base, lut in MATERIALS:
+        m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
+             "exact": "/engine/exact/lutbake-exact", "ior": base if isinstance(base, float) else 1.5}
+        if not isinstance(base, float):
+            n, k = base_rgb(base)
+            m["metal"] = {"eta": n.tolist(), "kappa": k.tolist(),
+                          "f0": (((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2)).tolist()}
+        materials.append(m)
+        swatches.append(truth(SWATCH_COS, thickness, eta2, base).tolist())
+    return {"materials": materials, "swatches": swatches}
+
+
+def run(image: Path) -> dict:
+    """Render in headless Chromium; {(material, mode): (fresnel (n, 3), parameters (n, 3))}."""
+    with tempfile.TemporaryDirectory() as tmp:
+        job, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
+        job.write_text(json.dumps(spec()))
+        proc = subprocess.run(["node", str(ROOT / "engine" / "harness.mjs"), "dropin", str(job), str(result),
+                               str(image)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+        if proc.returncode:
+            raise RuntimeError(proc.stderr[-4000:])
+        cells = json.loads(result.read_text())["cells"]
+    out = {}
+    for cell in cells:
+        s = np.array(cell["samples"], float)
+        out[(cell["material"], cell["mode"])] = (s[:, :3], s[:, 3:])
+    return out
+
+
+def errors(cells: dict, dispersive: bool = True) -> list:
+    """Rows (material, mode, max ΔE00, p99 ΔE00 vs constant-index truth, max ΔE00 vs the dispersive metal
+    (None for dielectrics or without ``dispersive``), pixels)."""
+    rows = []
+    for label, eta2, _, base, _ in MATERIALS:
+        fresnel, params = cells[(label, "exact")]
+        cos, thickness = params[:, 0], params[:, 1]
+        ref = truth(cos, thickness, eta2, base)
+        disp = None if isinstance(base, float) or not dispersive else dispersive_truth(cos, thickness, eta2, base)
+        for mode in ("three", "exact", "lut"):
+            rgb, p = cells[(label, mode)]
+            assert np.allclose(p, params, atol=1e-6), "modes rendered different pixels"
+            de = delta_e00(rgb, ref)
+            rows.append((label, mode, float(de.max()), float(np.percentile(de, 99)),
+                         None if disp is None else float(delta_e00(rgb, disp).max()), len(rgb)))
+    return rows
+
+
+def main():
+    rows = errors(run(IMAGE))
+    print("| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|")
+    for label, mode, worst, p99, disp, n in rows:
+        print(f"| {label} | {mode} | {worst:.3f} | {p99:.3f} | {'—' if disp is None else f'{disp:.2f}'} | {n} |")
+
+
+if __name__ == "__main__":
+    main()

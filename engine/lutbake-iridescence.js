@@ -1,0 +1,98 @@
+// lutbake iridescence for three.js: a drop-in replacement of MeshPhysicalMaterial's thin-film Fresnel term
+// (three's evalIridescence, KHR_materials_iridescence) by lutbake's exact series or a baked lutbake LUT.
+// The glTF parameters keep their meaning: iridescence, iridescenceIOR (the film's index) and
+// iridescenceThicknessMinimum/Maximum and iridescenceThicknessMap (the film's thickness in nm). The base under the film:
+// the material's `ior` for dielectrics; for metals (metalness 1) the per-channel n, k you pass as
+// `metal` (`lutbake exact-table` users: lutbake's named metals at 611/549/464 nm, docs/engines.md).
+//
+//   import { loadLutbakeExact, lutbakeIridescence } from './lutbake-iridescence.js';
+//   const exact = await loadLutbakeExact('engine/exact/lutbake-exact');   // .exr + .glsl of `lutbake exact-table`
+//   lutbakeIridescence(material, { exact });                                // dielectric base: material.ior
+//   lutbakeIridescence(material, { exact, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
+//   lutbakeIridescence(material, { lut: await loadLutbakeLut('luts/lutbake-eta2-1.33') });
+//
+// `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour;
+// 'parameters' writes (cos theta, thickness nm, iridescenceIOR) the pixel used. Set it also with mode 'three'
+// to read three.js's own term.
+import * as THREE from 'three';
+import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
+
+async function loadText(url) {
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  return response.text();
+}
+
+// The exact mode's table as float32 texels read with texelFetch (no filtering, so no float-linear extension).
+export async function loadLutbakeExact(stem) {
+  const loader = new EXRLoader().setDataType(THREE.FloatType);
+  const table = await loader.loadAsync(`${stem}.exr`);
+  table.minFilter = table.magFilter = THREE.NearestFilter;
+  return { table, include: await loadText(`${stem}.glsl`) };
+}
+
+// A baked LUT (EXRLoader's defaults: half float, linear filtering) and its include; `ident` is its constant.
+export async function loadLutbakeLut(stem) {
+  const table = await new EXRLoader().loadAsync(`${stem}.exr`);
+  const include = await loadText(`${stem}.glsl`);
+  return { table, include, ident: include.match(/const LutbakeLut (\w+) =/)[1] };
+}
+
+// GLSL for the film's Fresnel term at (dotNVi, material): three's iridescenceIOR and thickness, base from
+// material.ior (dielectric) or the lutbakeMetal* uniforms (metallic), one line per base.
+function fresnelTerms(mode, lut) {
+  if (mode === 'exact') {
+    return [
+      'lutbake_exact(lutbakeTable, dotNVi, material.iridescenceThickness, 1.0, material.iridescenceIOR, material.ior, 0.0)',
+      'lutbake_exact_rgb(lutbakeTable, dotNVi, material.iridescenceThickness, 1.0, material.iridescenceIOR, lutbakeMetalEta, lutbakeMetalKappa)',
+    ];
+  }
+  // A LUT holds one film index: iridescenceIOR must equal its eta2 (checked on the host).
+  const at = (eta, kappa) => `lutbake_sample(lutbakeTable, ${lut.ident}, dotNVi, 2.0 * ${lut.ident}.eta2 * material.iridescenceThickness, ${eta}, ${kappa})`;
+  return [
+    at('material.ior', '0.0'),
+    `vec3(${at('lutbakeMetalEta.r', 'lutbakeMetalKappa.r')}.r, ${at('lutbakeMetalEta.g', 'lutbakeMetalKappa.g')}.g, ${at('lutbakeMetalEta.b', 'lutbakeMetalKappa.b')}.b)`,
+  ];
+}
+
+const OUTPUTS = { fresnel: 'vec4(material.iridescenceFresnel, 1.0)',
+                  parameters: 'vec4(dotNVi, material.iridescenceThickness, material.iridescenceIOR, 1.0)' };
+
+export function lutbakeIridescence(material, { exact = null, lut = null, mode = exact ? 'exact' : lut ? 'lut' : 'three',
+                                               metal = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] }, output = null } = {}) {
+  const source = mode === 'exact' ? exact : lut;
+  if (mode !== 'three' && !source) throw new Error(`lutbakeIridescence: mode '${mode}' needs its table`);
+  if (mode === 'lut') {
+    const eta2 = Number(source.include.match(/film eta2 = ([0-9.]+)/)[1]);
+    if (Math.abs(material.iridescenceIOR - eta2) > 1e-6) {
+      throw new Error(`lutbakeIridescence: the LUT is baked for iridescenceIOR ${eta2}, the material has ${material.iridescenceIOR}`);
+    }
+  }
+  material.onBeforeCompile = (shader) => {
+    let fragment = shader.fragmentShader;
+    if (mode !== 'three') {
+      const [dielectric, metallic] = fresnelTerms(mode, source);
+      shader.uniforms.lutbakeTable = { value: source.table };
+      shader.uniforms.lutbakeMetalEta = { value: new THREE.Vector3(...metal.eta) };
+      shader.uniforms.lutbakeMetalKappa = { value: new THREE.Vector3(...metal.kappa) };
+      const begin = THREE.ShaderChunk.lights_fragment_begin
+        .replace(/evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.specularColor \)/, dielectric)
+        .replace(/evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.diffuseColor \)/, metallic);
+      if (begin.includes('evalIridescence')) throw new Error('lutbakeIridescence: three.js changed lights_fragment_begin');
+      fragment = fragment
+        .replace('#include <iridescence_fragment>', `#include <iridescence_fragment>
+uniform highp sampler2D lutbakeTable;
+uniform highp vec3 lutbakeMetalEta;
+uniform highp vec3 lutbakeMetalKappa;
+${source.include}`)
+        .replace('#include <lights_fragment_begin>', begin);
+    }
+    if (output) fragment = fragment.replace('#include <dithering_fragment>', `#include <dithering_fragment>
+  gl_FragColor = ${OUTPUTS[output]};`);
+    shader.fragmentShader = fragment;
+  };
+  // Programs are cached by this key: materials patched differently must not share one.
+  material.customProgramCacheKey = () => `lutbake:${mode}:${output}:${source ? source.include.length : 0}`;
+  material.needsUpdate = true;
+  return material;
+}

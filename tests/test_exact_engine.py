@@ -1,0 +1,143 @@
+"""The exact mode in a real engine: three.js in headless Chromium (engine/harness.mjs, engine/page.js) runs the
+shipped include engine/exact/lutbake-exact.glsl, unmodified, on the shipped table at 2,500 points over the
+KHR_materials_iridescence range (d 100–400 nm; η2 1.3 and 1.2, 1.5, 2.0; dielectric bases η3 1.0–2.5 and
+Au, Ag, Al, Cu, Fe, Cr by per-channel n, k) into a float render target. It must match the float64
+evaluation of the same math (exact.exact_colour) to 1e-4 and the ground truth to max ΔE00 ≤ 0.1."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lutbake.colorimetry import delta_e00
+from lutbake.exact import METALS, base_rgb, exact_colour, read_exact_table
+from lutbake.points import FilmPoints
+from lutbake.reference import reference_colour
+from test_engine import ENGINE, ROOT, require_engine
+
+sys.path.insert(0, str(ROOT / "docs"))
+import make_dropin  # noqa: E402  (the side-by-side page of docs/engines.md)
+
+TABLE = ROOT / "engine" / "exact" / "lutbake-exact.exr"
+PER_BASE = 250
+RGB_CALL = "lutbake_exact_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
+SCALAR_CALL = "lutbake_exact(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
+
+
+def khr_points(seed=14):
+    """(cos θ, d, η2, η3 (n, 3), κ3 (n, 3), base name) rounded to float32, as the GPU receives them."""
+    rng = np.random.default_rng(seed)
+    bases = ["dielectric"] * 4 + list(METALS)
+    n = PER_BASE * len(bases)
+    cos = rng.uniform(0.0, 1.0, n)
+    kind = rng.random(n)
+    cos[kind < 0.05], cos[(kind >= 0.05) & (kind < 0.1)] = 0.0, 1.0
+    thickness = rng.uniform(100.0, 400.0, n)
+    eta2 = np.where(rng.random(n) < 0.7, 1.3, rng.choice([1.2, 1.5, 2.0], n))
+    name = np.repeat(bases, PER_BASE)
+    eta3, kappa3 = np.empty((n, 3)), np.zeros((n, 3))
+    dielectric = name == "dielectric"
+    eta3[dielectric] = rng.uniform(1.0, 2.5, dielectric.sum())[:, None]
+    eta3[np.flatnonzero(dielectric)[:8]] = 1.0   # the bare-ambient base: the hardest dielectric
+    for metal in METALS:
+        eta3[name == metal], kappa3[name == metal] = base_rgb(metal)
+    f32 = [np.float32(v).astype(float) for v in (cos, thickness, eta2, eta3, kappa3)]
+    return (*f32, name)
+
+
+def float64_exact(table, cos, thickness, eta2, eta3, kappa3):
+    """exact_colour per film index (it takes one η2 per call)."""
+    values, terms = np.empty((cos.size, 3)), np.empty(cos.size, int)
+    for e2 in np.unique(eta2):
+        at = eta2 == e2
+        result = exact_colour(table, cos[at], thickness[at], 1.0, e2, eta3[at], kappa3[at])
+        values[at], terms[at] = result.values, result.terms
+    return values, terms
+
+
+def ground_truth(cos, thickness, eta2, eta3, kappa3):
+    out = np.empty((cos.size, 3))
+    for c in range(3):
+        pts = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[:, c],
+                               kappa3=kappa3[:, c])
+        out[:, c] = reference_colour(pts).values[:, c]
+    return out
+
+
+def run_jobs(folder: Path, jobs: dict) -> dict:
+    (folder / "jobs.json").write_text(json.dumps(list(jobs.values())))
+    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
+                           str(folder / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return dict(zip(jobs, json.loads((folder / "result.json").read_text())["results"]))
+
+
+@pytest.fixture(scope="module")
+def exact_run(tmp_path_factory):
+    require_engine()
+    cos, thickness, eta2, eta3, kappa3, name = khr_points()
+    points = [[c, d, e, 0.0, *n, 0.0, *k, 0.0] for c, d, e, n, k in zip(cos, thickness, eta2, eta3, kappa3)]
+    job = {"exr": f"/{TABLE.relative_to(ROOT)}", "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
+           "float": True, "points": points}
+    dielectric = [p for p, n in zip(points, name) if n == "dielectric"]
+    jobs = {"rgb": {**job, "call": RGB_CALL}, "scalar": {**job, "call": SCALAR_CALL, "points": dielectric},
+            "control": {**job, "call": RGB_CALL, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}}
+    got = run_jobs(tmp_path_factory.mktemp("exact-engine"), jobs)
+    table = read_exact_table(TABLE)
+    expected, terms = float64_exact(table, cos, thickness, eta2, eta3, kappa3)
+    truth = ground_truth(cos, thickness, eta2, eta3, kappa3)
+    return {k: np.array(v["rgb"]) for k, v in got.items()}, expected, truth, terms, name
+
+
+def test_the_shipped_table_is_what_exact_table_writes(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(tmp_path / TABLE.name)],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    for suffix in ("exr", "json", "glsl", "hlsl"):
+        assert (tmp_path / TABLE.name).with_suffix(f".{suffix}").read_bytes() == \
+            TABLE.with_suffix(f".{suffix}").read_bytes()
+
+
+def test_the_engine_matches_the_float64_series(exact_run):
+    got, expected, _, _, name = exact_run
+    assert len(expected) >= 2000 and set(METALS) <= set(name)
+    assert np.abs(got["rgb"] - expected).max() <= 1e-4
+    dielectric = name == "dielectric"
+    assert np.abs(got["scalar"] - expected[dielectric]).max() <= 1e-4
+
+
+def test_the_engine_matches_the_ground_truth(exact_run):
+    got, _, truth, terms, name = exact_run
+    assert delta_e00(got["rgb"], truth).max() <= 0.1
+    assert terms.max() <= 64
+
+
+def test_the_check_fails_with_the_other_row_order(exact_run):
+    got, expected, _, _, _ = exact_run
+    assert np.abs(got["control"] - expected).max() > 0.1
+
+
+@pytest.fixture(scope="module")
+def dropin(tmp_path_factory):
+    """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)."""
+    require_engine()
+    image = tmp_path_factory.mktemp("dropin") / "dropin.png"
+    rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
+    return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
+
+
+def test_the_drop_in_exact_mode_matches_the_ground_truth(dropin):
+    image, rows = dropin
+    assert image.stat().st_size > 10_000
+    for label, *_ in make_dropin.MATERIALS:
+        worst, n = rows[(label, "exact")]
+        assert n >= 500 and worst <= 0.1, (label, worst)
+
+
+def test_the_drop_in_check_can_fail(dropin):
+    """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
+    _, rows = dropin
+    assert min(rows[(label, "three")][0] for label, *_ in make_dropin.MATERIALS) > 1.0
