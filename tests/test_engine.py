@@ -5,6 +5,7 @@ into a float render target, and must return what `lutbake sample` says to 1e-4 (
 engine/harness.mjs). SwiftShader's filtering differs from exact bilinear by ~1e-5."""
 
 import csv
+import fcntl
 import io
 import json
 import os
@@ -30,10 +31,14 @@ EDGE, OUTSIDE = 0.2, 0.2  # fractions of coordinates at a domain edge, and outsi
 
 
 def _install_pinned_engine():
-    """`npm ci` in engine/ when its node_modules is missing: the lockfile pins every package."""
-    if (ENGINE / "node_modules" / "three").is_dir() or shutil.which("npm") is None:
+    """`npm ci` in engine/ when its node_modules is missing: the lockfile pins every package. Under a
+    lock on engine/, so test processes running side by side (pytest-xdist) install it once."""
+    if shutil.which("npm") is None:
         return
-    subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=ENGINE, capture_output=True, timeout=600)
+    with open(ENGINE / ".npm-ci.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (ENGINE / "node_modules" / "three").is_dir():
+            subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=ENGINE, capture_output=True, timeout=600)
 
 
 def require_engine():
