@@ -17,6 +17,10 @@ supplemental shader), evaluated at OPD m·D·cos θ2 with phase m·φ.
   lost), 0/π phases, orders 0–2, XYZ straight through the Rec.709 matrix
   (no white adaptation) and negative values clamped, as shipped.
 
+* ``exact_mode_rgb`` (exact.py): not an approximation but lutbake's own
+  runtime mode, the exact Fourier series summed per pixel from a 1D table;
+  reported beside them so a LUT's error and cost can be weighed against it.
+
 Inputs are broadcastable arrays; outputs (…, 3) linear RGB in ``space``.
 """
 
@@ -25,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from .colorimetry import colorimetry
+from .exact import exact_mode_rgb
 
 __all__ = ["belcour_barla_rgb", "khr_iridescence_rgb", "APPROXIMATIONS"]
 
@@ -158,4 +163,5 @@ def khr_iridescence_rgb(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space="rec7
 APPROXIMATIONS = {
     "belcour-barla-2017": belcour_barla_rgb,
     "khr-iridescence-threejs": khr_iridescence_rgb,
+    "lutbake-exact-mode": exact_mode_rgb,
 }

@@ -24,6 +24,7 @@ docs/lut-format.md specifies the file.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from dataclasses import dataclass
@@ -36,6 +37,7 @@ from .fileset import open_set
 from .fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 from .lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
+from .optics import thickness_from_opd
 
 __all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
            "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
@@ -166,10 +168,8 @@ def write_exact_table(out_path, observer: str = "cie1931", space: str = "rec709"
     if not (1 <= max_terms <= 4096):
         raise ValueError(f"--max-terms {max_terms} must lie in [1, 4096]")
     _check_writable(out_path)
-    exact = table_samples(observer, space)
-    image = _pack(exact)
-    stored = image.astype(np.float16 if precision == "half" else np.float32)
-    meta = table_metadata(observer, space, precision, exact, stored, tolerance, max_terms)
+    meta, stored = _stored(observer, space, precision, tolerance, max_terms)
+    image = stored.astype(np.float64)
     with open_set(out_path.parent, out_path.name) as files:
         with exr_rows(files.temp(out_path), image.shape[1], image.shape[0], meta, precision) as exr:
             exr.write_rows(image)
@@ -177,6 +177,34 @@ def write_exact_table(out_path, observer: str = "cie1931", space: str = "rec709"
         for suffix, text in exact_includes(meta, out_path.name).items():
             files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
     return meta
+
+
+def _stored(observer, space, precision, tolerance=DEFAULT_TOLERANCE, max_terms=DEFAULT_MAX_TERMS) -> tuple:
+    """(header, image as stored) of the table `exact-table` writes."""
+    exact = table_samples(observer, space)
+    stored = _pack(exact).astype(np.float16 if precision == "half" else np.float32)
+    return table_metadata(observer, space, precision, exact, stored, tolerance, max_terms), stored
+
+
+@functools.lru_cache(maxsize=4)
+def stored_table(observer: str = "cie1931", space: str = "rec709", precision: str = "float") -> ExactTable:
+    """The default table as an engine reads it back from `exact-table`'s file, without the file."""
+    meta, stored = _stored(observer, space, precision)
+    return ExactTable(meta, _unpack(stored))
+
+
+def exact_mode(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space: str = "rec709",
+               observer: str = "cie1931") -> ExactResult:
+    """The exact runtime mode (the default float table and include settings) at LUT coordinates, in
+    the approximations' argument order: what `report` and `sweep` score beside a LUT."""
+    cos_theta, thickness, eta3, kappa3 = (np.ravel(a) for a in np.broadcast_arrays(
+        cos_theta, thickness_from_opd(opd_nm, eta2), eta3, kappa3))
+    return exact_colour(stored_table(observer, space), cos_theta, thickness, eta1, eta2, eta3, kappa3)
+
+
+def exact_mode_rgb(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space="rec709", observer="cie1931") -> np.ndarray:
+    """``exact_mode``'s linear RGB (n, 3)."""
+    return exact_mode(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space, observer).values
 
 
 def exact_includes(meta: dict, table_name: str) -> dict:

@@ -100,6 +100,7 @@ class LutReport:
     lut: ErrorStats
     approximations: list
     worst: list
+    exact_mode_terms: dict = None   # the exact runtime mode's series terms per point, when scored
 
     def summary(self) -> dict:
         kinds, counts = np.unique(self.points.kind, return_counts=True)
@@ -108,7 +109,7 @@ class LutReport:
                 "eta2": self.meta["constants"]["eta2"], "axes": self.meta["axes"],
                 "space": self.meta["space"], "observer": self.meta["observer"],
                 "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
-                "worst_points": self.worst}
+                "exact_mode_terms": self.exact_mode_terms, "worst_points": self.worst}
 
 
 def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True,
@@ -163,12 +164,24 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
             out, seconds = _timed(fn, lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0],
                                   pts.params[1], space, observer)
             rows.append(score(name, out, pts, space, observer, seconds / len(pts)))
+    terms = _exact_mode_terms(lut, pts, space, observer) if approximations else None
     order = np.argsort(-lut_stats.de00, kind="stable")[:10]
     worst = [{"cos_theta": float(pts.params[0][i]), "opd_nm": float(pts.params[1][i]),
               "eta3": float(pts.params[2][i]), "kappa3": float(pts.params[3][i]), "kind": str(pts.kind[i]),
               "de00": float(lut_stats.de00[i]), "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
              for i in order]
-    return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst)
+    return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst, terms)
+
+
+def _exact_mode_terms(lut: Lut, pts: HeldOutPoints, space: str, observer: str) -> dict:
+    """What the exact mode's row costs per pixel: series terms at the held-out points (each term is
+    4 texel fetches and ~100 scalar operations in the include, docs/engines.md)."""
+    from .exact import exact_mode
+
+    terms = exact_mode(lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0], pts.params[1], space,
+                       observer).terms
+    return {"mean": float(terms.mean()), "p99": float(np.percentile(terms, 99)), "max": int(terms.max()),
+            "fetches_per_term": 4}
 
 
 def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0) -> dict:

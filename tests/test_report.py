@@ -77,7 +77,12 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
     out = _report_cli(str(lut_path), "--points", "100", "--out", str(tmp_path / "r"))
     assert out.returncode == 0, out.stderr
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
-    assert {a["name"] for a in summary["approximations"]} == {"belcour-barla-2017", "khr-iridescence-threejs"}
+    rows = {a["name"]: a for a in summary["approximations"]}
+    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode"}
+    # the exact runtime mode: within its engine test's bound (ΔE00 0.1), well below the approximations
+    assert rows["lutbake-exact-mode"]["de00_max"] <= 0.1 < rows["belcour-barla-2017"]["de00_p99"]
+    terms = summary["exact_mode_terms"]
+    assert 1 <= terms["mean"] <= terms["p99"] <= terms["max"] <= 64
     html = (tmp_path / "r" / "report.html").read_text()
     for fig in summary["figures"]:
         assert (tmp_path / "r" / fig).stat().st_size > 1000 and fig in html
@@ -158,7 +163,7 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     spec = BakeSpec(eta2=1.33, axes=axes)
     doc = sweep(spec, tmp_path / "s", n_points=120, seed=0)
     kinds = [r["kind"] for r in doc["rows"]]
-    assert kinds.count("lut") >= 8 and kinds.count("approximation") == 2
+    assert kinds.count("lut") >= 8 and kinds.count("approximation") == 3  # two approximations, the exact mode
     assert (tmp_path / "s" / "pareto.png").stat().st_size > 1000
     res = {r["name"]: r for r in doc["rows"]}
     assert res["res×2"]["de00_p99"] < res["res×0.5"]["de00_p99"]
