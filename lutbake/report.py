@@ -149,7 +149,7 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     >>> len(rep.points), error["de00_max"] >= error["de00_p99"] >= error["de00_p50"]
     (100, True)
     >>> [a.name for a in rep.approximations]
-    ['belcour-barla-2017', 'khr-iridescence-threejs']
+    ['belcour-barla-2017', 'khr-iridescence-threejs', 'lutbake-exact-mode']
     """
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
