@@ -12,8 +12,9 @@ to other work on a shared machine), the jobs computed,
 the device that ran them, and the largest p99 ΔE00 reached against the
 scene's target. The target of issue 12 is < 2 s of compute per scene. Also
 recorded once: what every bake pays before its first job, measured in a fresh
-interpreter the same way (colour-science's import and the OpenCL program's
-build and self-check), so it can be told apart from the scene's own work.
+interpreter the same way (the OpenCL program's build and self-check, and
+colour-science's import where its tables are not cached yet), so it can be
+told apart from the scene's own work.
 """
 
 import argparse

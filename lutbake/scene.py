@@ -363,7 +363,9 @@ class ScenePlan:
             if seconds_per_truth_point is not None:
                 row["truth_seconds_estimate"] = seconds_per_truth_point * _truth_points(job)
             rows.append(row)
-        generic = 32 * 128 * 16 * 16 * (6 if self.scene.precision == "half" else 12)
+        from .bake import default_specs
+
+        generic = next(iter(default_specs().values())).cells * (6 if self.scene.precision == "half" else 12)
         return {"scene": self.scene.file_name, "settings": self.scene.settings_key(), "jobs": rows,
                 "bytes_start_total": sum(r["bytes_start"] for r in rows), "generic_4d_bytes": generic}
 
