@@ -75,6 +75,7 @@ FLAG_OF_PARAMETER = {
     "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
     "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
     "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
+    "tolerance": "--tolerance", "max_terms": "--max-terms",
 }
 
 

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .errors import ParameterError
 from .fileset import open_set
 from .fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
@@ -164,9 +165,9 @@ def write_exact_table(out_path, observer: str = "cie1931", space: str = "rec709"
 
     out_path = Path(out_path)
     if not (0 < tolerance < 1):
-        raise ValueError(f"--tolerance {tolerance:g} must lie in (0, 1)")
+        raise ParameterError("{tolerance} {value} must lie in (0, 1)", value=f"{tolerance:g}")
     if not (1 <= max_terms <= 4096):
-        raise ValueError(f"--max-terms {max_terms} must lie in [1, 4096]")
+        raise ParameterError("{max_terms} {value} must lie in [1, 4096]", value=max_terms)
     _check_writable(out_path)
     meta, stored = _stored(observer, space, precision, tolerance, max_terms)
     image = stored.astype(np.float64)
