@@ -20,6 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from make_accuracy import bake_default_luts  # noqa: E402
 from lutbake.colorimetry import delta_e00  # noqa: E402
 from lutbake.exact import METALS, base_rgb  # noqa: E402
 from lutbake.points import FilmPoints  # noqa: E402
@@ -109,6 +110,7 @@ def errors(cells: dict, dispersive: bool = True) -> list:
 
 
 def main():
+    bake_default_luts()
     rows = errors(run(IMAGE))
     print("| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|")
     for label, mode, worst, p99, disp, n in rows:

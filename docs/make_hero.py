@@ -1,4 +1,4 @@
-"""Render docs/img/hero.png: lit spheres of the shipped LUTs and two baked scenes, drawn by three.js in
+"""Render docs/img/hero.png: lit spheres of the default LUTs and two baked scenes, drawn by three.js in
 headless Chromium through the shipped GLSL includes (engine/page.js), i.e. what an engine shows.
 
 Rerun: (cd engine && npm ci) && python docs/make_hero.py   (needs node and Debian's chromium)
@@ -11,6 +11,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+from make_accuracy import bake_default_luts  # noqa: E402
 LUT_CALL = "lutbake_sample(lut, {c}, cos_theta, 2.0 * {c}.eta2 * thickness_nm, {eta3}, {kappa3})"
 ATLAS_CALL = "lutbake_atlas_sample(lut, {c}, cos_theta, thickness_nm)"
 # (label, file without suffix, GLSL call, thickness range in nm)
@@ -29,6 +30,7 @@ SPHERES = [
 
 
 def main():
+    bake_default_luts()
     spheres = [{"label": label, "exr": f"/{stem}.exr", "include": f"/{stem}.glsl", "sample": call,
                 "thickness": list(thickness)} for label, stem, call, thickness in SPHERES]
     out = ROOT / "docs" / "img" / "hero.png"

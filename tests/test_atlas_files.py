@@ -8,13 +8,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import DEFAULT_LUTS, default_luts
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
 from lutbake.sample import Atlas, load_table
 
 ROOT = Path(__file__).resolve().parent.parent
 ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"
-LUT = ROOT / "luts" / "lutbake-eta2-1.50.exr"
+LUT = DEFAULT_LUTS / "lutbake-eta2-1.50.exr"   # a 4D LUT of the default set
+
+
+@pytest.fixture(scope="module", autouse=True)
+def luts():
+    return default_luts()
 
 
 def cli(*args):

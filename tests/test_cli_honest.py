@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import default_luts
 from lutbake.batch import fast_colours, truth_colours
 from lutbake.cli import cli
 from lutbake.points import FilmPoints
@@ -19,7 +20,6 @@ from lutbake.refine import tune
 from lutbake.bake import default_specs
 
 ROOT = Path(__file__).resolve().parents[1]
-SHIPPED = ROOT / "luts" / "lutbake-eta2-1.33.exr"
 TINY_AXES = ["--cos-theta", "0:1:4", "--opd", "0:600:6", "--eta3", "1:2:2", "--kappa3", "0:1:2"]
 
 
@@ -76,7 +76,7 @@ def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
 
 
 def test_closed_pipe_exits_0_without_a_traceback():
-    proc = subprocess.Popen([sys.executable, "-m", "lutbake", "inspect", str(SHIPPED)],
+    proc = subprocess.Popen([sys.executable, "-m", "lutbake", "inspect", str(default_luts() / "lutbake-eta2-1.33.exr")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     proc.stdout.close()  # the reader is gone before the first write, as after `| head -1`
     assert proc.wait(timeout=120) == 0

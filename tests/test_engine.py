@@ -17,13 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import default_luts
+from lutbake.bake import default_specs
 from lutbake.lutfile import shader_ident
 from lutbake.sample import load_table
 
 ROOT = Path(__file__).resolve().parent.parent
 ENGINE = ROOT / "engine"
 CHROMIUM = Path(os.environ.get("LUTBAKE_CHROMIUM", "/usr/bin/chromium"))
-SHIPPED_LUTS = sorted((ROOT / "luts").glob("*.exr"))
+LUT_NAMES = sorted(default_specs())   # the default set, baked into luts/ (conftest.default_luts)
 ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"
 TOLERANCE = 1e-4
 POINTS = 2500
@@ -124,11 +126,12 @@ def engine_run(tmp_path_factory):
     require_engine()
     folder = tmp_path_factory.mktemp("engine")
     rng = np.random.default_rng(10)
-    jobs = {p.stem: lut_job(folder, p, rng) for p in SHIPPED_LUTS}
+    luts = [default_luts() / f"{name}.exr" for name in LUT_NAMES]
+    jobs = {p.stem: lut_job(folder, p, rng) for p in luts}
     jobs.update({f"{ATLAS.stem}:{m}": atlas_job(folder, ATLAS, m, rng) for m in load_table(ATLAS).materials})
     # Negative control: the same LUT with the other row order must be far off, so the check can fail.
-    first = jobs[SHIPPED_LUTS[0].stem]
-    jobs["one shader: two LUT includes and an atlas include"] = together(first, SHIPPED_LUTS[1])
+    first = jobs[luts[0].stem]
+    jobs["one shader: two LUT includes and an atlas include"] = together(first, luts[1])
     jobs["control: scanline 0 at v = 0"] = {**first, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}
     (folder / "jobs.json").write_text(json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")}
                                                   for j in jobs.values()]))
@@ -150,7 +153,7 @@ def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
         assert got["texture"]["flipY"] is False  # EXRLoader's default: rows bottom-up, as OpenGL reads them
 
 
-@pytest.mark.parametrize("name", [p.stem for p in SHIPPED_LUTS] + ["tempered-steel:steel_constant",
+@pytest.mark.parametrize("name", LUT_NAMES + ["tempered-steel:steel_constant",
                                                                     "tempered-steel:steel_werner",
                                                                     "one shader: two LUT includes and an atlas include"])
 def test_engine_matches_lutbake_sample(engine_run, name):
