@@ -184,6 +184,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
                      "capped_texels": capped[0], "truncation_bound_rgb": capped[1],
                      "capped_error_rgb_max": capped[2]},
         "precision": spec.precision,
+        "interpolation": spec.interpolation,
         "compute": spec.compute,
         "channels": ["R", "G", "B"],
     } | ({"integrator": integrator_metadata(spec, series)} if series is not None else {})

@@ -18,7 +18,7 @@ set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
-from .names import OBSERVERS, SPACES  # noqa: E402
+from .names import INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
 
@@ -312,6 +312,9 @@ def domain_options(f):
         axis_option("--kappa3", "kappa3"),
         click.option("--precision", type=click.Choice(["float", "half"]), default=None,
                      help="Storage precision of the EXR (default: float; half for the default set)."),
+        click.option("--interpolation", type=click.Choice(INTERPOLATIONS), default="cubic", show_default=True,
+                     help="How engines read the LUT, recorded in its header: cubic (256 texel reads) or "
+                          "linear (4 bilinear fetches); docs/lut-format.md#interpolation."),
         click.option("--compute", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
                      help="Arithmetic precision of the kernel."),
         click.option("--method", type=click.Choice(["spectral"]), default="spectral", show_default=True,
@@ -327,8 +330,8 @@ def domain_options(f):
     return colour_options(f)
 
 
-def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
-                samples_per_cycle, default_precision="float"):
+def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, interpolation, compute,
+                method, samples_per_cycle, default_precision="float"):
     """BakeSpec from domain flags; axes not given take the default set's."""
     from .bake import default_specs
     from .plan import BakeSpec, parse_axis
@@ -340,7 +343,8 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
     axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
     extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
     return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
-                    precision=precision or default_precision, compute=compute, method=method, **extra)
+                    precision=precision or default_precision, interpolation=interpolation, compute=compute,
+                    method=method, **extra)
 
 
 def _default_axis(axis, eta1: float):
@@ -363,8 +367,8 @@ def _default_axis(axis, eta1: float):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
 @click.option("--max-memory-gib", type=click.FloatRange(0.5, 4096), default=8.0, show_default=True,
               help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).")
-def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, compute, method,
-             samples_per_cycle, backend, scene, force, out, named_film, named_base, quiet, force_progress, as_json,
+def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, interpolation, compute,
+             method, samples_per_cycle, backend, scene, force, out, named_film, named_base, quiet, force_progress, as_json,
              max_memory_gib):
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
@@ -386,15 +390,16 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
     if force:
         raise BadInput("--force applies to --scene bakes only (a LUT bake always recomputes)")
     flags = dict(eta2=eta2, eta1=eta1, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3,
-                 space=space, observer=observer, precision=precision, compute=compute, method=method,
-                 samples_per_cycle=samples_per_cycle)
+                 space=space, observer=observer, precision=precision, interpolation=interpolation,
+                 compute=compute, method=method, samples_per_cycle=samples_per_cycle)
     if eta2 is None:
         if any((cos_theta, opd_nm, eta3, kappa3)):
             raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
         folder = Path(out or DEFAULT_OUT_DIR)
         if folder.suffix.lower() == ".exr":
             raise BadInput(f"--out {str(folder)!r}: the default set goes into a folder, not one .exr")
-        common = dict(eta1=eta1, space=space, observer=observer, compute=compute, method=method)
+        common = dict(eta1=eta1, space=space, observer=observer, interpolation=interpolation, compute=compute,
+                      method=method)
         if samples_per_cycle is not None:
             common["samples_per_cycle"] = samples_per_cycle
         jobs = [(folder / f"{name}.exr", replace(spec, **common))
@@ -619,9 +624,11 @@ def materials_cmd(as_json):
 @constant_point_options
 @click.option("--filter-bits", type=click.IntRange(1, 24), default=None,
               help="Quantize bilinear weights as a GPU texture unit does (e.g. 8).")
+@click.option("--interpolation", type=click.Choice(INTERPOLATIONS), default=None,
+              help="Read a 4D LUT by this rule instead of its header's (docs/lut-format.md#interpolation).")
 @click.option("--material", help="With a scene atlas: the material whose slice to sample.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def sample_cmd(lut, points_csv, filter_bits, material, as_json, **flags):
+def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, **flags):
     """Sample a LUT or a scene atlas as a GPU would (reference sampler)."""
     from .sample import Atlas, load_table
 
@@ -630,13 +637,17 @@ def sample_cmd(lut, points_csv, filter_bits, material, as_json, **flags):
         return _sample_atlas(lut, table, material, points_csv, filter_bits, as_json, flags)
     if material is not None:
         raise BadInput(f"--material {material!r} is for scene atlases; {lut!r} is a 4D LUT")
+    interpolation = interpolation or table.interpolation
+    if filter_bits is not None and interpolation == "cubic":
+        raise BadInput(f"--filter-bits {filter_bits} applies to linear reads; {lut!r} is read cubic "
+                       f"(texel reads without filtering): add --interpolation linear")
     for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
         if flags.get(name) is not None and flags[name] != value:
             raise BadInput(f"--{name} {flags[name]!r} differs from the LUT's {name} = {value!r}")
         flags[name] = value
     points = build_points(points_csv, **flags)
     opd = 2.0 * table.eta2 * points.thickness_nm
-    rgb = table.sample(points.cos_theta, opd, points.eta3, points.kappa3, filter_bits)
+    rgb = table.sample(points.cos_theta, opd, points.eta3, points.kappa3, filter_bits, interpolation)
     inside = table.in_domain(points.cos_theta, opd, points.eta3, points.kappa3)
     rows = []
     for i in range(len(points)):
@@ -644,7 +655,7 @@ def sample_cmd(lut, points_csv, filter_bits, material, as_json, **flags):
                      "eta3": float(points.eta3[i]), "kappa3": float(points.kappa3[i]),
                      "rgb": rgb[i].tolist(), "in_domain": bool(inside[i])})
     if as_json:
-        echo_json({"lut": str(lut), "space": table.meta["space"], "points": rows})
+        echo_json({"lut": str(lut), "space": table.meta["space"], "interpolation": interpolation, "points": rows})
         return
     _echo_samples(rows, ("cos_theta", "opd_nm", "eta3", "kappa3"), "outside the LUT")
 
@@ -825,7 +836,7 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
         axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{'' if a['spacing'] == 'uniform' else ':' + a['spacing']}"
                         for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
         state = "met" if result.met else "NOT met"
-        click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} "
+        click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} --interpolation {doc['interpolation']} "
                    f"(p99 {best['de00_p99']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
     return 0 if result.met else EXIT_GATE
 

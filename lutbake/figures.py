@@ -112,23 +112,26 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
 
 
 def pareto_plot(doc: dict, out_png: Path) -> Path:
-    """p99 ΔE00 against bake time and bytes (LUT variants), approximation rows as lines.
+    """p99 ΔE00 against bake time and bytes (LUT variants, cubic and linear reads), approximation rows as lines.
 
     Labels sit in a numbered key beside each panel, so close points never overlap."""
     rows = doc["rows"]
     fig = _figure((13, 5.2))
     a1, a2 = fig.subplots(1, 2)
     luts = [r for r in rows if r["kind"] == "lut"]
+    reads = np.array([r.get("interpolation", "linear") for r in luts])
     for a, key, label in ((a1, "bake_seconds", "bake time (s)"), (a2, "bytes", "LUT size (bytes)")):
         x = np.array([r[key] for r in luts])
         y = np.array([r["de00_p99"] for r in luts])
-        a.scatter(x, y, c="C0", zorder=3)
+        for rule, colour, marker in (("cubic", "C0", "o"), ("linear", "C1", "s")):
+            a.scatter(x[reads == rule], y[reads == rule], c=colour, marker=marker, zorder=3,
+                      label=f"LUT, {rule} reads ({'256 texel reads' if rule == 'cubic' else '4 fetches'})")
         for (xv, yv), numbers in _coincident(x, y).items():
             a.annotate(",".join(numbers), (xv, yv), fontsize=8, xytext=(4, 2), textcoords="offset points")
         front = _pareto_front(x, y)
         a.plot(x[front], y[front], "C0-", lw=1, label="Pareto front (LUTs)")
         for i, r in enumerate(r for r in rows if r["kind"] == "approximation"):
-            a.axhline(r["de00_p99"], color=f"C{i + 1}", ls="--", lw=1, label=f"{r['name']} (no LUT)")
+            a.axhline(r["de00_p99"], color=f"C{i + 2}", ls="--", lw=1, label=f"{r['name']} (no LUT)")
         a.set_xscale("log")
         a.set_yscale("log")
         a.set_xlabel(label)

@@ -30,6 +30,7 @@ import numpy as np
 
 from . import fileset
 from .fileset import temporary_for
+from .interpolation import INTERPOLATIONS
 from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
@@ -40,9 +41,9 @@ FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
 EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
 # LUT v2 adds the η3 axis's "admittance" spacing (docs/lut-format.md); v1 LUTs (no such axis) still read.
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 EXACT_FORMAT_VERSION = 1
-_READABLE_VERSIONS = {FORMAT: (1, 2), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
+_READABLE_VERSIONS = {FORMAT: (1, 2, 3), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -247,6 +248,7 @@ def _check_meta(meta: dict, image: np.ndarray) -> None:
         _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
                  or a["spacing"] == "admittance" and a["name"] == "eta3" and meta["format_version"] >= 2
                  and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
+    _require(meta["format_version"] < 3 or meta["interpolation"] in INTERPOLATIONS, "interpolation")
     packing, expected = meta["packing"], TileLayout(*(a["count"] for a in axes)).packing()
     for key in ("width", "height", "tile_width", "tile_height"):
         _require(packing[key] == expected[key], f"packing.{key}")
@@ -324,6 +326,8 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
         "admittance": "1.0" if axes[2]["spacing"] == "admittance" else "0.0",
+        "interpolation": meta.get("interpolation", "linear"),
+        "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }
     return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 

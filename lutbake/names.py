@@ -1,4 +1,5 @@
-"""Names of the CIE observers and working spaces, and colour-science's names for them.
+"""Names of the CIE observers and working spaces (and colour-science's names for them), and of the
+LUT interpolation rules (lutbake/interpolation.py).
 
 Kept apart from colorimetry.py, with no imports, so the command line can list
 the choices at start-up without loading numpy or colour-science.
@@ -15,3 +16,5 @@ SPACES = {
     "rec2020": "Linear Rec.2020",
     "p3": "Linear P3-D65",
 }
+
+INTERPOLATIONS = ("cubic", "linear")

@@ -28,6 +28,7 @@ import numpy as np
 
 from .colorimetry import OBSERVERS, SPACES
 from .errors import ParameterError
+from .interpolation import INTERPOLATIONS
 from .layout import _CHUNK_CELLS, TileLayout
 from .points import check_value
 from .optics import normal_admittance, round_trip_amplitude
@@ -182,6 +183,10 @@ class BakeSpec:
         Linear RGB space ('rec709', 'rec2020', 'p3', 'acescg') and CIE observer ('cie1931', 'cie1964').
     precision : str
         Storage: 'half' or 'float'.
+    interpolation : str
+        How the LUT is sampled, recorded in its header and followed by the sampler and the shader
+        includes: 'cubic' (Catmull-Rom in all four axes, 256 texel reads) or 'linear' (4 bilinear
+        fetches). The texels are the same; docs/lut-format.md#interpolation.
     compute : str
         Kernel arithmetic: 'float64' or 'float32'.
     method, samples_per_cycle
@@ -207,6 +212,7 @@ class BakeSpec:
     space: str = "rec709"
     observer: str = "cie1931"
     precision: str = "float"
+    interpolation: str = "cubic"
     compute: str = "float64"
     method: str = "spectral"
     samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE
@@ -217,6 +223,7 @@ class BakeSpec:
         _choice("space", self.space, SPACES)
         _choice("observer", self.observer, OBSERVERS)
         _choice("precision", self.precision, PRECISIONS)
+        _choice("interpolation", self.interpolation, INTERPOLATIONS)
         _choice("compute", self.compute, COMPUTE_PRECISIONS)
         _choice("method", self.method, METHODS)
         if [a.name for a in self.axes] != list(AXIS_NAMES):

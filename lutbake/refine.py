@@ -161,5 +161,5 @@ def tune_document(spec, result: Refinement) -> dict:
     """`tune --json`: the target, the counts found and their axes, the best trial's statistics, the rounds."""
     axes = [replace(a, count=c).describe() for a, c in zip(spec.axes, result.counts)]
     return {"target_de00_p99": result.target_de00_p99, "met": result.met, "counts": list(result.counts),
-            "axes": axes, "result": {**result.best.stats, **result.best.row()}, "point_kind": POINT_KIND,
+            "axes": axes, "interpolation": spec.interpolation, "result": {**result.best.stats, **result.best.row()}, "point_kind": POINT_KIND,
             "rounds": [t.row() for t in result.rounds]}

@@ -108,6 +108,7 @@ class LutReport:
                 "point_kinds": {str(k): int(c) for k, c in zip(kinds, counts)},
                 "eta2": self.meta["constants"]["eta2"], "axes": self.meta["axes"],
                 "space": self.meta["space"], "observer": self.meta["observer"],
+                "interpolation": self.meta.get("interpolation", "linear"),
                 "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
                 "exact_mode_terms": self.exact_mode_terms, "worst_points": self.worst}
 
@@ -128,7 +129,8 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     seed : int
         Their random seed (the same seed gives the same numbers).
     approximations : bool
-        Also score the real-time approximations (Belcour & Barla; KHR_materials_iridescence / three.js).
+        Also score the real-time approximations (Belcour & Barla; KHR_materials_iridescence / three.js),
+        the exact runtime mode and, for a LUT read cubic, the same texels read by the linear rule.
     progress : callable
         ``progress(done, total, note)`` before each phase.
 
@@ -149,7 +151,7 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     >>> len(rep.points), error["de00_max"] >= error["de00_p99"] >= error["de00_p50"]
     (100, True)
     >>> [a.name for a in rep.approximations]
-    ['belcour-barla-2017', 'khr-iridescence-threejs', 'lutbake-exact-mode']
+    ['belcour-barla-2017', 'khr-iridescence-threejs', 'lutbake-exact-mode', 'lut-linear-reads']
     """
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
@@ -164,6 +166,9 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
             out, seconds = _timed(fn, lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0],
                                   pts.params[1], space, observer)
             rows.append(score(name, out, pts, space, observer, seconds / len(pts)))
+        if lut.interpolation == "cubic":  # the same texels read by the 4-fetch rule: what cubic reads buy
+            out, seconds = _timed(lut.sample, *pts.params, None, "linear")
+            rows.append(score("lut-linear-reads", out, pts, space, observer, seconds / len(pts)))
     terms = _exact_mode_terms(lut, pts, space, observer) if approximations else None
     order = np.argsort(-lut_stats.de00, kind="stable")[:10]
     worst = [{"cos_theta": float(pts.params[0][i]), "opd_nm": float(pts.params[1][i]),

@@ -13,10 +13,12 @@ the includes map them to each API's texture coordinates (docs/lut-format.md).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
+from .interpolation import cubic_taps
 from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
@@ -28,8 +30,9 @@ __all__ = ["Lut", "Atlas", "load_table"]
 class Lut:
     """A 4D LUT as an engine samples it: the reference for what a shader include must return.
 
-    ``sample`` interpolates linearly in each axis's own coordinate (√cos θ, D, η3's spacing, √κ3)
-    with the GPU's bilinear fetches: 4 per sample (docs/lut-format.md).
+    ``sample`` interpolates in each axis's own coordinate (√cos θ, D, η3's spacing, √κ3) by the
+    header's rule: Catmull-Rom ('cubic', 256 texel reads) or the GPU's bilinear fetches ('linear',
+    4 per sample); docs/lut-format.md#interpolation.
 
     Attributes
     ----------
@@ -65,7 +68,7 @@ class Lut:
     @classmethod
     def in_memory(cls, spec, image) -> "Lut":
         """The LUT of ``spec`` whose texels are ``image`` (as stored), without a file: what tune scores."""
-        return cls({"axes": [a.describe() for a in spec.axes],
+        return cls({"axes": [a.describe() for a in spec.axes], "interpolation": spec.interpolation,
                     "constants": {"eta1": spec.eta1, "eta2": spec.eta2}}, image)
 
     @property
@@ -95,9 +98,24 @@ class Lut:
         return [np.clip(axis.to_unit(v, snell2), 0.0, 1.0) * (axis.count - 1)
                 for axis, v in zip(self.axes, values)]
 
-    def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None) -> np.ndarray:
-        """Linear RGB (…, 3) at the given film parameters."""
-        f_cos, f_opd, f_eta3, f_kappa3 = self.node_coords(cos_theta, opd_nm, eta3, kappa3)
+    @property
+    def interpolation(self) -> str:
+        """The header's interpolation rule ('cubic' or 'linear'; files before format v3 are linear)."""
+        return self.meta.get("interpolation", "linear")
+
+    def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None, interpolation=None) -> np.ndarray:
+        """Linear RGB (…, 3) at the given film parameters, by the header's rule (or ``interpolation``).
+
+        ``filter_bits`` applies to linear reads only: cubic reads texels exactly.
+        """
+        f = self.node_coords(cos_theta, opd_nm, eta3, kappa3)
+        if (interpolation or self.interpolation) == "cubic":
+            return self._cubic(f)
+        return self._linear(f, filter_bits)
+
+    def _linear(self, f, filter_bits):
+        """(cos θ, D) by hardware bilinear inside the 4 tiles around (η3, κ3), then 3 lerps."""
+        f_cos, f_opd, f_eta3, f_kappa3 = f
         layout = TileLayout(*(a.count for a in self.axes))
         i_e, t_e = _lower_node(f_eta3, layout.n_eta3)
         i_k, t_k = _lower_node(f_kappa3, layout.n_kappa3)
@@ -109,6 +127,19 @@ class Lut:
         lower = _lerp(corners[0, 0], corners[1, 0], t_e)
         upper = _lerp(corners[0, 1], corners[1, 1], t_e)
         return _lerp(lower, upper, t_k)
+
+    def _cubic(self, f):
+        """Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile by tile."""
+        axes = self.axes
+        layout = TileLayout(*(a.count for a in axes))
+        taps = [cubic_taps(fi, a.count, a.spacing == "sqrt" and a.lo == 0.0) for fi, a in zip(f, axes)]
+        nodes = [[np.clip(first + k, 0, a.count - 1) for k in range(4)] for (first, _), a in zip(taps, axes)]
+        out = np.zeros(f[0].shape + (3,))
+        for k in itertools.product(range(4), repeat=4):
+            weight = np.prod([w[..., j] for (_, w), j in zip(taps, k)], axis=0)
+            x, y = layout.texel(*(n[j] for n, j in zip(nodes, k)))
+            out += weight[..., None] * self.image[y, x].astype(np.float64)
+        return out
 
 
 @dataclass

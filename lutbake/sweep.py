@@ -38,7 +38,7 @@ def _spaced(spec: BakeSpec, spacings) -> BakeSpec:
 def variants(spec: BakeSpec) -> dict:
     """Named variants of ``spec``: resolution; parameterization (its counts on a uniform grid, and on
     the √ grid: √ cos θ and κ3, uniform D and η3, the default before η3's admittance spacing); spectral
-    sampling, storage and compute precision."""
+    sampling, storage and compute precision. (`sweep` scores a cubic variant's file by linear reads too.)"""
     out = {f"res×{f:g}": _scaled(spec, (f,) * 4) for f in (0.5, 1.0, 2.0)}
     out.update({"uniform grid": _spaced(spec, ("uniform",) * 4),
                 "√ grid": _spaced(spec, ("sqrt", "uniform", "uniform", "sqrt"))})
@@ -50,16 +50,21 @@ def variants(spec: BakeSpec) -> dict:
     return out
 
 
-def _measure(name, spec, folder, pts, backend):
+def _measure(name, spec, folder, pts, backend) -> list:
+    """The variant's row by its interpolation rule; a cubic LUT also gets a row for linear reads of the
+    same file (same bytes and bake time: what the 4-fetch rule gives up)."""
     path = Path(folder) / f"{spec.content_hash[:16]}.exr"
     start = time.perf_counter()
     bake(spec, path, backend)
     seconds = time.perf_counter() - start
     lut = Lut.load(path)
-    stats = score(name, lut.sample(*pts.params), pts, spec.space, spec.observer).summary()
     shape = "×".join(str(a.count) for a in spec.axes)
-    return {**stats, "kind": "lut", "shape": shape, "precision": spec.precision, "compute": spec.compute,
-            "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
+    common = {"kind": "lut", "shape": shape, "precision": spec.precision, "compute": spec.compute,
+              "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
+    reads = [spec.interpolation] + (["linear"] if spec.interpolation == "cubic" else [])
+    return [{**score(name if rule == spec.interpolation else f"{name} linear reads",
+                     lut.sample(*pts.params, None, rule), pts, spec.space, spec.observer).summary(),
+             **common, "interpolation": rule} for rule in reads]
 
 
 def _approximation_rows(spec, pts):
@@ -95,7 +100,7 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
             progress(i, total, f"variant {name} ({'×'.join(str(a.count) for a in v.axes)})")
-            rows.append(_measure(name, v, tmp, pts, backend))
+            rows += _measure(name, v, tmp, pts, backend)
     progress(total - 1, total, "approximations and Pareto plot")
     rows += _approximation_rows(spec, pts)
     doc = {"domain": spec.describe(), "points": n_points, "point_kind": POINT_KIND, "seed": seed, "rows": rows,

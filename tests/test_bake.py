@@ -318,7 +318,7 @@ def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(t
     assert np.max(np.abs(kernel - bake_array(spec, "numpy"))) <= 1e-10
     bake(spec, tmp_path / "adm.exr")
     lut = Lut.load(tmp_path / "adm.exr")
-    assert lut.meta["format_version"] == 2 and lut.meta["axes"][2]["spacing"] == "admittance"
+    assert lut.meta["format_version"] == 3 and lut.meta["axes"][2]["spacing"] == "admittance"
     i = np.meshgrid(*[np.arange(n) for n in spec.shape], indexing="ij")
     cos_t, opd, kappa3 = (a.values()[j] for a, j in zip(np.array(spec.axes)[[0, 1, 3]], (i[0], i[1], i[3])))
     eta3 = spec.eta3_columns().reshape(5, 8)[i[2], i[0]]

@@ -2,7 +2,8 @@
 Chromium loads every shipped LUT and a shipped scene atlas with EXRLoader's default settings, evaluates the
 shipped GLSL includes, unmodified, at random points (domain edges and points outside the domain included)
 into a float render target, and must return what `lutbake sample` says to 1e-4 (engine/page.js,
-engine/harness.mjs). SwiftShader's filtering differs from exact bilinear by ~1e-5."""
+engine/harness.mjs): by each LUT's own rule (cubic for the default set: texel reads) and by the forced
+linear rule (bilinear fetches; SwiftShader's filtering differs from exact bilinear by ~1e-5)."""
 
 import csv
 import fcntl
@@ -86,14 +87,17 @@ def lutbake_sample(folder: Path, path: Path, columns: dict, *args) -> list:
     return json.loads(out.stdout)["points"]
 
 
-def lut_job(folder: Path, path: Path, rng) -> dict:
+def lut_job(folder: Path, path: Path, rng, interpolation=None) -> dict:
+    """Points sampled by `lutbake sample` (by the header's rule, or ``interpolation``) and the include's
+    matching call: lutbake_sample, or lutbake_sample_<interpolation>."""
     axes = load_table(path).axes
     limits = [(0.0, 1.0), (0.0, None), (1e-3, None), (0.0, None)]
     columns = {name: _coordinates(rng, a.lo, a.hi, POINTS, *lim)
                for name, a, lim in zip(("cos_theta", "opd_nm", "eta3", "kappa3"), axes, limits)}
-    rows = lutbake_sample(folder, path, columns)
+    rows = lutbake_sample(folder, path, columns, *(["--interpolation", interpolation] if interpolation else []))
+    function = f"lutbake_sample_{interpolation}" if interpolation else "lutbake_sample"
     return {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}",
-            "call": f"lutbake_sample(lut, {shader_ident(path.stem)}, p.x, p.y, p.z, p.w)",
+            "call": f"{function}(lut, {shader_ident(path.stem)}, p.x, p.y, p.z, p.w)",
             "points": [[r["cos_theta"], r["opd_nm"], r["eta3"], r["kappa3"]] for r in rows],
             "expected": [r["rgb"] for r in rows], "in_domain": [r["in_domain"] for r in rows]}
 
@@ -133,6 +137,11 @@ def engine_run(tmp_path_factory):
     first = jobs[luts[0].stem]
     jobs["one shader: two LUT includes and an atlas include"] = together(first, luts[1])
     jobs["control: scanline 0 at v = 0"] = {**first, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}
+    # The default LUTs are read cubic; the 4-fetch linear rule stays callable and must match too, and
+    # reading them linearly must miss the cubic expectation (the cubic path is what the jobs above check).
+    jobs["linear reads"] = lut_job(folder, luts[1], rng, "linear")
+    jobs["control: linear reads of a cubic LUT"] = {**first, "call": first["call"].replace(
+        "lutbake_sample(", "lutbake_sample_linear(")}
     (folder / "jobs.json").write_text(json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")}
                                                   for j in jobs.values()]))
     proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
@@ -155,7 +164,8 @@ def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
 
 @pytest.mark.parametrize("name", LUT_NAMES + ["tempered-steel:steel_constant",
                                                                     "tempered-steel:steel_werner",
-                                                                    "one shader: two LUT includes and an atlas include"])
+                                                                    "one shader: two LUT includes and an atlas include",
+                                                                    "linear reads"])
 def test_engine_matches_lutbake_sample(engine_run, name):
     _, runs = engine_run
     job, got = runs[name]
@@ -167,6 +177,12 @@ def test_engine_matches_lutbake_sample(engine_run, name):
 def test_the_check_fails_with_the_other_row_order(engine_run):
     _, runs = engine_run
     assert _max_error(*runs["control: scanline 0 at v = 0"]) > 0.1
+
+
+def test_the_check_tells_cubic_from_linear_reads(engine_run):
+    _, runs = engine_run
+    assert load_table(default_luts() / f"{LUT_NAMES[0]}.exr").interpolation == "cubic"
+    assert _max_error(*runs["control: linear reads of a cubic LUT"]) > 30 * TOLERANCE
 
 
 def test_docs_show_the_helper_the_test_runs():

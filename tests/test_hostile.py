@@ -303,7 +303,7 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 3": lambda m, im: ({**m, "format_version": 3}, im),
+    "format version 4": lambda m, im: ({**m, "format_version": 4}, im),
     "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
     "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
         *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),

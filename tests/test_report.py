@@ -78,7 +78,10 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
     assert out.returncode == 0, out.stderr
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     rows = {a["name"]: a for a in summary["approximations"]}
-    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode"}
+    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode", "lut-linear-reads"}
+    # the LUT is read cubic (its header's rule); linear reads of the same texels err more
+    assert summary["interpolation"] == "cubic"
+    assert summary["lut_error"]["de00_p99"] < rows["lut-linear-reads"]["de00_p99"]
     # the exact runtime mode: within its engine test's bound (ΔE00 0.1), well below the approximations
     assert rows["lutbake-exact-mode"]["de00_max"] <= 0.1 < rows["belcour-barla-2017"]["de00_p99"]
     terms = summary["exact_mode_terms"]
@@ -171,9 +174,11 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     assert res["uniform grid"]["shape"] == res["√ grid"]["shape"] == res["res×1"]["shape"]
     assert res["uniform grid"]["de00_p99"] == res["res×1"]["de00_p99"]  # this spec's axes are all uniform
     assert res["√ grid"]["de00_p99"] != res["uniform grid"]["de00_p99"]
-    result = tune(spec, max_de=1.0, n_points=120, seed=0)
-    assert result.met and result.best.de00_p99 <= 1.0
-    assert result.rounds[0].de00_p99 > 1.0  # the search had to grow the grid
+    assert res["res×1 linear reads"]["bytes"] == res["res×1"]["bytes"]  # same file, read by the other rule
+    assert res["res×1"]["de00_p99"] < res["res×1 linear reads"]["de00_p99"]
+    result = tune(spec, max_de=0.2, n_points=120, seed=0)
+    assert result.met and result.best.de00_p99 <= 0.2
+    assert result.rounds[0].de00_p99 > 0.2  # the search had to grow the grid
 
 
 def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():

@@ -132,7 +132,7 @@ def test_the_compiler_rejects_a_missing_precision_in_glsl_es(tmp_path):
 def test_includes_name_their_constants_per_lut(baked):
     text = (baked / "2nd-lut.glsl").read_text()
     assert "const LutbakeLut LUTBAKE_2ND_LUT = LutbakeLut(" in text
-    assert text.rstrip().endswith("1.0, 2.0);")  # eta1, eta2 as constants
+    assert text.rstrip().endswith("1.0, 2.0, 1.0);")  # eta1, eta2 and cubic (its interpolation) as constants
     assert "LUTBAKE_MIN" not in text  # no unprefixed global that a second include would redefine
 
 

@@ -1,0 +1,64 @@
+"""How a LUT is read between its nodes (docs/lut-format.md, "Interpolation").
+
+A LUT's header names one of two rules; the sampler (``sample.Lut``) and the
+shader includes (shaders/lutbake.*.in) both follow it, on the same texels:
+
+- ``linear``: multilinear in each axis's own coordinate, 4 bilinear fetches.
+- ``cubic``: Catmull-Rom in each axis's own coordinate, 4 taps per axis, so
+  4⁴ = 256 texel reads (no hardware filtering, so no 8-bit weight rounding).
+  Its error falls as h⁴ where linear's falls as h², which is what buys the
+  default LUTs their accuracy at the same bytes (docs/accuracy.md).
+
+At the ends of an axis the missing tap is a ghost node folded onto real nodes:
+the mirror image f(−s) = f(s) at the low end of a √-spaced axis that starts
+at 0 (the content is a function of the value v = s², hence even in s), and
+quadratic extrapolation f(−1) = 3f(0) − 3f(1) + f(2) elsewhere. Both keep
+the rule exact for quadratics in the node coordinate, and with fewer than
+4 taps' worth of nodes the same folding still applies (an axis of 2 nodes
+reads linearly). This module is the one Python statement of the weights;
+the includes write the same lines and the tests hold them to ``Lut.sample``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .names import INTERPOLATIONS
+
+__all__ = ["INTERPOLATIONS", "cubic_taps", "linear_taps"]
+
+
+def linear_taps(f, count: int):
+    """First node and (…, 2) weights of linear interpolation at node coordinates ``f`` in [0, N − 1]."""
+    first = np.clip(np.floor(f), 0, count - 2).astype(np.int64)
+    t = f - first
+    return first, np.stack([1.0 - t, t], axis=-1)
+
+
+def cubic_taps(f, count: int, mirror_low: bool):
+    """First node and (…, 4) Catmull-Rom weights at node coordinates ``f`` in [0, N − 1].
+
+    The taps are nodes first … first + 3, clamped to [0, N − 1] (a clamped
+    tap always has weight 0). ``mirror_low``: the axis is √-spaced from 0,
+    so the ghost below node 0 mirrors node 1.
+    """
+    if count == 2:
+        first, w = linear_taps(f, count)
+        return first - 1, np.concatenate([np.zeros_like(w[..., :1]), w, np.zeros_like(w[..., :1])], axis=-1)
+    lower = np.clip(np.floor(f), 0, count - 2)
+    t = f - lower
+    t2, t3 = t * t, t * t * t
+    below = (-t3 + 2.0 * t2 - t) / 2.0          # node lower − 1
+    w0 = (3.0 * t3 - 5.0 * t2 + 2.0) / 2.0       # node lower
+    w1 = (-3.0 * t3 + 4.0 * t2 + t) / 2.0        # node lower + 1
+    above = (t3 - t2) / 2.0                      # node lower + 2
+    at_low, at_high = lower == 0, lower == count - 2
+    if mirror_low:
+        low = np.stack([w0, w1 + below, above, 0.0 * t], axis=-1)
+    else:
+        low = np.stack([w0 + 3.0 * below, w1 - 3.0 * below, above + below, 0.0 * t], axis=-1)
+    high = np.stack([0.0 * t, below + above, w0 - 3.0 * above, w1 + 3.0 * above], axis=-1)
+    inner = np.stack([below, w0, w1, above], axis=-1)
+    w = np.where(at_low[..., None], low, np.where(at_high[..., None], high, inner))
+    first = np.where(at_low, 0, np.where(at_high, count - 4, lower - 1)).astype(np.int64)
+    return first, w
