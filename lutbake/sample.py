@@ -20,6 +20,7 @@ import numpy as np
 from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
+from .points import FilmPoints
 
 __all__ = ["Lut", "Atlas", "load_table"]
 
@@ -48,9 +49,13 @@ class Lut:
     >>> [(a.name, a.count) for a in lut.axes], lut.eta2
     ([('cos_theta', 24), ('opd_nm', 96), ('eta3', 6), ('kappa3', 2)], 1.33)
     >>> soap = lutbake.FilmPoints.build(eta2=1.33, thickness_nm=300.0, angle_deg=45.0, eta3=1.0)
-    >>> rgb = lut.sample(soap.cos_theta, soap.opd_nm, soap.eta3, soap.kappa3)
+    >>> rgb = lut.sample(soap)
     >>> bool(abs(rgb - lutbake.reference_rgb(soap)).max() < 0.01)
     True
+    >>> lut.sample(lutbake.FilmPoints.build(eta2=1.5, thickness_nm=300.0, cos_theta=1.0, eta3=1.0))
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: eta2 1.5 differs from the LUT's eta2 = 1.33
     """
 
     meta: dict
@@ -80,24 +85,29 @@ class Lut:
     def eta2(self) -> float:
         return self.meta["constants"]["eta2"]
 
-    def in_domain(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+    def coordinates(self, stack: FilmPoints) -> list:
+        """The stacks' LUT coordinates in axis order (cos θ1, D, η3, κ3), broadcast; a stack of another
+        film than the LUT's (η1, η2, constant indices) is refused (ParameterError)."""
+        stack.require("LUT", film=None, base=None, eta1=self.eta1, eta2=self.eta2)
+        return np.broadcast_arrays(stack.cos_theta, stack.opd_nm, stack.eta3, stack.kappa3)
+
+    def in_domain(self, stack: FilmPoints) -> np.ndarray:
         """True where every coordinate lies inside the LUT's axis ranges."""
         ok = True
-        for axis, v in zip(self.axes, (cos_theta, opd_nm, eta3, kappa3)):
-            v = np.asarray(v, float)
+        for axis, v in zip(self.axes, self.coordinates(stack)):
             ok = ok & (v >= axis.lo) & (v <= axis.hi)
         return np.asarray(ok)
 
-    def node_coords(self, cos_theta, opd_nm, eta3, kappa3) -> list:
+    def node_coords(self, stack: FilmPoints) -> list:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
-        values = np.broadcast_arrays(cos_theta, opd_nm, eta3, kappa3)
+        values = self.coordinates(stack)
         snell2 = self.eta1 ** 2 * (1.0 - np.square(np.clip(values[0], 0.0, 1.0)))
         return [np.clip(axis.to_unit(v, snell2), 0.0, 1.0) * (axis.count - 1)
                 for axis, v in zip(self.axes, values)]
 
-    def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None) -> np.ndarray:
-        """Linear RGB (…, 3) at the given film parameters."""
-        f_cos, f_opd, f_eta3, f_kappa3 = self.node_coords(cos_theta, opd_nm, eta3, kappa3)
+    def sample(self, stack: FilmPoints, filter_bits=None) -> np.ndarray:
+        """Linear RGB (…, 3) of film stacks of the LUT's film (``FilmPoints``, fields broadcast)."""
+        f_cos, f_opd, f_eta3, f_kappa3 = self.node_coords(stack)
         layout = TileLayout(*(a.count for a in self.axes))
         i_e, t_e = _lower_node(f_eta3, layout.n_eta3)
         i_k, t_k = _lower_node(f_kappa3, layout.n_kappa3)
@@ -115,8 +125,8 @@ class Lut:
 class Atlas:
     """A scene atlas: one (cos θ, thickness) slice per rect, each serving named materials.
 
-    ``sample(material, cos_theta, thickness_nm)`` is one bilinear fetch in the material's rect, at
-    (√cos θ, thickness) node coordinates: what the scene's include returns.
+    ``sample(material, stack)`` is one bilinear fetch in the material's rect, at (√cos θ, thickness)
+    node coordinates: what the scene's include returns.
 
     Examples
     --------
@@ -132,7 +142,7 @@ class Atlas:
     >>> list(atlas.materials)
     ['oxide']
     >>> oxide = lutbake.FilmPoints.build(**atlas.film_stack("oxide"), thickness_nm=40.0, cos_theta=0.8)
-    >>> rgb = atlas.sample("oxide", oxide.cos_theta, oxide.thickness_nm)
+    >>> rgb = atlas.sample("oxide", oxide)
     >>> bool(abs(rgb - lutbake.reference_rgb(oxide)).max() < 0.01)
     True
     """
@@ -163,17 +173,24 @@ class Atlas:
         base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
         return {"eta1": self.meta["eta1"], **film, **base}
 
-    def in_domain(self, material, cos_theta, thickness_nm) -> np.ndarray:
+    def coordinates(self, material: str, stack: FilmPoints) -> list:
+        """The stacks' slice coordinates (cos θ1, thickness in nm), broadcast; a stack of another ambient,
+        film or base than the material's is refused (ParameterError)."""
+        stack.require(f"material {material!r}", **{"film": None, "base": None, **self.film_stack(material)})
+        return np.broadcast_arrays(stack.cos_theta, stack.thickness_nm)
+
+    def in_domain(self, material: str, stack: FilmPoints) -> np.ndarray:
         th = self.slice_of(material)["axes"]["thickness_nm"]
-        c, t = np.asarray(cos_theta, float), np.asarray(thickness_nm, float)
+        c, t = self.coordinates(material, stack)
         return np.asarray((c >= 0) & (c <= 1) & (t >= th["min"]) & (t <= th["max"]))
 
-    def sample(self, material, cos_theta, thickness_nm, filter_bits=None) -> np.ndarray:
-        """Linear RGB (…, 3): node coordinates (√cos θ, thickness) clamped to the rect, one bilinear fetch."""
+    def sample(self, material: str, stack: FilmPoints, filter_bits=None) -> np.ndarray:
+        """Linear RGB (…, 3) of film stacks of the material: node coordinates (√cos θ, thickness) clamped
+        to the rect, one bilinear fetch."""
         s = self.slice_of(material)
         x0, y0, w, h = s["rect"]
         lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
-        cos_theta, thickness_nm = np.broadcast_arrays(np.asarray(cos_theta, float), np.asarray(thickness_nm, float))
+        cos_theta, thickness_nm = self.coordinates(material, stack)
         fx = np.sqrt(np.clip(cos_theta, 0.0, 1.0)) * (w - 1)
         fy = np.clip((thickness_nm - lo) / (hi - lo), 0.0, 1.0) * (h - 1) if h > 1 else np.zeros_like(fx)
         return _bilinear(self.image, x0 + fx, y0 + fy, filter_bits)

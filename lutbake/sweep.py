@@ -56,7 +56,7 @@ def _measure(name, spec, folder, pts, backend):
     bake(spec, path, backend)
     seconds = time.perf_counter() - start
     lut = Lut.load(path)
-    stats = score(name, lut.sample(*pts.params), pts, spec.space, spec.observer).summary()
+    stats = score(name, lut.sample(pts.stack), pts, spec.space, spec.observer).summary()
     shape = "×".join(str(a.count) for a in spec.axes)
     return {**stats, "kind": "lut", "shape": shape, "precision": spec.precision, "compute": spec.compute,
             "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
@@ -66,8 +66,7 @@ def _approximation_rows(spec, pts):
     rows = []
     for name, fn in APPROXIMATIONS.items():
         start = time.perf_counter()
-        rgb = fn(spec.eta1, spec.eta2, pts.params[2], pts.params[3], pts.params[0], pts.params[1],
-                 spec.space, spec.observer)
+        rgb = fn(pts.stack, spec.space, spec.observer)
         seconds = (time.perf_counter() - start) / len(pts)
         rows.append({**score(name, rgb, pts, spec.space, spec.observer, seconds).summary(), "kind": "approximation"})
     return rows
