@@ -109,7 +109,8 @@ def test_hard_cases(tables):
     assert np.allclose(grazing.values, table.samples[:, 0].real, atol=1e-7)
     cos = np.array([1.0, 0.5, 0.1])
     bare = exact_colour(table, cos, np.zeros(3), 1.0, ETA2, np.full(3, 0.2), np.full(3, 3.0))
-    fresnel = film_reflectance(1.0, ETA2, 0.2, 3.0, cos, 0.0, 550.0)[2]
+    bare_stack = FilmPoints(eta1=1.0, eta2=ETA2, eta3=0.2, kappa3=3.0, cos_theta=cos, thickness_nm=0.0)
+    fresnel = film_reflectance(bare_stack, 550.0)[2]
     assert np.allclose(bare.values, fresnel[:, None] * table.samples[:, 0].real, atol=1e-7)
     with pytest.raises(ValueError, match="propagating film"):
         exact_colour(table, np.array([0.1]), np.array([200.0]), 1.5, 1.2, np.array([1.0]), np.array([0.0]))
