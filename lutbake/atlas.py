@@ -266,7 +266,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     >>> lutbake.bake_scene(scene, "baked").up_to_date
     True
     >>> atlas = lutbake.Atlas.load("baked/films.exr")
-    >>> atlas.sample("soap", cos_theta=[1.0, 0.5], thickness_nm=[300.0, 300.0]).shape
+    >>> soap = lutbake.FilmPoints.build(**atlas.film_stack("soap"), cos_theta=[1.0, 0.5], thickness_nm=300.0)
+    >>> atlas.sample("soap", soap).shape
     (2, 3)
     """
     start = time.perf_counter()
