@@ -297,6 +297,18 @@ def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
         integrate.backend("opencl")
 
 
+def test_sample_command_refuses_another_film(lut_path, tmp_path):
+    """--eta2 (or a CSV's eta2 column) other than the LUT's is refused in the flags' words, exit 2."""
+    flag = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--eta2", "1.5",
+                           "--opd", "700", "--cos-theta", "0.5", "--eta3", "1.7"], capture_output=True, text=True)
+    assert flag.returncode == 2 and "--eta2 1.5 differs from the LUT's eta2 = 1.4" in flag.stderr
+    csv = tmp_path / "pts.csv"
+    csv.write_text("eta2,thickness_nm,cos_theta,eta3\n1.4,250,0.5,1.7\n1.33,250,0.5,1.7\n")
+    column = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
+                            capture_output=True, text=True)
+    assert column.returncode == 2 and "--eta2 1.33 differs from the LUT's eta2 = 1.4" in column.stderr
+
+
 def test_sample_and_inspect_commands(lut_path, tmp_path):
     csv = tmp_path / "pts.csv"
     csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n1.2,700,1.7,1.3\n")

@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lutbake.optics import film_amplitudes, film_reflectance, film_transmittance
+from lutbake.materials import material
 from lutbake.points import FilmPoints
 
 from airy_mp import airy_reflectance_mp
@@ -145,6 +146,23 @@ def test_transmittance_matches_tmm_on_absorbing_bases(rng):
             ref = tmm.coh_tmm(pol, [e1[i], e2[i], e3[i] + 1j * k3[i]], [np.inf, d[i], np.inf],
                               np.radians(theta[i]), lam[i])["T"]
             assert abs(ours - ref) <= 1e-9
+
+
+def test_named_materials_are_taken_at_each_wavelength():
+    """A stack over gold: as_column() against M wavelengths gives (P, M), each R that of gold's index at
+    that wavelength, as tmm computes it."""
+    gold = FilmPoints.build(eta2=1.4, thickness_nm=[0.0, 150.0, 400.0], cos_theta=[1.0, 0.6, 0.2], base="Au")
+    lam = np.linspace(360.0, 830.0, 12)
+    r = film_reflectance(gold.as_column(), lam)[2]
+    assert r.shape == (3, 12)
+    eta3, kappa3 = material("Au").index(lam)
+    for i in range(3):
+        for j in range(12):
+            stack = [1.0, 1.4, eta3[j] + 1j * kappa3[j]]
+            theta = np.arccos(gold.cos_theta[i])
+            ref = [tmm.coh_tmm(pol, stack, [np.inf, gold.thickness_nm[i], np.inf], theta, lam[j])["R"]
+                   for pol in "sp"]
+            assert abs(r[i, j] - 0.5 * sum(ref)) <= 1e-9
 
 
 def test_glass_at_normal_incidence_reflects_four_percent():
