@@ -216,8 +216,7 @@ def _truncation(paths):
 
 
 def _series(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, tolerance=DEFAULT_SERIES_TOLERANCE):
-    cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
-    return series_colour(eta1, eta2, *np.broadcast_arrays(*cols), tolerance=tolerance)
+    return series_colour(_stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3), tolerance=tolerance)
 
 
 def _fourier(paths):

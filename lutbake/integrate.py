@@ -234,8 +234,8 @@ def self_check_error(backend) -> float:
         Axis("kappa3", 0.0, 4.0, 2)))
     expected = bake_rows_all(NumpyBackend(), grid)
     if getattr(backend, "integrator", "direct") == "series":
-        params = [np.ravel(p) for p in grid.cell_params(0, grid.image_size[1])]
-        series = series_colour(grid.eta1, grid.eta2, *params, grid.observer, grid.space).values
+        stacks = grid.texel_stacks(np.ravel(p) for p in grid.cell_params(0, grid.image_size[1]))
+        series = series_colour(stacks, grid.observer, grid.space).values
         expected = np.where(np.isnan(series), expected.reshape(-1, 3), series).reshape(expected.shape)
     return max(worst, float(np.max(np.abs(bake_rows_all(backend, grid) - expected))))
 

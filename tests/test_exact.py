@@ -84,7 +84,8 @@ def test_exact_colour_matches_the_float64_series(tables):
     eta3 = np.where(np.arange(400) % 2 == 0, 1.6, 0.4)
     kappa3 = np.where(np.arange(400) % 2 == 0, 0.0, 3.0)
     got = exact_colour(table, cos, thickness, 1.0, ETA2, eta3, kappa3)
-    series = series_colour(1.0, ETA2, cos, 2.0 * ETA2 * thickness, eta3, kappa3)
+    series = series_colour(FilmPoints(eta1=1.0, eta2=ETA2, eta3=eta3, kappa3=kappa3, cos_theta=cos,
+                                      thickness_nm=thickness))
     ok = series.terms >= 0
     assert ok.mean() > 0.9
     assert np.abs(got.values[ok] - series.values[ok]).max() <= 1e-4
