@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
 from .optics import film_reflectance, normal_admittance
@@ -436,23 +435,21 @@ class OpenCLBackend:
         physics, node by node."""
         import pyopencl as cl
 
-        eta1 = np.unique(stack.eta1)
-        if eta1.size != 1:
-            raise ParameterError("{eta1} varies ({values}): the kernel takes one ambient index",
-                                 values=", ".join(f"{v:g}" for v in eta1[:3]))
+        eta1 = float(np.ravel(stack.eta1)[0])
+        stack.require("kernel", eta1=eta1)  # one ambient index per launch
         eta2, eta3, kappa3 = stack.indices(wavelength_nm)
         cols = np.broadcast_arrays(stack.cos_theta, 2.0 * eta2 * stack.thickness_nm, eta2, eta3, kappa3,
                                    np.asarray(wavelength_nm, np.float64))
         shape = cols[0].shape
         cos1, opd, e2, e3, k3, lam = (np.ravel(c) for c in cols)
-        arrays = [cos1, *_split(_signed_cos_theta2(eta1[0], e2, cos1), self.dtype), *_split(opd, self.dtype),
+        arrays = [cos1, *_split(_signed_cos_theta2(eta1, e2, cos1), self.dtype), *_split(opd, self.dtype),
                   e2, e3, k3, *_split(1.0 / lam, self.dtype)]
         mf = cl.mem_flags
         bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
                 for a in arrays]
         out = np.empty(cos1.size, self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1[0]), out_buf)
+        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).reshape(shape)
 
