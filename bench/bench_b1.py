@@ -54,8 +54,8 @@ def numpy_2nm(spec, out: str) -> None:
 
 
 def _rows_2nm(spec, y0, y1, lam, weights, film_reflectance):
-    cos_t, opd, eta3, kappa3 = (np.ravel(p)[:, None] for p in spec.cell_params(y0, y1))
-    refl = film_reflectance(spec.eta1, spec.eta2, eta3, kappa3, cos_t, opd / (2 * spec.eta2), lam)[2]
+    stacks = spec.texel_stacks(np.ravel(p) for p in spec.cell_params(y0, y1))
+    refl = film_reflectance(stacks.as_column(), lam)[2]
     return refl @ weights.T
 
 
@@ -108,16 +108,13 @@ def _image(path: Path) -> np.ndarray:
 
 def texel_error(images: dict, spec, n_points: int, seed: int) -> dict:
     """max |ΔRGB| of each image against the ground truth at random texels (all texels if fewer)."""
-    from lutbake.points import FilmPoints
     from lutbake.reference import reference_colour
 
     width, height = spec.image_size
     rng = np.random.default_rng(seed)
     flat = np.arange(width * height) if n_points >= width * height else rng.choice(width * height, n_points, False)
     y, x = np.divmod(flat, width)
-    params = [np.ravel(p)[flat] for p in spec.cell_params(0, height)]
-    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=params[0], opd_nm=params[1],
-                           eta3=params[2], kappa3=params[3])
+    pts = spec.texel_stacks(np.ravel(p)[flat] for p in spec.cell_params(0, height))
     truth = reference_colour(pts, spec.observer, spec.space).values
     return {"texels": int(flat.size), **{name: float(np.abs(img[y, x] - truth).max())
                                          for name, img in images.items()}}

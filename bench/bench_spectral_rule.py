@@ -39,7 +39,7 @@ def main():
             axes = (Axis("cos_theta", 0, 1, 2), Axis("opd_nm", 0, 1, 2), Axis("eta3", 1, 2, 2), Axis("kappa3", 0, 1, 2))
             spec = BakeSpec(eta2=float(eta2[i]), axes=axes, samples_per_cycle=spc)
             p = [np.array([cols[k][i]]) for k in ("cos_theta", "opd_nm", "eta3", "kappa3")]
-            fast[i] = NumpyBackend().evaluate(spec, *p)[0]
+            fast[i] = NumpyBackend().evaluate(spec, spec.texel_stacks(p))[0]
             nodes[i] = spec.ladder.counts[int(spec.cell_levels(*p)[0])]
         err = np.abs(fast - truth).max(axis=1)
         rows.append({"samples_per_cycle": spc, "rgb_abs_max": float(err.max()),

@@ -21,7 +21,8 @@ supplemental shader), evaluated at OPD m·D·cos θ2 with phase m·φ.
   runtime mode, the exact Fourier series summed per pixel from a 1D table;
   reported beside them so a LUT's error and cost can be weighed against it.
 
-Inputs are broadcastable arrays; outputs (…, 3) linear RGB in ``space``.
+Each takes a film stack of constant indices (points.FilmPoints, fields broadcast);
+outputs (…, 3) linear RGB in ``space``.
 """
 
 from __future__ import annotations
@@ -100,10 +101,16 @@ def _to_space(xyz_e, space, observer):
     return cm.xyz_to_rgb(xyz_e @ adapt.T)
 
 
-def belcour_barla_rgb(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space="rec709", observer="cie1931"):
+def _columns(stack, method: str):
+    """(η1, η2, η3, κ3, cos θ1, D) of a constant-index stack, broadcast."""
+    stack.require(method, film=None, base=None)
+    return np.broadcast_arrays(*(np.asarray(v, float) for v in (
+        stack.eta1, stack.eta2, stack.eta3, stack.kappa3, stack.cos_theta, stack.opd_nm)))
+
+
+def belcour_barla_rgb(stack, space="rec709", observer="cie1931"):
     """Belcour & Barla (2017) real-time evaluation, orders 0–3."""
-    e1, e2, e3, k3, c1, opd = np.broadcast_arrays(*(np.asarray(v, float) for v in
-                                                     (eta1, eta2, eta3, kappa3, cos_theta, opd_nm)))
+    e1, e2, e3, k3, c1, opd = _columns(stack, "belcour-barla-2017")
     # The shader fades the film to the ambient as D → 0 (its 0.03 µm = 30 nm).
     t = np.clip(opd / 30.0, 0.0, 1.0)
     e2 = e1 + (e2 - e1) * t * t * (3 - 2 * t)
@@ -130,10 +137,9 @@ def _schlick(f0, cos):
     return f0 + (1 - f0) * (1 - cos) ** 5
 
 
-def khr_iridescence_rgb(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space="rec709", observer="cie1931"):
+def khr_iridescence_rgb(stack, space="rec709", observer="cie1931"):
     """KHR_materials_iridescence as in three.js' evalIridescence, orders 0–2."""
-    e1, e2, e3, k3, c1, opd = np.broadcast_arrays(*(np.asarray(v, float) for v in
-                                                     (eta1, eta2, eta3, kappa3, cos_theta, opd_nm)))
+    e1, e2, e3, k3, c1, opd = _columns(stack, "khr-iridescence-threejs")
     thickness = opd / (2 * e2)
     t = np.clip(thickness / 0.03, 0.0, 1.0)  # three.js fades over 0.03 *nm* (its thickness is in nm)
     ior = e1 + (e2 - e1) * t * t * (3 - 2 * t)

@@ -52,18 +52,18 @@ _LUT_MAX_ROUNDS = 6
 # --- slices ------------------------------------------------------------------------------------
 
 def _held_out(job: SceneJob, seed: int = 0):
-    """(cos θ, thickness, truth RGB) at uniform points in √cos θ and thickness: the independent ground truth."""
+    """(film stacks, truth RGB) at uniform points in √cos θ and thickness: the independent ground truth."""
     rng = np.random.default_rng(seed)
     cos_t = rng.uniform(0.0, 1.0, _HELD_OUT) ** 2
     d = rng.uniform(*job.thickness_nm, _HELD_OUT)
     pts = job.stack().points(cos_t, d)
-    return cos_t, d, reference_colour(pts, job.scene.observer, job.scene.space, tolerance=TRUTH_TOLERANCE).values
+    return pts, reference_colour(pts, job.scene.observer, job.scene.space, tolerance=TRUTH_TOLERANCE).values
 
 
 def _slice_measure(job: SceneJob, held_out, integrator):
     """``refine``'s measure for a slice: integrated, rounded to the atlas's precision, sampled at the
     held-out points by the atlas sampler (sample.Atlas) and scored there."""
-    cos_t, d, truth = held_out
+    pts, truth = held_out
     s, stack = job.scene, job.stack()  # one stack: it keeps what it learns about its materials' spectra
     stored = np.float16 if s.precision == "half" else np.float32
 
@@ -72,9 +72,8 @@ def _slice_measure(job: SceneJob, held_out, integrator):
         values = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space)
         seconds = time.perf_counter() - start
         image = values.astype(stored)
-        rect = {"materials": ["slice"], "rect": [0, 0, counts[0], counts[1]],
-                "axes": {"thickness_nm": {"min": job.thickness_nm[0], "max": job.thickness_nm[1]}}}
-        rgb = Atlas({"slices": [rect]}, image).sample("slice", cos_t, d)
+        rect = {**_slice_meta(job, [0, 0, counts[0], counts[1]]), "materials": ["slice"]}
+        rgb = Atlas({"eta1": s.eta1, "slices": [rect]}, image).sample("slice", pts)
         p99 = float(np.percentile(delta_e00(rgb, truth, s.observer, s.space), 99))
         return Trial(counts, p99, image.nbytes, seconds), values
 
@@ -98,10 +97,10 @@ def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
     film, base = job.key["film"], job.key["base"]
     if not isinstance(film, str) and not isinstance(base, str):
         return None
-    cos_t, d, truth = held_out
+    held, truth = held_out
     eta3, kappa3 = ((float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base)
-    pts = FilmPoints.build(eta1=job.scene.eta1, eta2=job.film_index_550(), cos_theta=cos_t, thickness_nm=d,
-                           eta3=eta3, kappa3=kappa3)
+    pts = FilmPoints.build(eta1=job.scene.eta1, eta2=job.film_index_550(), cos_theta=held.cos_theta,
+                           thickness_nm=held.thickness_nm, eta3=eta3, kappa3=kappa3)
     approx = fast_colours(pts, job.scene.observer, job.scene.space, backend)[0]  # constant indices: the kernel
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
@@ -267,7 +266,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     >>> lutbake.bake_scene(scene, "baked").up_to_date
     True
     >>> atlas = lutbake.Atlas.load("baked/films.exr")
-    >>> atlas.sample("soap", cos_theta=[1.0, 0.5], thickness_nm=[300.0, 300.0]).shape
+    >>> soap = lutbake.FilmPoints.build(**atlas.film_stack("soap"), cos_theta=[1.0, 0.5], thickness_nm=300.0)
+    >>> atlas.sample("soap", soap).shape
     (2, 3)
     """
     start = time.perf_counter()

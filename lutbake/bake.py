@@ -126,32 +126,27 @@ def _probe_points(spec: BakeSpec) -> FilmPoints:
     rng = np.random.default_rng(int(spec.content_hash[:8], 16))
     idx = [rng.integers(0, n, _PROBES) for n in spec.shape]
     idx[1][: _PROBES // 4] = spec.shape[1] - 1
-    vals = [a.values()[i] for a, i in zip(spec.axes, idx)]
-    return FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=vals[0], opd_nm=vals[1],
-                            eta3=vals[2], kappa3=vals[3])
+    return spec.texel_stacks([a.values()[i] for a, i in zip(spec.axes, idx)])
 
 
-def _error_at(spec: BakeSpec, cos_theta, opd_nm, eta3, kappa3) -> float:
+def _error_at(spec: BakeSpec, stack: FilmPoints) -> float:
     """max |ΔRGB| of the bake's spectral rules against the ground truth at texels."""
-    if np.size(cos_theta) == 0:
+    if len(stack) == 0:
         return 0.0
-    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
-                           kappa3=kappa3)
-    fast = NumpyBackend().evaluate(spec, cos_theta, opd_nm, eta3, kappa3)
-    truth = reference_colour(pts, spec.observer, spec.space).values
+    fast = NumpyBackend().evaluate(spec, stack)
+    truth = reference_colour(stack, spec.observer, spec.space).values
     return float(np.max(np.abs(fast - truth)))
 
 
 def spectral_error(spec: BakeSpec) -> float:
     """max |ΔRGB| of the bake's spectral rules against the ground truth at the probe cells."""
-    pts = _probe_points(spec)
-    return _error_at(spec, pts.cos_theta, 2.0 * spec.eta2 * pts.thickness_nm, pts.eta3, pts.kappa3)
+    return _error_at(spec, _probe_points(spec))
 
 
 def capped_error(spec: BakeSpec) -> tuple:
     """(texels past the node cap, their a-priori bound, the error measured at the worst 64)."""
     count, bound, texels = spec.capped_texels()
-    return count, bound, _error_at(spec, *texels)
+    return count, bound, _error_at(spec, spec.texel_stacks(texels))
 
 
 def integrator_metadata(spec: BakeSpec, series: dict) -> dict:

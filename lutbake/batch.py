@@ -57,7 +57,6 @@ def fast_colours(points: FilmPoints, observer: str, space: str, backend: str = "
     integrator = make_backend(backend)
     n = len(points)
     rgb, bound = np.empty((n, 3)), np.zeros(n)
-    opd = 2.0 * points.eta2 * points.thickness_nm
     films = np.stack([points.eta1, points.eta2], axis=1)
     progress(0, n, f"{integrator.name} integrator")
     done = 0
@@ -66,9 +65,9 @@ def fast_colours(points: FilmPoints, observer: str, space: str, backend: str = "
         rows = np.flatnonzero((films[:, 0] == eta1) & (films[:, 1] == eta2))
         for start, stop in _batches(rows.size):
             i = rows[start:stop]
-            params = (points.cos_theta[i], opd[i], points.eta3[i], points.kappa3[i])
-            rgb[i] = integrator.evaluate(spec, *params)
-            bound[i] = spec.truncation_estimate(*params)
+            batch = subset(points, i)
+            rgb[i] = integrator.evaluate(spec, batch)
+            bound[i] = spec.truncation_estimate(batch.cos_theta, batch.opd_nm, batch.eta3, batch.kappa3)
             done += i.size
             progress(done, n, f"{integrator.name} integrator")
     return rgb, rgb @ _rgb_to_xyz_matrix(colorimetry(observer, space)), bound

@@ -67,21 +67,24 @@ class _Paths:
         return self._fast[compute]
 
     def fast(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, compute="float64"):
-        spec = _spec(eta2, eta1, compute)
-        cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
-        return self._backend(compute).evaluate(spec, *np.broadcast_arrays(*cols))
+        stack = _stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3)
+        return self._backend(compute).evaluate(_spec(eta2, eta1, compute), stack)
 
     @staticmethod
     def truth(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
-        pts = FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
-                               kappa3=kappa3)
-        result = reference_colour(pts)
+        result = reference_colour(_stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3))
         return result.values, bool(result.converged.all())
+
+
+def _stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> FilmPoints:
+    """The film stacks of a case: the tables below list each as (η1, η2, cos θ1, D, η3, κ3)."""
+    return FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3)
 
 
 def _grey(eta1, eta2, eta3, kappa3, cos_theta):
     """Colour of a spectrally flat reflectance (a bare interface): R·(1, 1, 1)."""
-    return film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, 0.0, 550.0)[2]
+    bare = FilmPoints(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta, thickness_nm=0.0)
+    return film_reflectance(bare, 550.0)[2]
 
 
 def _vs_truth(paths, group, name, stack, note=""):
@@ -101,9 +104,10 @@ def _vs_value(paths, group, name, stack, expected, tolerance, note=""):
 
 def _incoherent_limit(eta1, eta2, eta3, kappa3, cos_theta):
     """Thick-film limit: intensities add, R = R12 + (1−R12)²·R23 / (1 − R12·R23), per polarization."""
-    r12 = film_reflectance(eta1, eta2, eta2, 0.0, cos_theta, 0.0, 550.0)
+    top = FilmPoints(eta1=eta1, eta2=eta2, eta3=eta2, kappa3=0.0, cos_theta=cos_theta, thickness_nm=0.0)
     sin2 = (1 - cos_theta**2) * eta1**2 / eta2**2
-    r23 = film_reflectance(eta2, eta2, eta3, kappa3, np.sqrt(1 - sin2), 0.0, 550.0)
+    bottom = FilmPoints(eta1=eta2, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=np.sqrt(1 - sin2), thickness_nm=0.0)
+    r12, r23 = film_reflectance(top, 550.0), film_reflectance(bottom, 550.0)
     pol = [a + (1 - a) ** 2 * b / (1 - a * b) for a, b in zip(r12[:2], r23[:2])]
     return 0.5 * (pol[0] + pol[1])
 
@@ -212,8 +216,7 @@ def _truncation(paths):
 
 
 def _series(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, tolerance=DEFAULT_SERIES_TOLERANCE):
-    cols = [np.atleast_1d(np.asarray(v, float)) for v in (cos_theta, opd_nm, eta3, kappa3)]
-    return series_colour(eta1, eta2, *np.broadcast_arrays(*cols), tolerance=tolerance)
+    return series_colour(_stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3), tolerance=tolerance)
 
 
 def _fourier(paths):

@@ -72,7 +72,7 @@ def main(argv=None):
 
 # The library's parameter names (errors.ParameterError) as this command line spells them.
 FLAG_OF_PARAMETER = {
-    "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
+    "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta1": "--eta1", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
     "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
     "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
     "tolerance": "--tolerance", "max_terms": "--max-terms",
@@ -642,13 +642,12 @@ def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, *
         raise BadInput(f"--filter-bits {filter_bits} applies to linear reads; {lut!r} is read cubic "
                        f"(texel reads without filtering): add --interpolation linear")
     for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
-        if flags.get(name) is not None and flags[name] != value:
-            raise BadInput(f"--{name} {flags[name]!r} differs from the LUT's {name} = {value!r}")
-        flags[name] = value
+        if flags.get(name) is None:  # the LUT's film unless given (Lut.sample refuses another)
+            flags[name] = value
     points = build_points(points_csv, **flags)
-    opd = 2.0 * table.eta2 * points.thickness_nm
-    rgb = table.sample(points.cos_theta, opd, points.eta3, points.kappa3, filter_bits, interpolation)
-    inside = table.in_domain(points.cos_theta, opd, points.eta3, points.kappa3)
+    rgb = table.sample(points, filter_bits, interpolation)
+    inside = table.in_domain(points)
+    opd = points.opd_nm
     rows = []
     for i in range(len(points)):
         rows.append({"cos_theta": float(points.cos_theta[i]), "opd_nm": float(opd[i]),
@@ -689,8 +688,8 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
         raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
                        f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
     points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
-    rgb = atlas.sample(material, points.cos_theta, points.thickness_nm, filter_bits)
-    inside = atlas.in_domain(material, points.cos_theta, points.thickness_nm)
+    rgb = atlas.sample(material, points, filter_bits)
+    inside = atlas.in_domain(material, points)
     rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
             for c, t, v, i in zip(points.cos_theta, points.thickness_nm, rgb, inside)]
     if as_json:

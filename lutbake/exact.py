@@ -38,7 +38,6 @@ from .fileset import open_set
 from .fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 from .lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
-from .optics import thickness_from_opd
 
 __all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
            "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
@@ -194,18 +193,20 @@ def stored_table(observer: str = "cie1931", space: str = "rec709", precision: st
     return ExactTable(meta, _unpack(stored))
 
 
-def exact_mode(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space: str = "rec709",
-               observer: str = "cie1931") -> ExactResult:
-    """The exact runtime mode (the default float table and include settings) at LUT coordinates, in
-    the approximations' argument order: what `report` and `sweep` score beside a LUT."""
+def exact_mode(stack, space: str = "rec709", observer: str = "cie1931") -> ExactResult:
+    """The exact runtime mode (the default float table and include settings) at film stacks of one
+    constant film η1 | η2 and constant bases, taken as the approximations are: what `report` and
+    `sweep` score beside a LUT."""
+    eta1, eta2 = float(np.ravel(stack.eta1)[0]), float(np.ravel(stack.eta2)[0])
+    stack.require("exact mode", film=None, base=None, eta1=eta1, eta2=eta2)
     cos_theta, thickness, eta3, kappa3 = (np.ravel(a) for a in np.broadcast_arrays(
-        cos_theta, thickness_from_opd(opd_nm, eta2), eta3, kappa3))
+        stack.cos_theta, stack.thickness_nm, stack.eta3, stack.kappa3))
     return exact_colour(stored_table(observer, space), cos_theta, thickness, eta1, eta2, eta3, kappa3)
 
 
-def exact_mode_rgb(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space="rec709", observer="cie1931") -> np.ndarray:
+def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
     """``exact_mode``'s linear RGB (n, 3)."""
-    return exact_mode(eta1, eta2, eta3, kappa3, cos_theta, opd_nm, space, observer).values
+    return exact_mode(stack, space, observer).values
 
 
 def exact_includes(meta: dict, table_name: str) -> dict:

@@ -36,9 +36,12 @@ def _slices(lut: Lut):
     return [(e.lo, k.lo), (0.5 * (e.lo + e.hi), k.from_unit(0.37)), (e.hi, k.hi)]
 
 
-def _truth(lut, cos_t, opd, eta3, kappa3):
-    pts = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t, opd_nm=opd, eta3=eta3, kappa3=kappa3)
-    return reference_colour(pts, lut.meta["observer"], lut.meta["space"]).values
+def _stack(lut, cos_t, opd, eta3, kappa3) -> FilmPoints:
+    return FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t, opd_nm=opd, eta3=eta3, kappa3=kappa3)
+
+
+def _truth(lut, stack: FilmPoints):
+    return reference_colour(stack, lut.meta["observer"], lut.meta["space"]).values
 
 
 def _worst_slices(rep, count: int = 3) -> list:
@@ -67,8 +70,8 @@ def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
     maps, slices = [], _worst_slices(rep)
     for i, (eta3, kappa3) in enumerate(slices):
         progress(i, len(slices), f"figure: ΔE00 map at η3 {eta3:.3f}, κ3 {kappa3:.3f} ({n * n} truth points)")
-        truth = _truth(lut, cos_t.ravel(), opd.ravel(), eta3, kappa3)
-        de = delta_e00(lut.sample(cos_t.ravel(), opd.ravel(), eta3, kappa3), truth,
+        stack = _stack(lut, cos_t.ravel(), opd.ravel(), eta3, kappa3)
+        de = delta_e00(lut.sample(stack), _truth(lut, stack),
                        lut.meta["observer"], lut.meta["space"]).reshape(n, n)
         maps.append((eta3, kappa3, de))
     vmax = max(1.0, max(float(de.max()) for _, _, de in maps))
@@ -93,10 +96,10 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
     rows = []
     for eta3, kappa3 in _slices(lut):
         for cos_t in (0.9, 0.4):
-            truth = _truth(lut, np.full(n, cos_t), opd, eta3, kappa3)
-            strips = [("ground truth", truth), ("LUT", lut.sample(cos_t, opd, eta3, kappa3))]
-            strips += [(name, fn(lut.eta1, lut.eta2, eta3, kappa3, cos_t, opd, lut.meta["space"],
-                                 lut.meta["observer"])) for name, fn in APPROXIMATIONS.items()]
+            stack = _stack(lut, cos_t, opd, eta3, kappa3)
+            strips = [("ground truth", _truth(lut, stack)), ("LUT", lut.sample(stack))]
+            strips += [(name, fn(stack, lut.meta["space"], lut.meta["observer"]))
+                       for name, fn in APPROXIMATIONS.items()]
             rows.append((f"η3 {eta3:.2f} κ3 {kappa3:.2f} cos θ {cos_t}", strips))
     fig = _figure((10, 1.3 * len(rows)))
     axes = fig.subplots(len(rows), 1)

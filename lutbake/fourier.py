@@ -273,12 +273,14 @@ class SeriesResult:
     bound: np.ndarray    # (n,) enforced a-priori |ΔRGB| bound of the series (0 for direct texels)
 
 
-def series_colour(eta1, eta2, cos_theta, opd_nm, eta3, kappa3, observer="cie1931", space="rec709",
-                  basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE, budget=SERIES_BUDGET) -> SeriesResult:
-    """RGB of texels (flat arrays) by the series where the rule allows it, in float64."""
-    cos_theta = np.asarray(cos_theta, float)
+def series_colour(stack, observer="cie1931", space="rec709", basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE,
+                  budget=SERIES_BUDGET) -> SeriesResult:
+    """RGB of film stacks of constant indices (points.FilmPoints, flat fields) by the series where the
+    rule allows it, in float64."""
+    stack.require("series", film=None, base=None)
     wt = weight_transform(observer, space, basis)
-    co = series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3)
+    co = series_coefficients(stack.eta1, stack.eta2, np.asarray(stack.cos_theta, float), stack.opd_nm, stack.eta3,
+                             stack.kappa3)
     terms = series_plan(co, wt, tolerance, budget)
     w0 = wt(np.zeros(1))[:, 0]
     # X = 0: Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1 (γ = 0).

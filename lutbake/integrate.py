@@ -30,6 +30,8 @@ import numpy as np
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
 from .optics import film_reflectance, normal_admittance
+from .points import FilmPoints
+from .reference import subset
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "opencl_devices", "find_device",
            "device_key", "device_label", "self_check_error"]
@@ -47,8 +49,8 @@ class NumpyBackend:
     _CELLS_X_NODES = 2_000_000
 
     def bake_rows(self, spec, y0, y1):
-        params = (a.ravel() for a in spec.cell_params(y0, y1))
-        return self.evaluate(spec, *params).reshape(y1 - y0, -1, 3)
+        stacks = spec.texel_stacks(a.ravel() for a in spec.cell_params(y0, y1))
+        return self.evaluate(spec, stacks).reshape(y1 - y0, -1, 3)
 
     @staticmethod
     def series_plan(spec) -> "SeriesStats":
@@ -57,21 +59,25 @@ class NumpyBackend:
         stats.add(np.full(spec.cells, -1), np.zeros(spec.cells))
         return stats
 
-    def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
-        """RGB (n, 3) of texels given as flat parameter arrays."""
-        levels = spec.cell_levels(cos_theta, opd_nm, eta3, kappa3)
-        thickness = np.asarray(opd_nm) / (2.0 * spec.eta2)
+    def evaluate(self, spec, stack: FilmPoints):
+        """RGB (P, 3) of P stacks of the spec's film (flat fields), each at its texel's rule nodes."""
+        levels = _levels(spec, stack)
         out = np.empty((levels.size, 3))
         for level in np.unique(levels):
             rule = spec.ladder.rule(level)
             cells = np.flatnonzero(levels == level)
             step = max(1, self._CELLS_X_NODES // rule.count)
             for s in range(0, cells.size, step):
-                i = cells[s:s + step, None]
-                refl = film_reflectance(spec.eta1, spec.eta2, eta3[i], kappa3[i], cos_theta[i],
-                                        thickness[i], rule.wavelength_nm[None, :])[2]
-                out[i[:, 0]] = refl @ rule.weights.T
+                i = cells[s:s + step]
+                refl = film_reflectance(subset(stack, i).as_column(), rule.wavelength_nm)[2]
+                out[i] = refl @ rule.weights.T
         return out
+
+
+def _levels(spec, stack: FilmPoints) -> np.ndarray:
+    """Each stack's spectral rule level, once the stack is known to be of the spec's film."""
+    stack.require("spec", film=None, base=None, eta1=spec.eta1, eta2=spec.eta2)
+    return spec.cell_levels(stack.cos_theta, stack.opd_nm, stack.eta3, stack.kappa3)
 
 
 def _signed_cos_theta2(eta1, eta2, cos_theta):
@@ -218,16 +224,17 @@ def self_check_error(backend) -> float:
     cos1, opd, eta3, kappa3, lam = _SELF_CHECK.T
     worst = 0.0
     for eta1, eta2 in ((1.0, 1.5), (1.6, 1.2)):
-        fast = backend.reflectance(eta1, eta2, cos1, opd, eta3, kappa3, lam)
-        ref = film_reflectance(eta1, eta2, eta3, kappa3, cos1, opd / (2 * eta2), lam)[2]
+        stack = FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos1, opd_nm=opd, eta3=eta3, kappa3=kappa3)
+        fast = backend.reflectance(stack, lam)
+        ref = film_reflectance(stack, lam)[2]
         worst = max(worst, float(np.max(np.abs(fast - ref))))
     grid = BakeSpec(eta2=1.5, compute=backend.compute, axes=(
         Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 2000.0, 4), Axis("eta3", 1.0, 3.0, 2),
         Axis("kappa3", 0.0, 4.0, 2)))
     expected = bake_rows_all(NumpyBackend(), grid)
     if getattr(backend, "integrator", "direct") == "series":
-        params = [np.ravel(p) for p in grid.cell_params(0, grid.image_size[1])]
-        series = series_colour(grid.eta1, grid.eta2, *params, grid.observer, grid.space).values
+        stacks = grid.texel_stacks(np.ravel(p) for p in grid.cell_params(0, grid.image_size[1]))
+        series = series_colour(stacks, grid.observer, grid.space).values
         expected = np.where(np.isnan(series), expected.reshape(-1, 3), series).reshape(expected.shape)
     return max(worst, float(np.max(np.abs(bake_rows_all(backend, grid) - expected))))
 
@@ -412,27 +419,29 @@ class OpenCLBackend:
         level_buf.release()
         return out.astype(np.float64, copy=False)
 
-    def evaluate(self, spec, cos_theta, opd_nm, eta3, kappa3):
-        """RGB (n, 3) of texels at arbitrary parameters: the kernel's R at each texel's rule nodes."""
-        levels = spec.cell_levels(cos_theta, opd_nm, eta3, kappa3)
+    def evaluate(self, spec, stack: FilmPoints):
+        """RGB (P, 3) of P stacks of the spec's film (flat fields): the kernel's R at each one's rule nodes."""
+        levels = _levels(spec, stack)
         out = np.empty((levels.size, 3))
         for level in np.unique(levels):
             rule = spec.ladder.rule(level)
-            cells = np.flatnonzero(levels == level)[:, None]
-            refl = self.reflectance(spec.eta1, spec.eta2, cos_theta[cells], opd_nm[cells], eta3[cells],
-                                    kappa3[cells], rule.wavelength_nm[None, :])
-            out[cells[:, 0]] = refl @ rule.weights.T
+            cells = np.flatnonzero(levels == level)
+            out[cells] = self.reflectance(subset(stack, cells).as_column(), rule.wavelength_nm) @ rule.weights.T
         return out
 
-    def reflectance(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, wavelength_nm):
-        """The kernel's unpolarized R at points (broadcast arrays; η1 a number, every other argument may
-        vary per point, η2 and opd_nm = 2·η2·d together for a dispersive film): its physics, node by node."""
+    def reflectance(self, stack: FilmPoints, wavelength_nm):
+        """The kernel's unpolarized R of the stacks at ``wavelength_nm`` (broadcast as
+        optics.film_reflectance; one ambient η1, named materials taken at each wavelength): its
+        physics, node by node."""
         import pyopencl as cl
 
-        cols = np.broadcast_arrays(*(np.asarray(v, np.float64) for v in
-                                     (cos_theta, opd_nm, eta2, eta3, kappa3, wavelength_nm)))
+        eta1 = float(np.ravel(stack.eta1)[0])
+        stack.require("kernel", eta1=eta1)  # one ambient index per launch
+        eta2, eta3, kappa3 = stack.indices(wavelength_nm)
+        cols = np.broadcast_arrays(stack.cos_theta, 2.0 * eta2 * stack.thickness_nm, eta2, eta3, kappa3,
+                                   np.asarray(wavelength_nm, np.float64))
         shape = cols[0].shape
-        cos1, opd, e2, e3, k3, lam = (c.ravel() for c in cols)
+        cos1, opd, e2, e3, k3, lam = (np.ravel(c) for c in cols)
         arrays = [cos1, *_split(_signed_cos_theta2(eta1, e2, cos1), self.dtype), *_split(opd, self.dtype),
                   e2, e3, k3, *_split(1.0 / lam, self.dtype)]
         mf = cl.mem_flags

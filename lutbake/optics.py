@@ -1,8 +1,9 @@
 """Thin-film optics: Fresnel amplitudes and the closed-form Airy summation.
 
 A film of real index η2 and physical thickness d lies between an ambient of
-real index η1 and a base of complex index n3 = η3 + iκ3 (κ ≥ 0 absorbs).
-Everything is float64 numpy, vectorized over broadcastable inputs.
+real index η1 and a base of complex index n3 = η3 + iκ3 (κ ≥ 0 absorbs):
+a film stack (points.FilmPoints), lit at cos θ1. Everything is float64 numpy,
+vectorized: the stack's fields and the wavelengths broadcast together.
 
 Each medium j is described by its *normal admittance* g_j = n_j cos θ_j =
 √(n_j² − η1² sin² θ1) (principal root, Im ≥ 0), which makes total internal
@@ -30,7 +31,12 @@ and with tmm's transfer matrices.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from .points import FilmPoints
 
 __all__ = [
     "normal_admittance",
@@ -98,15 +104,10 @@ def _exprel(x):
     return np.where(small, 1.0 + x / 2.0, np.expm1(safe) / safe)
 
 
-def _broadcast(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    return np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (
-        eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)))
-
-
 def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each."""
-    e1, e2, e3, k3, c1, d, lam = _broadcast(
-        eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
+    """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each (indices resolved)."""
+    e1, e2, e3, k3, c1, d, lam = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (
+        eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)))
     g1 = e1 * c1 + 0j
     g2 = normal_admittance(e2, 0.0, e1, c1)
     g3 = normal_admittance(e3, k3, e1, c1)
@@ -148,21 +149,28 @@ def _transmitted_power(y1, y3, den, phi, cos_theta1):
     return np.where(cos_theta1 == 0.0, 0.0, t)
 
 
-def film_amplitudes(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    """Complex reflected amplitudes (r_s, r_p) of the film stack."""
-    terms, _, c1 = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
+def _terms(stack: FilmPoints, wavelength_nm):
+    """``_stack_terms`` of the stack at ``wavelength_nm`` (named materials taken there)."""
+    eta2, eta3, kappa3 = stack.indices(wavelength_nm)
+    return _stack_terms(stack.eta1, eta2, eta3, kappa3, stack.cos_theta, stack.thickness_nm, wavelength_nm)
+
+
+def film_amplitudes(stack: FilmPoints, wavelength_nm):
+    """Complex reflected amplitudes (r_s, r_p) of the film stack at ``wavelength_nm`` (broadcast)."""
+    terms, _, c1 = _terms(stack, wavelength_nm)
     return tuple(_airy_amplitude(*terms[pol], c1)[0] for pol in ("s", "p"))
 
 
-def film_reflectance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    """Reflectances (R_s, R_p, R) with R = (R_s + R_p)/2 (unpolarized).
+def film_reflectance(stack: FilmPoints, wavelength_nm):
+    """Reflectances (R_s, R_p, R) with R = (R_s + R_p)/2 (unpolarized), the stack's fields broadcast
+    against ``wavelength_nm`` (``stack.as_column()`` against a row of M wavelengths gives (P, M)).
 
     Where |r|² ≤ 1/2 it is |num|²/|den|²; above, 1 − T with T the power
     into the base (the film is lossless, so R + T = 1 exactly). Both are
     ratios of non-negative terms, so 0 ≤ R ≤ 1 holds by construction and
     1 − R keeps its relative accuracy near total reflection.
     """
-    terms, phi, c1 = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
+    terms, phi, c1 = _terms(stack, wavelength_nm)
     out = []
     for pol in ("s", "p"):
         y1, _, y3, _ = terms[pol]
@@ -173,14 +181,14 @@ def film_reflectance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelen
     return out[0], out[1], 0.5 * (out[0] + out[1])
 
 
-def film_transmittance(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
-    """Power transmitted into the base, (T_s, T_p, T).
+def film_transmittance(stack: FilmPoints, wavelength_nm):
+    """Power transmitted into the base, (T_s, T_p, T), broadcast as ``film_reflectance``.
 
     T = 16·Re(Y1)·Re(Y3)·e^{−Im Φ} / |den|², Macleod's 4·Re(Y1)Re(Y3)/|Y1B + C|²
     rewritten for the normalized denominator above. With a lossless film,
     R + T = 1 holds for any base (the base absorbs what it transmits).
     """
-    terms, phi, c1 = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)
+    terms, phi, c1 = _terms(stack, wavelength_nm)
     out = []
     for pol in ("s", "p"):
         y1, _, y3, _ = terms[pol]

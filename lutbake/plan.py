@@ -30,7 +30,7 @@ from .colorimetry import OBSERVERS, SPACES
 from .errors import ParameterError
 from .interpolation import INTERPOLATIONS
 from .layout import _CHUNK_CELLS, TileLayout
-from .points import check_value
+from .points import FilmPoints, check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
 
@@ -320,6 +320,11 @@ class BakeSpec:
         g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][i_cos]).real
         cycles = v["opd_nm"][i_opd][:, None] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
         return self.ladder.level(cycles, rt_rows).ravel()
+
+    def texel_stacks(self, coords) -> FilmPoints:
+        """Film stacks of this spec's film at texel coordinates (arrays in axis order: cos θ1, D, η3,
+        κ3), unchecked: for coordinates this validated spec produced (its grid, its cells)."""
+        return FilmPoints.texels(eta1=self.eta1, eta2=self.eta2, **dict(zip((a.name for a in self.axes), coords)))
 
     def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
         """Bound on the spectral truncation error of texels past the ladder's cap (else 0)."""

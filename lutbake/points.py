@@ -1,16 +1,18 @@
-"""Point specs: film stacks to evaluate, validated (the `eval`/`sample` input stage).
+"""Film stacks: the one type every stage takes (optics, both integrators, the samplers, the reports).
 
-A ``FilmPoints`` holds P stacks as float64 arrays. A named (dispersive) film
-or base replaces the constant η2 or η3/κ3 of every point at each wavelength.
-Every constructor validates and raises ValueError with one line naming the
-value and what is allowed.
+A ``FilmPoints`` holds P stacks as float64 arrays with named fields. A named
+(dispersive) film or base replaces the constant η2 or η3/κ3 of every point at
+each wavelength. ``build`` and ``from_csv`` validate user input and raise
+ValueError with one line naming the value and what is allowed; hot paths
+(a bake's texels, refinement loops) take ``texels`` or the plain constructor,
+which check nothing: their coordinates come from a validated spec or LUT.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -20,6 +22,8 @@ from .optics import opd_from_thickness, thickness_from_opd
 
 __all__ = ["FilmPoints", "check_value", "dielectric_film", "CSV_COLUMNS"]
 
+# The per-point fields (the rest name materials).
+_COLUMNS = ("eta1", "eta2", "eta3", "kappa3", "cos_theta", "thickness_nm")
 CSV_COLUMNS = ("eta1", "eta2", "thickness_nm", "opd_nm", "cos_theta", "angle_deg", "eta3", "kappa3")
 
 # name → (test, what is allowed); the one table every entry point validates with. Bounds are where the
@@ -57,12 +61,14 @@ def check_value(name: str, values) -> np.ndarray:
     return arr
 
 
-@dataclass
+@dataclass(kw_only=True)
 class FilmPoints:
     """P film stacks: ambient η1 | film η2, thickness d | base η3 + iκ3, lit at cos θ1.
 
     Build with ``FilmPoints.build`` (keyword-only, validated, broadcast); every
-    column is a float64 array of shape (P,).
+    column is then a float64 array of shape (P,). The plain constructor (also
+    keyword-only) checks nothing and takes any broadcastable arrays, e.g. (P, 1)
+    columns (``as_column``) against a row of wavelengths.
 
     Attributes
     ----------
@@ -98,7 +104,6 @@ class FilmPoints:
     thickness_nm: np.ndarray
     film: object = None
     base: object = None
-    extra: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return self.cos_theta.size
@@ -109,15 +114,45 @@ class FilmPoints:
         return opd_from_thickness(self.thickness_nm, self.eta2)
 
     def indices(self, wavelength_nm):
-        """(η2, η3, κ3) at each point × wavelength, shape (P, M)."""
-        lam = np.asarray(wavelength_nm, float)[None, :]
-        ones = np.ones_like(lam)
-        eta2 = self.film.index(lam)[0] if self.film else self.eta2[:, None] * ones
-        if self.base:
-            eta3, kappa3 = self.base.index(lam)
-        else:
-            eta3, kappa3 = self.eta3[:, None] * ones, self.kappa3[:, None] * ones
-        return eta2, eta3, kappa3
+        """(η2, η3, κ3) at ``wavelength_nm``, broadcast with the stack's fields: a named film or base
+        is taken at each wavelength, constant indices as they are."""
+        lam = np.asarray(wavelength_nm, float)
+        eta2 = self.film.index(lam)[0] if self.film else self.eta2
+        eta3, kappa3 = self.base.index(lam) if self.base else (self.eta3, self.kappa3)
+        return tuple(np.broadcast_arrays(eta2, eta3, kappa3, self.cos_theta, self.thickness_nm, lam)[:3])
+
+    def as_column(self) -> "FilmPoints":
+        """The stacks with every field as a (P, 1) column: against wavelengths (M,) they give (P, M)."""
+        return replace(self, **{f: getattr(self, f)[:, None] for f in _COLUMNS})
+
+    def require(self, owner: str, **fixed) -> "FilmPoints":
+        """This stack, when each field in ``fixed`` holds that value at every point: a number for an
+        index, a material name or None for ``film`` and ``base``. A LUT, an atlas slice and a spec each
+        hold one film: a stack of another is refused (ParameterError naming the field, its value and
+        ``owner``'s), never evaluated with the wrong one. Check ``film``/``base`` before the indices
+        they replace."""
+        for name, want in fixed.items():
+            if name in ("film", "base"):
+                got = getattr(self, name)
+                same = (got is None) == (want is None) and (got is None or got.page == material(want).page)
+                value = got and got.name
+            else:
+                column = np.asarray(getattr(self, name))
+                differs = column != want
+                same, value = not differs.any(), float(column[differs].flat[0]) if differs.any() else None
+            if not same:
+                raise ParameterError(f"{{{name}}} {{value}} differs from the {{owner}}'s {name} = {{want}}",
+                                     value=repr(value), owner=owner, want=repr(want))
+        return self
+
+    @classmethod
+    def texels(cls, *, eta1: float, eta2: float, cos_theta, opd_nm, eta3, kappa3) -> "FilmPoints":
+        """Stacks at LUT coordinates (cos θ1, D = 2·η2·d, η3, κ3) of the film η1 | η2, unchecked and
+        broadcast without copies: for coordinates a validated spec or LUT produced (a bake's texels)."""
+        eta1, eta2, cos_theta, opd_nm, eta3, kappa3 = np.broadcast_arrays(
+            *(np.asarray(v, float) for v in (eta1, eta2, cos_theta, opd_nm, eta3, kappa3)))
+        return cls(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta,
+                   thickness_nm=thickness_from_opd(opd_nm, eta2))
 
     @classmethod
     def build(cls, *, eta1=1.0, eta2=None, thickness_nm=None, opd_nm=None, cos_theta=None,

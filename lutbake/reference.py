@@ -43,10 +43,7 @@ class ReferenceResult:
 
 def spectral_reflectance(points: FilmPoints, wavelength_nm):
     """(R_s, R_p, R) of every point at every wavelength, each (P, M)."""
-    eta2, eta3, kappa3 = points.indices(wavelength_nm)
-    lam = np.asarray(wavelength_nm, float)[None, :]
-    return film_reflectance(points.eta1[:, None], eta2, eta3, kappa3,
-                            points.cos_theta[:, None], points.thickness_nm[:, None], lam)
+    return film_reflectance(points.as_column(), np.asarray(wavelength_nm, float))
 
 
 def _integrate(points: FilmPoints, rule) -> np.ndarray:
@@ -60,9 +57,9 @@ def _integrate(points: FilmPoints, rule) -> np.ndarray:
 
 def subset(points: FilmPoints, index) -> FilmPoints:
     """The points at ``index`` (a slice or an index array)."""
-    return FilmPoints(points.eta1[index], points.eta2[index], points.eta3[index],
-                      points.kappa3[index], points.cos_theta[index], points.thickness_nm[index],
-                      film=points.film, base=points.base)
+    return FilmPoints(eta1=points.eta1[index], eta2=points.eta2[index], eta3=points.eta3[index],
+                      kappa3=points.kappa3[index], cos_theta=points.cos_theta[index],
+                      thickness_nm=points.thickness_nm[index], film=points.film, base=points.base)
 
 
 def _rule(nodes_per_nm: int, observer: str, space: str, basis: str) -> SpectralRule:

@@ -138,7 +138,7 @@ def lut_measure(spec, pts, integrator):
         image = bake_rows_all(integrator, grid).astype(stored)
         seconds = time.perf_counter() - start
         lut = Lut.in_memory(grid, image)
-        stats = score(label, lut.sample(*pts.params), pts, spec.space, spec.observer).summary()
+        stats = score(label, lut.sample(pts.stack), pts, spec.space, spec.observer).summary()
         return Trial(tuple(counts), stats["de00_p99"], image.nbytes, seconds, stats), None
 
     return measure

@@ -32,12 +32,10 @@ __all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport
 
 @dataclass
 class HeldOutPoints:
-    """Film parameters (cos θ, D, η3, κ3) of the held-out points and their ground truth."""
+    """The held-out film stacks (one film, constant bases) and their ground truth."""
 
-    params: tuple
+    stack: FilmPoints
     kind: np.ndarray  # "uniform" or "cell-centre"
-    eta1: float
-    eta2: float
     truth: np.ndarray = None
 
     def __len__(self):
@@ -54,13 +52,10 @@ def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n
     units = [(rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1) for a in axes]
     snell2 = eta1 ** 2 * (1.0 - axes[0].from_unit(units[0]) ** 2)   # η3's "admittance" cells lie along cos θ
     centres = [a.from_unit(u, snell2) for a, u in zip(axes, units)]
-    params = tuple(np.concatenate([u, c]) for u, c in zip(uniform, centres))
+    coords = {a.name: np.concatenate([u, c]) for a, u, c in zip(axes, uniform, centres)}
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
-    pts = HeldOutPoints(params, kind, eta1, eta2)
-    film = FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=params[0], opd_nm=params[1],
-                            eta3=params[2], kappa3=params[3])
-    pts.truth = reference_colour(film, observer, space).values
-    return pts
+    stack = FilmPoints.build(eta1=eta1, eta2=eta2, **coords)
+    return HeldOutPoints(stack, kind, reference_colour(stack, observer, space).values)
 
 
 @dataclass
@@ -158,33 +153,32 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     progress(0, None, f"ground truth at {n_points} held-out points")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, n_points, seed)
     progress(0, None, "sampling the LUT and the approximations")
-    rgb, seconds = _timed(lut.sample, *pts.params)
+    rgb, seconds = _timed(lut.sample, pts.stack)
     lut_stats = score("lut", rgb, pts, space, observer, seconds / len(pts))
     rows = []
     if approximations:
         for name, fn in APPROXIMATIONS.items():
-            out, seconds = _timed(fn, lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0],
-                                  pts.params[1], space, observer)
+            out, seconds = _timed(fn, pts.stack, space, observer)
             rows.append(score(name, out, pts, space, observer, seconds / len(pts)))
         if lut.interpolation == "cubic":  # the same texels read by the 4-fetch rule: what cubic reads buy
-            out, seconds = _timed(lut.sample, *pts.params, None, "linear")
+            out, seconds = _timed(lut.sample, pts.stack, None, "linear")
             rows.append(score("lut-linear-reads", out, pts, space, observer, seconds / len(pts)))
-    terms = _exact_mode_terms(lut, pts, space, observer) if approximations else None
+    terms = _exact_mode_terms(pts, space, observer) if approximations else None
     order = np.argsort(-lut_stats.de00, kind="stable")[:10]
-    worst = [{"cos_theta": float(pts.params[0][i]), "opd_nm": float(pts.params[1][i]),
-              "eta3": float(pts.params[2][i]), "kappa3": float(pts.params[3][i]), "kind": str(pts.kind[i]),
+    film, opd = pts.stack, pts.stack.opd_nm
+    worst = [{"cos_theta": float(film.cos_theta[i]), "opd_nm": float(opd[i]), "eta3": float(film.eta3[i]),
+              "kappa3": float(film.kappa3[i]), "kind": str(pts.kind[i]),
               "de00": float(lut_stats.de00[i]), "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
              for i in order]
     return LutReport(str(path), lut.meta, pts, lut_stats, rows, worst, terms)
 
 
-def _exact_mode_terms(lut: Lut, pts: HeldOutPoints, space: str, observer: str) -> dict:
+def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict:
     """What the exact mode's row costs per pixel: series terms at the held-out points (each term is
     4 texel fetches and ~100 scalar operations in the include, docs/engines.md)."""
     from .exact import exact_mode
 
-    terms = exact_mode(lut.eta1, lut.eta2, pts.params[2], pts.params[3], pts.params[0], pts.params[1], space,
-                       observer).terms
+    terms = exact_mode(pts.stack, space, observer).terms
     return {"mean": float(terms.mean()), "p99": float(np.percentile(terms, 99)), "max": int(terms.max()),
             "fetches_per_term": 4}
 
@@ -199,7 +193,7 @@ def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0) -> dic
         cos_t, thickness = _slice_held_out(s, n_points, rng)
         pts = FilmPoints.build(cos_theta=cos_t, thickness_nm=thickness, **atlas.film_stack(s["materials"][0]))
         truth = reference_colour(pts, observer, space).values
-        rgb = atlas.sample(s["materials"][0], cos_t, thickness)
+        rgb = atlas.sample(s["materials"][0], pts)
         de = np.nan_to_num(delta_e00(rgb, truth, observer, space), nan=np.inf)
         all_de.append(de)
         stats = ErrorStats(", ".join(s["materials"]), de, float(np.max(np.abs(rgb - truth))))

@@ -22,6 +22,7 @@ from .interpolation import cubic_taps
 from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
+from .points import FilmPoints
 
 __all__ = ["Lut", "Atlas", "load_table"]
 
@@ -51,9 +52,13 @@ class Lut:
     >>> [(a.name, a.count) for a in lut.axes], lut.eta2
     ([('cos_theta', 24), ('opd_nm', 96), ('eta3', 6), ('kappa3', 2)], 1.33)
     >>> soap = lutbake.FilmPoints.build(eta2=1.33, thickness_nm=300.0, angle_deg=45.0, eta3=1.0)
-    >>> rgb = lut.sample(soap.cos_theta, soap.opd_nm, soap.eta3, soap.kappa3)
+    >>> rgb = lut.sample(soap)
     >>> bool(abs(rgb - lutbake.reference_rgb(soap)).max() < 0.01)
     True
+    >>> lut.sample(lutbake.FilmPoints.build(eta2=1.5, thickness_nm=300.0, cos_theta=1.0, eta3=1.0))
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: eta2 1.5 differs from the LUT's eta2 = 1.33
     """
 
     meta: dict
@@ -83,17 +88,22 @@ class Lut:
     def eta2(self) -> float:
         return self.meta["constants"]["eta2"]
 
-    def in_domain(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+    def coordinates(self, stack: FilmPoints) -> list:
+        """The stacks' LUT coordinates in axis order (cos θ1, D, η3, κ3), broadcast; a stack of another
+        film than the LUT's (η1, η2, constant indices) is refused (ParameterError)."""
+        stack.require("LUT", film=None, base=None, eta1=self.eta1, eta2=self.eta2)
+        return np.broadcast_arrays(stack.cos_theta, stack.opd_nm, stack.eta3, stack.kappa3)
+
+    def in_domain(self, stack: FilmPoints) -> np.ndarray:
         """True where every coordinate lies inside the LUT's axis ranges."""
         ok = True
-        for axis, v in zip(self.axes, (cos_theta, opd_nm, eta3, kappa3)):
-            v = np.asarray(v, float)
+        for axis, v in zip(self.axes, self.coordinates(stack)):
             ok = ok & (v >= axis.lo) & (v <= axis.hi)
         return np.asarray(ok)
 
-    def node_coords(self, cos_theta, opd_nm, eta3, kappa3) -> list:
+    def node_coords(self, stack: FilmPoints) -> list:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
-        values = np.broadcast_arrays(cos_theta, opd_nm, eta3, kappa3)
+        values = self.coordinates(stack)
         snell2 = self.eta1 ** 2 * (1.0 - np.square(np.clip(values[0], 0.0, 1.0)))
         return [np.clip(axis.to_unit(v, snell2), 0.0, 1.0) * (axis.count - 1)
                 for axis, v in zip(self.axes, values)]
@@ -103,12 +113,11 @@ class Lut:
         """The header's interpolation rule ('cubic' or 'linear'; files before format v3 are linear)."""
         return self.meta.get("interpolation", "linear")
 
-    def sample(self, cos_theta, opd_nm, eta3, kappa3, filter_bits=None, interpolation=None) -> np.ndarray:
-        """Linear RGB (…, 3) at the given film parameters, by the header's rule (or ``interpolation``).
-
-        ``filter_bits`` applies to linear reads only: cubic reads texels exactly.
-        """
-        f = self.node_coords(cos_theta, opd_nm, eta3, kappa3)
+    def sample(self, stack: FilmPoints, filter_bits=None, interpolation=None) -> np.ndarray:
+        """Linear RGB (…, 3) of film stacks of the LUT's film (``FilmPoints``, fields broadcast), by the
+        header's interpolation rule (or ``interpolation``). ``filter_bits`` applies to linear reads only:
+        cubic reads take texels exactly."""
+        f = self.node_coords(stack)
         if (interpolation or self.interpolation) == "cubic":
             return self._cubic(f)
         return self._linear(f, filter_bits)
@@ -146,8 +155,8 @@ class Lut:
 class Atlas:
     """A scene atlas: one (cos θ, thickness) slice per rect, each serving named materials.
 
-    ``sample(material, cos_theta, thickness_nm)`` is one bilinear fetch in the material's rect, at
-    (√cos θ, thickness) node coordinates: what the scene's include returns.
+    ``sample(material, stack)`` is one bilinear fetch in the material's rect, at (√cos θ, thickness)
+    node coordinates: what the scene's include returns.
 
     Examples
     --------
@@ -163,7 +172,7 @@ class Atlas:
     >>> list(atlas.materials)
     ['oxide']
     >>> oxide = lutbake.FilmPoints.build(**atlas.film_stack("oxide"), thickness_nm=40.0, cos_theta=0.8)
-    >>> rgb = atlas.sample("oxide", oxide.cos_theta, oxide.thickness_nm)
+    >>> rgb = atlas.sample("oxide", oxide)
     >>> bool(abs(rgb - lutbake.reference_rgb(oxide)).max() < 0.01)
     True
     """
@@ -194,17 +203,24 @@ class Atlas:
         base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
         return {"eta1": self.meta["eta1"], **film, **base}
 
-    def in_domain(self, material, cos_theta, thickness_nm) -> np.ndarray:
+    def coordinates(self, material: str, stack: FilmPoints) -> list:
+        """The stacks' slice coordinates (cos θ1, thickness in nm), broadcast; a stack of another ambient,
+        film or base than the material's is refused (ParameterError)."""
+        stack.require(f"material {material!r}", **{"film": None, "base": None, **self.film_stack(material)})
+        return np.broadcast_arrays(stack.cos_theta, stack.thickness_nm)
+
+    def in_domain(self, material: str, stack: FilmPoints) -> np.ndarray:
         th = self.slice_of(material)["axes"]["thickness_nm"]
-        c, t = np.asarray(cos_theta, float), np.asarray(thickness_nm, float)
+        c, t = self.coordinates(material, stack)
         return np.asarray((c >= 0) & (c <= 1) & (t >= th["min"]) & (t <= th["max"]))
 
-    def sample(self, material, cos_theta, thickness_nm, filter_bits=None) -> np.ndarray:
-        """Linear RGB (…, 3): node coordinates (√cos θ, thickness) clamped to the rect, one bilinear fetch."""
+    def sample(self, material: str, stack: FilmPoints, filter_bits=None) -> np.ndarray:
+        """Linear RGB (…, 3) of film stacks of the material: node coordinates (√cos θ, thickness) clamped
+        to the rect, one bilinear fetch."""
         s = self.slice_of(material)
         x0, y0, w, h = s["rect"]
         lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
-        cos_theta, thickness_nm = np.broadcast_arrays(np.asarray(cos_theta, float), np.asarray(thickness_nm, float))
+        cos_theta, thickness_nm = self.coordinates(material, stack)
         fx = np.sqrt(np.clip(cos_theta, 0.0, 1.0)) * (w - 1)
         fy = np.clip((thickness_nm - lo) / (hi - lo), 0.0, 1.0) * (h - 1) if h > 1 else np.zeros_like(fx)
         return _bilinear(self.image, x0 + fx, y0 + fy, filter_bits)

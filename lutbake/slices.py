@@ -118,7 +118,7 @@ def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer:
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
     ladder = rule_ladder(observer=observer, space=space)
-    eta2, eta3, kappa3 = points.indices(_SCREEN_NM)
+    eta2, eta3, kappa3 = points.as_column().indices(_SCREEN_NM)
     g2 = normal_admittance(eta2.max(axis=1), 0.0, points.eta1, points.cos_theta).real
     cycles = 2.0 * points.thickness_nm * g2 * WAVENUMBER_SPAN_PER_NM
     finesse = round_trip_amplitude(points.eta1[:, None], eta2, eta3, kappa3, points.cos_theta[:, None]).max(axis=1)
@@ -150,7 +150,4 @@ def _rule_colour(points: FilmPoints, rule, integrator) -> np.ndarray:
     kernel = getattr(integrator, "reflectance", None)
     if kernel is None:
         return spectral_reflectance(points, rule.wavelength_nm)[2] @ rule.weights.T
-    eta2, eta3, kappa3 = points.indices(rule.wavelength_nm)
-    refl = kernel(float(points.eta1[0]), eta2, points.cos_theta[:, None], 2.0 * eta2 * points.thickness_nm[:, None],
-                  eta3, kappa3, rule.wavelength_nm[None, :])
-    return refl @ rule.weights.T
+    return kernel(points.as_column(), rule.wavelength_nm) @ rule.weights.T

@@ -63,7 +63,7 @@ def _measure(name, spec, folder, pts, backend) -> list:
               "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
     reads = [spec.interpolation] + (["linear"] if spec.interpolation == "cubic" else [])
     return [{**score(name if rule == spec.interpolation else f"{name} linear reads",
-                     lut.sample(*pts.params, None, rule), pts, spec.space, spec.observer).summary(),
+                     lut.sample(pts.stack, None, rule), pts, spec.space, spec.observer).summary(),
              **common, "interpolation": rule} for rule in reads]
 
 
@@ -71,8 +71,7 @@ def _approximation_rows(spec, pts):
     rows = []
     for name, fn in APPROXIMATIONS.items():
         start = time.perf_counter()
-        rgb = fn(spec.eta1, spec.eta2, pts.params[2], pts.params[3], pts.params[0], pts.params[1],
-                 spec.space, spec.observer)
+        rgb = fn(pts.stack, spec.space, spec.observer)
         seconds = (time.perf_counter() - start) / len(pts)
         rows.append({**score(name, rgb, pts, spec.space, spec.observer, seconds).summary(), "kind": "approximation"})
     return rows

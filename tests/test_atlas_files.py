@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import DEFAULT_LUTS, default_luts
+from lutbake.errors import ParameterError
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
 from lutbake.sample import Atlas, load_table
@@ -28,8 +29,12 @@ def cli(*args):
                           cwd=ROOT)
 
 
-def truth(atlas: Atlas, material: str, cos_theta, thickness_nm):
-    pts = FilmPoints.build(cos_theta=cos_theta, thickness_nm=thickness_nm, **atlas.film_stack(material))
+def stack(atlas: Atlas, material: str, cos_theta, thickness_nm) -> FilmPoints:
+    """The material's film stacks (its ambient, film and base, from the atlas) at (cos θ1, d)."""
+    return FilmPoints.build(cos_theta=cos_theta, thickness_nm=thickness_nm, **atlas.film_stack(material))
+
+
+def truth(atlas: Atlas, pts: FilmPoints):
     return reference_colour(pts, atlas.meta["observer"], atlas.meta["space"]).values
 
 
@@ -41,11 +46,20 @@ def test_atlas_nodes_hold_their_own_materials_ground_truth(material):
     _, _, w, h = atlas.slice_of(material)["rect"]
     th = atlas.slice_of(material)["axes"]["thickness_nm"]
     cos_t, d = np.meshgrid(np.linspace(0, 1, w) ** 2, np.linspace(th["min"], th["max"], h))
-    got = atlas.sample(material, cos_t.ravel(), d.ravel())
-    expected = truth(atlas, material, cos_t.ravel(), d.ravel())
-    assert np.abs(got - expected).max() <= 2e-3  # half storage: 2^-11 relative, values up to ~0.7
+    pts = stack(atlas, material, cos_t.ravel(), d.ravel())
+    expected = truth(atlas, pts)
+    assert np.abs(atlas.sample(material, pts) - expected).max() <= 2e-3  # half: 2^-11 relative, values ≤ ~0.7
     others = [m for m in atlas.materials if m != material]
-    assert all(np.abs(atlas.sample(m, cos_t.ravel(), d.ravel()) - expected).max() > 1e-2 for m in others)
+    assert all(np.abs(atlas.sample(m, stack(atlas, m, cos_t.ravel(), d.ravel())) - expected).max() > 1e-2
+               for m in others)
+
+
+def test_atlas_refuses_a_stack_of_another_material():
+    """A slice holds one film and base: another material's stack is refused, naming both bases."""
+    atlas = load_table(ATLAS)
+    werner = stack(atlas, "steel_werner", 0.5, 40.0)
+    with pytest.raises(ParameterError, match=r"^base .* differs from the material 'steel_constant''s base = None$"):
+        atlas.sample("steel_constant", werner)
 
 
 def test_atlas_sample_between_nodes_is_bilinear():
@@ -54,7 +68,7 @@ def test_atlas_sample_between_nodes_is_bilinear():
     th = atlas.slice_of("steel_werner")["axes"]["thickness_nm"]
     step = (th["max"] - th["min"]) / (h - 1)
     cos_mid = ((3 + 0.5) / (w - 1)) ** 2  # halfway between nodes 3 and 4 in √cos θ
-    got = atlas.sample("steel_werner", cos_mid, th["min"] + 5.5 * step)
+    got = atlas.sample("steel_werner", stack(atlas, "steel_werner", cos_mid, th["min"] + 5.5 * step))
     corners = atlas.image[y0 + 5:y0 + 7, x0 + 3:x0 + 5].astype(float)
     assert np.abs(got - corners.mean(axis=(0, 1))).max() < 1e-12
 
@@ -71,7 +85,8 @@ def test_sample_by_material_name_from_the_command_line():
     assert out.returncode == 0, out.stderr
     row = json.loads(out.stdout)["points"][0]
     atlas = load_table(ATLAS)
-    assert row["rgb"] == atlas.sample("steel_werner", np.cos(np.radians(30)), 40.0).tolist()
+    assert row["rgb"] == atlas.sample("steel_werner", stack(atlas, "steel_werner", np.cos(np.radians(30)), 40.0)
+                                      )[0].tolist()
     assert row["in_domain"] and abs(row["thickness_nm"] - 40) < 1e-12
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from lutbake.bake import bake, bake_array
+from lutbake.errors import ParameterError
 from lutbake.integrate import NumpyBackend
 from lutbake.plan import Axis, BakeSpec
 from lutbake.points import FilmPoints
@@ -80,6 +81,12 @@ def test_grazing_and_evanescent_texels_are_physical(kernel_device):
         assert np.allclose(g.reshape(4, 16, 4, 16, 3)[:, :, :, 0], 1.0, atol=1e-6)  # cos θ = 0 column
 
 
+def _lut_stack(lut, cos_theta, opd_nm, eta3, kappa3):
+    """Film stacks of the LUT's film at its coordinates (cos θ1, D, η3, κ3)."""
+    return FilmPoints.texels(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
+                             kappa3=kappa3)
+
+
 def _small_spec(**kw):
     axes = (Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 32),
             Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4, "sqrt"))
@@ -117,7 +124,7 @@ def test_sampler_is_exact_at_nodes(lut_path):
     lut = Lut.load(lut_path)
     v = [a.values() for a in lut.axes]
     i = np.meshgrid(*[np.arange(a.count) for a in lut.axes], indexing="ij")
-    got = lut.sample(v[0][i[0]], v[1][i[1]], v[2][i[2]], v[3][i[3]])
+    got = lut.sample(_lut_stack(lut, v[0][i[0]], v[1][i[1]], v[2][i[2]], v[3][i[3]]))
     stored = lut.image.reshape(4, 32, 4, 16, 3).transpose(3, 1, 2, 0, 4)  # (cos, opd, eta3, kappa3, 3)
     assert np.max(np.abs(got - stored)) <= 1e-6 * np.max(np.abs(stored))
 
@@ -138,22 +145,38 @@ def test_sampler_between_nodes_is_quadrilinear(lut_path, rng):
     lut = Lut.load(lut_path)
     grid = lut.image.reshape(4, 32, 4, 16, 3).transpose(3, 1, 2, 0, 4).astype(float)
     pts = [rng.uniform(a.lo, a.hi, 60) for a in lut.axes]
-    got = lut.sample(*pts)
-    coords = np.stack(lut.node_coords(*pts), axis=1)
+    stack = _lut_stack(lut, *pts)
+    got = lut.sample(stack)
+    coords = np.stack(lut.node_coords(stack), axis=1)
     assert np.max(np.abs(got - _quadrilinear(grid, coords))) <= 1e-6
 
 
 def test_sampler_clamps_outside_the_domain(lut_path):
     lut = Lut.load(lut_path)
-    inside = lut.sample(0.5, 2000.0, 3.0, 4.0)
-    assert np.allclose(lut.sample(0.5, 2500.0, 3.5, 9.0), inside)
-    assert not lut.in_domain(0.5, 2500.0, 3.0, 4.0) and lut.in_domain(0.5, 2000.0, 3.0, 4.0)
+    inside = lut.sample(_lut_stack(lut, 0.5, 2000.0, 3.0, 4.0))
+    assert np.allclose(lut.sample(_lut_stack(lut, 0.5, 2500.0, 3.5, 9.0)), inside)
+    assert not lut.in_domain(_lut_stack(lut, 0.5, 2500.0, 3.0, 4.0))
+    assert lut.in_domain(_lut_stack(lut, 0.5, 2000.0, 3.0, 4.0))
+
+
+def test_sampler_refuses_a_stack_of_another_film(lut_path):
+    """A LUT holds one film (η1, η2) and constant bases: another is refused, naming both values."""
+    lut = Lut.load(lut_path)
+    other = FilmPoints.build(eta2=1.5, opd_nm=700.0, cos_theta=0.5, eta3=1.7)
+    with pytest.raises(ParameterError, match=r"^eta2 1\.5 differs from the LUT's eta2 = 1\.4$"):
+        lut.sample(other)
+    ambient = FilmPoints.build(eta1=1.33, eta2=1.4, opd_nm=700.0, cos_theta=0.5, eta3=1.7)
+    with pytest.raises(ParameterError, match=r"^eta1 1\.33 differs from the LUT's eta1 = 1\.0$"):
+        lut.in_domain(ambient)
+    gold = FilmPoints.build(eta2=1.4, thickness_nm=200.0, cos_theta=0.5, base="Au")
+    with pytest.raises(ParameterError, match=r"^base 'Au' differs from the LUT's base = None$"):
+        lut.sample(gold)
 
 
 def test_filter_bits_quantize_weights(lut_path):
     lut = Lut.load(lut_path)
-    exact = lut.sample(0.33, 777.0, 1.7, 1.3)
-    coarse = lut.sample(0.33, 777.0, 1.7, 1.3, filter_bits=2)
+    exact = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3))
+    coarse = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3), filter_bits=2)
     assert 0 < np.max(np.abs(exact - coarse)) < 0.05
 
 
@@ -274,6 +297,18 @@ def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
         integrate.backend("opencl")
 
 
+def test_sample_command_refuses_another_film(lut_path, tmp_path):
+    """--eta2 (or a CSV's eta2 column) other than the LUT's is refused in the flags' words, exit 2."""
+    flag = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--eta2", "1.5",
+                           "--opd", "700", "--cos-theta", "0.5", "--eta3", "1.7"], capture_output=True, text=True)
+    assert flag.returncode == 2 and "--eta2 1.5 differs from the LUT's eta2 = 1.4" in flag.stderr
+    csv = tmp_path / "pts.csv"
+    csv.write_text("eta2,thickness_nm,cos_theta,eta3\n1.4,250,0.5,1.7\n1.33,250,0.5,1.7\n")
+    column = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
+                            capture_output=True, text=True)
+    assert column.returncode == 2 and "--eta2 1.33 differs from the LUT's eta2 = 1.4" in column.stderr
+
+
 def test_sample_and_inspect_commands(lut_path, tmp_path):
     csv = tmp_path / "pts.csv"
     csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n1.2,700,1.7,1.3\n")
@@ -286,7 +321,7 @@ def test_sample_and_inspect_commands(lut_path, tmp_path):
     assert out.returncode == 0, out.stderr
     rows = json.loads(out.stdout)["points"]
     lut = Lut.load(lut_path)
-    assert np.allclose(rows[0]["rgb"], lut.sample(0.5, 700.0, 1.7, 1.3), atol=1e-12)
+    assert np.allclose(rows[0]["rgb"], lut.sample(_lut_stack(lut, 0.5, 700.0, 1.7, 1.3)), atol=1e-12)
     assert rows[0]["in_domain"] and not rows[1]["in_domain"]
     meta = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path), "--json"],
                           capture_output=True, text=True)
@@ -323,7 +358,7 @@ def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(t
     cos_t, opd, kappa3 = (a.values()[j] for a, j in zip(np.array(spec.axes)[[0, 1, 3]], (i[0], i[1], i[3])))
     eta3 = spec.eta3_columns().reshape(5, 8)[i[2], i[0]]
     stored = lut.image.reshape(3, 8, 5, 8, 3).transpose(3, 1, 2, 0, 4)  # (cos, opd, eta3, kappa3, 3)
-    assert np.max(np.abs(lut.sample(cos_t, opd, eta3, kappa3) - stored)) <= 1e-6 * np.max(np.abs(stored))
+    assert np.max(np.abs(lut.sample(_lut_stack(lut, cos_t, opd, eta3, kappa3)) - stored)) <= 1e-6 * np.max(np.abs(stored))
     pts = FilmPoints.build(eta1=1.2, eta2=1.4, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(), eta3=eta3.ravel(),
                            kappa3=kappa3.ravel())
     truth = reference_colour(pts, spec.observer, spec.space).values

@@ -11,6 +11,7 @@ from airy_mp import airy_reflectance_mp
 from lutbake import integrate
 from lutbake.bake import bake, bake_array
 from lutbake.plan import Axis, BakeSpec
+from lutbake.points import FilmPoints
 
 
 def _cli(*args):
@@ -22,7 +23,8 @@ def test_grazing_over_a_base_matching_the_ambient_agrees_with_mpmath(kernel_devi
     """The stack where PoCL once differed by 4.7e-6: its compiler fused (η3−κ3)(η3+κ3) − η1² into
     an fma, keeping a 1e-16 rounding error of η3 ± κ3 against cos² θ1 = 1e-12."""
     fast = integrate.OpenCLBackend("float64", device=kernel_device)
-    got = fast.reflectance(1.0, 1.5, 1e-6, 3.0 * thickness_nm, 1.0, 1e-12, 550.0)
+    stack = FilmPoints(eta1=1.0, eta2=1.5, eta3=1.0, kappa3=1e-12, cos_theta=1e-6, thickness_nm=thickness_nm)
+    got = fast.reflectance(stack, 550.0)
     rs, rp = airy_reflectance_mp(1.0, 1.5, 1.0, 1e-12, 1e-6, thickness_nm, 550.0)
     assert abs(float(got) - 0.5 * (rs + rp)) <= 1e-13
 

@@ -84,7 +84,8 @@ def test_exact_colour_matches_the_float64_series(tables):
     eta3 = np.where(np.arange(400) % 2 == 0, 1.6, 0.4)
     kappa3 = np.where(np.arange(400) % 2 == 0, 0.0, 3.0)
     got = exact_colour(table, cos, thickness, 1.0, ETA2, eta3, kappa3)
-    series = series_colour(1.0, ETA2, cos, 2.0 * ETA2 * thickness, eta3, kappa3)
+    series = series_colour(FilmPoints(eta1=1.0, eta2=ETA2, eta3=eta3, kappa3=kappa3, cos_theta=cos,
+                                      thickness_nm=thickness))
     ok = series.terms >= 0
     assert ok.mean() > 0.9
     assert np.abs(got.values[ok] - series.values[ok]).max() <= 1e-4
@@ -109,7 +110,8 @@ def test_hard_cases(tables):
     assert np.allclose(grazing.values, table.samples[:, 0].real, atol=1e-7)
     cos = np.array([1.0, 0.5, 0.1])
     bare = exact_colour(table, cos, np.zeros(3), 1.0, ETA2, np.full(3, 0.2), np.full(3, 3.0))
-    fresnel = film_reflectance(1.0, ETA2, 0.2, 3.0, cos, 0.0, 550.0)[2]
+    bare_stack = FilmPoints(eta1=1.0, eta2=ETA2, eta3=0.2, kappa3=3.0, cos_theta=cos, thickness_nm=0.0)
+    fresnel = film_reflectance(bare_stack, 550.0)[2]
     assert np.allclose(bare.values, fresnel[:, None] * table.samples[:, 0].real, atol=1e-7)
     with pytest.raises(ValueError, match="propagating film"):
         exact_colour(table, np.array([0.1]), np.array([200.0]), 1.5, 1.2, np.array([1.0]), np.array([0.0]))

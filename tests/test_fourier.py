@@ -71,7 +71,7 @@ def _truth(eta1, eta2, t):
 
 def test_series_matches_the_ground_truth_on_random_texels(rng):
     t = _random_texels(rng, 300)
-    res = series_colour(1.0, 1.5, *t.values())
+    res = series_colour(FilmPoints.texels(eta1=1.0, eta2=1.5, **t))
     assert (res.terms >= 0).all()
     assert np.abs(res.values - _truth(1.0, 1.5, t)).max() <= 1e-8
     assert res.bound.max() <= 1e-8
@@ -81,7 +81,7 @@ def test_truncation_bound_is_honest_when_loose(rng):
     """With a loose tolerance the series stops early; its error stays within the recorded bound."""
     t = _random_texels(rng, 200)
     t["cos_theta"] = rng.uniform(0.02, 0.3, 200)   # high finesse: slow geometric decay
-    res = series_colour(1.0, 2.5, *t.values(), tolerance=1e-4)
+    res = series_colour(FilmPoints.texels(eta1=1.0, eta2=2.5, **t), tolerance=1e-4)
     ok = res.terms >= 0
     assert ok.sum() > 150
     err = np.abs(res.values[ok] - _truth(1.0, 2.5, t)[ok]).max(axis=1)
@@ -92,7 +92,7 @@ def test_truncation_bound_is_honest_when_loose(rng):
 def _one(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
     t = dict(cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]),
              kappa3=np.array([kappa3]))
-    return series_colour(eta1, eta2, *t.values()), _truth(eta1, eta2, t)
+    return series_colour(FilmPoints.texels(eta1=eta1, eta2=eta2, **t)), _truth(eta1, eta2, t)
 
 
 @pytest.mark.parametrize("name, stack, terms", [
@@ -119,11 +119,13 @@ def test_out_of_scope_texels_take_the_direct_path():
     evanescent, _ = _one(1.5, 1.2, 0.2, 1000.0, 1.5, 0.0)
     assert evanescent.terms[0] == -1 and np.isnan(evanescent.values).all()
     # |q| → 1 at a thick film: the table cannot carry the terms the bound needs
-    near_grazing = series_colour(1.0, 2.0, np.array([1e-4]), np.array([4000.0]), 2.0, 20.0)
+    near_grazing = series_colour(FilmPoints.texels(eta1=1.0, eta2=2.0, cos_theta=[1e-4], opd_nm=[4000.0], eta3=2.0,
+                                                   kappa3=20.0))
     assert near_grazing.terms[0] == -1
     # more terms than the budget: the series is not picked
-    fine = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0)
-    costly = series_colour(1.0, 1.5, np.array([0.5]), np.array([3000.0]), 2.0, 4.0, budget=fine.terms[0] - 1)
+    film = FilmPoints.texels(eta1=1.0, eta2=1.5, cos_theta=[0.5], opd_nm=[3000.0], eta3=2.0, kappa3=4.0)
+    fine = series_colour(film)
+    costly = series_colour(film, budget=fine.terms[0] - 1)
     assert fine.terms[0] > 1 and costly.terms[0] == -1
 
 

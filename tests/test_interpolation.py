@@ -14,6 +14,7 @@ from lutbake.colorimetry import delta_e00
 from lutbake.interpolation import cubic_taps
 from lutbake.layout import TileLayout
 from lutbake.plan import Axis, BakeSpec
+from lutbake.points import FilmPoints
 from lutbake.sample import Lut
 
 SHAPE = (6, 7, 5, 4)
@@ -35,6 +36,12 @@ def _lut(grid, axes):
     x, y = layout.texel(*idx)
     image[y, x] = grid
     return Lut.in_memory(spec, image)
+
+
+def _stack(values):
+    """Film stacks of the test LUTs' film (η2 1.5 in air) at axis values (cos θ, D, η3, κ3)."""
+    return FilmPoints.texels(eta1=1.0, eta2=1.5, cos_theta=values[0], opd_nm=values[1], eta3=values[2],
+                             kappa3=values[3])
 
 
 def _padded(grid, mirror):
@@ -73,12 +80,12 @@ def test_cubic_reads_match_the_padded_textbook_rule(mirror):
     f[40:80, 0] = rng.uniform(0, 1, 40)            # first and last cells of every axis
     f[80:120, 1] = SHAPE[1] - 1 - rng.uniform(0, 1, 40)
     values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
-    got = lut.sample(*values)
+    got = lut.sample(_stack(values))
     padded = _padded(grid, mirror)
     want = np.array([_catmull_rom(padded, p) for p in f])
     assert np.abs(got - want).max() < 1e-10
     # The control: the linear rule is another function of the same texels.
-    assert np.abs(lut.sample(*values, interpolation="linear") - want).max() > 0.1
+    assert np.abs(lut.sample(_stack(values), interpolation="linear") - want).max() > 0.1
 
 
 def test_cubic_reads_return_nodes_and_reproduce_quadratics():
@@ -93,8 +100,8 @@ def test_cubic_reads_return_nodes_and_reproduce_quadratics():
     rng = np.random.default_rng(5)
     f = rng.uniform(0, 1, (500, 4)) * (np.array(SHAPE) - 1)
     values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
-    assert np.abs(lut.sample(*values) - quadratic(f.T)).max() < 1e-12
-    assert np.abs(lut.sample(*values, interpolation="linear") - quadratic(f.T)).max() > 1e-2  # control
+    assert np.abs(lut.sample(_stack(values)) - quadratic(f.T)).max() < 1e-12
+    assert np.abs(lut.sample(_stack(values), interpolation="linear") - quadratic(f.T)).max() > 1e-2  # control
 
 
 @pytest.mark.parametrize("count", [2, 3, 4, 9])
@@ -120,7 +127,6 @@ def test_cubic_reads_beat_linear_reads_of_the_same_texels(tmp_path):
     stack = lutbake.FilmPoints.build(eta2=1.4, cos_theta=rng.uniform(0, 1, n), thickness_nm=rng.uniform(0, 1200, n) / 2.8,
                                      eta3=rng.uniform(1, 2, n), kappa3=rng.uniform(0, 1, n))
     truth = lutbake.reference_rgb(stack)
-    args = (stack.cos_theta, stack.opd_nm, stack.eta3, stack.kappa3)
-    cubic, linear = (delta_e00(lut.sample(*args, interpolation=m), truth) for m in ("cubic", "linear"))
+    cubic, linear = (delta_e00(lut.sample(stack, interpolation=m), truth) for m in ("cubic", "linear"))
     assert np.percentile(cubic, 99) < 0.5 * np.percentile(linear, 99)
     assert cubic.mean() < 0.5 * linear.mean()

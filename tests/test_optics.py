@@ -7,8 +7,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lutbake.optics import film_amplitudes, film_reflectance, film_transmittance
+from lutbake.materials import material
+from lutbake.points import FilmPoints
 
 from airy_mp import airy_reflectance_mp
+
+
+def _stack(eta1, eta2, eta3, kappa3, cos_theta, thickness_nm):
+    """The stacks of cases listed as (η1, η2, η3, κ3, cos θ1, d[, λ]), as the mpmath oracle takes them."""
+    return FilmPoints(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta, thickness_nm=thickness_nm)
 
 
 def _random_cases(rng, n):
@@ -32,7 +39,7 @@ def _random_cases(rng, n):
 def test_matches_tmm_on_10000_random_cases(rng):
     cases = _random_cases(rng, 10_000)
     eta1, eta2, eta3, kappa3, theta, d, lam = cases
-    rs, rp, _ = film_reflectance(eta1, eta2, eta3, kappa3, np.cos(np.radians(theta)), d, lam)
+    rs, rp, _ = film_reflectance(_stack(eta1, eta2, eta3, kappa3, np.cos(np.radians(theta)), d), lam)
     worst = 0.0
     for i in range(theta.size):
         stack = [eta1[i], eta2[i], eta3[i] + 1j * kappa3[i]]
@@ -64,7 +71,7 @@ def _extreme_cases(rng, thickness_nm=(0.0, 2000.0)):
 def _mp_errors(cases):
     errors = []
     for case in cases:
-        ours = film_reflectance(*case)[:2]
+        ours = film_reflectance(_stack(*case[:6]), case[6])[:2]
         ref = airy_reflectance_mp(*case)
         errors.append(max(abs(a - b) for a, b in zip(ours, ref)))
     return np.array(errors)
@@ -87,16 +94,16 @@ def test_thick_films_within_phase_conditioning_of_50_digits(rng):
 def test_zero_thickness_is_the_bare_ambient_base_interface(rng, pol):
     e1, e2, e3, k3, theta, _, lam = _random_cases(rng, 500)
     c = np.cos(np.radians(theta))
-    film = film_reflectance(e1, e2, e3, k3, c, 0.0, lam)[pol]
-    bare = film_reflectance(e1, e1, e3, k3, c, 0.0, lam)[pol]
+    film = film_reflectance(_stack(e1, e2, e3, k3, c, 0.0), lam)[pol]
+    bare = film_reflectance(_stack(e1, e1, e3, k3, c, 0.0), lam)[pol]
     assert np.max(np.abs(film - bare)) <= 1e-13
 
 
 def test_film_matching_the_ambient_is_the_bare_interface(rng):
     e1, _, e3, k3, theta, d, lam = _random_cases(rng, 500)
     c = np.cos(np.radians(theta))
-    film = film_reflectance(e1, e1, e3, k3, c, d, lam)
-    bare = film_reflectance(e1, e1, e3, k3, c, 0.0, lam)
+    film = film_reflectance(_stack(e1, e1, e3, k3, c, d), lam)
+    bare = film_reflectance(_stack(e1, e1, e3, k3, c, 0.0), lam)
     for a, b in zip(film, bare):
         assert np.max(np.abs(a - b)) <= 1e-12
 
@@ -104,7 +111,7 @@ def test_film_matching_the_ambient_is_the_bare_interface(rng):
 def test_base_matching_the_film_is_the_ambient_film_interface(rng):
     e1, e2, _, _, theta, d, lam = _random_cases(rng, 500)
     c = np.cos(np.radians(theta))
-    film = film_reflectance(e1, e2, e2, 0.0, c, d, lam)
+    film = film_reflectance(_stack(e1, e2, e2, 0.0, c, d), lam)
     g1, g2 = e1 * c, np.sqrt(e2**2 - e1**2 * (1 - c**2) + 0j)
     rs = np.abs((g1 - g2) / (g1 + g2)) ** 2
     rp = np.abs((e2**2 * g1 - e1**2 * g2) / (e2**2 * g1 + e1**2 * g2)) ** 2
@@ -115,17 +122,17 @@ def test_base_matching_the_film_is_the_ambient_film_interface(rng):
 def test_grazing_incidence_reflects_everything(rng):
     e1, e2, e3, k3, _, d, lam = _random_cases(rng, 200)
     for c in (0.0, 1e-9):
-        r = film_reflectance(e1, e2, e3, k3, c, d, lam)[2]
+        r = film_reflectance(_stack(e1, e2, e3, k3, c, d), lam)[2]
         assert np.all(np.abs(r - 1.0) <= 1e-7 if c else r == 1.0)
     # all three media alike at grazing incidence (0/0 in the raw formula)
-    assert film_reflectance(1.0, 1.0, 1.0, 0.0, 0.0, 100.0, 500.0)[2] == 1.0
+    assert film_reflectance(_stack(1.0, 1.0, 1.0, 0.0, 0.0, 100.0), 500.0)[2] == 1.0
 
 
 def test_energy_conservation_on_dielectric_bases(rng):
     e1, e2, e3, _, theta, d, lam = _random_cases(rng, 5000)
     c = np.cos(np.radians(theta))
-    r = film_reflectance(e1, e2, e3, 0.0, c, d, lam)
-    t = film_transmittance(e1, e2, e3, 0.0, c, d, lam)
+    r = film_reflectance(_stack(e1, e2, e3, 0.0, c, d), lam)
+    t = film_transmittance(_stack(e1, e2, e3, 0.0, c, d), lam)
     for a, b in zip(r, t):
         assert np.max(np.abs(a + b - 1.0)) <= 1e-12
 
@@ -133,7 +140,7 @@ def test_energy_conservation_on_dielectric_bases(rng):
 def test_transmittance_matches_tmm_on_absorbing_bases(rng):
     e1, e2, e3, _, theta, d, lam = _random_cases(rng, 300)
     k3 = rng.uniform(0, 5, 300)
-    t = film_transmittance(e1, e2, e3, k3, np.cos(np.radians(theta)), d, lam)
+    t = film_transmittance(_stack(e1, e2, e3, k3, np.cos(np.radians(theta)), d), lam)
     for i in range(300):
         for pol, ours in (("s", t[0][i]), ("p", t[1][i])):
             ref = tmm.coh_tmm(pol, [e1[i], e2[i], e3[i] + 1j * k3[i]], [np.inf, d[i], np.inf],
@@ -141,15 +148,32 @@ def test_transmittance_matches_tmm_on_absorbing_bases(rng):
             assert abs(ours - ref) <= 1e-9
 
 
+def test_named_materials_are_taken_at_each_wavelength():
+    """A stack over gold: as_column() against M wavelengths gives (P, M), each R that of gold's index at
+    that wavelength, as tmm computes it."""
+    gold = FilmPoints.build(eta2=1.4, thickness_nm=[0.0, 150.0, 400.0], cos_theta=[1.0, 0.6, 0.2], base="Au")
+    lam = np.linspace(360.0, 830.0, 12)
+    r = film_reflectance(gold.as_column(), lam)[2]
+    assert r.shape == (3, 12)
+    eta3, kappa3 = material("Au").index(lam)
+    for i in range(3):
+        for j in range(12):
+            stack = [1.0, 1.4, eta3[j] + 1j * kappa3[j]]
+            theta = np.arccos(gold.cos_theta[i])
+            ref = [tmm.coh_tmm(pol, stack, [np.inf, gold.thickness_nm[i], np.inf], theta, lam[j])["R"]
+                   for pol in "sp"]
+            assert abs(r[i, j] - 0.5 * sum(ref)) <= 1e-9
+
+
 def test_glass_at_normal_incidence_reflects_four_percent():
-    assert film_reflectance(1.0, 1.5, 1.5, 0.0, 1.0, 123.0, 550.0)[2] == pytest.approx(0.04, abs=1e-15)
+    assert film_reflectance(_stack(1.0, 1.5, 1.5, 0.0, 1.0, 123.0), 550.0)[2] == pytest.approx(0.04, abs=1e-15)
 
 
 def test_brewster_angle_amplitude_is_continuous():
     """r_p crosses zero at Brewster's angle; its complex value moves continuously."""
     brewster = np.arctan(1.5)
     theta = brewster + np.linspace(-1e-6, 1e-6, 201)
-    _, rp = film_amplitudes(1.0, 1.5, 1.5, 0.0, np.cos(theta), 0.0, 550.0)
+    _, rp = film_amplitudes(_stack(1.0, 1.5, 1.5, 0.0, np.cos(theta), 0.0), 550.0)
     assert np.max(np.abs(np.diff(rp))) < 1e-7
     assert rp.real.min() < 0 < rp.real.max()
 
@@ -163,6 +187,6 @@ def test_brewster_angle_amplitude_is_continuous():
     lam=st.floats(360.0, 830.0),
 )
 def test_reflectance_is_a_probability(eta1, eta2, eta3, kappa3, cos_theta, thickness, lam):
-    rs, rp, r = film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, thickness, lam)
+    rs, rp, r = film_reflectance(_stack(eta1, eta2, eta3, kappa3, cos_theta, thickness), lam)
     for v in (rs, rp, r):
         assert np.isfinite(v) and -1e-15 <= v <= 1 + 1e-12

@@ -11,6 +11,7 @@ import pytest
 from lutbake.approximations import belcour_barla_rgb, eval_sensitivity, khr_iridescence_rgb
 from lutbake.bake import bake
 from lutbake.colorimetry import delta_e00
+from lutbake.errors import ParameterError
 from lutbake.lutfile import exr_stream
 from lutbake.plan import Axis, BakeSpec
 from lutbake.points import FilmPoints
@@ -107,16 +108,27 @@ def test_gaussian_fit_normalization_by_hand():
     assert np.allclose(eval_sensitivity(0.0, np.pi), -eval_sensitivity(0.0, 0.0))
 
 
-def _truth(eta2, eta3, kappa3, cos_theta, opd):
-    return reference_colour(FilmPoints.build(eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3,
-                                             kappa3=kappa3)).values
+def _stack(eta2, eta3, kappa3, cos_theta, opd):
+    return FilmPoints.build(eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3, kappa3=kappa3)
+
+
+def _truth(stack):
+    return reference_colour(stack).values
 
 
 def test_belcour_barla_matches_the_exact_integral_at_zero_thickness():
     cos_t = np.array([1.0, 0.8, 0.5, 0.2])
     for eta3 in (1.0, 1.5, 2.4):
-        de = delta_e00(belcour_barla_rgb(1.0, 1.5, eta3, 0.0, cos_t, 0.0), _truth(1.5, eta3, 0.0, cos_t, 0.0))
-        assert de.max() < 0.1
+        bare = _stack(1.5, eta3, 0.0, cos_t, 0.0)
+        assert delta_e00(belcour_barla_rgb(bare), _truth(bare)).max() < 0.1
+
+
+def test_approximations_refuse_named_materials():
+    """They take one constant index per layer: a dispersive base is the ground truth's to evaluate."""
+    copper = FilmPoints.build(eta2=1.5, cos_theta=0.9, thickness_nm=200.0, base="Cu")
+    for method in (belcour_barla_rgb, khr_iridescence_rgb):
+        with pytest.raises(ParameterError, match=r"^base 'Cu' differs from the .*'s base = None$"):
+            method(copper)
 
 
 def test_belcour_barla_fails_on_dispersive_metal_bases():
@@ -130,7 +142,7 @@ def test_belcour_barla_fails_on_dispersive_metal_bases():
         eta3, kappa3 = (float(v) for v in material(base).index(550.0))
         truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=0.9, thickness_nm=opd / 3.0,
                                                   base=base)).values
-        return delta_e00(belcour_barla_rgb(1.0, 1.5, eta3, kappa3, 0.9, opd), truth)
+        return delta_e00(belcour_barla_rgb(_stack(1.5, eta3, kappa3, 0.9, opd)), truth)
 
     assert np.percentile(de("Cu"), 50) > 10
     assert np.percentile(de("Ag"), 90) < 1.5
@@ -143,7 +155,7 @@ def test_khr_hand_computed_value_on_bare_glass():
                      [0.0556434, -0.2040259, 1.0572252]])
     s0 = eval_sensitivity(0.0, 0.0)
     expected = 0.04 / (1 - 1e-5) + 2 * 0.96 * math.sqrt(1e-5) * (m709 @ s0) - 2 * 0.96 * 1e-5 * (m709 @ s0)
-    assert np.allclose(khr_iridescence_rgb(1.0, 1.0, 1.5, 0.0, 1.0, 0.0), expected, atol=1e-6)
+    assert np.allclose(khr_iridescence_rgb(_stack(1.0, 1.5, 0.0, 1.0, 0.0)), expected, atol=1e-6)
     assert np.allclose(m709 @ np.ones(3), [1.2048, 0.9484, 0.9088], atol=1e-4)  # its white cast
 
 
@@ -151,10 +163,9 @@ def test_khr_loses_the_base_extinction():
     """Bases with one F0 but different (η3, κ3) look alike to KHR, not to the ground truth."""
     f0 = ((2.7 - 1) ** 2 + 2.8**2) / ((2.7 + 1) ** 2 + 2.8**2)
     eta3_dielectric = (1 + math.sqrt(f0)) / (1 - math.sqrt(f0))
-    a = khr_iridescence_rgb(1.0, 2.0, 2.7, 2.8, 0.9, 600.0)
-    b = khr_iridescence_rgb(1.0, 2.0, eta3_dielectric, 0.0, 0.9, 600.0)
-    assert np.allclose(a, b, atol=1e-12)
-    assert delta_e00(_truth(2.0, 2.7, 2.8, 0.9, 600.0), _truth(2.0, eta3_dielectric, 0.0, 0.9, 600.0)).max() > 5
+    metal, dielectric = _stack(2.0, 2.7, 2.8, 0.9, 600.0), _stack(2.0, eta3_dielectric, 0.0, 0.9, 600.0)
+    assert np.allclose(khr_iridescence_rgb(metal), khr_iridescence_rgb(dielectric), atol=1e-12)
+    assert delta_e00(_truth(metal), _truth(dielectric)).max() > 5
 
 
 def test_sweep_and_tune_on_a_small_domain(tmp_path):
@@ -191,7 +202,7 @@ def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():
     pts = held_out_points(axes, 1.0, 1.4, "cie1931", "rec709", 40, 3)
     centre = pts.kind == "cell-centre"
     lut = Lut({"axes": [a.describe() for a in axes], "constants": {"eta1": 1.0, "eta2": 1.4}}, None)
-    coords = np.stack(lut.node_coords(*pts.params), axis=1)[centre]
+    coords = np.stack(lut.node_coords(pts.stack), axis=1)[centre]
     assert np.allclose(coords % 1.0, 0.5, atol=1e-9)
-    uniform_eta3 = Axis("eta3", 1.0, 3.0, 5).to_unit(pts.params[2][centre]) * 4
+    uniform_eta3 = Axis("eta3", 1.0, 3.0, 5).to_unit(pts.stack.eta3[centre]) * 4
     assert not np.allclose(uniform_eta3 % 1.0, 0.5, atol=1e-3)   # the admittance cells are not η3's

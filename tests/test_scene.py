@@ -88,8 +88,8 @@ def test_dispersive_copper_slice_meets_the_target_against_ground_truth(tmp_path)
     atlas = load_table(tmp_path / "out" / "scene.exr")  # the half values as shipped
     rng = np.random.default_rng(11)  # fresh points, not the ones the bake refined against
     cos_t, d = rng.uniform(0, 1, 300), rng.uniform(100, 300, 300)
-    truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=cos_t, thickness_nm=d, base="Cu")).values
-    de = delta_e00(atlas.sample("copper_coat", cos_t, d), truth)
+    coat = FilmPoints.build(eta2=1.5, cos_theta=cos_t, thickness_nm=d, base="Cu")
+    de = delta_e00(atlas.sample("copper_coat", coat), reference_colour(coat).values)
     assert np.percentile(de, 99) <= 0.5
     assert entry["constant_index_de00_p99"] > 5 * entry["de00_p99"]  # a constant index is far off
     assert result.computed == [entry["job"]]
@@ -205,8 +205,8 @@ def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
         """))
     bake_scene(scene, tmp_path / "out")
     entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["steel"]
-    cos_t, d, truth = _held_out(plan_scene(scene).jobs[0])
-    stored = load_table(tmp_path / "out" / "scene.exr").sample("steel", cos_t, d)
+    pts, truth = _held_out(plan_scene(scene).jobs[0])
+    stored = load_table(tmp_path / "out" / "scene.exr").sample("steel", pts)
     assert entry["de00_p99"] == float(np.percentile(delta_e00(stored, truth), 99))
     float64 = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")
     assert not np.array_equal(float64.astype(np.float16).astype(float), float64)  # rounding is real

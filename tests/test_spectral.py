@@ -70,7 +70,7 @@ def test_ladder_meets_its_error_target_on_random_texels(rng):
                                     Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 8.0, 2)))
     pts = FilmPoints.build(eta2=1.8, cos_theta=rng.uniform(0, 1, n) ** 2, opd_nm=rng.uniform(0, 8000, n),
                            eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 8, n))
-    fast = NumpyBackend().evaluate(spec, pts.cos_theta, 3.6 * pts.thickness_nm, pts.eta3, pts.kappa3)
+    fast = NumpyBackend().evaluate(spec, pts)
     assert np.max(np.abs(fast - reference_colour(pts).values)) <= 1e-5
 
 

@@ -10,6 +10,7 @@ import pytest
 from lutbake import check
 from lutbake.integrate import OpenCLBackend
 from lutbake.optics import film_reflectance
+from lutbake.points import FilmPoints
 
 
 def test_lutbake_check_passes_and_reports_every_case():
@@ -52,18 +53,20 @@ def _extreme_inputs(rng, n):
 def test_kernel_fuzz_finite_and_within_0_1(rng, compute, eta1, eta2, kernel_device):
     """≥ 100,000 extreme inputs per configuration (800,000 in all) through the kernel, per device."""
     cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 100_000)
-    r = OpenCLBackend(compute, device=kernel_device).reflectance(eta1, eta2, cos_theta, opd, eta3, kappa3, lam)
+    stack = FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3, kappa3=kappa3)
+    r = OpenCLBackend(compute, device=kernel_device).reflectance(stack, lam)
     assert np.all(np.isfinite(r))
     assert r.min() >= 0.0 and r.max() <= 1.0
     if compute == "float64":
-        ref = film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, opd / (2 * eta2), lam)[2]
+        ref = film_reflectance(stack, lam)[2]
         assert np.max(np.abs(r - ref)) <= 1e-10
 
 
 def test_reference_reflectance_fuzz_within_0_1(rng):
     cos_theta, opd, eta3, kappa3, lam = _extreme_inputs(rng, 200_000)
     for eta1, eta2 in [(1.0, 1.5), (1.6, 1.2), (1.0, 1.0)]:
-        r = film_reflectance(eta1, eta2, eta3, kappa3, cos_theta, opd / (2 * eta2), lam)
+        stack = FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3, kappa3=kappa3)
+        r = film_reflectance(stack, lam)
         for v in r:
             assert np.all(np.isfinite(v)) and v.min() >= 0.0 and v.max() <= 1.0
 
