@@ -78,7 +78,9 @@ def render(reports, sweep, metals):
         f"truth (converged spectral integral) at {POINTS:,} held-out points per LUT, seed 0, sampled from the",
         "stored (half) texels: half uniform over the domain, half at centres of random grid cells (all four",
         "axes at a cell centre, η3's in its admittance coordinate), where interpolation error peaks.",
-        "ΔE00 ≈ 1 is a just-noticeable difference. The approximation rows are the shader math engines run",
+        "ΔE00 ≈ 1 is a just-noticeable difference. The LUT rows read the file by its header's rule, cubic",
+        "for the default set ([lut-format.md](lut-format.md#interpolation)); `lut-linear-reads` is the same",
+        "file read by the 4-fetch linear rule. The approximation rows are the shader math engines run",
         "today (`lutbake/approximations.py`), scored at the same points.",
         "",
         "## Domain and parameterization",
@@ -135,9 +137,10 @@ def render(reports, sweep, metals):
             lines.append(f"| {r['name']} | (no LUT) | {r['de00_p99']:.2f} | | | {r['ns_per_eval']:.0f} |")
     lines += ["", "Bake times are wall-clock on the machine that ran the script (2 cores, CPU OpenCL) and",
               "include measuring the spectral error; compare rows within one run. A GPU sampling a LUT pays",
-              "4 bilinear fetches and 3 lerps whatever its size (the admittance spacing adds one square root);",
-              "the approximations' cost is shader ALU. The `uniform grid` and `√ grid` rows are the default",
-              "counts without the admittance spacing (docs/reports.md).", ""]
+              "256 texel reads for cubic reads, or 4 bilinear fetches and 3 lerps for the `linear reads` rows,",
+              "whatever its size (the admittance spacing adds one square root); the approximations' cost is",
+              "shader ALU. The `uniform grid` and `√ grid` rows are the default counts without the admittance",
+              "spacing (docs/reports.md).", ""]
     return "\n".join(lines)
 
 

@@ -141,12 +141,12 @@ def _quadrilinear(grid, coords):
     return np.array(out)
 
 
-def test_sampler_between_nodes_is_quadrilinear(lut_path, rng):
+def test_linear_reads_between_nodes_are_quadrilinear(lut_path, rng):
     lut = Lut.load(lut_path)
     grid = lut.image.reshape(4, 32, 4, 16, 3).transpose(3, 1, 2, 0, 4).astype(float)
     pts = [rng.uniform(a.lo, a.hi, 60) for a in lut.axes]
     stack = _lut_stack(lut, *pts)
-    got = lut.sample(stack)
+    got = lut.sample(stack, interpolation="linear")
     coords = np.stack(lut.node_coords(stack), axis=1)
     assert np.max(np.abs(got - _quadrilinear(grid, coords))) <= 1e-6
 
@@ -175,8 +175,8 @@ def test_sampler_refuses_a_stack_of_another_film(lut_path):
 
 def test_filter_bits_quantize_weights(lut_path):
     lut = Lut.load(lut_path)
-    exact = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3))
-    coarse = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3), filter_bits=2)
+    exact = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3), interpolation="linear")
+    coarse = lut.sample(_lut_stack(lut, 0.33, 777.0, 1.7, 1.3), filter_bits=2, interpolation="linear")
     assert 0 < np.max(np.abs(exact - coarse)) < 0.05
 
 
@@ -369,7 +369,8 @@ def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_
     from lutbake.cli import domain_spec
 
     def eta3_spacing(eta1):
-        spec = domain_spec(1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "float64", "spectral", None)
+        spec = domain_spec(1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "cubic", "float64", "spectral",
+                           None)
         return spec.axis["eta3"].spacing
 
     assert eta3_spacing(1.0) == "admittance" and eta3_spacing(1.33) == "uniform"

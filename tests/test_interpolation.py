@@ -130,3 +130,32 @@ def test_cubic_reads_beat_linear_reads_of_the_same_texels(tmp_path):
     cubic, linear = (delta_e00(lut.sample(stack, interpolation=m), truth) for m in ("cubic", "linear"))
     assert np.percentile(cubic, 99) < 0.5 * np.percentile(linear, 99)
     assert cubic.mean() < 0.5 * linear.mean()
+
+
+def test_sample_command_reads_by_the_header_or_the_given_rule(tmp_path):
+    """`lutbake sample` follows the header (cubic), --interpolation linear overrides it, and
+    --filter-bits (a property of bilinear fetches) is refused for cubic reads with exit 2."""
+    import json
+    import subprocess
+    import sys
+
+    axes = (Axis("cos_theta", 0.0, 1.0, 6, "sqrt"), Axis("opd_nm", 0.0, 900.0, 8),
+            Axis("eta3", 1.2, 2.4, 4), Axis("kappa3", 0.0, 1.0, 4, "sqrt"))
+    path = tmp_path / "lut.exr"
+    lutbake.bake_lut(BakeSpec(eta2=1.5, axes=axes), path)
+    point = ["--opd", "333", "--cos-theta", "0.37", "--eta3", "1.61", "--kappa3", "0.2", "--json"]
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(path), *point, *extra],
+                              capture_output=True, text=True)
+
+    lut = Lut.load(path)
+    stack = FilmPoints.build(eta2=1.5, opd_nm=333.0, cos_theta=0.37, eta3=1.61, kappa3=0.2)
+    for extra, rule in (((), "cubic"), (("--interpolation", "linear"), "linear")):
+        out = run(*extra)
+        doc = json.loads(out.stdout)
+        assert out.returncode == 0 and doc["interpolation"] == rule
+        assert np.allclose(doc["points"][0]["rgb"], lut.sample(stack, interpolation=rule)[0], rtol=0, atol=1e-12)
+    refused = run("--filter-bits", "8")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--filter-bits 8" in refused.stderr
+    assert run("--filter-bits", "8", "--interpolation", "linear").returncode == 0
