@@ -10,8 +10,9 @@ shader includes (shaders/lutbake.*.in) both follow it, on the same texels:
   default LUTs their accuracy at the same bytes (docs/accuracy.md).
 
 At the ends of an axis the missing tap is a ghost node folded onto real nodes:
-the mirror image f(−s) = f(s) at the low end of a √-spaced axis that starts
-at 0 (the content is a function of the value v = s², hence even in s), and
+the mirror image f(−s) = f(s) at the low end of a √- or ¼-power-spaced axis
+that starts at 0 (the content is a function of the value v = s² or s⁴, hence
+even in s), and
 quadratic extrapolation f(−1) = 3f(0) − 3f(1) + f(2) elsewhere. Both keep
 the rule exact for quadratics in the node coordinate, and with fewer than
 4 taps' worth of nodes the same folding still applies (an axis of 2 nodes
@@ -25,7 +26,14 @@ import numpy as np
 
 from .names import INTERPOLATIONS
 
-__all__ = ["INTERPOLATIONS", "cubic_taps", "linear_taps"]
+__all__ = ["INTERPOLATIONS", "cubic_taps", "linear_taps", "mirrors_low_end"]
+
+_EVEN_SPACINGS = ("sqrt", "root4")   # value = lo + c·s² or lo + c·s⁴: even in the node coordinate s
+
+
+def mirrors_low_end(spacing: str, lo: float) -> bool:
+    """Whether an axis's ghost node below node 0 is the mirror of node 1 (else extrapolated)."""
+    return spacing in _EVEN_SPACINGS and lo == 0.0
 
 
 def linear_taps(f, count: int):

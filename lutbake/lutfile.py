@@ -30,7 +30,7 @@ import numpy as np
 
 from . import fileset
 from .fileset import temporary_for
-from .interpolation import INTERPOLATIONS
+from .interpolation import INTERPOLATIONS, mirrors_low_end
 from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
@@ -246,6 +246,7 @@ def _check_meta(meta: dict, image: np.ndarray) -> None:
         _require(hi > lo, f"axes[{i}].max")
         _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
         _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
+                 or a["spacing"] == "root4" and lo >= 0 and meta["format_version"] >= 3
                  or a["spacing"] == "admittance" and a["name"] == "eta3" and meta["format_version"] >= 2
                  and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
     _require(meta["format_version"] < 3 or meta["interpolation"] in INTERPOLATIONS, "interpolation")
@@ -325,6 +326,8 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
+        "root4": ", ".join("1.0" if a["spacing"] == "root4" else "0.0" for a in axes),
+        "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"]) else "0.0" for a in axes),
         "admittance": "1.0" if axes[2]["spacing"] == "admittance" else "0.0",
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",

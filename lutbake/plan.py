@@ -39,7 +39,7 @@ __all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIO
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
-SPACINGS = ("uniform", "sqrt", "admittance")
+SPACINGS = ("uniform", "sqrt", "root4", "admittance")
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
 METHODS = ("spectral",)
@@ -71,7 +71,8 @@ class Axis:
     count : int
         Nodes, including both ends (2 ≤ count).
     spacing : str
-        'uniform'; 'sqrt' (uniform in √value: nodes crowd towards lo); 'admittance' (η3 only: uniform in
+        'uniform'; 'sqrt' (uniform in √value: nodes crowd towards lo); 'root4' (uniform in value^¼:
+        crowding harder, cos θ's towards grazing); 'admittance' (η3 only: uniform in
         √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing).
 
     Examples
@@ -102,6 +103,8 @@ class Axis:
         """The coordinate in which the nodes are uniform."""
         if self.spacing == "sqrt":
             return np.sqrt(np.maximum(v, 0.0))
+        if self.spacing == "root4":
+            return np.sqrt(np.sqrt(np.maximum(v, 0.0)))
         if self.spacing == "admittance":
             return np.sqrt(np.maximum(v * v - snell2, 0.0))
         return v
@@ -109,6 +112,8 @@ class Axis:
     def _unwarp(self, w, snell2):
         if self.spacing == "sqrt":
             return w * w
+        if self.spacing == "root4":
+            return np.square(w * w)
         if self.spacing == "admittance":
             return np.sqrt(w * w + snell2)
         return w

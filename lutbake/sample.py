@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .interpolation import cubic_taps
+from .interpolation import cubic_taps, mirrors_low_end
 from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from .plan import Axis
@@ -141,7 +141,7 @@ class Lut:
         """Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile by tile."""
         axes = self.axes
         layout = TileLayout(*(a.count for a in axes))
-        taps = [cubic_taps(fi, a.count, a.spacing == "sqrt" and a.lo == 0.0) for fi, a in zip(f, axes)]
+        taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo)) for fi, a in zip(f, axes)]
         nodes = [[np.clip(first + k, 0, a.count - 1) for k in range(4)] for (first, _), a in zip(taps, axes)]
         out = np.zeros(f[0].shape + (3,))
         for k in itertools.product(range(4), repeat=4):

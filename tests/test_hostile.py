@@ -305,6 +305,8 @@ HEADERS = {
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
     "format version 4": lambda m, im: ({**m, "format_version": 4}, im),
     "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
+    "root4 in a v2 file": lambda m, im: ({**m, "format_version": 2, "axes": [
+        {**m["axes"][0], "spacing": "root4"}, *m["axes"][1:]]}, im),
     "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
         *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),
     "admittance below eta1": lambda m, im: ({**m, "axes": [

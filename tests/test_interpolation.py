@@ -20,10 +20,9 @@ from lutbake.sample import Lut
 SHAPE = (6, 7, 5, 4)
 
 
-def _axes(shape, sqrt_from_zero):
+def _axes(shape, spacings):
     names, spans = ("cos_theta", "opd_nm", "eta3", "kappa3"), ((0.0, 1.0), (0.0, 900.0), (1.2, 2.4), (0.0, 3.0))
-    return tuple(Axis(n, lo, hi, c, "sqrt" if m else "uniform")
-                 for n, (lo, hi), c, m in zip(names, spans, shape, sqrt_from_zero))
+    return tuple(Axis(n, lo, hi, c, s) for n, (lo, hi), c, s in zip(names, spans, shape, spacings))
 
 
 def _lut(grid, axes):
@@ -69,10 +68,14 @@ def _catmull_rom(padded, f):
     return total
 
 
-@pytest.mark.parametrize("mirror", [(True, False, False, True), (False, False, False, False)])
-def test_cubic_reads_match_the_padded_textbook_rule(mirror):
+@pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
+                                      ("uniform",) * 4])
+def test_cubic_reads_match_the_padded_textbook_rule(spacings):
+    """Mirrored ghosts exactly where an axis is √- or ¼-power-spaced from 0 (cos θ, κ3 here; D's √
+    axis from 0 too; η3's starts at 1.2, so it extrapolates)."""
     rng = np.random.default_rng(3)
-    axes = _axes(SHAPE, mirror)
+    axes = _axes(SHAPE, spacings)
+    mirror = [s != "uniform" and a.lo == 0.0 for s, a in zip(spacings, axes)]
     grid = rng.normal(size=SHAPE + (3,))
     lut = _lut(grid, axes)
     f = rng.uniform(0, 1, (300, 4)) * (np.array(SHAPE) - 1)
@@ -89,7 +92,7 @@ def test_cubic_reads_match_the_padded_textbook_rule(mirror):
 
 
 def test_cubic_reads_return_nodes_and_reproduce_quadratics():
-    axes = _axes(SHAPE, (False,) * 4)
+    axes = _axes(SHAPE, ("uniform",) * 4)
     u = np.meshgrid(*(np.arange(n, dtype=float) for n in SHAPE), indexing="ij")
 
     def quadratic(c):
