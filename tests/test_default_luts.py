@@ -1,5 +1,6 @@
 """The default LUT set (`lutbake bake --out luts`, baked into luts/ by conftest.default_luts) stays within
-its byte budget and passes the README's gate."""
+its byte budget, passes the README's gate and issue 13's p99 target (docs/accuracy.md has the 5,000-point
+figures and the max)."""
 
 import json
 import subprocess
@@ -32,3 +33,5 @@ def test_default_lut_passes_the_readme_gate(name):
     summary = json.loads(out.stdout)
     assert summary["gate"]["passed"] and summary["lut_error"]["de00_p99"] <= 1.0
     assert summary["point_kinds"] == {"cell-centre": 500, "uniform": 500}
+    # issue 13's p99 target, read cubic as the header says (linear reads of the same files score ~0.7)
+    assert summary["interpolation"] == "cubic" and summary["lut_error"]["de00_p99"] <= 0.3
