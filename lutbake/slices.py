@@ -78,7 +78,8 @@ def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observe
     if key not in stack.material_levels:
         stack.material_levels[key] = _material_level(stack, thickness_nm, integrator, rule_ladder(observer=observer, space=space))
     cos_t, d = (g.ravel() for g in np.meshgrid(cos_axis.values(), thickness))
-    rgb = _direct_per_wavelength(stack.points(cos_t, d), stack.material_levels[key], integrator, observer, space)
+    rgb = _direct_per_wavelength(stack, stack.points(cos_t, d), stack.material_levels[key], integrator, observer,
+                                 space)
     return rgb.reshape(thickness.size, cos_axis.count, 3)
 
 
@@ -114,7 +115,8 @@ def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.
     return band[rows, x0:x1]
 
 
-def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer: str, space: str) -> np.ndarray:
+def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str,
+                           space: str) -> np.ndarray:
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
     ladder = rule_ladder(observer=observer, space=space)
@@ -126,7 +128,7 @@ def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer:
     out = np.empty((len(points), 3))
     for level in np.unique(levels):
         cells = np.flatnonzero(levels == level)
-        out[cells] = _rule_colour(subset(points, cells), ladder.rule(level), integrator)
+        out[cells] = _rule_colour(stack, subset(points, cells), ladder.rule(level), integrator)
     return out
 
 
@@ -136,21 +138,20 @@ def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
     at probe texels spread over the slice (the thinnest and thickest film at five angles)."""
     cos_t, d = np.meshgrid(_PROBE_COS, thickness_nm)
     probes = stack.points(cos_t.ravel(), d.ravel())
-    coarse = _rule_colour(probes, ladder.rule(0), integrator)
+    coarse = _rule_colour(stack, probes, ladder.rule(0), integrator)
     for level in range(len(ladder.counts) - 1):
-        fine = _rule_colour(probes, ladder.rule(level + 1), integrator)
+        fine = _rule_colour(stack, probes, ladder.rule(level + 1), integrator)
         if np.max(np.abs(fine - coarse)) <= DISPERSIVE_TOLERANCE / 4:  # margin: the finer rule is not exact
             return level
         coarse = fine
     return len(ladder.counts) - 1
 
 
-def _rule_colour(points: FilmPoints, rule, integrator) -> np.ndarray:
-    """RGB (P, 3) at one rule's nodes, indices per node: the kernel's reflectance (numpy without OpenCL)."""
-    kernel = getattr(integrator, "reflectance", None)
+def _rule_colour(stack: SliceStack, points: FilmPoints, rule, integrator) -> np.ndarray:
+    """RGB (P, 3) of ``stack`` at ``points`` by one rule, indices per node: summed by the kernel on the
+    device (numpy without OpenCL)."""
+    kernel = getattr(integrator, "stack_colour", None)
     if kernel is None:
         return spectral_reflectance(points, rule.wavelength_nm)[2] @ rule.weights.T
-    eta2, eta3, kappa3 = points.indices(rule.wavelength_nm)
-    refl = kernel(float(points.eta1[0]), eta2, points.cos_theta[:, None], 2.0 * eta2 * points.thickness_nm[:, None],
-                  eta3, kappa3, rule.wavelength_nm[None, :])
-    return refl @ rule.weights.T
+    node_indices = [v.ravel() for v in stack.points(1.0, 0.0).indices(rule.wavelength_nm)]
+    return kernel(stack.eta1, points.cos_theta, points.thickness_nm, node_indices, rule)

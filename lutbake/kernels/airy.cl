@@ -241,6 +241,43 @@ __kernel void reflectance_points(
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
 }
 
+// RGB of one film stack with indices per node (dispersive materials) at (cos θ1, d) points, by one
+// spectral rule. Work-item (block, point): the point's partial sum over nodes [block·B, block·B + B),
+// so a few stiff points on a fine rule still fill every core (the host adds the blocks), and
+// neighbouring work-items read the same nodes (PoCL vectorizes across them). cos θ2
+// depends on (cos θ1, η2(λ)) only: the host gives it per distinct cos θ1 × node.
+__kernel void stack_rgb(
+    __global const REAL *cos1,                                    // per distinct cos θ1 (K)
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo,   // K × N: ±|cos θ2| per node
+    __global const int *cos_index,                                // per point: its row in cos1
+    __global const REAL *d_hi, __global const REAL *d_lo,         // per point: thickness (nm)
+    __global const REAL *eta2, __global const REAL *eta3, __global const REAL *kappa3,   // N
+    __global const REAL *nu_hi, __global const REAL *nu_lo,       // N (1/nm)
+    __global const REAL *weights,                                 // 3 × N
+    const REAL eta1, const int n_nodes, const int block,
+    __global REAL *rgb_out)                                       // blocks × points × 3
+{
+    const int gid = get_global_id(0), n_points = get_global_size(0) / ((n_nodes + block - 1) / block);
+    const int i = gid % n_points, first = (gid / n_points) * block;
+    const int c = cos_index[i];
+    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
+    for (int j = first; j < min(first + block, n_nodes); ++j) {
+        // D = 2·η2(λ)·d as a float-float pair (η2 exact, d from the host's pair)
+        const REAL e2x2 = 2 * eta2[j];
+        const REAL opd_hi = e2x2 * d_hi[i];
+        const REAL opd_lo = fma(e2x2, d_hi[i], -opd_hi) + e2x2 * d_lo[i];
+        const Texel t = texel_setup(cos1[c], cos2_hi[c * n_nodes + j], cos2_lo[c * n_nodes + j], opd_hi, opd_lo,
+                                    eta3[j], kappa3[j], eta1, eta2[j]);
+        const REAL refl = texel_reflectance(&t, nu_hi[j], nu_lo[j]);
+        accumulate(&r, weights[j] * refl);
+        accumulate(&g, weights[n_nodes + j] * refl);
+        accumulate(&b, weights[2 * n_nodes + j] * refl);
+    }
+    rgb_out[3 * gid] = r.sum;
+    rgb_out[3 * gid + 1] = g.sum;
+    rgb_out[3 * gid + 2] = b.sum;
+}
+
 // ---------------------------------------------------------------------------
 // Fourier-series integration (lutbake/fourier.py, docs/spectral.md). Per
 // polarization |r|² = C0 + 2 Re Σ_m K q^{m−1} e^{i2πmXν}, so
