@@ -198,6 +198,7 @@ _SELF_CHECK = np.array([
 SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
 # Nodes per work-item of stack_rgb: its few stiff points on the finest rules still spread over every core.
 _STACK_BLOCK = 256
+_STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output
 
 
 _SELF_CHECKED = {}
@@ -316,6 +317,7 @@ class OpenCLBackend:
             self.series_kernel = cl.Kernel(program, "bake_rows_series")
             self.plan_kernel = cl.Kernel(program, "plan_rows")
             self.points_kernel = cl.Kernel(program, "reflectance_points")
+            self.stack_terms_kernel = cl.Kernel(program, "stack_terms")
             self.stack_kernel = cl.Kernel(program, "stack_rgb")
             self.queue = cl.CommandQueue(self.ctx)
             error = _self_check(self, candidate)
@@ -450,24 +452,31 @@ class OpenCLBackend:
     def stack_colour(self, eta1, cos_theta, thickness_nm, node_indices, rule):
         """RGB (P, 3) of one film stack at points (cos θ1, d), by ``rule`` with the film's and base's
         indices per node (``node_indices`` = (η2, η3, κ3), each (N,): dispersive materials): the
-        kernel's reflectance summed on the device, one pass for every point."""
+        kernel's reflectance summed on the device, its Fresnel side once per distinct cos θ1 × node."""
         import pyopencl as cl
 
         eta2, eta3, kappa3 = (np.broadcast_to(np.asarray(v, np.float64), (rule.count,)) for v in node_indices)
+        thickness_nm = np.asarray(thickness_nm, np.float64)
         cos_values, cos_index = np.unique(np.asarray(cos_theta, np.float64), return_inverse=True)
-        cos2 = _signed_cos_theta2(eta1, eta2[None, :], cos_values[:, None])
-        n_blocks = -(-rule.count // _STACK_BLOCK)
-        arrays = [cos_values, *_split(cos2.ravel(), self.dtype), cos_index.astype(np.int32),
-                  *_split(thickness_nm, self.dtype), eta2, eta3, kappa3,
-                  *_split(1.0 / rule.wavelength_nm, self.dtype), rule.weights.ravel()]
+        cos2_hi, cos2_lo = _split(_signed_cos_theta2(eta1, eta2[None, :], cos_values[:, None]).ravel(), self.dtype)
         mf = cl.mem_flags
-        bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                          hostbuf=np.ascontiguousarray(a, np.int32 if a.dtype == np.int32 else self.dtype))
-                for a in arrays]
+
+        def buffer(a, dtype=self.dtype):
+            return cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, dtype))
+
+        cos1, cos2_hi, eta2_buf = buffer(cos_values), buffer(cos2_hi), buffer(eta2)
+        real = self.dtype
+        terms = cl.Buffer(self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize)
+        self.stack_terms_kernel(self.queue, (cos_values.size * rule.count,), None, cos1, cos2_hi, eta2_buf,
+                                buffer(eta3), buffer(kappa3), real(eta1), real(thickness_nm.max()),
+                                np.int32(rule.count), terms)
+        n_blocks = -(-rule.count // _STACK_BLOCK)
         out = np.empty((n_blocks, cos_index.size, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.stack_kernel(self.queue, (n_blocks * cos_index.size,), None, *bufs, self.dtype(eta1),
-                          np.int32(rule.count), np.int32(_STACK_BLOCK), out_buf)
+        self.stack_kernel(self.queue, (out.size // 3,), None, cos1, cos2_hi, buffer(cos2_lo), terms,
+                          buffer(cos_index, np.int32), *(buffer(a) for a in _split(thickness_nm, self.dtype)),
+                          eta2_buf, *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)),
+                          buffer(rule.weights), np.int32(rule.count), np.int32(_STACK_BLOCK), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).sum(axis=0)
 
