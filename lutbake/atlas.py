@@ -81,18 +81,18 @@ def _slice_measure(job: SceneJob, held_out, integrator):
     return measure
 
 
-def refine_slice(job: SceneJob, integrator, backend: str) -> tuple:
+def refine_slice(job: SceneJob, integrator) -> tuple:
     """The slice grown until its stored values meet the scene's p99 target: (values, cache record)."""
     held_out = _held_out(job)
     frozen = (1,) if job.fixed_thickness else ()
     result = refine(_slice_measure(job, held_out, integrator), job.counts, job.scene.max_de, frozen=frozen,
                     cap=MAX_SLICE_COUNT)
     meta = {"counts": list(result.counts), "de00_p99": result.best.de00_p99, "held_out_points": _HELD_OUT,
-            "constant_index_de00_p99": constant_index_error(job, held_out, backend)}
+            "constant_index_de00_p99": constant_index_error(job, held_out, integrator)}
     return result.artefact, meta
 
 
-def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
+def constant_index_error(job: SceneJob, held_out, integrator) -> float | None:
     """p99 ΔE00 if the slice's named materials were taken at their 550 nm index (what a
     constant-index LUT would show), at the held-out points; None without named materials."""
     film, base = job.key["film"], job.key["base"]
@@ -102,7 +102,7 @@ def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
     eta3, kappa3 = ((float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base)
     pts = FilmPoints.build(eta1=job.scene.eta1, eta2=job.film_index_550(), cos_theta=cos_t, thickness_nm=d,
                            eta3=eta3, kappa3=kappa3)
-    approx = fast_colours(pts, job.scene.observer, job.scene.space, backend)[0]  # constant indices: the kernel
+    approx = fast_colours(pts, job.scene.observer, job.scene.space, integrator)[0]  # constant indices: the kernel
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
 
@@ -162,13 +162,13 @@ def _cached_slice(npy: Path, info: Path):
     return values, meta
 
 
-def _load_or_compute_slice(job, cache: Path, force: bool, backend: str, integrator, computed, reused):
+def _load_or_compute_slice(job, cache: Path, force: bool, integrator, computed, reused):
     npy, info = cache / f"{job.id}.npy", cache / f"{job.id}.json"
     cached = None if force else _cached_slice(npy, info)
     if cached is not None:
         reused.append(job.id)
         return cached
-    values, meta = refine_slice(job, integrator(), backend)
+    values, meta = refine_slice(job, integrator())
     with atomic_path(npy) as tmp, open(tmp, "wb") as fh:
         np.save(fh, values)  # a file handle: np.save would append ".npy" to the temporary's name
     write_text_atomic(info, json.dumps(meta, indent=2) + "\n")
@@ -289,7 +289,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         for done, job in enumerate(plan.jobs):
             progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
             if job.kind == "slice":
-                values, info = _load_or_compute_slice(job, cache, force, backend, integrator, computed, reused)
+                values, info = _load_or_compute_slice(job, cache, force, integrator, computed, reused)
                 slices.append((job, values, info))
                 continue
             info = _scene_lut(job, out, cache, force, backend, files, computed, reused)
