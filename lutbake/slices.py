@@ -129,7 +129,7 @@ def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, in
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
     ladder = stack.ladder(observer, space)
-    levels = np.maximum(_fringe_levels(points, ladder), floor)
+    levels = np.maximum(_fringe_levels(stack, points, ladder), floor)
     out = np.empty((len(points), 3))
     for level in np.unique(levels):
         cells = np.flatnonzero(levels == level)
@@ -137,14 +137,16 @@ def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, in
     return out
 
 
-def _fringe_levels(points: FilmPoints, ladder) -> np.ndarray:
+def _fringe_levels(stack: SliceStack, points: FilmPoints, ladder) -> np.ndarray:
     """The ladder level each point's fringes need: cycles at the film's largest index, |r21·r23| at
-    its largest over the visible."""
-    eta2, eta3, kappa3 = points.indices(_SCREEN_NM)
-    g2 = normal_admittance(eta2.max(axis=1), 0.0, points.eta1, points.cos_theta).real
-    cycles = 2.0 * points.thickness_nm * g2 * WAVENUMBER_SPAN_PER_NM
-    finesse = round_trip_amplitude(points.eta1[:, None], eta2, eta3, kappa3, points.cos_theta[:, None]).max(axis=1)
-    return ladder.level(cycles, finesse)
+    its largest over the visible (both per distinct cos θ: the stack is fixed)."""
+    cos_values, row = np.unique(points.cos_theta, return_inverse=True)
+    angles = stack.points(cos_values, np.zeros_like(cos_values))
+    eta2, eta3, kappa3 = angles.indices(_SCREEN_NM)
+    g2 = normal_admittance(eta2.max(axis=1), 0.0, angles.eta1, angles.cos_theta).real
+    cycles = 2.0 * points.thickness_nm * g2[row] * WAVENUMBER_SPAN_PER_NM
+    finesse = round_trip_amplitude(angles.eta1[:, None], eta2, eta3, kappa3, angles.cos_theta[:, None]).max(axis=1)
+    return ladder.level(cycles, finesse[row])
 
 
 def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
@@ -155,7 +157,7 @@ def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
     ladder's last have no finer rule to compare with and do not count."""
     cos_t, d = np.meshgrid(_PROBE_COS, thickness_nm)
     probes = stack.points(cos_t.ravel(), d.ravel())
-    fringe, top = _fringe_levels(probes, ladder), len(ladder.counts) - 1
+    fringe, top = _fringe_levels(stack, probes, ladder), len(ladder.counts) - 1
     colours = {}  # level -> RGB of every probe by that level's rule
 
     def colour(level):
