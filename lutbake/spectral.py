@@ -20,11 +20,14 @@ Every integrator computes RGB_c = Σ_j W_cj · R(λ_j). Two families of rules:
 from __future__ import annotations
 
 import functools
+import hashlib
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
 
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
+from .usercache import cached_arrays
 
 __all__ = ["SpectralRule", "RuleLadder", "panel_rule", "wavenumber_rule", "rule_ladder", "WAVENUMBER_SPAN_PER_NM", "DEFAULT_SAMPLES_PER_CYCLE", "MAX_WAVENUMBER_NODES"]
 
@@ -81,14 +84,37 @@ def wavenumber_rule(count: int, observer: str = "cie1931", space: str = "rec709"
         cuts = []
     edges_nm = [WAVELENGTH_MIN_NM, *cuts, WAVELENGTH_MAX_NM]
     step = WAVENUMBER_SPAN_PER_NM / (count - 1)
+    panels = [(lo, hi, max(MIN_PANEL_NODES, int(np.ceil((1.0 / lo - 1.0 / hi) / step)) + 1) if cuts else count)
+              for lo, hi in zip(edges_nm[:-1], edges_nm[1:])]
+    size = sum(n for _, _, n in panels)
+    cm = colorimetry(observer, space)
+    # Built once per machine (up to ~0.1 s per rule): keyed by the sensitivity table, the panels and
+    # this module's construction code, so a changed table or construction never reads a stale entry.
+    key = b"|".join([_construction_digest(), (cm.rgb_table if basis == "rgb" else cm.xyz_table).tobytes(),
+                     np.asarray(panels, float).tobytes()])
+    rows = 3 * len(basis.split("+"))
+    rule = cached_arrays("wavenumber-rule", key, {"wavelength_nm": (size,), "weights": (rows, size)},
+                         lambda: _panel_rule_arrays(panels, observer, space, basis))
+    name = f"wavenumber-lagrange{STENCIL_NODES}-{count}" + (f"-{len(panels)}-panels" if cuts else "")
+    return SpectralRule(rule["wavelength_nm"], rule["weights"], name)
+
+
+@functools.lru_cache(maxsize=1)
+def _construction_digest() -> bytes:
+    source = "".join(inspect.getsource(f) for f in (_panel_rule_arrays, _product_weights, _projection_points,
+                                                    _lagrange_stencils))
+    constants = (STENCIL_NODES, _PROJECTION_NODES, MIN_PANEL_NODES)
+    return hashlib.sha256(f"{source}{constants}".encode()).digest()
+
+
+def _panel_rule_arrays(panels, observer, space, basis) -> dict:
+    """Nodes and weights of a rule over ``panels`` ((lo_nm, hi_nm, nodes) each), panel by panel."""
     nodes, weights = [], []
-    for lo, hi in zip(edges_nm[:-1], edges_nm[1:]):
-        n = max(MIN_PANEL_NODES, int(np.ceil((1.0 / lo - 1.0 / hi) / step)) + 1) if cuts else count
+    for lo, hi, n in panels:
         nu = np.linspace(1.0 / hi, 1.0 / lo, n)
         nodes.append(nu)
         weights.append(_product_weights(nu, lo, hi, observer, space, basis))
-    name = f"wavenumber-lagrange{STENCIL_NODES}-{count}" + (f"-{len(nodes)}-panels" if cuts else "")
-    return SpectralRule(1.0 / np.concatenate(nodes), np.concatenate(weights, axis=1), name)
+    return {"wavelength_nm": 1.0 / np.concatenate(nodes), "weights": np.concatenate(weights, axis=1)}
 
 
 def _product_weights(nu, lo_nm, hi_nm, observer, space, basis) -> np.ndarray:

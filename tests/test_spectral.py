@@ -110,3 +110,31 @@ def test_knotted_rule_cuts_only_where_every_panel_gets_its_nodes():
     assert wavenumber_rule(64, knots_nm=knots).count == 64          # 21 × 4 > 64: the plain rule
     assert wavenumber_rule(128, knots_nm=knots).name.endswith("-21-panels")
     assert 21 * MIN_PANEL_NODES > 64
+
+
+def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monkeypatch):
+    """A rule's nodes and weights persist in $LUTBAKE_CACHE_DIR, one entry per distinct rule; a later
+    process reads them without building, bit for bit; a damaged entry is rebuilt."""
+    import lutbake.spectral as spectral
+
+    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    spectral.wavenumber_rule.cache_clear()
+    fresh = wavenumber_rule(256, knots_nm=(450.0,))
+    wavenumber_rule(256, knots_nm=(451.0,))
+    assert len(list(tmp_path.glob("wavenumber-rule-*"))) == 2
+    build = spectral._panel_rule_arrays
+
+    def refuse(*args):
+        raise AssertionError("rebuilt a cached rule")
+
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", refuse)
+    spectral.wavenumber_rule.cache_clear()
+    again = wavenumber_rule(256, knots_nm=(450.0,))
+    np.testing.assert_array_equal(again.weights, fresh.weights)
+    np.testing.assert_array_equal(again.wavelength_nm, fresh.wavelength_nm)
+    for entry in tmp_path.glob("wavenumber-rule-*"):
+        entry.write_bytes(b"not a numpy file")
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", build)
+    spectral.wavenumber_rule.cache_clear()
+    np.testing.assert_array_equal(wavenumber_rule(256, knots_nm=(450.0,)).weights, fresh.weights)
+    spectral.wavenumber_rule.cache_clear()
