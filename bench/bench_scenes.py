@@ -10,11 +10,14 @@ of the whole command (adds the interpreter and imports), the CPU seconds of
 the whole command (user + system, every thread: less sensitive than wall time
 to other work on a shared machine), the jobs computed,
 the device that ran them, and the largest p99 ΔE00 reached against the
-scene's target. The target of issue 12 is < 2 s of compute per scene. Also
-recorded once: what every bake pays before its first job, measured in a fresh
-interpreter the same way (the OpenCL program's build and self-check, and
-colour-science's import where its tables are not cached yet), so it can be
-told apart from the scene's own work.
+scene's target. Also recorded once: what every bake pays before its first
+job, measured in a fresh interpreter the same way (the OpenCL program's build
+and self-check, and colour-science's import where its tables are not cached
+yet), so it can be told apart from the scene's own work: a scene's compute is
+its bake seconds less that start-up (a one-time process cost, which a scene
+bake overlaps with its held-out ground truth). The target of issue 12 is < 2 s
+of compute per scene. The machine's 1-minute load average is recorded with
+every row (taken just before its bake): rerun when it is above 2.5.
 """
 
 import argparse
@@ -68,17 +71,19 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="also write the results here")
     opts = parser.parse_args()
+    startup = startup_seconds()
+    print(f"device start-up (colour-science import, kernel build and self-check): {startup:.2f} s")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for scene in sorted((ROOT / "examples").glob("*.toml")):
-            rows.append(bake(scene, Path(tmp) / scene.stem))
+            load = os.getloadavg()[0]   # before the bake: includes the previous bake's tail
+            rows.append({**bake(scene, Path(tmp) / scene.stem), "load_average_1min": load})
             r = rows[-1]
-            print(f"{r['scene']:<22} bake {r['bake_seconds']:6.2f} s  wall {r['wall_seconds']:6.2f} s  "
-                  f"CPU {r['cpu_seconds']:6.2f} s  "
+            r["compute_seconds"] = r["bake_seconds"] - startup
+            print(f"{r['scene']:<22} bake {r['bake_seconds']:6.2f} s  compute {r['compute_seconds']:6.2f} s  "
+                  f"wall {r['wall_seconds']:6.2f} s  CPU {r['cpu_seconds']:6.2f} s  "
                   f"jobs {r['jobs_computed']}  p99 ΔE00 {r['de00_p99_max']:.3f} (target {r['target_de00_p99']:g})  "
-                  f"{r['device']}", flush=True)
-    startup = startup_seconds()
-    print(f"device start-up (colour-science import, kernel build and self-check): {startup:.2f} s")
+                  f"load {r['load_average_1min']:.2f}  {r['device']}", flush=True)
     if opts.json:
         doc = {"load_average_1min": os.getloadavg()[0], "device_startup_seconds": startup, "scenes": rows}
         opts.json.write_text(json.dumps(doc, indent=2) + "\n")
