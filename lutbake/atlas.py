@@ -287,17 +287,19 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         cache, computed, reused = _cache(out), [], []
         slice_jobs = [job for job in plan.jobs if job.kind == "slice"]
         cached = {job.id: None if force else _cached_slice(*_slice_paths(cache, job)) for job in slice_jobs}
-        with ThreadPoolExecutor(max_workers=1) as pool:
+        # Two workers: the device's start-up and the slices' held-out ground truths (numpy, which
+        # releases the GIL) run side by side, and the truths go on while the first slices refine.
+        with ThreadPoolExecutor(max_workers=2) as pool:
             integrator = _Device(pool, backend)
             if any(v is None for v in cached.values()):
-                integrator.start()  # builds while the held-out truths below are computed
-            truths = {job.id: _held_out(job) for job in slice_jobs if cached[job.id] is None}
+                integrator.start()
+            truths = {job.id: pool.submit(_held_out, job) for job in slice_jobs if cached[job.id] is None}
             slices, entries = [], {}
             for done, job in enumerate(plan.jobs):
                 progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
                 if job.kind == "slice":
                     if cached[job.id] is None:
-                        values, info = _compute_slice(job, cache, integrator, truths[job.id])
+                        values, info = _compute_slice(job, cache, integrator, truths[job.id].result())
                         computed.append(job.id)
                     else:
                         values, info = cached[job.id]
