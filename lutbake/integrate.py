@@ -198,6 +198,10 @@ _SELF_CHECK = np.array([
 SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
 # Nodes per work-item of stack_rgb: its few stiff points on the finest rules still spread over every core.
 _STACK_BLOCK = 256
+# One work-group size for every launch (global sizes padded to it; the kernels return past their count):
+# PoCL builds a kernel's work-group function per distinct local size, which it picks per global size when
+# left to choose — ~0.2 s each, and a scene's trials and levels meet dozens of sizes.
+_LOCAL_SIZE = 64
 _STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output
 
 
@@ -332,6 +336,11 @@ class OpenCLBackend:
         """The device that runs the kernel, as 'platform / device'."""
         return device_label(self.ctx.devices[0])
 
+    def _run(self, kernel, n_items: int, *args):
+        """``kernel`` over ``n_items`` work-items in work-groups of _LOCAL_SIZE (see there)."""
+        groups = -(-n_items // _LOCAL_SIZE)
+        kernel(self.queue, (groups * _LOCAL_SIZE,), (_LOCAL_SIZE,), *args, np.int32(n_items))
+
     def _static_buffers(self, spec):
         import pyopencl as cl
 
@@ -386,8 +395,8 @@ class OpenCLBackend:
             cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
             cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
             bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
-            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
-                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
+            self._run(self.plan_kernel, cells, np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0),
+                      *self._series_buffers(spec), cap_buf, bound_buf)
             cl.enqueue_copy(self.queue, cap, cap_buf)
             cl.enqueue_copy(self.queue, bound, bound_buf)
             stats.add(cap, bound)
@@ -409,9 +418,9 @@ class OpenCLBackend:
         args = [*buffers, level_buf, real(spec.eta1), real(spec.eta2),
                 np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min)]
         if self.integrator == "direct":
-            self.kernel(self.queue, (cells,), None, *args, out_buf)
+            self._run(self.kernel, cells, *args, out_buf)
         else:
-            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec), out_buf)
+            self._run(self.series_kernel, cells, *args, *self._series_buffers(spec), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         out_buf.release()
         level_buf.release()
@@ -445,7 +454,7 @@ class OpenCLBackend:
                 for a in arrays]
         out = np.empty(cos1.size, self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), out_buf)
+        self._run(self.points_kernel, cos1.size, *bufs, self.dtype(eta1), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).reshape(shape)
 
@@ -467,16 +476,15 @@ class OpenCLBackend:
         cos1, cos2_hi, eta2_buf = buffer(cos_values), buffer(cos2_hi), buffer(eta2)
         real = self.dtype
         terms = cl.Buffer(self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize)
-        self.stack_terms_kernel(self.queue, (cos_values.size * rule.count,), None, cos1, cos2_hi, eta2_buf,
-                                buffer(eta3), buffer(kappa3), real(eta1), real(thickness_nm.max()),
-                                np.int32(rule.count), terms)
+        self._run(self.stack_terms_kernel, cos_values.size * rule.count, cos1, cos2_hi, eta2_buf, buffer(eta3),
+                  buffer(kappa3), real(eta1), real(thickness_nm.max()), np.int32(rule.count), terms)
         n_blocks = -(-rule.count // _STACK_BLOCK)
         out = np.empty((n_blocks, cos_index.size, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.stack_kernel(self.queue, (out.size // 3,), None, cos1, cos2_hi, buffer(cos2_lo), terms,
-                          buffer(cos_index, np.int32), *(buffer(a) for a in _split(thickness_nm, self.dtype)),
-                          eta2_buf, *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)),
-                          buffer(rule.weights), np.int32(rule.count), np.int32(_STACK_BLOCK), out_buf)
+        self._run(self.stack_kernel, out.size // 3, cos1, cos2_hi, buffer(cos2_lo), terms, buffer(cos_index, np.int32),
+                  *(buffer(a) for a in _split(thickness_nm, self.dtype)), eta2_buf,
+                  *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)), buffer(rule.weights),
+                  np.int32(rule.count), np.int32(_STACK_BLOCK), np.int32(cos_index.size), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).sum(axis=0)
 

@@ -28,6 +28,11 @@ typedef float2 CPLX;
 
 #define PI_R ((REAL)3.14159265358979323846)
 
+// Every kernel takes its work-item count last: the host pads the global size to a multiple of one
+// work-group size (integrate.py: _LOCAL_SIZE), so PoCL builds each kernel's work-group function once
+// instead of once per grid size (~0.2 s each), and the padding returns at once.
+#define ITEMS_GUARD const int gid = get_global_id(0); if (gid >= n_items) return;
+
 inline CPLX c_mul(CPLX a, CPLX b) { return (CPLX)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
 inline CPLX c_div(CPLX a, CPLX b) {
     REAL d = b.x * b.x + b.y * b.y;
@@ -220,9 +225,10 @@ __kernel void bake_rows(
     __global const int *levels,                               // rule level of each texel
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    __global REAL *rgb_out)                                   // rows × width × 3
+    __global REAL *rgb_out,                                   // rows × width × 3
+    const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     const int x = gid % width, y = row0 + gid / width;
     const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
@@ -245,9 +251,10 @@ __kernel void reflectance_points(
     __global const REAL *opd_hi, __global const REAL *opd_lo, __global const REAL *eta2,
     __global const REAL *eta3, __global const REAL *kappa3,
     __global const REAL *nu_hi, __global const REAL *nu_lo,
-    const REAL eta1, __global REAL *r_out)
+    const REAL eta1, __global REAL *r_out, const int n_items)
 {
-    const int i = get_global_id(0);
+    ITEMS_GUARD
+    const int i = gid;
     const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
                                 eta3[i], kappa3[i], eta1, eta2[i]);
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
@@ -276,9 +283,11 @@ __kernel void stack_terms(
     __global const REAL *cos2_hi,                                 // K × N: ±|cos θ2| per node
     __global const REAL *eta2, __global const REAL *eta3, __global const REAL *kappa3,   // N
     const REAL eta1, const REAL d_max, const int n_nodes,
-    __global REAL *terms_out)                                     // K × N × STACK_TERMS
+    __global REAL *terms_out,                                     // K × N × STACK_TERMS
+    const int n_items)
 {
-    const int gid = get_global_id(0), c = gid / n_nodes, j = gid % n_nodes;
+    ITEMS_GUARD
+    const int c = gid / n_nodes, j = gid % n_nodes;
     AiryTerms s, p;
     fresnel_terms(cos1[c], cos2_hi[gid], eta3[j], kappa3[j], eta1, eta2[j], w_bound(2 * eta2[j] * d_max, eta2[j]),
                   &s, &p);
@@ -298,10 +307,11 @@ __kernel void stack_rgb(
     __global const REAL *eta2,                                    // N
     __global const REAL *nu_hi, __global const REAL *nu_lo,       // N (1/nm)
     __global const REAL *weights,                                 // 3 × N
-    const int n_nodes, const int block,
-    __global REAL *rgb_out)                                       // blocks × points × 3
+    const int n_nodes, const int block, const int n_points,
+    __global REAL *rgb_out,                                       // blocks × points × 3
+    const int n_items)
 {
-    const int gid = get_global_id(0), n_points = get_global_size(0) / ((n_nodes + block - 1) / block);
+    ITEMS_GUARD
     const int i = gid % n_points, first = (gid / n_points) * block;
     const int c = cos_index[i];
     Texel t;
@@ -452,9 +462,9 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
 
 // The rule's outcome per texel of a band of rows: term cap (−1: direct) and a-priori bound.
 __kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                        __global int *cap_out, __global REAL *bound_out)
+                        __global int *cap_out, __global REAL *bound_out, const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     SERIES_TEXEL
     cap_out[gid] = cap;
     bound_out[gid] = bound;
@@ -471,9 +481,9 @@ __kernel void bake_rows_series(
     __global const int *levels,
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    SERIES_ARGS, __global REAL *rgb_out)
+    SERIES_ARGS, __global REAL *rgb_out, const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     SERIES_TEXEL
     if (cap >= 0) {
         series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, table, intervals, step, tail, tol, rgb_out + 3 * gid);
