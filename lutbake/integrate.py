@@ -337,9 +337,13 @@ class OpenCLBackend:
         return device_label(self.ctx.devices[0])
 
     def _run(self, kernel, n_items: int, *args):
-        """``kernel`` over ``n_items`` work-items in work-groups of _LOCAL_SIZE (see there)."""
-        groups = -(-n_items // _LOCAL_SIZE)
-        kernel(self.queue, (groups * _LOCAL_SIZE,), (_LOCAL_SIZE,), *args, np.int32(n_items))
+        """``kernel`` over ``n_items`` work-items in work-groups of _LOCAL_SIZE (see there), or of the
+        most the device allows for that kernel where that is fewer."""
+        import pyopencl as cl
+
+        local = min(_LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE,
+                                                            self.ctx.devices[0]))
+        kernel(self.queue, (-(-n_items // local) * local,), (local,), *args, np.int32(n_items))
 
     def _static_buffers(self, spec):
         import pyopencl as cl
