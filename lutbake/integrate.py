@@ -202,7 +202,7 @@ _STACK_BLOCK = 256
 # PoCL builds a kernel's work-group function per distinct local size, which it picks per global size when
 # left to choose — ~0.2 s each, and a scene's trials and levels meet dozens of sizes.
 _LOCAL_SIZE = 64
-_STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output
+_STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output (STACK_TERMS in airy.cl)
 
 
 _SELF_CHECKED = {}
@@ -471,13 +471,14 @@ class OpenCLBackend:
         eta2, eta3, kappa3 = (np.broadcast_to(np.asarray(v, np.float64), (rule.count,)) for v in node_indices)
         thickness_nm = np.asarray(thickness_nm, np.float64)
         cos_values, cos_index = np.unique(np.asarray(cos_theta, np.float64), return_inverse=True)
-        cos2_hi, cos2_lo = _split(_signed_cos_theta2(eta1, eta2[None, :], cos_values[:, None]).ravel(), self.dtype)
         mf = cl.mem_flags
 
         def buffer(a, dtype=self.dtype):
             return cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, dtype))
 
-        cos1, cos2_hi, eta2_buf = buffer(cos_values), buffer(cos2_hi), buffer(eta2)
+        cos2 = _signed_cos_theta2(eta1, eta2[None, :], cos_values[:, None]).ravel()
+        cos2_hi, cos2_lo = (buffer(a) for a in _split(cos2, self.dtype))
+        cos1, eta2_buf = buffer(cos_values), buffer(eta2)
         real = self.dtype
         terms = cl.Buffer(self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize)
         self._run(self.stack_terms_kernel, cos_values.size * rule.count, cos1, cos2_hi, eta2_buf, buffer(eta3),
@@ -485,7 +486,7 @@ class OpenCLBackend:
         n_blocks = -(-rule.count // _STACK_BLOCK)
         out = np.empty((n_blocks, cos_index.size, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self._run(self.stack_kernel, out.size // 3, cos1, cos2_hi, buffer(cos2_lo), terms, buffer(cos_index, np.int32),
+        self._run(self.stack_kernel, out.size // 3, cos1, cos2_hi, cos2_lo, terms, buffer(cos_index, np.int32),
                   *(buffer(a) for a in _split(thickness_nm, self.dtype)), eta2_buf,
                   *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)), buffer(rule.weights),
                   np.int32(rule.count), np.int32(_STACK_BLOCK), np.int32(cos_index.size), out_buf)
