@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -80,18 +81,18 @@ def _slice_measure(job: SceneJob, held_out, integrator):
     return measure
 
 
-def refine_slice(job: SceneJob, integrator, backend: str) -> tuple:
-    """The slice grown until its stored values meet the scene's p99 target: (values, cache record)."""
-    held_out = _held_out(job)
+def refine_slice(job: SceneJob, integrator, held_out) -> tuple:
+    """The slice grown until its stored values, scored at ``held_out`` (``_held_out``), meet the
+    scene's p99 target: (values, cache record)."""
     frozen = (1,) if job.fixed_thickness else ()
     result = refine(_slice_measure(job, held_out, integrator), job.counts, job.scene.max_de, frozen=frozen,
                     cap=MAX_SLICE_COUNT)
     meta = {"counts": list(result.counts), "de00_p99": result.best.de00_p99, "held_out_points": _HELD_OUT,
-            "constant_index_de00_p99": constant_index_error(job, held_out, backend)}
+            "constant_index_de00_p99": constant_index_error(job, held_out, integrator)}
     return result.artefact, meta
 
 
-def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
+def constant_index_error(job: SceneJob, held_out, integrator) -> float | None:
     """p99 ΔE00 if the slice's named materials were taken at their 550 nm index (what a
     constant-index LUT would show), at the held-out points; None without named materials."""
     film, base = job.key["film"], job.key["base"]
@@ -101,7 +102,7 @@ def constant_index_error(job: SceneJob, held_out, backend: str) -> float | None:
     eta3, kappa3 = ((float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base)
     pts = FilmPoints.build(eta1=job.scene.eta1, eta2=job.film_index_550(), cos_theta=held.cos_theta,
                            thickness_nm=held.thickness_nm, eta3=eta3, kappa3=kappa3)
-    approx = fast_colours(pts, job.scene.observer, job.scene.space, backend)[0]  # constant indices: the kernel
+    approx = fast_colours(pts, job.scene.observer, job.scene.space, integrator)[0]  # constant indices: the kernel
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
 
@@ -161,17 +162,17 @@ def _cached_slice(npy: Path, info: Path):
     return values, meta
 
 
-def _load_or_compute_slice(job, cache: Path, force: bool, backend: str, integrator, computed, reused):
-    npy, info = cache / f"{job.id}.npy", cache / f"{job.id}.json"
-    cached = None if force else _cached_slice(npy, info)
-    if cached is not None:
-        reused.append(job.id)
-        return cached
-    values, meta = refine_slice(job, integrator(), backend)
+def _slice_paths(cache: Path, job) -> tuple:
+    return cache / f"{job.id}.npy", cache / f"{job.id}.json"
+
+
+def _compute_slice(job, cache: Path, integrator, held_out) -> tuple:
+    """(values, meta) refined now and written to the cache."""
+    values, meta = refine_slice(job, integrator(), held_out)
+    npy, info = _slice_paths(cache, job)
     with atomic_path(npy) as tmp, open(tmp, "wb") as fh:
         np.save(fh, values)  # a file handle: np.save would append ".npy" to the temporary's name
     write_text_atomic(info, json.dumps(meta, indent=2) + "\n")
-    computed.append(job.id)
     return values, meta
 
 
@@ -284,18 +285,32 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start,
                                _unmet(entries, scene.max_de))
         cache, computed, reused = _cache(out), [], []
-        integrator = _lazy(lambda: make_backend(backend))
-        slices, entries = [], {}
-        for done, job in enumerate(plan.jobs):
-            progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
-            if job.kind == "slice":
-                values, info = _load_or_compute_slice(job, cache, force, backend, integrator, computed, reused)
-                slices.append((job, values, info))
-                continue
-            info = _scene_lut(job, out, cache, force, backend, files, computed, reused)
-            for name in job.materials:
-                entries[name] = {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": info["counts"],
-                                 "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
+        slice_jobs = [job for job in plan.jobs if job.kind == "slice"]
+        cached = {job.id: None if force else _cached_slice(*_slice_paths(cache, job)) for job in slice_jobs}
+        # Two workers: the device's start-up and the slices' held-out ground truths (numpy, which
+        # releases the GIL) run side by side, and the truths go on while the first slices refine.
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            integrator = _Device(pool, backend)
+            if any(v is None for v in cached.values()):
+                integrator.start()
+            truths = {job.id: pool.submit(_held_out, job) for job in slice_jobs if cached[job.id] is None}
+            slices, entries = [], {}
+            for done, job in enumerate(plan.jobs):
+                progress(done, len(plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
+                if job.kind == "slice":
+                    if cached[job.id] is None:
+                        values, info = _compute_slice(job, cache, integrator, truths[job.id].result())
+                        computed.append(job.id)
+                    else:
+                        values, info = cached[job.id]
+                        reused.append(job.id)
+                    slices.append((job, values, info))
+                    continue
+                info = _scene_lut(job, out, cache, force, backend, files, computed, reused)
+                for name in job.materials:
+                    entries[name] = {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": info["counts"],
+                                     "de00_p99": info["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
+            device = integrator().device if computed else None
         atlas = pack_atlas([values for _, values, _ in slices])
         warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else stem)
         if slices:
@@ -318,17 +333,24 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         files.temp(outputs["manifest"]).write_text(json.dumps(manifest, indent=2) + "\n")
         written = sorted(files.members)
     return SceneResult(out, written, computed, reused, False, time.perf_counter() - start,
-                       _unmet(manifest["materials"], scene.max_de), integrator().device if computed else None)
+                       _unmet(manifest["materials"], scene.max_de), device)
 
 
-def _lazy(make):
-    """``make()`` on the first call only (no OpenCL start-up when every job comes from the cache)."""
-    made = []
-    def get():
-        if not made:
-            made.append(make())
-        return made[0]
-    return get
+class _Device:
+    """The scene's integrator, made once and only when a job is computed (none when every job comes
+    from the cache). ``start()`` makes it on ``pool``'s worker thread: the device's start-up
+    (kernel build and self-check, one core) then overlaps what the bake does meanwhile."""
+
+    def __init__(self, pool, backend: str):
+        self.pool, self.backend, self.made = pool, backend, None
+
+    def start(self):
+        if self.made is None:
+            self.made = self.pool.submit(make_backend, self.backend)
+
+    def __call__(self):
+        self.start()
+        return self.made.result()
 
 
 def _unmet(entries: dict, max_de: float) -> dict:

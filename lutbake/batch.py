@@ -45,16 +45,16 @@ def truth_colours(points: FilmPoints, observer: str, space: str, progress=no_pro
     return out[:, :3], out[:, 3:]
 
 
-def fast_colours(points: FilmPoints, observer: str, space: str, backend: str = "auto",
-                 progress=no_progress) -> tuple:
-    """(RGB, XYZ, truncation bound) of constant-index points through the bake's integrator."""
+def fast_colours(points: FilmPoints, observer: str, space: str, backend="auto", progress=no_progress) -> tuple:
+    """(RGB, XYZ, truncation bound) of constant-index points through the bake's integrator: ``backend``
+    names one ('auto', 'opencl', 'numpy') or is one already made (integrate.backend)."""
     from .colorimetry import colorimetry
     from .integrate import backend as make_backend
 
     if points.film or points.base:
         raise ParameterError("{fast} takes constant indices ({eta2}, {eta3}, {kappa3}): named materials "
                              "({film}, {base}) need the ground truth (omit {fast})")
-    integrator = make_backend(backend)
+    integrator = make_backend(backend) if isinstance(backend, str) else backend
     n = len(points)
     rgb, bound = np.empty((n, 3)), np.zeros(n)
     films = np.stack([points.eta1, points.eta2], axis=1)

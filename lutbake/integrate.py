@@ -202,6 +202,13 @@ _SELF_CHECK = np.array([
     [0.7, 250.0, 1.5, 1e-9, 380.0], [1e-12, 1e4, 3.0, 100.0, 820.0],
 ])
 SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
+# Nodes per work-item of stack_rgb: its few stiff points on the finest rules still spread over every core.
+_STACK_BLOCK = 256
+# One work-group size for every launch (global sizes padded to it; the kernels return past their count):
+# PoCL builds a kernel's work-group function per distinct local size, which it picks per global size when
+# left to choose — ~0.2 s each, and a scene's trials and levels meet dozens of sizes.
+_LOCAL_SIZE = 64
+_STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output (STACK_TERMS in airy.cl)
 
 
 _SELF_CHECKED = {}
@@ -321,6 +328,8 @@ class OpenCLBackend:
             self.series_kernel = cl.Kernel(program, "bake_rows_series")
             self.plan_kernel = cl.Kernel(program, "plan_rows")
             self.points_kernel = cl.Kernel(program, "reflectance_points")
+            self.stack_terms_kernel = cl.Kernel(program, "stack_terms")
+            self.stack_kernel = cl.Kernel(program, "stack_rgb")
             self.queue = cl.CommandQueue(self.ctx)
             error = _self_check(self, candidate)
             if error <= SELF_CHECK_TOLERANCE[compute]:
@@ -333,6 +342,15 @@ class OpenCLBackend:
     def device(self) -> str:
         """The device that runs the kernel, as 'platform / device'."""
         return device_label(self.ctx.devices[0])
+
+    def _run(self, kernel, n_items: int, *args):
+        """``kernel`` over ``n_items`` work-items in work-groups of _LOCAL_SIZE (see there), or of the
+        most the device allows for that kernel where that is fewer."""
+        import pyopencl as cl
+
+        local = min(_LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE,
+                                                            self.ctx.devices[0]))
+        kernel(self.queue, (-(-n_items // local) * local,), (local,), *args, np.int32(n_items))
 
     def _static_buffers(self, spec):
         import pyopencl as cl
@@ -388,8 +406,8 @@ class OpenCLBackend:
             cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
             cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
             bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
-            self.plan_kernel(self.queue, (cells,), None, np.int32(n_cos), np.int32(n_opd), np.int32(width),
-                             np.int32(y0), *self._series_buffers(spec), cap_buf, bound_buf)
+            self._run(self.plan_kernel, cells, np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0),
+                      *self._series_buffers(spec), cap_buf, bound_buf)
             cl.enqueue_copy(self.queue, cap, cap_buf)
             cl.enqueue_copy(self.queue, bound, bound_buf)
             stats.add(cap, bound)
@@ -411,9 +429,9 @@ class OpenCLBackend:
         args = [*buffers, level_buf, real(spec.eta1), real(spec.eta2),
                 np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min)]
         if self.integrator == "direct":
-            self.kernel(self.queue, (cells,), None, *args, out_buf)
+            self._run(self.kernel, cells, *args, out_buf)
         else:
-            self.series_kernel(self.queue, (cells,), None, *args, *self._series_buffers(spec), out_buf)
+            self._run(self.series_kernel, cells, *args, *self._series_buffers(spec), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         out_buf.release()
         level_buf.release()
@@ -449,9 +467,40 @@ class OpenCLBackend:
                 for a in arrays]
         out = np.empty(cos1.size, self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self.points_kernel(self.queue, (cos1.size,), None, *bufs, self.dtype(eta1), out_buf)
+        self._run(self.points_kernel, cos1.size, *bufs, self.dtype(eta1), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).reshape(shape)
+
+    def stack_colour(self, eta1, cos_theta, thickness_nm, node_indices, rule):
+        """RGB (P, 3) of one film stack at points (cos θ1, d), by ``rule`` with the film's and base's
+        indices per node (``node_indices`` = (η2, η3, κ3), each (N,): dispersive materials): the
+        kernel's reflectance summed on the device, its Fresnel side once per distinct cos θ1 × node."""
+        import pyopencl as cl
+
+        eta2, eta3, kappa3 = (np.broadcast_to(np.asarray(v, np.float64), (rule.count,)) for v in node_indices)
+        thickness_nm = np.asarray(thickness_nm, np.float64)
+        cos_values, cos_index = np.unique(np.asarray(cos_theta, np.float64), return_inverse=True)
+        mf = cl.mem_flags
+
+        def buffer(a, dtype=self.dtype):
+            return cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, dtype))
+
+        cos2 = _signed_cos_theta2(eta1, eta2[None, :], cos_values[:, None]).ravel()
+        cos2_hi, cos2_lo = (buffer(a) for a in _split(cos2, self.dtype))
+        cos1, eta2_buf = buffer(cos_values), buffer(eta2)
+        real = self.dtype
+        terms = cl.Buffer(self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize)
+        self._run(self.stack_terms_kernel, cos_values.size * rule.count, cos1, cos2_hi, eta2_buf, buffer(eta3),
+                  buffer(kappa3), real(eta1), real(thickness_nm.max()), np.int32(rule.count), terms)
+        n_blocks = -(-rule.count // _STACK_BLOCK)
+        out = np.empty((n_blocks, cos_index.size, 3), self.dtype)
+        out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
+        self._run(self.stack_kernel, out.size // 3, cos1, cos2_hi, cos2_lo, terms, buffer(cos_index, np.int32),
+                  *(buffer(a) for a in _split(thickness_nm, self.dtype)), eta2_buf,
+                  *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)), buffer(rule.weights),
+                  np.int32(rule.count), np.int32(_STACK_BLOCK), np.int32(cos_index.size), out_buf)
+        cl.enqueue_copy(self.queue, out, out_buf)
+        return out.astype(np.float64).sum(axis=0)
 
 
 def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):

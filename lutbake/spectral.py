@@ -12,17 +12,22 @@ Every integrator computes RGB_c = Σ_j W_cj · R(λ_j). Two families of rules:
   interpolant of R through the nodes (local degree-7 Lagrange). At D = 0
   (R constant) it is exact for any N; its error falls as (phase step)⁸, and
   ``RuleLadder`` picks N per texel from the film's fringe bandwidth. These
-  are the rules the bake kernels run.
+  are the rules the bake kernels run. Given the kinks of a dispersive
+  material's spectrum (knots), the rule is cut there into panels so that no
+  interpolant straddles one (scene slices of named materials).
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
 
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
+from .usercache import cached_arrays
 
 __all__ = ["SpectralRule", "RuleLadder", "panel_rule", "wavenumber_rule", "rule_ladder", "WAVENUMBER_SPAN_PER_NM", "DEFAULT_SAMPLES_PER_CYCLE", "MAX_WAVENUMBER_NODES"]
 
@@ -33,6 +38,8 @@ STENCIL_NODES = 8
 _MIN_WAVENUMBER_NODES = 16
 MAX_WAVENUMBER_NODES = 16384
 _PROJECTION_NODES = 8
+MIN_PANEL_NODES = 4   # a knotted rule's narrowest panel: cubic interpolation there
+_GAUSS_LEGENDRE = np.polynomial.legendre.leggauss(_PROJECTION_NODES)
 
 
 @dataclass(frozen=True)
@@ -62,29 +69,76 @@ def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec70
 
 @functools.lru_cache(maxsize=64)
 def wavenumber_rule(count: int, observer: str = "cie1931", space: str = "rec709",
-                    basis: str = "rgb") -> SpectralRule:
-    """Uniform-wavenumber nodes with product-integration weights of local degree-7 interpolation."""
+                    basis: str = "rgb", knots_nm: tuple = ()) -> SpectralRule:
+    """Uniform-wavenumber nodes with product-integration weights of local degree-7 interpolation.
+
+    ``knots_nm``: wavelengths where R(λ) has a kink (a material table's samples: linear between
+    them). Where ``count`` affords it (MIN_PANEL_NODES per piece), the span is cut at the knots
+    into panels, each with its own uniform nodes no farther apart than ``count`` nodes over the
+    whole span, so no interpolating polynomial straddles a kink: the rule then converges as fast
+    as for a smooth spectrum, where a kink inside a stencil costs O(h²)."""
     if count < STENCIL_NODES:
         raise ValueError(f"wavenumber rule count {count} is below the {STENCIL_NODES} a stencil needs")
-    nu = np.linspace(1.0 / WAVELENGTH_MAX_NM, 1.0 / WAVELENGTH_MIN_NM, count)
-    lam, quad = _projection_points(1.0 / nu)
+    cuts = sorted(k for k in knots_nm if WAVELENGTH_MIN_NM < k < WAVELENGTH_MAX_NM)
+    if (len(cuts) + 1) * MIN_PANEL_NODES > count:
+        cuts = []
+    edges_nm = [WAVELENGTH_MIN_NM, *cuts, WAVELENGTH_MAX_NM]
+    step = WAVENUMBER_SPAN_PER_NM / (count - 1)
+    panels = [(lo, hi, max(MIN_PANEL_NODES, int(np.ceil((1.0 / lo - 1.0 / hi) / step)) + 1) if cuts else count)
+              for lo, hi in zip(edges_nm[:-1], edges_nm[1:])]
+    size = sum(n for _, _, n in panels)
+    cm = colorimetry(observer, space)
+    # Built once per machine (up to ~0.1 s per rule): keyed by the sensitivity table, the panels and
+    # this module's construction code, so a changed table or construction never reads a stale entry.
+    key = b"|".join([_construction_digest(), (cm.rgb_table if basis == "rgb" else cm.xyz_table).tobytes(),
+                     np.asarray(panels, float).tobytes()])
+    rows = 3 * len(basis.split("+"))
+    rule = cached_arrays("wavenumber-rule", key, {"wavelength_nm": (size,), "weights": (rows, size)},
+                         lambda: _panel_rule_arrays(panels, observer, space, basis))
+    name = f"wavenumber-lagrange{STENCIL_NODES}-{count}" + (f"-{len(panels)}-panels" if cuts else "")
+    return SpectralRule(rule["wavelength_nm"], rule["weights"], name)
+
+
+@functools.lru_cache(maxsize=1)
+def _construction_digest() -> bytes:
+    source = "".join(inspect.getsource(f) for f in (_panel_rule_arrays, _product_weights, _projection_points,
+                                                    _lagrange_stencils))
+    constants = (STENCIL_NODES, _PROJECTION_NODES, MIN_PANEL_NODES)
+    return hashlib.sha256(f"{source}{constants}".encode()).digest()
+
+
+def _panel_rule_arrays(panels, observer, space, basis) -> dict:
+    """Nodes and weights of a rule over ``panels`` ((lo_nm, hi_nm, nodes) each), panel by panel."""
+    nodes, weights = [], []
+    for lo, hi, n in panels:
+        nu = np.linspace(1.0 / hi, 1.0 / lo, n)
+        nodes.append(nu)
+        weights.append(_product_weights(nu, lo, hi, observer, space, basis))
+    return {"wavelength_nm": 1.0 / np.concatenate(nodes), "weights": np.concatenate(weights, axis=1)}
+
+
+def _product_weights(nu, lo_nm, hi_nm, observer, space, basis) -> np.ndarray:
+    """(rows, nodes) weights: the sensitivity integrated over [lo_nm, hi_nm] exactly against the
+    local Lagrange basis through the uniform nodes ``nu`` (ascending, spanning that range)."""
+    lam, quad = _projection_points(1.0 / nu, lo_nm, hi_nm)
     sens = colorimetry(observer, space).sensitivity(lam, basis) * quad
-    start, basis_values = _lagrange_stencils(nu, 1.0 / lam)
-    weights = np.zeros((3, count))
-    for k in range(STENCIL_NODES):
-        for c in range(3):
-            weights[c] += np.bincount(start + k, sens[c] * basis_values[k], minlength=count)
-    return SpectralRule(1.0 / nu, weights, f"wavenumber-lagrange{STENCIL_NODES}-{count}")
+    order = min(STENCIL_NODES, nu.size)
+    start, basis_values = _lagrange_stencils(nu, 1.0 / lam, order)
+    weights = np.zeros((sens.shape[0], nu.size))
+    for k in range(order):
+        for c in range(sens.shape[0]):
+            weights[c] += np.bincount(start + k, sens[c] * basis_values[k], minlength=nu.size)
+    return weights
 
 
-def _projection_points(node_wavelength_nm):
-    """Gauss–Legendre points and weights on every piece between consecutive breakpoints
-    (the 1 nm CMF samples and the rule's nodes): the integrand — a linear
-    sensitivity times a polynomial in ν — is smooth on each piece, so the
-    projection is exact to rounding for any node count."""
-    edges = np.union1d(np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5),
-                       np.clip(node_wavelength_nm, WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM))
-    x, w = np.polynomial.legendre.leggauss(_PROJECTION_NODES)
+def _projection_points(node_wavelength_nm, lo_nm, hi_nm):
+    """Gauss–Legendre points and weights on every piece of [lo_nm, hi_nm] between consecutive
+    breakpoints (the 1 nm CMF samples and the rule's nodes): the integrand — a linear
+    sensitivity times a polynomial in ν — is smooth on each piece, so the projection is exact
+    to rounding for any node count."""
+    samples = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5)
+    edges = np.union1d(samples[(samples >= lo_nm) & (samples <= hi_nm)], np.clip(node_wavelength_nm, lo_nm, hi_nm))
+    x, w = _GAUSS_LEGENDRE
     left, width = edges[:-1], np.diff(edges)
     lam = (left[:, None] + 0.5 * width[:, None] * (x[None, :] + 1.0)).ravel()
     return lam, (0.5 * width[:, None] * w[None, :]).ravel()
@@ -109,6 +163,7 @@ class RuleLadder:
     samples_per_cycle: float
     observer: str = "cie1931"
     space: str = "rec709"
+    knots_nm: tuple = ()   # kinks of the materials' spectra (wavenumber_rule), none for constant indices
 
     @property
     def counts(self) -> list:
@@ -119,7 +174,7 @@ class RuleLadder:
         return out
 
     def rule(self, level: int) -> SpectralRule:
-        return wavenumber_rule(self.counts[level], self.observer, self.space)
+        return wavenumber_rule(self.counts[level], self.observer, self.space, knots_nm=self.knots_nm)
 
     def _needed(self, cycles, round_trip):
         b = np.clip(np.asarray(round_trip, float), 1e-300, 1.0)
@@ -148,8 +203,8 @@ class RuleLadder:
 
 
 def rule_ladder(samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE, observer: str = "cie1931",
-                space: str = "rec709") -> RuleLadder:
-    return RuleLadder(float(samples_per_cycle), observer, space)
+                space: str = "rec709", knots_nm: tuple = ()) -> RuleLadder:
+    return RuleLadder(float(samples_per_cycle), observer, space, tuple(knots_nm))
 
 
 def _lagrange_stencils(nodes, x, order=STENCIL_NODES):

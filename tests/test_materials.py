@@ -56,3 +56,18 @@ def test_unknown_names_list_close_matches():
 def test_constant_material_broadcasts():
     eta, kappa = ConstantMaterial(2.7, 2.8).index(np.zeros((2, 3)))
     assert eta.shape == (2, 3) and np.all(kappa == 2.8)
+
+
+def test_knots_are_where_the_index_is_not_linear():
+    """Cu's table is linear between its knots and kinked at them; a formula's only knot in the
+    visible is where its range ends (butanol: held constant below 450 nm); SiO2's covers it all."""
+    cu = material("Cu")
+    knots = np.array(cu.knots_nm)
+    assert 10 < knots.size < 30 and np.all((knots > 360) & (knots < 830))
+    for a, b in zip(knots[:-1], knots[1:]):
+        mid, ends = cu.index(0.5 * (a + b)), cu.index(np.array([a, b]))
+        assert np.allclose(mid, [np.mean(e) for e in ends], rtol=1e-12, atol=0)
+    eta = cu.index(np.array([knots[3] - 1.0, knots[3], knots[3] + 1.0]))[0]
+    assert abs(eta[0] - 2 * eta[1] + eta[2]) > 1e-4   # a kink: the slope changes there
+    assert material("butanol").knots_nm == (450.0,)
+    assert material("SiO2").knots_nm == ()

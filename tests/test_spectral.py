@@ -80,3 +80,61 @@ def test_dense_rules_converge_on_a_high_finesse_texel():
     truth = reference_colour(pts).values
     errors = [np.max(np.abs(_integrate(pts, wavenumber_rule(n)) - truth)) for n in (1024, 4096, 16384)]
     assert errors[0] > errors[1] > errors[2] and errors[2] < 1e-10
+
+
+def test_knotted_rule_is_exact_for_spectra_with_kinks_at_its_knots():
+    """Cut at the knots, the rule integrates a spectrum that is a different cubic in ν on each side
+    of every knot (continuous, kinked: what a linearly interpolated index table gives) to rounding;
+    the uncut rule of the same count keeps the kinks' O(h²) error."""
+    knots = (450.0, 523.0, 611.0)
+    ref = panel_rule(16)  # the knots sit on its 1 nm panel edges: exact there too
+
+    def kinked(lam):
+        x = 1e3 / lam
+        pieces = [np.ones_like(x)] + [np.maximum(x - 1e3 / k, 0.0) for k in knots]
+        return sum(((-1) ** i) * (i + 1) * p + 0.3 * p ** 3 for i, p in enumerate(pieces))
+
+    exact = ref.weights @ kinked(ref.wavelength_nm)
+    for count in (64, 256, 1024):
+        cut = wavenumber_rule(count, knots_nm=knots)
+        assert cut.count >= count and cut.name.endswith("-4-panels")
+        assert np.max(np.abs(cut.weights @ kinked(cut.wavelength_nm) - exact)) < 1e-12
+        plain = wavenumber_rule(count)
+        assert np.max(np.abs(plain.weights @ kinked(plain.wavelength_nm) - exact)) > 1e-7
+
+
+def test_knotted_rule_cuts_only_where_every_panel_gets_its_nodes():
+    from lutbake.spectral import MIN_PANEL_NODES
+
+    knots = tuple(np.linspace(370.0, 820.0, 20))  # 21 panels
+    assert wavenumber_rule(64, knots_nm=knots).count == 64          # 21 × 4 > 64: the plain rule
+    assert wavenumber_rule(128, knots_nm=knots).name.endswith("-21-panels")
+    assert 21 * MIN_PANEL_NODES > 64
+
+
+def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monkeypatch):
+    """A rule's nodes and weights persist in $LUTBAKE_CACHE_DIR, one entry per distinct rule; a later
+    process reads them without building, bit for bit; a damaged entry is rebuilt."""
+    import lutbake.spectral as spectral
+
+    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    spectral.wavenumber_rule.cache_clear()
+    fresh = wavenumber_rule(256, knots_nm=(450.0,))
+    wavenumber_rule(256, knots_nm=(451.0,))
+    assert len(list(tmp_path.glob("wavenumber-rule-*"))) == 2
+    build = spectral._panel_rule_arrays
+
+    def refuse(*args):
+        raise AssertionError("rebuilt a cached rule")
+
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", refuse)
+    spectral.wavenumber_rule.cache_clear()
+    again = wavenumber_rule(256, knots_nm=(450.0,))
+    np.testing.assert_array_equal(again.weights, fresh.weights)
+    np.testing.assert_array_equal(again.wavelength_nm, fresh.wavelength_nm)
+    for entry in tmp_path.glob("wavenumber-rule-*"):
+        entry.write_bytes(b"not a numpy file")
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", build)
+    spectral.wavenumber_rule.cache_clear()
+    np.testing.assert_array_equal(wavenumber_rule(256, knots_nm=(450.0,)).weights, fresh.weights)
+    spectral.wavenumber_rule.cache_clear()

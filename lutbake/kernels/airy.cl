@@ -28,6 +28,11 @@ typedef float2 CPLX;
 
 #define PI_R ((REAL)3.14159265358979323846)
 
+// Every kernel takes its work-item count last: the host pads the global size to a multiple of one
+// work-group size (integrate.py: _LOCAL_SIZE), so PoCL builds each kernel's work-group function once
+// instead of once per grid size (~0.2 s each), and the padding returns at once.
+#define ITEMS_GUARD const int gid = get_global_id(0); if (gid >= n_items) return;
+
 inline CPLX c_mul(CPLX a, CPLX b) { return (CPLX)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
 inline CPLX c_div(CPLX a, CPLX b) {
     REAL d = b.x * b.x + b.y * b.y;
@@ -131,17 +136,15 @@ typedef struct {
     REAL d_over_eta2;    // D / η2
 } Texel;
 
-// cos2_hi/lo: ±|cos θ2| from the host (< 0: evanescent film); one value feeds
-// both the Fresnel terms and the phase, so they agree even at the film's
-// critical angle, where g2² is rounding noise.
-inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_lo,
-                         REAL e3, REAL k3, REAL eta1, REAL eta2) {
-    Texel t;
-    t.evanescent = cos2_hi < 0;
-    t.grazing = c1 == 0;
+// The Fresnel side of a texel (its AiryTerms), for the film phase bounded by w_max.
+// cos2_hi: ±|cos θ2| from the host (< 0: evanescent film); one value feeds both the
+// Fresnel terms and the phase, so they agree even at the film's critical angle, where g2²
+// is rounding noise.
+inline void fresnel_terms(REAL c1, REAL cos2_hi, REAL e3, REAL k3, REAL eta1, REAL eta2, REAL w_max,
+                          AiryTerms *s, AiryTerms *p) {
     const REAL g2abs = eta2 * fabs(cos2_hi);
     const CPLX g1 = (CPLX)(eta1 * c1, 0);
-    const CPLX g2 = t.evanescent ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
+    const CPLX g2 = cos2_hi < 0 ? (CPLX)(0, g2abs) : (CPLX)(g2abs, 0);
     const CPLX n3sq = (CPLX)((e3 - k3) * (e3 + k3), 2 * e3 * k3);
     // g3² = (n3² − η1²) + η1² cos² θ1 with n3² − η1² = (η3 − η1)(η3 + η1) − κ3²: exact
     // when η3 = η1 (Sterbenz), where n3² − η1² sin² θ1 cancels catastrophically at grazing
@@ -149,15 +152,29 @@ inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_
     const REAL offset3 = (e3 - eta1) * (e3 + eta1) - k3 * k3;
     const CPLX g3 = (offset3 == 0 && k3 == 0) ? g1   // base matches the ambient (cos² may underflow)
                   : c_sqrt_upper((CPLX)(offset3 + eta1 * eta1 * c1 * c1, 2 * e3 * k3));
-    // |W| ≤ 2πDν/η2 (ν ≤ 1/360 nm⁻¹), times η2² for p
-    const REAL w_max = 2 * PI_R * d_hi / (eta2 * (REAL)360);
-    t.s = airy_terms(g1, g2, g3, 1, w_max);
-    t.p = airy_terms(g1 / (eta1 * eta1), g2 / (eta2 * eta2), c_div(g3, n3sq), eta2 * eta2, w_max);
+    *s = airy_terms(g1, g2, g3, 1, w_max);
+    *p = airy_terms(g1 / (eta1 * eta1), g2 / (eta2 * eta2), c_div(g3, n3sq), eta2 * eta2, w_max);
+}
+
+// |W| ≤ 2πDν/η2 (ν ≤ 1/360 nm⁻¹), times η2² for p
+inline REAL w_bound(REAL d, REAL eta2) { return 2 * PI_R * d / (eta2 * (REAL)360); }
+
+// The phase side: D·|cos θ2| as a float-float product, and D/η2.
+inline void texel_phase(Texel *t, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_lo, REAL eta2) {
     const REAL b_hi = fabs(cos2_hi);
-    const REAL b_lo = t.evanescent ? -cos2_lo : cos2_lo;
-    t.dc_hi = d_hi * b_hi;
-    t.dc_lo = fma(d_hi, b_hi, -t.dc_hi) + (d_hi * b_lo + d_lo * b_hi);
-    t.d_over_eta2 = d_hi / eta2;
+    const REAL b_lo = t->evanescent ? -cos2_lo : cos2_lo;
+    t->dc_hi = d_hi * b_hi;
+    t->dc_lo = fma(d_hi, b_hi, -t->dc_hi) + (d_hi * b_lo + d_lo * b_hi);
+    t->d_over_eta2 = d_hi / eta2;
+}
+
+inline Texel texel_setup(REAL c1, REAL cos2_hi, REAL cos2_lo, REAL d_hi, REAL d_lo,
+                         REAL e3, REAL k3, REAL eta1, REAL eta2) {
+    Texel t;
+    t.evanescent = cos2_hi < 0;
+    t.grazing = c1 == 0;
+    fresnel_terms(c1, cos2_hi, e3, k3, eta1, eta2, w_bound(d_hi, eta2), &t.s, &t.p);
+    texel_phase(&t, cos2_hi, cos2_lo, d_hi, d_lo, eta2);
     return t;
 }
 
@@ -208,9 +225,10 @@ __kernel void bake_rows(
     __global const int *levels,                               // rule level of each texel
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    __global REAL *rgb_out)                                   // rows × width × 3
+    __global REAL *rgb_out,                                   // rows × width × 3
+    const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     const int x = gid % width, y = row0 + gid / width;
     const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
@@ -233,12 +251,90 @@ __kernel void reflectance_points(
     __global const REAL *opd_hi, __global const REAL *opd_lo, __global const REAL *eta2,
     __global const REAL *eta3, __global const REAL *kappa3,
     __global const REAL *nu_hi, __global const REAL *nu_lo,
-    const REAL eta1, __global REAL *r_out)
+    const REAL eta1, __global REAL *r_out, const int n_items)
 {
-    const int i = get_global_id(0);
+    ITEMS_GUARD
+    const int i = gid;
     const Texel t = texel_setup(cos1[i], cos2_hi[i], cos2_lo[i], opd_hi[i], opd_lo[i],
                                 eta3[i], kappa3[i], eta1, eta2[i]);
     r_out[i] = texel_reflectance(&t, nu_hi[i], nu_lo[i]);
+}
+
+// One film stack with indices per node (dispersive materials) at (cos θ1, d) points, by one
+// spectral rule, in two passes. The Fresnel side depends on (cos θ1, node) only, so stack_terms
+// computes it once per distinct cos θ1 × node (scaled for the thickest point, w_max: R is
+// homogeneous in the terms) and stack_rgb sums each point's nodes from it.
+#define STACK_TERMS 18   // AiryTerms s, p: n0, n1, d0, d1 (complex) and t16 each
+
+inline void store_terms(__global REAL *out, AiryTerms a) {
+    out[0] = a.n0.x; out[1] = a.n0.y; out[2] = a.n1.x; out[3] = a.n1.y;
+    out[4] = a.d0.x; out[5] = a.d0.y; out[6] = a.d1.x; out[7] = a.d1.y; out[8] = a.t16;
+}
+
+inline AiryTerms load_terms(__global const REAL *in) {
+    AiryTerms a;
+    a.n0 = (CPLX)(in[0], in[1]); a.n1 = (CPLX)(in[2], in[3]);
+    a.d0 = (CPLX)(in[4], in[5]); a.d1 = (CPLX)(in[6], in[7]); a.t16 = in[8];
+    return a;
+}
+
+__kernel void stack_terms(
+    __global const REAL *cos1,                                    // per distinct cos θ1 (K)
+    __global const REAL *cos2_hi,                                 // K × N: ±|cos θ2| per node
+    __global const REAL *eta2, __global const REAL *eta3, __global const REAL *kappa3,   // N
+    const REAL eta1, const REAL d_max, const int n_nodes,
+    __global REAL *terms_out,                                     // K × N × STACK_TERMS
+    const int n_items)
+{
+    ITEMS_GUARD
+    const int c = gid / n_nodes, j = gid % n_nodes;
+    AiryTerms s, p;
+    fresnel_terms(cos1[c], cos2_hi[gid], eta3[j], kappa3[j], eta1, eta2[j], w_bound(2 * eta2[j] * d_max, eta2[j]),
+                  &s, &p);
+    store_terms(terms_out + STACK_TERMS * gid, s);
+    store_terms(terms_out + STACK_TERMS * gid + 9, p);
+}
+
+// Work-item (block, point): the point's partial sum over nodes [block·B, block·B + B), so a few
+// stiff points on a fine rule still fill every core (the host adds the blocks), and neighbouring
+// work-items read the same nodes.
+__kernel void stack_rgb(
+    __global const REAL *cos1,                                    // per distinct cos θ1 (K)
+    __global const REAL *cos2_hi, __global const REAL *cos2_lo,   // K × N
+    __global const REAL *terms,                                   // K × N × STACK_TERMS (stack_terms)
+    __global const int *cos_index,                                // per point: its row in cos1
+    __global const REAL *d_hi, __global const REAL *d_lo,         // per point: thickness (nm)
+    __global const REAL *eta2,                                    // N
+    __global const REAL *nu_hi, __global const REAL *nu_lo,       // N (1/nm)
+    __global const REAL *weights,                                 // 3 × N
+    const int n_nodes, const int block, const int n_points,
+    __global REAL *rgb_out,                                       // blocks × points × 3
+    const int n_items)
+{
+    ITEMS_GUARD
+    const int i = gid % n_points, first = (gid / n_points) * block;
+    const int c = cos_index[i];
+    Texel t;
+    t.grazing = cos1[c] == 0;
+    Accumulator r = {0, 0}, g = {0, 0}, b = {0, 0};
+    for (int j = first; j < min(first + block, n_nodes); ++j) {
+        const int cj = c * n_nodes + j;
+        // D = 2·η2(λ)·d as a float-float pair
+        const REAL e2x2 = 2 * eta2[j];
+        const REAL opd_hi = e2x2 * d_hi[i];
+        const REAL opd_lo = fma(e2x2, d_hi[i], -opd_hi) + e2x2 * d_lo[i];
+        t.evanescent = cos2_hi[cj] < 0;
+        t.s = load_terms(terms + STACK_TERMS * cj);
+        t.p = load_terms(terms + STACK_TERMS * cj + 9);
+        texel_phase(&t, cos2_hi[cj], cos2_lo[cj], opd_hi, opd_lo, eta2[j]);
+        const REAL refl = texel_reflectance(&t, nu_hi[j], nu_lo[j]);
+        accumulate(&r, weights[j] * refl);
+        accumulate(&g, weights[n_nodes + j] * refl);
+        accumulate(&b, weights[2 * n_nodes + j] * refl);
+    }
+    rgb_out[3 * gid] = r.sum;
+    rgb_out[3 * gid + 1] = g.sum;
+    rgb_out[3 * gid + 2] = b.sum;
 }
 
 // ---------------------------------------------------------------------------
@@ -366,9 +462,9 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
 
 // The rule's outcome per texel of a band of rows: term cap (−1: direct) and a-priori bound.
 __kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                        __global int *cap_out, __global REAL *bound_out)
+                        __global int *cap_out, __global REAL *bound_out, const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     SERIES_TEXEL
     cap_out[gid] = cap;
     bound_out[gid] = bound;
@@ -385,9 +481,9 @@ __kernel void bake_rows_series(
     __global const int *levels,
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    SERIES_ARGS, __global REAL *rgb_out)
+    SERIES_ARGS, __global REAL *rgb_out, const int n_items)
 {
-    const int gid = get_global_id(0);
+    ITEMS_GUARD
     SERIES_TEXEL
     if (cap >= 0) {
         series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, table, intervals, step, tail, tol, rgb_out + 3 * gid);

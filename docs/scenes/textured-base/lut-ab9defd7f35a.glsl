@@ -7,28 +7,39 @@
 // Several LUT includes and scene atlas includes can share one shader: the sampler is guarded, the
 // constants are named per LUT.
 
-#ifndef LUTBAKE_LUT_SAMPLER_V1
-#define LUTBAKE_LUT_SAMPLER_V1
+#ifndef LUTBAKE_LUT_SAMPLER_V2
+#define LUTBAKE_LUT_SAMPLER_V2
 #ifndef LUTBAKE_SCANLINE0_AT_V0
 #define LUTBAKE_SCANLINE0_AT_V0 0
 #endif
 
-// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value).
+// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value);
+// eta3_admittance 1: eta3 nodes uniform in sqrt(eta3^2 - (eta1 sin theta1)^2) at the point's cos theta1.
 struct LutbakeLut {
     highp vec4 lo;
     highp vec4 hi;
     highp vec4 count;
     highp vec4 sqrt_spacing;
+    highp float eta3_admittance;
     highp float eta1;
     highp float eta2;
 };
 
+// Axis values in the coordinate their nodes are uniform in. ((v - eta1)(v + eta1) + (eta1 cos)^2 is
+// v^2 - (eta1 sin theta1)^2 without cancellation near v = eta1 at grazing.)
+highp vec4 lutbake_warp(LutbakeLut l, highp vec4 v, highp float cos_theta) {
+    highp vec4 w = mix(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
+    highp float e1c = l.eta1 * cos_theta;
+    w.z = mix(w.z, sqrt(max((v.z - l.eta1) * (v.z + l.eta1) + e1c * e1c, 0.0)), l.eta3_admittance);
+    return w;
+}
+
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
 highp vec4 lutbake_node_coord(LutbakeLut l, highp vec4 v) {
-    highp vec4 w = mix(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
-    highp vec4 lo = mix(l.lo, sqrt(l.lo), l.sqrt_spacing);
-    highp vec4 hi = mix(l.hi, sqrt(l.hi), l.sqrt_spacing);
-    return clamp((w - lo) / (hi - lo), 0.0, 1.0) * (l.count - 1.0);
+    highp float c = clamp(v.x, 0.0, 1.0);
+    highp vec4 lo = lutbake_warp(l, l.lo, c);
+    highp vec4 hi = lutbake_warp(l, l.hi, c);
+    return clamp((lutbake_warp(l, v, c) - lo) / (hi - lo), 0.0, 1.0) * (l.count - 1.0);
 }
 
 // Texture coordinate of a texel-space position measured in scanlines from the top.
@@ -58,8 +69,8 @@ highp vec3 lutbake_sample(highp sampler2D lut, LutbakeLut l, highp float cos_the
 }
 #endif
 
-// lut-ab9defd7f35a.exr: axis minima, maxima, node counts, sqrt spacing; eta1; eta2.
+// lut-ab9defd7f35a.exr: axis minima, maxima, node counts, sqrt spacing; eta3 admittance spacing; eta1; eta2.
 const LutbakeLut LUTBAKE_LUT_AB9DEFD7F35A = LutbakeLut(
     vec4(0.0, 480.0, 1.2, 0.5), vec4(1.0, 1440.0, 2.8, 4.0),
-    vec4(24.0, 32.0, 8.0, 16.0), vec4(1.0, 0.0, 0.0, 1.0),
+    vec4(24.0, 32.0, 8.0, 16.0), vec4(1.0, 0.0, 0.0, 1.0), 0.0,
     1.0, 1.6);

@@ -8,28 +8,39 @@
 // Several LUT includes and scene atlas includes can share one shader: the sampler is guarded, the
 // constants are named per LUT.
 
-#ifndef LUTBAKE_LUT_SAMPLER_V1
-#define LUTBAKE_LUT_SAMPLER_V1
+#ifndef LUTBAKE_LUT_SAMPLER_V2
+#define LUTBAKE_LUT_SAMPLER_V2
 #ifndef LUTBAKE_SCANLINE0_AT_V0
 #define LUTBAKE_SCANLINE0_AT_V0 1
 #endif
 
-// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value).
+// Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value);
+// eta3_admittance 1: eta3 nodes uniform in sqrt(eta3^2 - (eta1 sin theta1)^2) at the point's cos theta1.
 struct LutbakeLut {
     float4 lo;
     float4 hi;
     float4 count;
     float4 sqrt_spacing;
+    float eta3_admittance;
     float eta1;
     float eta2;
 };
 
+// Axis values in the coordinate their nodes are uniform in. ((v - eta1)(v + eta1) + (eta1 cos)^2 is
+// v^2 - (eta1 sin theta1)^2 without cancellation near v = eta1 at grazing.)
+float4 lutbake_warp(LutbakeLut l, float4 v, float cos_theta) {
+    float4 w = lerp(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
+    float e1c = l.eta1 * cos_theta;
+    w.z = lerp(w.z, sqrt(max((v.z - l.eta1) * (v.z + l.eta1) + e1c * e1c, 0.0)), l.eta3_admittance);
+    return w;
+}
+
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
 float4 lutbake_node_coord(LutbakeLut l, float4 v) {
-    float4 w = lerp(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
-    float4 lo = lerp(l.lo, sqrt(l.lo), l.sqrt_spacing);
-    float4 hi = lerp(l.hi, sqrt(l.hi), l.sqrt_spacing);
-    return saturate((w - lo) / (hi - lo)) * (l.count - 1.0);
+    float c = saturate(v.x);
+    float4 lo = lutbake_warp(l, l.lo, c);
+    float4 hi = lutbake_warp(l, l.hi, c);
+    return saturate((lutbake_warp(l, v, c) - lo) / (hi - lo)) * (l.count - 1.0);
 }
 
 // Texture coordinate of a texel-space position measured in scanlines from the top.
@@ -59,8 +70,8 @@ float3 lutbake_sample(Texture2D<float3> lut, SamplerState linear_clamp, LutbakeL
 }
 #endif
 
-// lut-ab9defd7f35a.exr: axis minima, maxima, node counts, sqrt spacing; eta1; eta2.
+// lut-ab9defd7f35a.exr: axis minima, maxima, node counts, sqrt spacing; eta3 admittance spacing; eta1; eta2.
 static const LutbakeLut LUTBAKE_LUT_AB9DEFD7F35A = {
     float4(0.0, 480.0, 1.2, 0.5), float4(1.0, 1440.0, 2.8, 4.0),
-    float4(24.0, 32.0, 8.0, 16.0), float4(1.0, 0.0, 0.0, 1.0),
+    float4(24.0, 32.0, 8.0, 16.0), float4(1.0, 0.0, 0.0, 1.0), 0.0,
     1.0, 1.6};
