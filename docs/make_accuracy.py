@@ -1,8 +1,8 @@
 """Regenerate docs/accuracy.md and its figures (rerun: python docs/make_accuracy.py).
 
 Runs, through the command line, what a user would: `lutbake report` on each
-default LUT (5,000 held-out points, seed 0, and 5,000 more at seed 1 for a
-second look at the maximum) and `lutbake sweep` over the
+default LUT (5,000 held-out points, seed 0, and 5,000 more at each of seeds 1
+and 2 for a second look at the maximum) and `lutbake sweep` over the
 default domain for η2 = 1.5, then writes the tables into docs/accuracy.md,
 with where lutbake's named metals fall in (η3, κ3) over 400–700 nm.
 """
@@ -43,9 +43,9 @@ def main():
                 "--out", str(folder.relative_to(ROOT)))
         reports[lut.stem] = json.loads((folder / "summary.json").read_text())
         reports[lut.stem]["exr_bytes"] = lut.stat().st_size
-        again = lutbake("report", str(lut.relative_to(ROOT)), "--points", str(POINTS), "--seed", "1",
-                        "--no-approximations", "--json")
-        reports[lut.stem]["seed1"] = json.loads(again)["lut_error"]
+        reports[lut.stem]["again"] = [json.loads(lutbake("report", str(lut.relative_to(ROOT)), "--points", str(POINTS),
+                                                         "--seed", seed, "--no-approximations", "--json"))["lut_error"]
+                                      for seed in ("1", "2")]
     lutbake("sweep", "--eta2", "1.5", "--out", str((OUT / "sweep").relative_to(ROOT)), "--points", "600")
     sweep = json.loads((OUT / "sweep" / "sweep.json").read_text())
     (ROOT / "docs" / "accuracy.md").write_text(render(reports, sweep, metal_ranges()))
@@ -113,20 +113,19 @@ def render(reports, sweep, metals):
         f"Target per default LUT (issue 13): max ΔE00 ≤ {GOAL['de00_max']:g} and p99 ≤ {GOAL['de00_p99']:g}"
         f" in ≤ {GOAL['exr_bytes'] >> 20} MiB of EXR.",
         "",
-        "| LUT | shape | EXR MiB | p99 | max | target met | p99 / max at seed 1 |",
+        "| LUT | shape | EXR MiB | p99 | max | target met | p99 / max at seeds 1 and 2 |",
         "|---|---|---|---|---|---|---|",
     ]
     for name, rep in reports.items():
         e = rep["lut_error"]
         met = e["de00_max"] <= GOAL["de00_max"] and e["de00_p99"] <= GOAL["de00_p99"] and rep["exr_bytes"] <= GOAL["exr_bytes"]
         shape = " × ".join(f"{a['count']}{'' if a['spacing'] == 'uniform' else ' ' + a['spacing']}" for a in rep["axes"])
-        again = rep["seed1"]
+        again = ", ".join(f"{a['de00_p99']:.2f} / {a['de00_max']:.2f}" for a in rep["again"])
         lines.append(f"| {name} | {shape} | {rep['exr_bytes'] / (1 << 20):.2f} | {e['de00_p99']:.2f} | "
-                     f"{e['de00_max']:.2f} | {'yes' if met else 'no'} | "
-                     f"{again['de00_p99']:.2f} / {again['de00_max']:.2f} |")
-    over = [f"{name} ({rep['seed1']['de00_max']:.2f})" for name, rep in reports.items()
-            if rep["seed1"]["de00_max"] > GOAL["de00_max"]]
-    lines += ["", "The last column scores 5,000 other held-out points (seed 1). "
+                     f"{e['de00_max']:.2f} | {'yes' if met else 'no'} | {again} |")
+    over = [f"{name} ({max(a['de00_max'] for a in rep['again']):.2f})" for name, rep in reports.items()
+            if max(a["de00_max"] for a in rep["again"]) > GOAL["de00_max"]]
+    lines += ["", "The last column scores 5,000 other held-out points at each of seeds 1 and 2. "
               + (f"There the maximum passes 1 on {', '.join(over)}: the target's maximum holds at seed 0's "
                  "points but is not met everywhere; the worst points are thin films on metals at grazing "
                  "incidence (D changes the colour fastest there) and bases with η3 ≈ η1 and small κ3."

@@ -107,8 +107,8 @@ def default_specs(precision: str = "half") -> dict:
     uniform grid's error peaked); read cubic. Counts per film from measured
     error at 5,000 held-out points against the ground truth
     (docs/accuracy.md), under 8 MiB of EXR per LUT in half precision: the
-    η2 1.5 film's worst points are thin films on metals at grazing (they
-    want D nodes), the others' at η3 ≈ η1 with small κ3 (they want κ3 nodes).
+    worst points are thin films on metals at grazing (they want D nodes)
+    and bases with η3 ≈ η1 and small κ3 (they want κ3 nodes).
 
     Examples
     --------
@@ -121,7 +121,7 @@ def default_specs(precision: str = "half") -> dict:
             for eta2, counts in _DEFAULT_COUNTS.items()}
 
 
-_DEFAULT_COUNTS = {1.33: (36, 144, 20, 24), 1.5: (40, 160, 20, 20), 2.0: (36, 144, 20, 24)}
+_DEFAULT_COUNTS = {1.33: (36, 144, 20, 24), 1.5: (40, 160, 20, 20), 2.0: (36, 160, 20, 24)}
 
 
 def _default_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
