@@ -122,7 +122,7 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     fig = _figure((13, 5.2))
     a1, a2 = fig.subplots(1, 2)
     luts = [r for r in rows if r["kind"] == "lut"]
-    reads = np.array([r.get("interpolation", "linear") for r in luts])
+    reads = np.array([r["interpolation"] for r in luts])
     for a, key, label in ((a1, "bake_seconds", "bake time (s)"), (a2, "bytes", "LUT size (bytes)")):
         x = np.array([r[key] for r in luts])
         y = np.array([r["de00_p99"] for r in luts])

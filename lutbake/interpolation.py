@@ -24,9 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .names import INTERPOLATIONS
-
-__all__ = ["INTERPOLATIONS", "cubic_taps", "linear_taps", "mirrors_low_end"]
+__all__ = ["cubic_taps", "mirrors_low_end"]
 
 _EVEN_SPACINGS = ("sqrt", "root4")   # value = lo + c·s² or lo + c·s⁴: even in the node coordinate s
 
@@ -36,13 +34,6 @@ def mirrors_low_end(spacing: str, lo: float) -> bool:
     return spacing in _EVEN_SPACINGS and lo == 0.0
 
 
-def linear_taps(f, count: int):
-    """First node and (…, 2) weights of linear interpolation at node coordinates ``f`` in [0, N − 1]."""
-    first = np.clip(np.floor(f), 0, count - 2).astype(np.int64)
-    t = f - first
-    return first, np.stack([1.0 - t, t], axis=-1)
-
-
 def cubic_taps(f, count: int, mirror_low: bool):
     """First node and (…, 4) Catmull-Rom weights at node coordinates ``f`` in [0, N − 1].
 
@@ -50,11 +41,10 @@ def cubic_taps(f, count: int, mirror_low: bool):
     tap always has weight 0). ``mirror_low``: the axis is √-spaced from 0,
     so the ghost below node 0 mirrors node 1.
     """
-    if count == 2:
-        first, w = linear_taps(f, count)
-        return first - 1, np.concatenate([np.zeros_like(w[..., :1]), w, np.zeros_like(w[..., :1])], axis=-1)
     lower = np.clip(np.floor(f), 0, count - 2)
     t = f - lower
+    if count == 2:   # one cell: linear, on taps −1 … 2
+        return (lower - 1).astype(np.int64), np.stack([0.0 * t, 1.0 - t, t, 0.0 * t], axis=-1)
     t2, t3 = t * t, t * t * t
     below = (-t3 + 2.0 * t2 - t) / 2.0          # node lower − 1
     w0 = (3.0 * t3 - 5.0 * t2 + 2.0) / 2.0       # node lower

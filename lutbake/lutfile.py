@@ -30,7 +30,8 @@ import numpy as np
 
 from . import fileset
 from .fileset import temporary_for
-from .interpolation import INTERPOLATIONS, mirrors_low_end
+from .interpolation import mirrors_low_end
+from .names import INTERPOLATIONS
 from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",

@@ -28,7 +28,7 @@ import numpy as np
 
 from .colorimetry import OBSERVERS, SPACES
 from .errors import ParameterError
-from .interpolation import INTERPOLATIONS
+from .names import INTERPOLATIONS
 from .layout import _CHUNK_CELLS, TileLayout
 from .points import FilmPoints, check_value
 from .optics import normal_admittance, round_trip_amplitude

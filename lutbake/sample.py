@@ -2,9 +2,11 @@
 
 It reads only the EXR (metadata from its header) and follows the shader
 includes step by step: each axis value → its warp (η3's "admittance" warp at
-the point's own cos θ1) → a continuous node coordinate clamped to [0, N − 1]; (cos θ, D) through hardware bilinear
-filtering inside a tile (texel centres, clamp-to-edge addressing); the four
-tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
+the point's own cos θ1) → a continuous node coordinate clamped to [0, N − 1];
+then the header's interpolation rule (lutbake/interpolation.py). Cubic: 4
+Catmull-Rom taps per axis, 256 texels read exactly. Linear: (cos θ, D) through
+hardware bilinear filtering inside a tile (texel centres, clamp-to-edge
+addressing), the four tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
 bilinear fetch inside its material's rect. ``filter_bits`` quantizes the
 bilinear weights as fixed-function texture units do (8 bits on many GPUs);
 None uses exact weights. Rows are scanlines counted from the top of the EXR;
