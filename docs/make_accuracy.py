@@ -4,7 +4,7 @@ Runs, through the command line, what a user would: `lutbake report` on each
 default LUT (5,000 held-out points, seed 0, and 5,000 more at each of seeds 1
 and 2 for a second look at the maximum) and `lutbake sweep` over the
 default domain for η2 = 1.5, then writes the tables into docs/accuracy.md,
-with where lutbake's named metals fall in (η3, κ3) over 400–700 nm.
+with where common bases (lutbake's named materials) fall in (η3, κ3) over 400–700 nm.
 """
 
 import json
@@ -17,7 +17,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "accuracy"
 POINTS = 5000
-METALS = {"Au": "Au", "Ag": "Ag", "Cu": "Cu", "Al": "Al", "Fe": "Fe", "Ti": "Ti", "Cr": "main/Cr/Johnson"}
+BASES = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr", "water", "SiO2", "TiO2")   # issue 13's metals, common dielectrics
 
 
 def lutbake(*args):
@@ -28,9 +28,17 @@ def lutbake(*args):
 
 
 def bake_default_luts():
-    """luts/ is not tracked (7–8 MB per LUT): bake the default set into it (`lutbake bake --out luts`,
-    the same bytes every time) unless it is already there."""
-    if len(list((ROOT / "luts").glob("*.exr"))) < 3:
+    """luts/ is not tracked (up to 8 MiB per LUT): bake the default set into it (`lutbake bake --out luts`,
+    the same bytes every time) unless every file is there with the current spec's content hash."""
+    from lutbake.bake import default_specs
+    from lutbake.lutfile import read_lut
+
+    try:
+        current = all(read_lut(ROOT / "luts" / f"{name}.exr")[0]["content_hash"] == spec.content_hash
+                      for name, spec in default_specs().items())
+    except (OSError, ValueError, KeyError):
+        current = False
+    if not current:
         lutbake("bake", "--quiet", "--out", "luts")
 
 
@@ -48,20 +56,32 @@ def main():
                                       for seed in ("1", "2")]
     lutbake("sweep", "--eta2", "1.5", "--out", str((OUT / "sweep").relative_to(ROOT)), "--points", "600")
     sweep = json.loads((OUT / "sweep" / "sweep.json").read_text())
-    (ROOT / "docs" / "accuracy.md").write_text(render(reports, sweep, metal_ranges()))
+    (ROOT / "docs" / "accuracy.md").write_text(render(reports, sweep, base_ranges()))
     print("wrote docs/accuracy.md")
 
 
-def metal_ranges() -> dict:
-    """(η3 min, max, κ3 min, max) of each named metal over 400–700 nm (lutbake's materials)."""
+def base_ranges() -> dict:
+    """(η3 min, max, κ3 min, max) of each common base over 400–700 nm (lutbake's named materials)."""
     from lutbake.materials import material
 
     wavelength_nm = np.linspace(400.0, 700.0, 301)
     out = {}
-    for name, page in METALS.items():
-        eta3, kappa3 = material(page).index(wavelength_nm)
+    for name in BASES:
+        eta3, kappa3 = material(name).index(wavelength_nm)
         out[name] = (eta3.min(), eta3.max(), kappa3.min(), kappa3.max())
     return out
+
+
+def _holder(e0, e1, k0, k1) -> str:
+    """Which LUT of a film (the same (η3, κ3) ranges for every η2) holds the whole box."""
+    from lutbake.bake import default_specs
+
+    held = []
+    for name, spec in default_specs().items():
+        eta3, kappa3 = spec.axes[2], spec.axes[3]
+        if spec.eta2 == 1.5 and eta3.lo <= e0 and e1 <= eta3.hi and kappa3.lo <= k0 and k1 <= kappa3.hi:
+            held.append("`" + name.replace("1.50", "X") + "`")
+    return ", ".join(held) or "none"
 
 
 def _row(name, r):
@@ -72,7 +92,7 @@ def _row(name, r):
 GOAL = {"de00_max": 1.0, "de00_p99": 0.3, "exr_bytes": 8 << 20}   # issue 13's target per default LUT
 
 
-def render(reports, sweep, metals):
+def render(reports, sweep, bases):
     lines = [
         "# Accuracy: how wrong the LUTs are, and what they cost",
         "",
@@ -89,26 +109,32 @@ def render(reports, sweep, metals):
         "",
         "## Domain and parameterization",
         "",
-        "The generic LUTs cover cos θ1 0–1, D = 2·η2·d 0–3000 nm (d up to 1000 nm at η2 1.5, past",
-        "KHR_materials_iridescence's default 100–400 nm), η3 1–3 and κ3 0–5: dielectric bases (η3 1.0–2.5)",
-        "and the metals below whose indices stay inside it. η3 is on the `admittance` spacing",
-        "([lut-format.md](lut-format.md#axes)): uniform in √(η3² − (η1 sin θ1)²) per cos θ1 node, which crowds",
-        "the nodes towards η3 = η1 at grazing, where the base's Fresnel terms change fastest and where the",
-        "uniform grid's error peaked. Where lutbake's named metals fall over 400–700 nm:",
+        "Each film (η2 1.33, 1.5, 2.0) has two LUTs, split by the base. Both cover cos θ1 0–1 and",
+        "D = 2·η2·d 0–3000 nm (d up to 1000 nm at η2 1.5, past KHR_materials_iridescence's default",
+        "100–400 nm).",
         "",
-        "| metal | η3 | κ3 | inside the generic LUT |",
+        "- `lutbake-eta2-X`: dielectric and weakly absorbing bases, η3 1–3 and κ3 0–2 (water, glass,",
+        "  oxides; the KHR range η3 1.0–2.5). η3 is on the `admittance` spacing",
+        "  ([lut-format.md](lut-format.md#axes)): uniform in √(η3² − (η1 sin θ1)²) per cos θ1 node, which",
+        "  crowds the nodes towards η3 = η1 at grazing, where r23 changes fastest.",
+        "- `lutbake-eta2-X-metal`: metals, η3 0.02–4 and κ3 1.5–9, both in √ spacing (nodes crowd",
+        "  towards small η3 and κ3: the low-loss, high-finesse corner where the film's resonances are",
+        "  sharpest).",
+        "",
+        "One grid over both would have to span η3 0.02–4 and κ3 0–9 and would put η3 below η1, where",
+        "the admittance spacing is undefined; split, each grid follows its own hard corner. Where",
+        "common bases fall over 400–700 nm (lutbake's named materials), and which LUT of a film holds",
+        "them for all of 400–700 nm:",
+        "",
+        "| base | η3 | κ3 | inside |",
         "|---|---|---|---|",
     ]
-    for name, (e0, e1, k0, k1) in metals.items():
-        inside = "yes" if e0 >= 1.0 and e1 <= 3.0 and k1 <= 5.0 else "no"
-        lines.append(f"| {name} | {e0:.2f}–{e1:.2f} | {k0:.2f}–{k1:.2f} | {inside} |")
+    for name, (e0, e1, k0, k1) in bases.items():
+        lines.append(f"| {name} | {e0:.2f}–{e1:.2f} | {k0:.2f}–{k1:.2f} | {_holder(e0, e1, k0, k1)} |")
     lines += [
         "",
-        "Au, Ag and Cu (η3 < 1) and Al and Fe (κ3 up to ~8.5) fall outside, Cr only at the red end (η3 past",
-        "3): covering them would more than double the (η3, κ3) area and put η3 below η1, where the",
-        "admittance spacing is undefined. Named",
-        "materials are what scene atlases serve exactly (`lutbake bake --scene`, [scene.md](scene.md)), so",
-        "the generic LUT keeps the dielectric range.",
+        "Named materials are also what scene atlases serve exactly, wavelength by wavelength",
+        "(`lutbake bake --scene`, [scene.md](scene.md)); the generic LUTs take one constant η3 + iκ3.",
         "",
         f"Target per default LUT (issue 13): max ΔE00 ≤ {GOAL['de00_max']:g} and p99 ≤ {GOAL['de00_p99']:g}"
         f" in ≤ {GOAL['exr_bytes'] >> 20} MiB of EXR.",

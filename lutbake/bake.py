@@ -89,7 +89,8 @@ class BakeResult:
 
 
 def default_specs(precision: str = "half") -> dict:
-    """The embedded default LUT set: soap/water-like, glass-like and oxide-like films.
+    """The embedded default LUT set: soap/water-like, glass-like and oxide-like films, each in two LUTs
+    by the base it sits on: dielectric (and weakly absorbing) bases, and metals.
 
     Parameters
     ----------
@@ -101,32 +102,45 @@ def default_specs(precision: str = "half") -> dict:
     dict
         LUT name → BakeSpec, in the order `lutbake bake` writes them.
 
-    cos θ is warped in √ (colour and Fresnel change fastest near grazing),
-    κ3 in √ (metals' reflectance saturates with κ), D uniform, and η3 on the
-    admittance spacing (nodes crowd towards η3 = η1 at grazing, where the
-    uniform grid's error peaked); read cubic. Counts per film from measured
-    error at 5,000 held-out points against the ground truth
-    (docs/accuracy.md), under 8 MiB of EXR per LUT in half precision: the
-    worst points are thin films on metals at grazing (they want D nodes)
-    and bases with η3 ≈ η1 and small κ3 (they want κ3 nodes).
+    Domains (docs/accuracy.md): ``lutbake-eta2-X`` covers η3 1–3, κ3 0–2 (glass, water, oxides,
+    weak absorbers); ``lutbake-eta2-X-metal`` covers η3 0.02–4, κ3 1.5–9, where Au, Ag, Cu, Al, Fe,
+    Ti and Cr fall over 400–700 nm. Splitting the base there lets each grid follow its own hard
+    corner. cos θ is warped in √ (Fresnel terms change fastest near grazing); read cubic.
+    Dielectric: η3 on the sqrt-admittance spacing (nodes crowd towards η3 = η1 at grazing, where a
+    film between two near-total reflections rings), κ3 in √, D uniform. Metals: D, η3 and κ3 in √
+    (thin films and the low-loss corner, where the film's resonances are sharpest). Counts from
+    measured error at 5,000 held-out points against the ground truth (docs/accuracy.md), under
+    8 MiB of EXR per LUT in half precision.
 
     Examples
     --------
     >>> import lutbake
     >>> specs = lutbake.default_specs()
-    >>> list(specs), specs["lutbake-eta2-1.33"].eta2, specs["lutbake-eta2-1.33"].shape
-    (['lutbake-eta2-1.33', 'lutbake-eta2-1.50', 'lutbake-eta2-2.00'], 1.33, (36, 144, 20, 24))
+    >>> list(specs)[:2], specs["lutbake-eta2-1.33"].shape, specs["lutbake-eta2-1.33-metal"].axes[2].lo
+    (['lutbake-eta2-1.33', 'lutbake-eta2-1.33-metal'], (44, 144, 20, 18), 0.02)
     """
-    return {f"lutbake-eta2-{eta2:.2f}": BakeSpec(eta2=eta2, axes=_default_axes(*counts), precision=precision)
-            for eta2, counts in _DEFAULT_COUNTS.items()}
+    specs = {}
+    for eta2 in _DIELECTRIC_COUNTS:
+        specs[f"lutbake-eta2-{eta2:.2f}"] = BakeSpec(
+            eta2=eta2, axes=_dielectric_axes(*_DIELECTRIC_COUNTS[eta2]), precision=precision)
+        specs[f"lutbake-eta2-{eta2:.2f}-metal"] = BakeSpec(
+            eta2=eta2, axes=_metal_axes(*_METAL_COUNTS[eta2]), precision=precision)
+    return specs
 
 
-_DEFAULT_COUNTS = {1.33: (36, 144, 20, 24), 1.5: (40, 160, 20, 20), 2.0: (36, 160, 20, 24)}
+# Node counts per film, cos θ × D × η3 × κ3
+_DIELECTRIC_COUNTS = {1.33: (44, 144, 20, 18), 1.5: (36, 144, 20, 18), 2.0: (36, 144, 20, 18)}
+_METAL_COUNTS = {1.33: (32, 192, 16, 22), 1.5: (32, 192, 16, 22), 2.0: (32, 192, 16, 22)}
 
 
-def _default_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
+def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
     return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd),
-            Axis("eta3", 1.0, 3.0, n_eta3, "admittance"), Axis("kappa3", 0.0, 5.0, n_kappa3, "sqrt"))
+            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance"), Axis("kappa3", 0.0, 2.0, n_kappa3, "sqrt"))
+
+
+def _metal_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
+    return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
+            Axis("eta3", 0.02, 4.0, n_eta3, "sqrt"), Axis("kappa3", 1.5, 9.0, n_kappa3, "sqrt"))
 
 
 def _probe_points(spec: BakeSpec) -> FilmPoints:

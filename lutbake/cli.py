@@ -18,7 +18,7 @@ set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
-from .names import INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
+from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
 
@@ -279,8 +279,9 @@ CAPPED_WARNING = 1e-4  # |ΔRGB| measured at texels past the spectral node cap
 
 def axis_option(flag, name):
     return click.option(flag, name, metavar="A:B:N[:SPACING]",
-                        help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt, or (eta3 only) "
-                             "'admittance': uniform in sqrt(eta3^2 - (eta1 sin theta1)^2).")
+                        help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt ('sqrt') or in the "
+                             "4th root ('root4'), or (eta3 only) 'admittance': uniform in sqrt(eta3^2 - (eta1 sin "
+                             "theta1)^2), or 'sqrt-admittance': uniform in its square root.")
 
 
 def _use_device(ctx, param, selector):
@@ -350,7 +351,7 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
 def _default_axis(axis, eta1: float):
     """A default axis as is, except η3's admittance spacing under an ambient above its low end (where
     that spacing is undefined): uniform there."""
-    if axis.spacing == "admittance" and axis.lo < eta1:
+    if axis.spacing in ADMITTANCE_SPACINGS and axis.lo < eta1:
         return replace(axis, spacing="uniform")
     return axis
 

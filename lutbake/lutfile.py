@@ -31,7 +31,7 @@ import numpy as np
 from . import fileset
 from .fileset import temporary_for
 from .interpolation import mirrors_low_end
-from .names import INTERPOLATIONS
+from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS
 from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
@@ -41,10 +41,12 @@ __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FO
 FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
 EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
-# LUT v2 adds the η3 axis's "admittance" spacing (docs/lut-format.md); v1 LUTs (no such axis) still read.
-FORMAT_VERSION = 3
+# LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
+# "sqrt-admittance" spacing (docs/lut-format.md); older LUTs (no such axis) still read.
+FORMAT_VERSION = 4
 EXACT_FORMAT_VERSION = 1
-_READABLE_VERSIONS = {FORMAT: (1, 2, 3), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
+_READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
+_ADMITTANCE_SINCE = dict(zip(ADMITTANCE_SPACINGS, (2, 4)))   # η3 spacing → first format version with it
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -248,7 +250,8 @@ def _check_meta(meta: dict, image: np.ndarray) -> None:
         _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
         _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
                  or a["spacing"] == "root4" and lo >= 0 and meta["format_version"] >= 3
-                 or a["spacing"] == "admittance" and a["name"] == "eta3" and meta["format_version"] >= 2
+                 or a["spacing"] in _ADMITTANCE_SINCE and a["name"] == "eta3"
+                 and meta["format_version"] >= _ADMITTANCE_SINCE[a["spacing"]]
                  and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
     _require(meta["format_version"] < 3 or meta["interpolation"] in INTERPOLATIONS, "interpolation")
     packing, expected = meta["packing"], TileLayout(*(a["count"] for a in axes)).packing()
@@ -326,10 +329,10 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "min": ", ".join(_shader_float(a["min"]) for a in axes),
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
-        "sqrt": ", ".join("1.0" if a["spacing"] == "sqrt" else "0.0" for a in axes),
+        "sqrt": ", ".join("1.0" if a["spacing"] in ("sqrt", "sqrt-admittance") else "0.0" for a in axes),
         "root4": ", ".join("1.0" if a["spacing"] == "root4" else "0.0" for a in axes),
         "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"]) else "0.0" for a in axes),
-        "admittance": "1.0" if axes[2]["spacing"] == "admittance" else "0.0",
+        "admittance": "1.0" if axes[2]["spacing"] in _ADMITTANCE_SINCE else "0.0",
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }

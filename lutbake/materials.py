@@ -30,6 +30,7 @@ ALIASES = {
     "Au": ("main", "Au", "Johnson"),
     "Al": ("main", "Al", "Rakic"),
     "Ti": ("main", "Ti", "Johnson"),
+    "Cr": ("main", "Cr", "Johnson"),
     "SiO2": ("main", "SiO2", "Malitson"),
     "TiO2": ("main", "TiO2", "Sarkar"),
     "Fe2O3": ("main", "Fe2O3", "Querry-o"),
@@ -38,7 +39,7 @@ ALIASES = {
 }
 ALIASES.update({long: ALIASES[short] for long, short in (
     ("iron", "Fe"), ("copper", "Cu"), ("silver", "Ag"), ("gold", "Au"), ("aluminium", "Al"),
-    ("titanium", "Ti"), ("silica", "SiO2"), ("titania", "TiO2"), ("hematite", "Fe2O3"))})
+    ("titanium", "Ti"), ("chromium", "Cr"), ("silica", "SiO2"), ("titania", "TiO2"), ("hematite", "Fe2O3"))})
 
 _CANONICAL = {k.lower(): k for k in ALIASES}  # `--base cu` finds Cu
 

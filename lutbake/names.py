@@ -1,5 +1,6 @@
-"""Names of the CIE observers and working spaces (and colour-science's names for them), and of the
-LUT interpolation rules (lutbake/interpolation.py).
+"""Names of the CIE observers and working spaces (and colour-science's names for them), of the
+LUT interpolation rules (lutbake/interpolation.py) and of the η3 spacings that follow the incidence
+(lutbake/plan.py).
 
 Kept apart from colorimetry.py, with no imports, so the command line can list
 the choices at start-up without loading numpy or colour-science.
@@ -18,3 +19,5 @@ SPACES = {
 }
 
 INTERPOLATIONS = ("cubic", "linear")
+
+ADMITTANCE_SPACINGS = ("admittance", "sqrt-admittance")   # η3 only: nodes per cos θ1 node

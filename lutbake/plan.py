@@ -11,7 +11,11 @@ Axes are uniform, or warped uniform in √v (denser near the low end, where
 thin-film colour changes fastest along D and κ3). The η3 axis may instead be
 uniform in the base's real admittance √(η3² − (η1 sin θ1)²) between its ends
 at each cos θ1 ("admittance"): the base's Fresnel terms are smooth in it, and
-its nodes crowd towards η3 = η1 at grazing, where they change fastest in η3.
+its nodes crowd towards η3 = η1 at grazing, where they change fastest in η3;
+or uniform in the square root of that admittance ("sqrt-admittance"), which
+crowds them harder there: near η3 = η1 at grazing, a film between two
+near-total reflections rings, and its colour changes on the scale of cos θ1
+in admittance.
 Its nodes then depend on the tile's cos θ1 node, so η3 is given per image
 column (``eta3_columns``). Chunks are bands of whole image rows, so a grid of
 any size bakes and streams in bounded memory.
@@ -28,18 +32,18 @@ import numpy as np
 
 from .colorimetry import OBSERVERS, SPACES
 from .errors import ParameterError
-from .names import INTERPOLATIONS
+from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS
 from .layout import _CHUNK_CELLS, TileLayout
 from .points import FilmPoints, check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
 
-__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
+__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "ADMITTANCE_SPACINGS", "PRECISIONS",
            "COMPUTE_PRECISIONS", "METHODS"]
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
-SPACINGS = ("uniform", "sqrt", "root4", "admittance")
+SPACINGS = ("uniform", "sqrt", "root4", *ADMITTANCE_SPACINGS)
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
 METHODS = ("spectral",)
@@ -73,7 +77,8 @@ class Axis:
     spacing : str
         'uniform'; 'sqrt' (uniform in √value: nodes crowd towards lo); 'root4' (uniform in value^¼:
         crowding harder, cos θ's towards grazing); 'admittance' (η3 only: uniform in
-        √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing).
+        √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing);
+        'sqrt-admittance' (η3 only: uniform in the square root of that admittance, crowding harder).
 
     Examples
     --------
@@ -107,6 +112,8 @@ class Axis:
             return np.sqrt(np.sqrt(np.maximum(v, 0.0)))
         if self.spacing == "admittance":
             return np.sqrt(np.maximum(v * v - snell2, 0.0))
+        if self.spacing == "sqrt-admittance":
+            return np.sqrt(np.sqrt(np.maximum(v * v - snell2, 0.0)))
         return v
 
     def _unwarp(self, w, snell2):
@@ -116,6 +123,8 @@ class Axis:
             return np.square(w * w)
         if self.spacing == "admittance":
             return np.sqrt(w * w + snell2)
+        if self.spacing == "sqrt-admittance":
+            return np.sqrt(np.square(w * w) + snell2)
         return w
 
     def from_unit(self, u, snell2=0.0):
@@ -167,8 +176,8 @@ def validate_axis(axis: Axis) -> Axis:
     if axis.spacing not in SPACINGS:
         raise ParameterError(field + " spacing {spacing} is not one of {allowed}", spacing=repr(axis.spacing),
                              allowed=", ".join(SPACINGS))
-    if axis.spacing == "admittance" and axis.name != "eta3":
-        raise ParameterError(field + " spacing 'admittance' is allowed only on {eta3}")
+    if axis.spacing in ADMITTANCE_SPACINGS and axis.name != "eta3":
+        raise ParameterError(field + f" spacing {axis.spacing!r} is allowed only on {{eta3}}")
     return axis
 
 
@@ -236,8 +245,8 @@ class BakeSpec:
         for axis in self.axes:
             validate_axis(axis)
         eta3 = self.axis["eta3"]
-        if eta3.spacing == "admittance" and eta3.lo < self.eta1:
-            raise ParameterError("{eta3} admittance spacing needs A >= eta1 ({eta1}), got {lo}",
+        if eta3.spacing in ADMITTANCE_SPACINGS and eta3.lo < self.eta1:
+            raise ParameterError("{eta3} " + eta3.spacing + " spacing needs A >= eta1 ({eta1}), got {lo}",
                                  eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")

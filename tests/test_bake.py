@@ -250,6 +250,8 @@ def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
     (["--eta2", "1.5", "--opd", "0:100"], "is not A:B:N"),
     (["--eta2", "1.5", "--kappa3", "0:5:8:admittance"], "allowed only on --eta3"),
     (["--eta2", "1.5", "--eta3", "0.5:3:8:admittance"], "needs A >= eta1"),
+    (["--eta2", "1.5", "--eta3", "0.5:3:8:sqrt-admittance"], "needs A >= eta1"),
+    (["--eta2", "1.5", "--opd", "0:3000:8:sqrt-admittance"], "allowed only on --eta3"),
 ])
 def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
     proc = _cli("bake", *args, "--out", str(tmp_path / "x.exr"))
@@ -330,30 +332,38 @@ def test_sample_and_inspect_commands(lut_path, tmp_path):
     assert "axis opd_nm" in text.stdout and lut.meta["content_hash"] in text.stdout
 
 
-def _admittance_spec(**kw):
+def _admittance_spec(spacing="admittance", **kw):
     axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 8),
-            Axis("eta3", 1.2, 3.0, 5, "admittance"), Axis("kappa3", 0.0, 4.0, 3, "sqrt"))
+            Axis("eta3", 1.2, 3.0, 5, spacing), Axis("kappa3", 0.0, 4.0, 3, "sqrt"))
     return BakeSpec(eta2=1.4, eta1=1.2, axes=axes, **kw)
 
 
-def test_admittance_nodes_are_uniform_in_the_base_admittance_at_each_cos_node():
-    spec = _admittance_spec()
+@pytest.mark.parametrize("spacing, power", [("admittance", 0.5), ("sqrt-admittance", 0.25)])
+def test_admittance_nodes_are_uniform_in_the_base_admittance_at_each_cos_node(spacing, power):
+    spec = _admittance_spec(spacing)
     cos_t = spec.axis["cos_theta"].values()
     eta3 = spec.eta3_columns().reshape(5, 8)           # (η3 node, cos node)
-    g = np.sqrt(eta3 ** 2 - 1.2 ** 2 * (1 - cos_t ** 2))
+    g = (eta3 ** 2 - 1.2 ** 2 * (1 - cos_t ** 2)) ** power   # the admittance, or its square root
     assert np.allclose(np.diff(g, axis=0), (g[-1] - g[0]) / 4, rtol=0, atol=1e-12)
     assert np.all(eta3[0] == 1.2) and np.all(eta3[-1] == 3.0)
-    assert np.allclose(eta3[:, -1], np.linspace(1.2, 3.0, 5))  # normal incidence: uniform in η3
     assert eta3[1, 0] < eta3[1, -1]                            # grazing: crowded towards η3 = η1
+    normal = np.linspace(1.2 ** (2 * power), 3.0 ** (2 * power), 5) ** (1 / (2 * power))
+    assert np.allclose(eta3[:, -1], normal)                    # normal incidence: uniform in η3 or √η3
 
 
-def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(tmp_path, kernel_device):
-    spec = _admittance_spec()
+def test_sqrt_admittance_crowds_harder_than_admittance_at_grazing():
+    first = [_admittance_spec(s).eta3_columns().reshape(5, 8)[1, 1] for s in ("admittance", "sqrt-admittance")]
+    assert 1.2 < first[1] < first[0]
+
+
+@pytest.mark.parametrize("spacing", ["admittance", "sqrt-admittance"])
+def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(tmp_path, kernel_device, spacing):
+    spec = _admittance_spec(spacing)
     kernel = bake_array(spec, "opencl", "direct", kernel_device)
     assert np.max(np.abs(kernel - bake_array(spec, "numpy"))) <= 1e-10
     bake(spec, tmp_path / "adm.exr")
     lut = Lut.load(tmp_path / "adm.exr")
-    assert lut.meta["format_version"] == 3 and lut.meta["axes"][2]["spacing"] == "admittance"
+    assert lut.meta["format_version"] == 4 and lut.meta["axes"][2]["spacing"] == spacing
     i = np.meshgrid(*[np.arange(n) for n in spec.shape], indexing="ij")
     cos_t, opd, kappa3 = (a.values()[j] for a, j in zip(np.array(spec.axes)[[0, 1, 3]], (i[0], i[1], i[3])))
     eta3 = spec.eta3_columns().reshape(5, 8)[i[2], i[0]]
@@ -373,4 +383,4 @@ def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_
                            None)
         return spec.axis["eta3"].spacing
 
-    assert eta3_spacing(1.0) == "admittance" and eta3_spacing(1.33) == "uniform"
+    assert eta3_spacing(1.0) == "sqrt-admittance" and eta3_spacing(1.33) == "uniform"

@@ -6,10 +6,14 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import DEFAULT_LUTS as LUTS, default_luts
 from lutbake.bake import default_specs
+from lutbake.materials import material
+from lutbake.points import FilmPoints
+from lutbake.sample import Lut
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -35,3 +39,19 @@ def test_default_lut_passes_the_readme_gate(name):
     assert summary["point_kinds"] == {"cell-centre": 500, "uniform": 500}
     # issue 13's p99 target, read cubic as the header says (linear reads of the same files score ~0.7)
     assert summary["interpolation"] == "cubic" and summary["lut_error"]["de00_p99"] <= 0.3
+
+
+# Issue 13's list of common metals, and common dielectric bases (water, fused silica, titania, glass-like)
+COMMON_BASES = ["Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr", "water", "SiO2", "TiO2"]
+
+
+@pytest.mark.parametrize("base", COMMON_BASES)
+def test_common_bases_fall_inside_a_default_lut_of_every_film(base):
+    """Over 400–700 nm the base's (η3, κ3) lies inside one LUT of each film's pair, read from the baked
+    files' own domain check (the metal LUTs take κ3 ≥ 1.5, the dielectric ones η3 ≥ 1 and κ3 ≤ 2)."""
+    eta3, kappa3 = material(base).index(np.linspace(400.0, 700.0, 301))
+    for eta2 in sorted({spec.eta2 for spec in default_specs().values()}):
+        pair = [name for name, spec in default_specs().items() if spec.eta2 == eta2]
+        stack = FilmPoints.build(eta2=eta2, thickness_nm=200.0, cos_theta=0.5, eta3=eta3, kappa3=kappa3)
+        inside = [name for name in pair if Lut.load(LUTS / f"{name}.exr").in_domain(stack).all()]
+        assert inside, f"{base} at eta2 {eta2}: outside {pair}"

@@ -303,12 +303,16 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 4": lambda m, im: ({**m, "format_version": 4}, im),
+    "format version 5": lambda m, im: ({**m, "format_version": 5}, im),
     "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
     "root4 in a v2 file": lambda m, im: ({**m, "format_version": 2, "axes": [
         {**m["axes"][0], "spacing": "root4"}, *m["axes"][1:]]}, im),
     "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
         *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),
+    "sqrt-admittance in a v3 file": lambda m, im: ({**m, "format_version": 3, "axes": [
+        *m["axes"][:2], {**m["axes"][2], "spacing": "sqrt-admittance"}, m["axes"][3]]}, im),
+    "sqrt-admittance on opd": lambda m, im: ({**m, "axes": [
+        m["axes"][0], {**m["axes"][1], "spacing": "sqrt-admittance"}, *m["axes"][2:]]}, im),
     "admittance below eta1": lambda m, im: ({**m, "axes": [
         *m["axes"][:2], {**m["axes"][2], "spacing": "admittance", "min": 0.5}, m["axes"][3]]}, im),
     "spectral counts empty": lambda m, im: ({**m, "spectral": {**m["spectral"], "counts": []}}, im),

@@ -69,20 +69,22 @@ def _catmull_rom(padded, f):
 
 
 @pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
-                                      ("uniform",) * 4])
+                                      ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt")])
 def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     """Mirrored ghosts exactly where an axis is √- or ¼-power-spaced from 0 (cos θ, κ3 here; D's √
-    axis from 0 too; η3's starts at 1.2, so it extrapolates)."""
+    axis from 0 too; η3's starts at 1.2, so it extrapolates; its admittance nodes follow each point's
+    own cos θ)."""
     rng = np.random.default_rng(3)
     axes = _axes(SHAPE, spacings)
-    mirror = [s != "uniform" and a.lo == 0.0 for s, a in zip(spacings, axes)]
+    mirror = [s in ("sqrt", "root4") and a.lo == 0.0 for s, a in zip(spacings, axes)]
     grid = rng.normal(size=SHAPE + (3,))
     lut = _lut(grid, axes)
     f = rng.uniform(0, 1, (300, 4)) * (np.array(SHAPE) - 1)
     f[:40] = np.round(f[:40])                      # nodes, ends included
     f[40:80, 0] = rng.uniform(0, 1, 40)            # first and last cells of every axis
     f[80:120, 1] = SHAPE[1] - 1 - rng.uniform(0, 1, 40)
-    values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
+    snell2 = 1.0 - axes[0].from_unit(f[:, 0] / (axes[0].count - 1)) ** 2   # (η1 sin θ1)², η1 = 1
+    values = [a.from_unit(f[:, i] / (a.count - 1), snell2) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
     padded = _padded(grid, mirror)
     want = np.array([_catmull_rom(padded, p) for p in f])

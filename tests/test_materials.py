@@ -7,7 +7,7 @@ import pytest
 from lutbake.materials import ALIASES, ConstantMaterial, material
 
 
-@pytest.mark.parametrize("alias", ["Fe", "Cu", "Ag", "Au", "Al", "Ti", "SiO2", "TiO2", "Fe2O3", "water", "butanol"])
+@pytest.mark.parametrize("alias", ["Fe", "Cu", "Ag", "Au", "Al", "Ti", "Cr", "SiO2", "TiO2", "Fe2O3", "water", "butanol"])
 def test_aliases_resolve_and_cover_the_visible_range(alias):
     m = material(alias)
     eta, kappa = m.index(np.linspace(360, 830, 48))
