@@ -31,8 +31,8 @@ IMAGE = ROOT / "docs" / "img" / "dropin.png"
 MATERIALS = [
     ("soap bubble, 400 nm", 1.33, 400.0, 1.0, "luts/lutbake-eta2-1.33"),
     ("soap on glass, 300 nm", 1.33, 300.0, 1.5, "luts/lutbake-eta2-1.33"),
-    ("oxide on Cu, 150 nm", 2.0, 150.0, "Cu", "luts/lutbake-eta2-2.00"),
-    ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00"),
+    ("oxide on Cu, 150 nm", 2.0, 150.0, "Cu", "luts/lutbake-eta2-2.00-metal"),
+    ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
 SWATCH_COS = np.linspace(1.0, 0.05, 16)
 

@@ -130,7 +130,7 @@ def default_specs(precision: str = "half") -> dict:
 
 # Node counts per film, cos θ × D × η3 × κ3
 _DIELECTRIC_COUNTS = {1.33: (44, 144, 20, 18), 1.5: (36, 144, 20, 18), 2.0: (36, 144, 20, 18)}
-_METAL_COUNTS = {1.33: (32, 192, 16, 22), 1.5: (32, 192, 16, 22), 2.0: (32, 192, 16, 22)}
+_METAL_COUNTS = {1.33: (32, 192, 18, 21), 1.5: (32, 192, 18, 21), 2.0: (32, 192, 18, 21)}
 
 
 def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:

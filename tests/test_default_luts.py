@@ -28,6 +28,12 @@ def test_each_default_lut_is_at_most_8_mib():
         assert path.stat().st_size <= 8 * 2**20, path.name
 
 
+def test_default_lut_images_fit_4096_texels_a_side():
+    """docs/engines.md: within the 4096 × 4096 textures nearly every WebGL2 device offers."""
+    for name, spec in default_specs().items():
+        assert max(spec.image_size) <= 4096, (name, spec.image_size)
+
+
 @pytest.mark.parametrize("name", sorted(default_specs()))
 def test_default_lut_passes_the_readme_gate(name):
     """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points."""
