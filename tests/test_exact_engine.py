@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import default_luts
 from lutbake.colorimetry import delta_e00
 from lutbake.exact import METALS, base_rgb, exact_colour, read_exact_table
 from lutbake.points import FilmPoints
@@ -122,8 +123,10 @@ def test_the_check_fails_with_the_other_row_order(exact_run):
 
 @pytest.fixture(scope="module")
 def dropin(tmp_path_factory):
-    """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)."""
+    """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)
+    beside the default LUTs' spheres (read from luts/)."""
     require_engine()
+    default_luts()
     image = tmp_path_factory.mktemp("dropin") / "dropin.png"
     rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
     return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
