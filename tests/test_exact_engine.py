@@ -128,26 +128,28 @@ def test_the_check_fails_with_the_other_row_order(exact_run):
     assert np.abs(got["control"] - expected).max() > 0.1
 
 
-@pytest.fixture(scope="module")
-def dropin(tmp_path_factory):
-    """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)
-    beside the default LUTs' spheres (read from luts/)."""
-    require_engine()
-    default_luts()
-    image = tmp_path_factory.mktemp("dropin") / "dropin.png"
-    rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
-    return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
+class TestDropIn:
+    """Its own scope for pytest-xdist's --dist loadscope: the drop-in page and the KHR-points run above are
+    the two slowest engine fixtures, and may run on different workers."""
 
+    @pytest.fixture(scope="class")
+    def dropin(self, tmp_path_factory):
+        """The drop-in page: MeshPhysicalMaterial spheres (soap films on dielectrics, oxides on Cu and Fe)
+        beside the default LUTs' spheres (read from luts/)."""
+        require_engine()
+        default_luts()
+        image = tmp_path_factory.mktemp("dropin") / "dropin.png"
+        rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
+        return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
 
-def test_the_drop_in_exact_mode_matches_the_ground_truth(dropin):
-    image, rows = dropin
-    assert image.stat().st_size > 10_000
-    for label, *_ in make_dropin.MATERIALS:
-        worst, n = rows[(label, "exact")]
-        assert n >= 500 and worst <= 0.1, (label, worst)
+    def test_the_drop_in_exact_mode_matches_the_ground_truth(self, dropin):
+        image, rows = dropin
+        assert image.stat().st_size > 10_000
+        for label, *_ in make_dropin.MATERIALS:
+            worst, n = rows[(label, "exact")]
+            assert n >= 500 and worst <= 0.1, (label, worst)
 
-
-def test_the_drop_in_check_can_fail(dropin):
-    """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
-    _, rows = dropin
-    assert min(rows[(label, "three")][0] for label, *_ in make_dropin.MATERIALS) > 1.0
+    def test_the_drop_in_check_can_fail(self, dropin):
+        """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
+        _, rows = dropin
+        assert min(rows[(label, "three")][0] for label, *_ in make_dropin.MATERIALS) > 1.0
