@@ -45,7 +45,11 @@ def _base(base):
 
 
 def truth(cos, thickness, eta2, base) -> np.ndarray:
-    """Ground truth with constant indices per channel (channel c with the base's c-th n, k)."""
+    """Ground truth with constant indices per channel (channel c with the base's c-th n, k; a dielectric
+    base has one index for all three: one integral)."""
+    if isinstance(base, float):
+        return reference_colour(FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness,
+                                                 eta3=base)).values
     eta3, kappa3 = _base(base)
     out = np.empty((np.size(cos), 3))
     for c in range(3):

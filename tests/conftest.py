@@ -3,39 +3,62 @@
 ``[intel]``); the summary lists which runtimes were exercised and which could not be."""
 
 import fcntl
+import os
+import shutil
 import subprocess
 import sys
 import warnings
 from pathlib import Path
 
-import numpy as np
+# One BLAS thread per test process (and the CLI processes tests start): pytest-xdist already runs one
+# worker per core, and OpenBLAS threads competing for a busy core made numpy.linalg calls (the
+# Gauss–Legendre nodes under `lutbake check`) 3–6× slower. Set before numpy loads OpenBLAS.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
 import pytest
 
 warnings.filterwarnings("ignore", module="colour")
 
-DEFAULT_LUTS = Path(__file__).resolve().parents[1] / "luts"
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_LUTS = ROOT / "luts"
+README_LUTS = ROOT / "lutbake-luts"   # README command 1, `lutbake bake` in the repo root (CI runs it first)
+LUT_MEMBERS = (".json", ".glsl", ".hlsl", ".exr")   # the .exr last: a set is current once its .exr is
 
 
-def default_luts() -> Path:
-    """luts/: the default LUT set as `lutbake bake --out luts` writes it. Not tracked (7–8 MB each):
-    baked here when missing or stale (a content hash differs from the current default specs), once,
-    under a lock that test processes running side by side (pytest-xdist) share."""
+def _holds_the_default_set(folder: Path) -> bool:
+    """Every default LUT in ``folder`` has the content hash of the current default spec."""
     from lutbake.bake import default_specs
     from lutbake.lutfile import read_lut
 
-    def current() -> bool:
-        try:
-            return all(read_lut(DEFAULT_LUTS / f"{name}.exr")[0]["content_hash"] == spec.content_hash
-                       for name, spec in default_specs().items())
-        except (OSError, ValueError, KeyError):
-            return False
+    try:
+        return all(read_lut(folder / f"{name}.exr")[0]["content_hash"] == spec.content_hash
+                   for name, spec in default_specs().items())
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def default_luts() -> Path:
+    """luts/: the default LUT set as `lutbake bake` with no options writes it. Not tracked (7–8 MB each).
+    The set is baked once, by README command 1 into lutbake-luts/ (CI runs it before the tests; run here
+    when lutbake-luts/ is missing or stale: a content hash differs from the current default specs) and
+    copied into luts/ when luts/ is stale. Under a lock that test processes running side by side
+    (pytest-xdist) share."""
+    from lutbake.bake import default_specs
 
     DEFAULT_LUTS.mkdir(exist_ok=True)
     with open(DEFAULT_LUTS / ".bake.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        if not current():
-            subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", "--quiet", "--out", str(DEFAULT_LUTS)],
-                           check=True, capture_output=True, timeout=600)
+        if not _holds_the_default_set(README_LUTS):
+            out = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", "--quiet"], cwd=ROOT, check=True,
+                                 capture_output=True, text=True, timeout=600)
+            assert out.stdout.endswith(f"default LUT set in {README_LUTS.name}/\n"), out.stdout
+        if not _holds_the_default_set(DEFAULT_LUTS):
+            for name in default_specs():
+                for suffix in LUT_MEMBERS:
+                    temporary = DEFAULT_LUTS / f".{name}{suffix}.copy"
+                    shutil.copyfile(README_LUTS / f"{name}{suffix}", temporary)
+                    os.replace(temporary, DEFAULT_LUTS / f"{name}{suffix}")
     return DEFAULT_LUTS
 
 

@@ -163,13 +163,13 @@ def test_tune_reports_each_round_as_it_is_accepted():
     assert seen == result.rounds and len(seen) >= 1
 
 
-def test_report_says_which_points_it_scores_and_shows_the_gate(tiny_lut, tmp_path):
-    out = run("report", str(tiny_lut), "--points", "20", "--max-de", "0.001", "--out", str(tmp_path / "r"),
-              "--no-approximations")
+def test_report_says_which_points_it_scores_and_shows_the_gate(tiny_lut):
+    """On the terminal; the HTML report's gate and film line: tests/test_report.py (it draws the figures,
+    the slow part, once)."""
+    out = run("report", str(tiny_lut), "--points", "20", "--max-de", "0.001", "--no-approximations")
     assert out.returncode == 1
     assert "(10 cell-centre + 10 uniform)" in out.stdout
-    html = (tmp_path / "r" / "report.html").read_text()
-    assert "Gate FAIL" in html and "η2 = 1.33" in html
+    assert out.stdout.splitlines()[-1].startswith("gate p99 ΔE00 ") and out.stdout.endswith(" > 0.001: FAIL\n")
 
 
 def _random_points(rng, n):

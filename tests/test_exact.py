@@ -38,8 +38,12 @@ def _khr_points(n, seed):
 
 
 def _truth(cos, thickness, eta3, kappa3):
-    """Ground truth; eta3/kappa3 (3,) per channel: channel c of the stack with base (eta3[c], kappa3[c])."""
+    """Ground truth; eta3/kappa3 (3,) per channel: channel c of the stack with base (eta3[c], kappa3[c]);
+    a base with one (n, k) for all three channels is integrated once."""
     eta3, kappa3 = np.broadcast_to(eta3, 3), np.broadcast_to(kappa3, 3)
+    if (eta3 == eta3[0]).all() and (kappa3 == kappa3[0]).all():
+        return reference_colour(FilmPoints.build(eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness,
+                                                 eta3=eta3[0], kappa3=kappa3[0])).values
     out = np.empty((cos.size, 3))
     for c in range(3):
         pts = FilmPoints.build(eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c],

@@ -75,8 +75,8 @@ def test_gate_exits_1_above_and_0_below_the_threshold(lut_path):
 
 
 def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
-    out = _report_cli(str(lut_path), "--points", "100", "--out", str(tmp_path / "r"))
-    assert out.returncode == 0, out.stderr
+    out = _report_cli(str(lut_path), "--points", "100", "--out", str(tmp_path / "r"), "--max-de", "0.001")
+    assert out.returncode == 1, out.stderr   # the gate fails, the report is written
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     rows = {a["name"]: a for a in summary["approximations"]}
     assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode", "lut-linear-reads"}
@@ -88,6 +88,7 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
     terms = summary["exact_mode_terms"]
     assert 1 <= terms["mean"] <= terms["p99"] <= terms["max"] <= 64
     html = (tmp_path / "r" / "report.html").read_text()
+    assert "Gate FAIL" in html and "η2 = 1.4" in html and summary["gate"]["passed"] is False
     for fig in summary["figures"]:
         assert (tmp_path / "r" / fig).stat().st_size > 1000 and fig in html
 
