@@ -5,7 +5,6 @@ under glslang, and `lutbake exact-table`'s files and refusals."""
 import json
 import subprocess
 import sys
-
 import zlib
 
 import numpy as np
