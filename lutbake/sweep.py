@@ -36,12 +36,15 @@ def _spaced(spec: BakeSpec, spacings) -> BakeSpec:
 
 
 def variants(spec: BakeSpec) -> dict:
-    """Named variants of ``spec``: resolution; parameterization (its counts on a uniform grid, and on
-    the √ grid: √ cos θ and κ3, uniform D and η3, the default before η3's admittance spacing); spectral
-    sampling, storage and compute precision. (`sweep` scores a cubic variant's file by linear reads too.)"""
+    """Named variants of ``spec``: resolution; parameterization (its counts on a uniform grid, on the
+    √ grid: √ cos θ and κ3, uniform D and η3, and, where η3 ≥ η1, on the admittance grid: the √ grid
+    with η3 on the admittance spacing, the default before sqrt-admittance); spectral sampling, storage
+    and compute precision. (`sweep` scores a cubic variant's file by linear reads too.)"""
     out = {f"res×{f:g}": _scaled(spec, (f,) * 4) for f in (0.5, 1.0, 2.0)}
     out.update({"uniform grid": _spaced(spec, ("uniform",) * 4),
                 "√ grid": _spaced(spec, ("sqrt", "uniform", "uniform", "sqrt"))})
+    if spec.axes[2].lo >= spec.eta1:   # the admittance spacings are defined from η3 = η1 up
+        out["admittance grid"] = _spaced(spec, ("sqrt", "uniform", "admittance", "sqrt"))
     out.update({"(cos,D)×2": _scaled(spec, (2, 2, 1, 1)), "(η3,κ3)×2": _scaled(spec, (1, 1, 2, 2))})
     out.update({f"spc {s:g}": replace(spec, samples_per_cycle=s) for s in (1.0, 2.0, 4.0)})
     out["half" if spec.precision == "float" else "float"] = replace(

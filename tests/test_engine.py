@@ -91,7 +91,7 @@ def lut_job(folder: Path, path: Path, rng, interpolation=None) -> dict:
     """Points sampled by `lutbake sample` (by the header's rule, or ``interpolation``) and the include's
     matching call: lutbake_sample, or lutbake_sample_<interpolation>."""
     axes = load_table(path).axes
-    limits = [(0.0, 1.0), (0.0, None), (1e-3, None), (0.0, None)]
+    limits = [(0.0, 1.0), (0.0, None), (0.01, None), (0.0, None)]   # η3 ≥ 0.01: what `sample` accepts
     columns = {name: _coordinates(rng, a.lo, a.hi, POINTS, *lim)
                for name, a, lim in zip(("cos_theta", "opd_nm", "eta3", "kappa3"), axes, limits)}
     rows = lutbake_sample(folder, path, columns, *(["--interpolation", interpolation] if interpolation else []))

@@ -186,6 +186,8 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     assert res["uniform grid"]["shape"] == res["√ grid"]["shape"] == res["res×1"]["shape"]
     assert res["uniform grid"]["de00_p99"] == res["res×1"]["de00_p99"]  # this spec's axes are all uniform
     assert res["√ grid"]["de00_p99"] != res["uniform grid"]["de00_p99"]
+    assert res["admittance grid"]["shape"] == res["res×1"]["shape"]      # η3 1.4–1.6 ≥ η1: it is there
+    assert res["admittance grid"]["de00_p99"] != res["√ grid"]["de00_p99"]
     assert res["res×1 linear reads"]["bytes"] == res["res×1"]["bytes"]  # same file, read by the other rule
     assert res["res×1"]["de00_p99"] < res["res×1 linear reads"]["de00_p99"]
     result = tune(spec, max_de=0.2, n_points=120, seed=0)
