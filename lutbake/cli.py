@@ -281,7 +281,8 @@ def axis_option(flag, name):
     return click.option(flag, name, metavar="A:B:N[:SPACING]",
                         help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt ('sqrt') or in the "
                              "4th root ('root4'), or (eta3 only) 'admittance': uniform in sqrt(eta3^2 - (eta1 sin "
-                             "theta1)^2), or 'sqrt-admittance': uniform in its square root.")
+                             "theta1)^2), or 'sqrt-admittance': uniform in its square root. Omitted: that axis "
+                             "of the default set's first LUT, lutbake-eta2-1.33 (dielectric bases).")
 
 
 def _use_device(ctx, param, selector):
@@ -333,7 +334,7 @@ def domain_options(f):
 
 def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, interpolation, compute,
                 method, samples_per_cycle, default_precision="float"):
-    """BakeSpec from domain flags; axes not given take the default set's."""
+    """BakeSpec from domain flags; axes not given take the default set's first LUT's (dielectric bases)."""
     from .bake import default_specs
     from .plan import BakeSpec, parse_axis
 
