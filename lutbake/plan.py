@@ -38,7 +38,7 @@ from .points import FilmPoints, check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
 
-__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "ADMITTANCE_SPACINGS", "PRECISIONS",
+__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
            "COMPUTE_PRECISIONS", "METHODS"]
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
