@@ -341,8 +341,10 @@ class BakeSpec:
         return FilmPoints.texels(eta1=self.eta1, eta2=self.eta2, **dict(zip((a.name for a in self.axes), coords)))
 
     def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
-        """Bound on the spectral truncation error of texels past the ladder's cap (else 0)."""
-        return self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
+        """Bound on the spectral truncation error of texels past the ladder's cap (else 0). At grazing
+        incidence (cos θ1 = 0) R ≡ 1 at every wavenumber, which any rule integrates exactly: 0 there."""
+        bound = self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
+        return np.where(np.asarray(cos_theta) > 0.0, bound, 0.0)
 
     def capped_texels(self, limit: int = 64) -> tuple:
         """Texels past the ladder's cap: (count, largest bound, the ``limit`` worst as

@@ -86,3 +86,23 @@ def test_bake_records_texels_past_the_spectral_cap():
     tame = BakeSpec(eta2=1.5, axes=(Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 8),
                                     Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 5.0, 2)))
     assert capped_error(tame) == (0, 0.0, 0.0)
+
+
+def test_grazing_texels_are_exact_so_never_counted_past_the_cap():
+    """At cos θ1 = 0 every film reflects R ≡ 1 (the ground truth reads the D65 white, (1, 1, 1) in
+    linear Rec.709), so the truncation bound is 0 there: the texels counted and measured past the cap
+    are the ones that oscillate (a default metal LUT had half of its 5,268 counted texels at cos θ 0,
+    and its 64 measured ones all there, residual 1e-15, while the oscillating ones reach 5e-7)."""
+    from lutbake.bake import capped_error
+    from lutbake.plan import Axis, BakeSpec
+    from lutbake.reference import reference_rgb
+
+    spec = BakeSpec(eta2=2.0, axes=(Axis("cos_theta", 0.0, 0.0042, 2), Axis("opd_nm", 2500.0, 3000.0, 3),
+                                    Axis("eta3", 0.02, 0.2, 2), Axis("kappa3", 7.0, 9.0, 2)))
+    white = reference_rgb(FilmPoints.build(eta2=2.0, thickness_nm=700.0, cos_theta=0.0, eta3=0.02, kappa3=9.0))
+    assert np.abs(white - 1.0).max() <= 1e-9
+    count, bound, texels = spec.capped_texels()
+    assert count > 0 and np.all(texels[0] > 0.0)
+    assert spec.truncation_estimate(np.zeros(2), np.full(2, 3000.0), np.full(2, 0.02), np.full(2, 9.0)).max() == 0.0
+    _, _, measured = capped_error(spec)
+    assert measured <= bound   # within the a-priori bound where it is measured
