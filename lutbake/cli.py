@@ -591,6 +591,13 @@ def inspect_cmd(lut, as_json):
     spectral = meta["spectral"]
     click.echo(f"  spectral: {spectral['rule']}, {spectral['counts'][0]}-{spectral['counts'][-1]} nodes per texel, "
                f"measured error |ΔRGB| ≤ {spectral['error_rgb_max']:.1e}")
+    if spectral.get("capped_texels"):
+        click.echo(f"  past the node cap: {spectral['capped_texels']} texels, bound |ΔRGB| ≤ "
+                   f"{spectral['truncation_bound_rgb']:.1e}, measured ≤ {spectral['capped_error_rgb_max']:.1e}")
+    if "integrator" in meta:
+        mix = meta["integrator"]
+        click.echo(f"  integrator: Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ "
+                   f"{mix['series_bound_rgb_max']:.1e}), direct rule at {mix['direct_texels']}")
     click.echo(f"  content hash {meta['content_hash']}")
 
 

@@ -342,6 +342,9 @@ def test_sample_and_inspect_commands(lut_path, tmp_path):
     assert json.loads(meta.stdout) == lut.meta
     text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path)], capture_output=True, text=True)
     assert "axis opd_nm" in text.stdout and lut.meta["content_hash"] in text.stdout
+    mix = lut.meta["integrator"]
+    assert f"Fourier series at {mix['series_texels']} texels" in text.stdout
+    assert f"direct rule at {mix['direct_texels']}" in text.stdout
 
 
 def _admittance_spec(spacing="admittance", **kw):

@@ -61,3 +61,15 @@ def test_common_bases_fall_inside_a_default_lut_of_every_film(base):
         stack = FilmPoints.build(eta2=eta2, thickness_nm=200.0, cos_theta=0.5, eta3=eta3, kappa3=kappa3)
         inside = [name for name in pair if Lut.load(LUTS / f"{name}.exr").in_domain(stack).all()]
         assert inside, f"{base} at eta2 {eta2}: outside {pair}"
+
+
+def test_inspect_prints_the_texels_past_the_spectral_cap():
+    """docs/stability.md: `lutbake inspect` shows the count, the bound and the measured residual of the
+    texels past the node cap, as recorded in the header (the metal LUTs have the most)."""
+    path = LUTS / "lutbake-eta2-2.00-metal.exr"
+    spectral = Lut.load(path).meta["spectral"]
+    assert spectral["capped_texels"] > 0
+    text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(path)], capture_output=True,
+                          text=True).stdout
+    assert (f"past the node cap: {spectral['capped_texels']} texels, bound |ΔRGB| ≤ "
+            f"{spectral['truncation_bound_rgb']:.1e}, measured ≤ {spectral['capped_error_rgb_max']:.1e}") in text
