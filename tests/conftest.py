@@ -116,6 +116,12 @@ def pytest_terminal_summary(terminalreporter):
         tr.write_line(f"{key}: not exercised (the kernel does not build): {reason[:200]}")
 
 
+def node_parses(text: str) -> bool:
+    """Node.js's JSON.parse, a strict parser (no NaN, no Infinity), accepts ``text``."""
+    script = "JSON.parse(require('fs').readFileSync(0, 'utf8'))"
+    return subprocess.run(["node", "-e", script], input=text, text=True, capture_output=True).returncode == 0
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261122)
