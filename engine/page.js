@@ -38,11 +38,20 @@ async function loadText(url) {
 // them (the test's negative control defines LUTBAKE_SCANLINE0_AT_V0 there). `float`: load the EXR as 32-bit
 // floats read with texelFetch (NearestFilter: WebGL2 cannot filter float32 textures linearly without
 // OES_texture_float_linear), as the exact mode's table needs.
-async function evaluate({ exr, include, call, points, prelude = '', float = false }) {
+async function loadLut(exr, float) {
   const loader = new EXRLoader();
   if (float) loader.setDataType(THREE.FloatType);
   const lut = await loader.loadAsync(exr);
   if (float) lut.minFilter = lut.magFilter = THREE.NearestFilter;
+  return lut;
+}
+
+// `luts`: the textures loaded so far in this call of lutbakeEvaluate, by file and data type (a control job
+// reads its LUT's texture again; decoding an EXR in JavaScript is most of a job's time).
+async function evaluate({ exr, include, call, points, prelude = '', float = false }, luts) {
+  const key = `${exr} ${float}`;
+  if (!luts.has(key)) luts.set(key, await loadLut(exr, float));
+  const lut = luts.get(key);
   const width = 64;
   const height = Math.ceil(points.length / width);
   const names = ['p', 'q', 'r'].slice(0, Math.ceil(points[0].length / 4));
@@ -80,14 +89,16 @@ async function evaluate({ exr, include, call, points, prelude = '', float = fals
   renderer.readRenderTargetPixels(target, 0, 0, width, height, pixels);
   const rgb = [];
   for (let i = 0; i < points.length; i++) rgb.push(Array.from(pixels.subarray(4 * i, 4 * i + 3)));
-  [lut, ...pointTextures, target, material].forEach((o) => o.dispose());
+  [...pointTextures, target, material].forEach((o) => o.dispose());
   return { exr, texture: { width: lut.image.width, height: lut.image.height, type: lut.type, flipY: lut.flipY }, rgb };
 }
 
 window.lutbakeEvaluate = async (jobs) => {
   const gl = renderer.getContext();
   const out = [];
-  for (const job of jobs) out.push(await evaluate(job));
+  const luts = new Map();
+  for (const job of jobs) out.push(await evaluate(job, luts));
+  luts.forEach((lut) => lut.dispose());
   return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, results: out };
 };
 window.lutbakeReady = true;

@@ -89,9 +89,24 @@ def pytest_generate_tests(metafunc):
         metafunc.parametrize("kernel_device", keys, ids=keys, scope="module")
 
 
+# Modules that take the most CPU (bench/bench_suite.py), the longest first: pytest-xdist hands modules to
+# its workers in collection order (pyproject: --no-loadscope-reorder), so the long ones start early and
+# the short ones fill the end of the run on both workers, instead of one worker finishing a long module alone.
+LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_scene.py", "test_report.py", "test_cli_honest.py",
+                 "test_bake.py", "test_api.py", "test_default_luts.py", "test_engine.py", "test_stability.py",
+                 "test_spectral.py")
+
+
+def _run_order(item) -> int:
+    name = item.path.name
+    return LONGEST_FIRST.index(name) if name in LONGEST_FIRST else len(LONGEST_FIRST)
+
+
 def pytest_collection_modifyitems(items):
-    """Tag each kernel test with its device key; user properties travel with the test's reports,
-    so the summary counts correctly when pytest-xdist runs tests in worker processes."""
+    """Run the longest modules first (a stable sort: the order within a module is kept). Tag each kernel
+    test with its device key; user properties travel with the test's reports, so the summary counts
+    correctly when pytest-xdist runs tests in worker processes."""
+    items.sort(key=_run_order)
     for item in items:
         key = getattr(item, "callspec", None) and item.callspec.params.get("kernel_device")
         if key:
@@ -114,6 +129,12 @@ def pytest_terminal_summary(terminalreporter):
         tr.write_line(f"{key}: {label}: {ran}")
     for key, reason in _EXCLUDED.items():
         tr.write_line(f"{key}: not exercised (the kernel does not build): {reason[:200]}")
+
+
+def node_parses(text: str) -> bool:
+    """Node.js's JSON.parse, a strict parser (no NaN, no Infinity), accepts ``text``."""
+    script = "JSON.parse(require('fs').readFileSync(0, 'utf8'))"
+    return subprocess.run(["node", "-e", script], input=text, text=True, capture_output=True).returncode == 0
 
 
 @pytest.fixture

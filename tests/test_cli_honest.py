@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import default_luts
+from conftest import default_luts, node_parses
 from lutbake.batch import fast_colours, truth_colours
 from lutbake.cli import cli
 from lutbake.points import FilmPoints
@@ -36,14 +36,9 @@ def tiny_lut(tmp_path_factory):
     return path
 
 
-def _node_parses(text: str) -> bool:
-    script = "JSON.parse(require('fs').readFileSync(0, 'utf8'))"
-    return subprocess.run(["node", "-e", script], input=text, text=True, capture_output=True).returncode == 0
-
-
 @pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is the strict parser this test uses")
 def test_strict_parser_rejects_nan_and_accepts_its_replacement():
-    assert not _node_parses(json.dumps({"a": float("nan")}))
+    assert not node_parses(json.dumps({"a": float("nan")}))
     doc = json.loads(dumps({"a": float("nan"), "b": [np.float64("inf"), 1.5], "c": {"d": np.float64(2.0)}}))
     assert doc == {"a": None, "b": [None, 1.5], "c": {"d": 2.0}}
 
@@ -62,15 +57,14 @@ def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
         ["report", str(tiny_lut), "--points", "20", "--max-de", "1"],
         ["sweep", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--out", str(tmp_path / "sweep")],
         ["tune", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--max-de", "50"],
-        ["check"],
-    ]
+    ]   # and `check`: tests/test_stability.py parses the one run of it the suite makes
     for args in commands:
         out = run(*args, "--json")
         assert out.returncode in (0, 1), (args, out.stderr)
-        assert _node_parses(out.stdout), (args, out.stdout[:500])
+        assert node_parses(out.stdout), (args, out.stdout[:500])
     # the sweep's LUT rows have no ns/eval: null in the printed and the written document
     sweep = json.loads((tmp_path / "sweep" / "sweep.json").read_text())
-    assert _node_parses((tmp_path / "sweep" / "sweep.json").read_text())
+    assert node_parses((tmp_path / "sweep" / "sweep.json").read_text())
     assert any(r["ns_per_eval"] is None for r in sweep["rows"] if r["kind"] == "lut")
     assert sweep["point_kind"] == "uniform"
 

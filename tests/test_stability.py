@@ -1,28 +1,42 @@
 """Stiff and extreme inputs: `lutbake check`, and a fuzz of the kernel path."""
 
 import json
+import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
+from conftest import node_parses
 from lutbake import check
 from lutbake.integrate import OpenCLBackend
 from lutbake.optics import film_reflectance
 from lutbake.points import FilmPoints
 
 
-def test_lutbake_check_passes_and_reports_every_case():
+@pytest.fixture(scope="module")
+def check_json():
+    """`lutbake check --json`, run once (seconds): its stdout."""
     out = subprocess.run([sys.executable, "-m", "lutbake.cli", "check", "--json"], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr
-    doc = json.loads(out.stdout)
+    return out.stdout
+
+
+def test_lutbake_check_passes_and_reports_every_case(check_json):
+    doc = json.loads(check_json)
     groups = {c["group"] for c in doc["checks"]}
     assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation",
                       "fourier series"}
     for c in doc["checks"]:
         assert {"value", "reference", "error", "tolerance", "passed"} <= set(c)
         assert c["passed"] and np.isfinite(c["value"])
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is the strict parser this test uses")
+def test_check_json_parses_with_node(check_json):
+    """`check --json` among the documents tests/test_cli_honest.py parses with node."""
+    assert node_parses(check_json)
 
 
 def test_check_exits_1_on_a_failure(monkeypatch):
