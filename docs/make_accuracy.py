@@ -101,7 +101,7 @@ def render(reports, sweep, bases):
         "[docs/accuracy/](accuracy/)). ΔE00 in CIELAB with the working space's white, against the ground",
         f"truth (converged spectral integral) at {POINTS:,} held-out points per LUT, seed 0, sampled from the",
         "stored (half) texels: half uniform over the domain, half at centres of random grid cells (all four",
-        "axes at a cell centre, η3's in its admittance coordinate), where interpolation error peaks.",
+        "axes at a cell centre of the coordinates the nodes are uniform in), where interpolation error peaks.",
         "ΔE00 ≈ 1 is a just-noticeable difference. The LUT rows read the file by its header's rule, cubic",
         "for the default set ([lut-format.md](lut-format.md#interpolation)); `lut-linear-reads` is the same",
         "file read by the 4-fetch linear rule. The approximation rows are the shader math engines run",
