@@ -9,15 +9,17 @@
 // Several LUT includes and scene atlas includes can share one shader: the sampler is guarded, the
 // constants are named per LUT.
 
-#ifndef LUTBAKE_LUT_SAMPLER_V3
-#define LUTBAKE_LUT_SAMPLER_V3
+#ifndef LUTBAKE_LUT_SAMPLER_V4
+#define LUTBAKE_LUT_SAMPLER_V4
 #ifndef LUTBAKE_SCANLINE0_AT_V0
 #define LUTBAKE_SCANLINE0_AT_V0 0
 #endif
 
 // Axes in order (cos_theta, opd_nm, eta3, kappa3); sqrt_spacing 1: nodes uniform in sqrt(value);
 // root4_spacing 1: uniform in value^(1/4); mirror_low 1: the cubic rule mirrors node 1 below node 0;
-// eta3_admittance 1: eta3 nodes uniform in sqrt(eta3^2 - (eta1 sin theta1)^2) at the point's cos theta1.
+// eta3_admittance 1: eta3 is first mapped to its admittance sqrt(eta3^2 - (eta1 sin theta1)^2) at the
+// point's cos theta1, then warped like any axis: nodes uniform in the admittance ("admittance") or, with
+// sqrt_spacing.z 1, in its square root ("sqrt-admittance").
 struct LutbakeLut {
     highp vec4 lo;
     highp vec4 hi;
@@ -34,11 +36,10 @@ struct LutbakeLut {
 // Axis values in the coordinate their nodes are uniform in. ((v - eta1)(v + eta1) + (eta1 cos)^2 is
 // v^2 - (eta1 sin theta1)^2 without cancellation near v = eta1 at grazing.)
 highp vec4 lutbake_warp(LutbakeLut l, highp vec4 v, highp float cos_theta) {
-    highp vec4 w = mix(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
-    w = mix(w, sqrt(sqrt(max(v, 0.0))), l.root4_spacing);
     highp float e1c = l.eta1 * cos_theta;
-    w.z = mix(w.z, sqrt(max((v.z - l.eta1) * (v.z + l.eta1) + e1c * e1c, 0.0)), l.eta3_admittance);
-    return w;
+    v.z = mix(v.z, sqrt(max((v.z - l.eta1) * (v.z + l.eta1) + e1c * e1c, 0.0)), l.eta3_admittance);
+    highp vec4 w = mix(v, sqrt(max(v, 0.0)), l.sqrt_spacing);
+    return mix(w, sqrt(sqrt(max(v, 0.0))), l.root4_spacing);
 }
 
 // Continuous node coordinate in [0, count - 1] for each axis (clamped to the domain).
