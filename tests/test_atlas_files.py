@@ -113,3 +113,18 @@ def test_report_scores_the_stored_atlas_and_gates(tmp_path):
     assert json.loads((tmp_path / "rep" / "summary.json").read_text()) == summary
     gated = cli("report", ATLAS, "--points", 100, "--max-de", 0.01)
     assert gated.returncode == 1 and "FAIL" in gated.stdout
+
+
+def test_committed_scene_luts_carry_this_version_s_format_and_includes():
+    """The baked examples in docs/scenes are what this lutbake writes: each 4D LUT's header is the current
+    format version and its .glsl/.hlsl are the includes the current templates make from that header (a
+    stale include would not compile beside current ones: two LutbakeLut structs)."""
+    from lutbake.lutfile import FORMAT_VERSION, read_lut, shader_includes
+
+    luts = sorted((ROOT / "docs" / "scenes").glob("*/lut-*.exr"))
+    assert luts
+    for path in luts:
+        meta, _ = read_lut(path)
+        assert meta["format_version"] == FORMAT_VERSION, path.name
+        for suffix, text in shader_includes(meta, path.name).items():
+            assert path.with_suffix(f".{suffix}").read_text() == text, path.with_suffix(f".{suffix}").name
