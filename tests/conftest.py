@@ -39,7 +39,7 @@ def _holds_the_default_set(folder: Path) -> bool:
 
 
 def default_luts() -> Path:
-    """luts/: the default LUT set as `lutbake bake` with no options writes it. Not tracked (7–8 MB each).
+    """luts/: the default LUT set as `lutbake bake` with no options writes it. Not tracked (up to 8 MiB each).
     The set is baked once, by README command 1 into lutbake-luts/ (CI runs it before the tests; run here
     when lutbake-luts/ is missing or stale: a content hash differs from the current default specs) and
     copied into luts/ when luts/ is stale. Under a lock that test processes running side by side
