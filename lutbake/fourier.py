@@ -33,7 +33,7 @@ from .optics import _stack_terms, normal_admittance
 from .usercache import cached_arrays
 
 __all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
-           "SeriesResult", "series_colour", "series_plan", "NU0_PER_NM", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
+           "SeriesResult", "series_colour", "series_plan", "PATHS", "NU0_PER_NM", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
            "DEFAULT_SERIES_TOLERANCE"]
 
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
@@ -266,22 +266,45 @@ def series_plan(co: SeriesCoefficients, wt: WeightTransform, tolerance: float = 
     return np.where(ok | closed, hi, -1).astype(np.int64)
 
 
+PATHS = ("series", "closed-form", "direct")   # SeriesResult.path codes 0, 1, 2
+
+
 @dataclass
 class SeriesResult:
     values: np.ndarray   # (n, 3); NaN where the texel takes the direct path
-    terms: np.ndarray    # (n,) M, or −1 for the direct path
-    bound: np.ndarray    # (n,) enforced a-priori |ΔRGB| bound of the series (0 for direct texels)
+    terms: np.ndarray    # (n,) M where the series is summed, else −1
+    bound: np.ndarray    # (n,) enforced a-priori |ΔRGB| bound (0 for direct texels)
+    path: np.ndarray     # (n,) index into PATHS
 
 
 def series_colour(stack, observer="cie1931", space="rec709", basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE,
                   budget=SERIES_BUDGET) -> SeriesResult:
-    """RGB of film stacks of constant indices (points.FilmPoints, flat fields) by the series where the
-    rule allows it, in float64."""
+    """RGB of film stacks of constant indices (points.FilmPoints, flat fields) in float64: by the series
+    where its rule allows, else by the poles' closed form (lutbake/poles.py) where the film propagates
+    and that form's bound is within ``tolerance`` per polarization, else left to the direct path (NaN)."""
     stack.require("series", film=None, base=None)
     wt = weight_transform(observer, space, basis)
     co = series_coefficients(stack.eta1, stack.eta2, np.asarray(stack.cos_theta, float), stack.opd_nm, stack.eta3,
                              stack.kappa3)
     terms = series_plan(co, wt, tolerance, budget)
+    values, bound = _series_sum(co, wt, terms)
+    path = np.where(terms >= 0, 0, 2)
+    todo = np.flatnonzero((terms < 0) & co.in_scope)
+    if todo.size:
+        from .poles import closed_form
+
+        w0 = wt(np.zeros(1))[:, 0].real
+        forms = [closed_form(co.k[p, todo], co.q[p, todo], co.x_nm[todo], observer, space) for p in (0, 1)]
+        ok = forms[0].ok & forms[1].ok & (np.maximum(forms[0].bound, forms[1].bound) <= tolerance)
+        rgb = 0.5 * sum(co.c0[p, todo][:, None] * w0 + 2 * f.integral.real for p, f in enumerate(forms))
+        done = todo[ok]
+        values[done], bound[done], path[done] = rgb[ok], (forms[0].bound + forms[1].bound)[ok], 1
+    values[path == 2] = np.nan
+    return SeriesResult(values, terms, bound, path)
+
+
+def _series_sum(co: SeriesCoefficients, wt: WeightTransform, terms):
+    """(values (n, 3), bound (n,)) of the series with ``terms`` terms per texel (0 where terms < 0)."""
     w0 = wt(np.zeros(1))[:, 0]
     # X = 0: Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1 (γ = 0).
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -295,10 +318,9 @@ def series_colour(stack, observer="cie1931", space="rec709", basis="rgb", tolera
         power[:, active] *= co.q[:, active]
     per_pol = co.c0[..., None] * w0.real + 2 * acc.real
     values = 0.5 * per_pol.sum(axis=0)
-    values[terms < 0] = np.nan
     # the table's error, carried through the M terms taken: Σ_pol |K| (1 − |q|^M)/(1 − |q|) · δ
     with np.errstate(divide="ignore", invalid="ignore"):
         taken = np.abs(co.k) * (1 - np.abs(co.q) ** np.maximum(terms, 0)) / co.one_minus_q
     interp = np.sum(np.where(co.k == 0, 0.0, taken), axis=0) * wt.interpolation_bound.max()
     bound = np.where(terms >= 0, _remainder(co, wt, np.maximum(terms, 0)) * ~zero + interp, 0.0)
-    return SeriesResult(values, terms, bound)
+    return values, bound

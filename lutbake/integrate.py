@@ -55,9 +55,7 @@ class NumpyBackend:
     @staticmethod
     def series_plan(spec) -> "SeriesStats":
         """This path integrates every texel directly."""
-        stats = SeriesStats()
-        stats.add(np.full(spec.cells, -1), np.zeros(spec.cells))
-        return stats
+        return SeriesStats((0, 0, spec.cells))
 
     def evaluate(self, spec, stack: FilmPoints):
         """RGB (P, 3) of P stacks of the spec's film (flat fields), each at its texel's rule nodes."""
@@ -180,14 +178,34 @@ def find_device(selector: str):
     return found[0]
 
 
+KERNEL_SOURCES = ("kernels/airy.cl", "kernels/poles.cl")
+PLAN_GROUP = 64   # plan_rows reduces its outcome per work-group of this size
+
+
+def _kernel_defines() -> list:
+    """The closed form's geometry (lutbake/poles.py) as build options: one statement of each constant."""
+    from . import poles
+
+    real = {"BAND_CENTRE": poles.BAND_CENTRE_NM, "BAND_HALF": poles.BAND_HALF_NM, "NEAR_RHO": poles.NEAR_RHO,
+            "BOUND_RHO": poles.BOUND_RHO, "WINDOW_LO": poles.WINDOW_NU_PER_NM[0],
+            "WINDOW_HI": poles.WINDOW_NU_PER_NM[1], "CAUCHY_SHALLOW": poles.SHALLOW_NM}
+    whole = {"MAX_NEAR": poles.MAX_NEAR_POLES, "CAUCHY_RE_MIN": int(poles.RE_MIN_NM),
+             "CAUCHY_RE_MAX": int(poles.RE_MAX_NM), "CAUCHY_NEAR_KNOTS": poles.NEAR_KNOTS,
+             "SHALLOW_DEGREE": poles.SHALLOW_DEGREE, "DEEP_DEGREE": poles.DEEP_DEGREE, "DEEP_LEVELS": poles.DEEP_LEVELS,
+             "KNOT_MIN": int(poles.WAVELENGTH_MIN_NM), "N_KNOTS": poles.N_KNOTS,
+             "CHEB_NODES": poles.CHEBYSHEV_DEGREE + 1, "PLAN_GROUP": PLAN_GROUP}
+    return ([f"-D{name}=((REAL){value!r})" for name, value in real.items()]
+            + [f"-D{name}={value}" for name, value in whole.items()])
+
+
 def _build(device, compute: str):
     import pyopencl as cl
 
     if compute == "float64" and "cl_khr_fp64" not in device.extensions:
         raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64: bake with compute float32")
     ctx = cl.Context([device])
-    source = resources.files("lutbake").joinpath("kernels/airy.cl").read_text()
-    options = ["-DLUTBAKE_FP64"] if compute == "float64" else []
+    source = "\n".join(resources.files("lutbake").joinpath(name).read_text() for name in KERNEL_SOURCES)
+    options = (["-DLUTBAKE_FP64"] if compute == "float64" else []) + _kernel_defines()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return ctx, cl.Program(ctx, source).build(options=options)
@@ -259,21 +277,53 @@ def _program(device, compute: str):
 
 
 class SeriesStats:
-    """The series rule over a bake: its method mix and the largest a-priori bound it enforces."""
+    """The rule's outcome over a bake: texels per path (the series, the poles' closed form, the direct
+    quadrature) and the largest a-priori bound each of the first two enforces."""
 
-    def __init__(self):
-        self.series_texels = self.direct_texels = 0
-        self.bound_rgb_max = 0.0
+    def __init__(self, texels=(0, 0, 0), bounds=(0.0, 0.0)):
+        self.texels = list(texels)
+        self.bounds = list(bounds)
 
-    def add(self, cap, bound):
-        taken = cap >= 0
-        self.series_texels += int(taken.sum())
-        self.direct_texels += int(cap.size - taken.sum())
-        self.bound_rgb_max = max(self.bound_rgb_max, float(bound[taken].max(initial=0.0)))
+    def add(self, counts, bounds):
+        """Fold in per-group counts (groups, 3) and largest bounds (groups, 2)."""
+        self.texels = [t + int(c) for t, c in zip(self.texels, np.asarray(counts).sum(axis=0))]
+        self.bounds = [max(b, float(m)) for b, m in zip(self.bounds, np.asarray(bounds).max(axis=0, initial=0.0))]
+
+    series_texels = property(lambda self: self.texels[0])
+    closed_form_texels = property(lambda self: self.texels[1])
+    direct_texels = property(lambda self: self.texels[2])
 
     def describe(self) -> dict:
-        return {"series_texels": self.series_texels, "direct_texels": self.direct_texels,
-                "series_bound_rgb_max": self.bound_rgb_max}
+        return {"series_texels": self.texels[0], "closed_form_texels": self.texels[1], "direct_texels": self.texels[2],
+                "series_bound_rgb_max": self.bounds[0], "closed_form_bound_rgb_max": self.bounds[1]}
+
+
+PAIR_TABLE_BYTES = 64 << 20   # most memory the pairs' Ŵ(mX) take at once (more: in groups of pairs)
+
+
+class _BakePlan:
+    """A spec's rule outcome on one device: stats, each (cos θ, D) pair's series terms as running
+    offsets, and the pairs grouped so that each group's Ŵ(mX) fits PAIR_TABLE_BYTES (the last group's
+    table kept)."""
+
+    def __init__(self, key, stats, pair_terms):
+        self.key, self.stats = key, stats
+        self.offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
+        self.groups = _pair_groups(self.offsets, PAIR_TABLE_BYTES // 48)
+        self.group = self.table = self.group_offsets = None
+
+
+def _pair_groups(offsets, most_terms) -> list:
+    """[(first pair, end pair)] covering every pair, each holding at most ``most_terms`` terms (a pair
+    with more takes a group of its own)."""
+    groups, start = [], 0
+    n = offsets.size - 1
+    while start < n:
+        end = int(np.searchsorted(offsets, offsets[start] + most_terms, "right")) - 1
+        end = min(max(end, start + 1), n)
+        groups.append((start, end))
+        start = end
+    return groups
 
 
 def _series_arrays(spec):
@@ -304,8 +354,10 @@ class OpenCLBackend:
     passes its self-check (PoCL first).
 
     ``integrator`` 'series' (the bake's default) runs the Fourier series where
-    its rule allows and the direct quadrature elsewhere (bake_rows_series);
-    'direct' runs the quadrature on every texel (bake_rows).
+    its rule allows, the poles' closed form (kernels/poles.cl) where the film
+    propagates and the series would be long, and the direct quadrature for
+    what is left (evanescent films, films whose poles are too many); 'direct'
+    runs the quadrature on every texel.
     """
 
     name = "opencl"
@@ -318,14 +370,16 @@ class OpenCLBackend:
         self.dtype = np.float64 if compute == "float64" else np.float32
         reasons = []
         for candidate in _candidate_devices(device):
-            self._static = self._series = None   # buffers belong to one device's context
+            self._static = self._series = self._plan = self._cauchy = None   # buffers belong to one context
             built = _program(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
                 reasons.append(str(built))
                 continue
             self.ctx, program = built
-            self.kernel = cl.Kernel(program, "bake_rows")
+            self.direct_kernel = cl.Kernel(program, "bake_texels_direct")
             self.series_kernel = cl.Kernel(program, "bake_rows_series")
+            self.closed_kernel = cl.Kernel(program, "bake_texels_closed")
+            self.pair_kernel = cl.Kernel(program, "pair_transform")
             self.plan_kernel = cl.Kernel(program, "plan_rows")
             self.points_kernel = cl.Kernel(program, "reflectance_points")
             self.stack_terms_kernel = cl.Kernel(program, "stack_terms")
@@ -373,7 +427,7 @@ class OpenCLBackend:
         return self._static[1]
 
     def _series_buffers(self, spec):
-        """(buffers, scalars) of the series kernel for ``spec`` (built once per spec)."""
+        """(buffers, scalars) of the series kernels for ``spec`` (built once per spec)."""
         import pyopencl as cl
 
         if self._series and self._series[0] == spec.content_hash:
@@ -391,51 +445,140 @@ class OpenCLBackend:
         self._series = (spec.content_hash, args)
         return args
 
-    def series_plan(self, spec) -> SeriesStats:
-        """The series rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+    def _cauchy_buffers(self, spec):
+        """The closed form's tables (lutbake/poles.py) for the spec's colour weights (built once per
+        observer and space)."""
         import pyopencl as cl
 
-        if self.integrator == "direct":
-            return NumpyBackend.series_plan(spec)
-        stats = SeriesStats()
+        from .poles import cauchy_table, chebyshev_rule
+
+        key = (spec.observer, spec.space)
+        if self._cauchy and self._cauchy[0] == key:
+            return self._cauchy[1]
+        table, rule = cauchy_table(*key), chebyshev_rule(*key)
+        arrays = [np.stack([t.real, t.imag], -1) for t in (table.shallow, table.deep)]
+        arrays += [np.concatenate([table.knot_a, table.knot_b]), np.concatenate([rule.wavelength_nm[None], rule.weights])]
+        mf = cl.mem_flags
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                   for a in arrays]
+        args = [*buffers, self.dtype(table.bound.max()), self.dtype(rule.mass.max())]
+        self._cauchy = (key, args)
+        return args
+
+    def _run_plan(self, n_items: int, *args):
+        """plan_rows over ``n_items`` texels in work-groups of exactly PLAN_GROUP (its reduction's size)."""
+        groups = -(-n_items // PLAN_GROUP)
+        self.plan_kernel(self.queue, (groups * PLAN_GROUP,), (PLAN_GROUP,), *args, np.int32(n_items))
+        return groups
+
+    def _band_args(self, spec, y0):
         width, _ = spec.image_size
         n_cos, n_opd, _, _ = spec.shape
+        return [np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), *self._series_buffers(spec)]
+
+    def _bake_plan(self, spec) -> "_BakePlan":
+        """The rule over the whole grid (plan_rows, band by band): its outcome and each (cos θ, D)
+        pair's series terms; the pairs' Ŵ(mX) when they fit one table (built once per spec)."""
+        import pyopencl as cl
+
+        if self._plan and self._plan.key == spec.content_hash:
+            return self._plan
+        stats = SeriesStats()
+        n_cos, n_opd, _, _ = spec.shape
+        pair_terms = np.zeros(n_cos * n_opd, np.int32)
         mf = cl.mem_flags
+        terms_buf = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=pair_terms)
+        width, _ = spec.image_size
         for y0, y1 in spec.row_chunks():
             cells = (y1 - y0) * width
-            cap, bound = np.empty(cells, np.int32), np.empty(cells, self.dtype)
-            cap_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, cap.nbytes)
-            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bound.nbytes)
-            self._run(self.plan_kernel, cells, np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0),
-                      *self._series_buffers(spec), cap_buf, bound_buf)
-            cl.enqueue_copy(self.queue, cap, cap_buf)
-            cl.enqueue_copy(self.queue, bound, bound_buf)
-            stats.add(cap, bound)
-        return stats
+            groups = -(-cells // PLAN_GROUP)
+            counts, bounds = np.empty((groups, 3), np.int32), np.empty((groups, 2), self.dtype)
+            count_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, counts.nbytes)
+            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bounds.nbytes)
+            self._run_plan(cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec), terms_buf, count_buf,
+                           bound_buf)
+            cl.enqueue_copy(self.queue, counts, count_buf)
+            cl.enqueue_copy(self.queue, bounds, bound_buf)
+            stats.add(counts, bounds)
+        cl.enqueue_copy(self.queue, pair_terms, terms_buf)
+        self._plan = _BakePlan(spec.content_hash, stats, pair_terms)
+        return self._plan
+
+    def series_plan(self, spec) -> SeriesStats:
+        """The rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+        if self.integrator == "direct":
+            return NumpyBackend.series_plan(spec)
+        return self._bake_plan(spec).stats
+
+    def _pair_table(self, spec, plan, group):
+        """(offsets, Ŵ(mX)) buffers of the pairs of ``group`` (pair_transform; kept while it is the last
+        group asked for: one group per spec unless the grid is huge)."""
+        import pyopencl as cl
+
+        if plan.group != group:
+            p0, p1 = group
+            offsets = (plan.offsets[p0:p1 + 1] - plan.offsets[p0]).astype(np.int32)
+            mf = cl.mem_flags
+            plan.group_offsets = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=offsets)
+            plan.table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(offsets[-1])) * np.dtype(self.dtype).itemsize)
+            args = self._series_buffers(spec)
+            self._run(self.pair_kernel, p1 - p0, args[1], plan.group_offsets, np.int32(p0), *args[2:5], plan.table)
+            plan.group = group
+        return plan.group_offsets, plan.table
 
     def bake_rows(self, spec, y0, y1):
         import pyopencl as cl
 
-        buffers, n_min = self._static_buffers(spec)
         width, _ = spec.image_size
-        n_cos, n_opd, _, _ = spec.shape
         cells = (y1 - y0) * width
-        levels = spec.row_levels(y0, y1)
-        mf = cl.mem_flags
-        level_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=levels)
         out = np.empty((y1 - y0, width, 3), self.dtype)
-        out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        real = self.dtype
-        args = [*buffers, level_buf, real(spec.eta1), real(spec.eta2),
-                np.int32(n_cos), np.int32(n_opd), np.int32(width), np.int32(y0), np.int32(n_min)]
+        mf = cl.mem_flags
+        out_buf = cl.Buffer(self.ctx, mf.READ_WRITE, out.nbytes)
         if self.integrator == "direct":
-            self._run(self.kernel, cells, *args, out_buf)
+            self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
         else:
-            self._run(self.series_kernel, cells, *args, *self._series_buffers(spec), out_buf)
+            plan = self._bake_plan(spec)
+            lists = [cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4) for _ in range(2)]
+            counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
+                      for _ in range(2)]
+            for group in plan.groups:
+                offsets, table = self._pair_table(spec, plan, group)
+                self._run(self.series_kernel, cells, *self._band_args(spec, y0), offsets, np.int32(group[0]),
+                          np.int32(group[1]), table, out_buf, lists[0], counts[0])
+            left = self._count(counts[0])
+            if left:
+                self._run(self.closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
+                          lists[0], out_buf, lists[1], counts[1])
+                left = self._count(counts[1])
+            if left:
+                texels = np.empty(left, np.int32)
+                cl.enqueue_copy(self.queue, texels, lists[1])
+                texels.sort()
+                params = [np.ravel(p)[texels] for p in spec.cell_params(y0, y1)]
+                self._direct(spec, y0, texels, spec.cell_levels(*params), out_buf)
         cl.enqueue_copy(self.queue, out, out_buf)
-        out_buf.release()
-        level_buf.release()
         return out.astype(np.float64, copy=False)
+
+    def _count(self, buffer) -> int:
+        import pyopencl as cl
+
+        count = np.empty(1, np.int32)
+        cl.enqueue_copy(self.queue, count, buffer)
+        return int(count[0])
+
+    def _direct(self, spec, y0, texels, levels, out_buf):
+        """The direct quadrature at ``texels`` (band indices) of the band starting at row y0."""
+        import pyopencl as cl
+
+        buffers, n_min = self._static_buffers(spec)
+        n_cos, n_opd, _, _ = spec.shape
+        mf = cl.mem_flags
+        texel_buf, level_buf = (cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+                                for a in (texels.astype(np.int32), levels.astype(np.int32)))
+        real = self.dtype
+        self._run(self.direct_kernel, texels.size, *buffers, texel_buf, level_buf, real(spec.eta1), real(spec.eta2),
+                  np.int32(n_cos), np.int32(n_opd), np.int32(spec.image_size[0]), np.int32(y0), np.int32(n_min),
+                  out_buf)
 
     def evaluate(self, spec, stack: FilmPoints):
         """RGB (P, 3) of P stacks of the spec's film (flat fields): the kernel's R at each one's rule nodes."""

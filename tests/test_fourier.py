@@ -115,18 +115,19 @@ def test_total_reflection_at_the_base_has_no_fringes():
     assert np.allclose(co.c0, 1.0, atol=1e-15) and np.abs(co.k).max() <= 1e-15
 
 
-def test_out_of_scope_texels_take_the_direct_path():
+def test_texels_beyond_the_series_take_the_closed_form_and_evanescent_films_the_direct_path():
     evanescent, _ = _one(1.5, 1.2, 0.2, 1000.0, 1.5, 0.0)
-    assert evanescent.terms[0] == -1 and np.isnan(evanescent.values).all()
-    # |q| → 1 at a thick film: the table cannot carry the terms the bound needs
-    near_grazing = series_colour(FilmPoints.texels(eta1=1.0, eta2=2.0, cos_theta=[1e-4], opd_nm=[4000.0], eta3=2.0,
-                                                   kappa3=20.0))
-    assert near_grazing.terms[0] == -1
+    assert evanescent.terms[0] == -1 and evanescent.path[0] == 2 and np.isnan(evanescent.values).all()
+    # |q| → 1 at a thick film: the table cannot carry the terms the bound needs; the poles can
+    near_grazing, truth = _one(1.0, 2.0, 1e-4, 4000.0, 2.0, 20.0)
+    assert near_grazing.terms[0] == -1 and near_grazing.path[0] == 1
+    assert np.abs(near_grazing.values - truth).max() <= 1e-10 and near_grazing.bound[0] <= 1e-9
     # more terms than the budget: the series is not picked
     film = FilmPoints.texels(eta1=1.0, eta2=1.5, cos_theta=[0.5], opd_nm=[3000.0], eta3=2.0, kappa3=4.0)
     fine = series_colour(film)
     costly = series_colour(film, budget=fine.terms[0] - 1)
-    assert fine.terms[0] > 1 and costly.terms[0] == -1
+    assert fine.terms[0] > 1 and costly.terms[0] == -1 and costly.path[0] == 1
+    assert np.abs(costly.values - fine.values).max() <= 1e-9
 
 
 # --- the bake kernel's series (kernels/airy.cl: bake_rows_series, plan_rows) ---
@@ -167,10 +168,10 @@ def test_kernel_rule_is_the_numpy_rule(grid_spec, kernel_device):
 
     stats = OpenCLBackend("float64", device=kernel_device).series_plan(grid_spec)
     params = [np.ravel(p) for p in grid_spec.cell_params(0, grid_spec.image_size[1])]
-    terms = series_plan(series_coefficients(grid_spec.eta1, grid_spec.eta2, *params), weight_transform())
-    assert stats.series_texels + stats.direct_texels == grid_spec.cells
-    assert abs(stats.series_texels - np.sum(terms >= 0)) <= grid_spec.cells // 10000
-    assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bound_rgb_max <= 1e-7
+    paths = np.bincount(series_colour(grid_spec.texel_stacks(params)).path, minlength=3)
+    assert sum(stats.texels) == grid_spec.cells
+    assert np.abs(np.array(stats.texels) - paths).max() <= grid_spec.cells // 10000
+    assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bounds[0] <= 1e-7
 
 
 def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid, kernel_device):

@@ -214,7 +214,9 @@ inline void direct_rgb(const Texel *t, __global const REAL *nu_h, __global const
     rgb[2] = b.sum;
 }
 
-__kernel void bake_rows(
+// The direct quadrature at listed texels of a band of rows starting at row0 (`texels`: their index in the
+// band; `levels`: each one's rule level, k for n_min·2^k nodes).
+__kernel void bake_texels_direct(
     __global const REAL *cos_axis,                            // N_cos
     __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
     __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd
@@ -222,14 +224,15 @@ __kernel void bake_rows(
     __global const REAL *kappa3_axis,
     __global const REAL *nu_hi, __global const REAL *nu_lo,     // all ladder rules' nodes (1/nm)
     __global const REAL *weights,                             // per rule: 3 × count, row-major
-    __global const int *levels,                               // rule level of each texel
+    __global const int *texels, __global const int *levels,
     const REAL eta1, const REAL eta2,
     const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
     __global REAL *rgb_out,                                   // rows × width × 3
     const int n_items)
 {
     ITEMS_GUARD
-    const int x = gid % width, y = row0 + gid / width;
+    const int index = texels[gid];
+    const int x = index % width, y = row0 + index / width;
     const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
@@ -238,9 +241,7 @@ __kernel void bake_rows(
     // Ladder rule k has n_min·2^k nodes, stored after those of rules 0 … k−1.
     const int n_nodes = n_min << levels[gid];
     const int first = n_nodes - n_min;
-    __global const REAL *nu_h = nu_hi + first, *nu_l = nu_lo + first;
-    __global const REAL *wt = weights + 3 * first;
-    direct_rgb(&t, nu_h, nu_l, wt, n_nodes, rgb_out + 3 * gid);
+    direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * index);
 }
 
 // R at arbitrary (stack, wavenumber) points, film and base indices per point
@@ -346,6 +347,13 @@ __kernel void stack_rgb(
 // K and q (host: `turn`) makes each term one complex product and one table
 // evaluation. The host gives C0, K, q, 1 − |q| per (cos θ, η3, κ3) and X per
 // (cos θ, D), in float64 (lutbake.fourier.series_coefficients).
+//
+// X depends on (cos θ, D) only, so a bake evaluates the table once per (cos θ,
+// D) pair and term (pair_transform) and every texel of the pair reads those
+// values (bake_rows_series). A band runs in up to three passes: the series,
+// then the texels it leaves (a list the series kernel appends to) by the
+// poles' closed form (kernels/poles.cl), then what that leaves by the direct
+// quadrature (bake_texels_direct).
 
 typedef struct { CPLX k, q; REAL c0, one_minus_q; } SeriesPol;
 
@@ -390,11 +398,10 @@ inline void weight_transform(__global const REAL *table, int intervals, REAL s, 
 }
 
 // The rule for one texel: the most terms it may take (cap ≥ 0), or −1 where
-// it goes to the direct quadrature: out of scope (evanescent film:
-// one_minus_q < 0), or the remainder bound is not ≤ tol within the table
-// (M·X ≤ x_max) and `budget` terms. Closed form (no loop), so `plan_rows`
-// reports a bake's method mix before it runs. *bound gets the a-priori bound
-// the series then enforces: tol plus the table's interpolation error carried
+// the series is not used: out of scope (evanescent film: one_minus_q < 0), or
+// the remainder bound is not ≤ tol within the table (M·X ≤ x_max) and
+// `budget` terms. Closed form (no loop). *bound gets the a-priori bound the
+// series then enforces: tol plus the table's interpolation error carried
 // through at most min(cap, 1/(1 − |q|)) terms of size |K|.
 inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
                       REAL tol, int budget, REAL *bound) {
@@ -411,10 +418,25 @@ inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global con
     return cap;
 }
 
-// RGB by the series, term by term until the remainder bound is ≤ tol (by
-// `cap` terms at the latest); X = 0 sums it in closed form.
-inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __global const REAL *table,
-                       int intervals, REAL step, __global const REAL *tail, REAL tol, __global REAL *rgb) {
+// Terms the series sums: the first m ≤ cap whose remainder bound is ≤ tol (0 for X = 0). The plan and
+// the bake run this same loop, so a pair's table (pair_transform) holds every term its texels read.
+inline int series_terms(SeriesPol s, SeriesPol p, REAL x, int cap, __global const REAL *tail, REAL tol) {
+    if (x == 0) return 0;
+    const Remainder r = remainder_setup(s, p, x, tail);
+    REAL qs_m = 1, qp_m = 1;
+    int m = 0;
+    while (m < cap && remainder_after(&r, qs_m, qp_m, m) > tol) {
+        ++m;
+        qs_m *= r.qs;
+        qp_m *= r.qp;
+    }
+    return m;
+}
+
+// RGB by the series, `terms` terms, reading the pair's Ŵ(mX) (6 REAL per term: three channels, re and
+// im, demodulated); X = 0 sums it in closed form.
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, __global const REAL *w,
+                       __global const REAL *table, __global REAL *rgb) {
     const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
     const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
     REAL acc[3] = {0, 0, 0};
@@ -425,20 +447,15 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
         for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
         return;
     }
-    const Remainder r = remainder_setup(s, p, x, tail);
-    const REAL x_step = x / step;
     const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
     CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
-    REAL qs_m = 1, qp_m = 1;
-    for (int m = 1; m <= cap && remainder_after(&r, qs_m, qp_m, m - 1) > tol; ++m) {
-        CPLX w[3];
-        weight_transform(table, intervals, m * x_step, w);
+    for (int m = 0; m < terms; ++m, w += 6) {
         const CPLX a = ks + kp;
-        for (int c = 0; c < 3; ++c) acc[c] += a.x * w[c].x - a.y * w[c].y;
+        acc[0] += a.x * w[0] - a.y * w[1];
+        acc[1] += a.x * w[2] - a.y * w[3];
+        acc[2] += a.x * w[4] - a.y * w[5];
         ks = c_mul(ks, qs_t);
         kp = c_mul(kp, qp_t);
-        qs_m *= r.qs;
-        qp_m *= r.qp;
     }
     for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
 }
@@ -449,49 +466,51 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
     __global const REAL *table, const int intervals, const REAL step,                             \
     __global const REAL *tail, const REAL interp, const REAL tol, const int budget  /* tail: mass, edge, variation */
 
-// The texel's series constants, X and rule (shared by both kernels below).
-#define SERIES_TEXEL                                                                              \
-    const int x = gid % width, y = row0 + gid / width;                                           \
+// The texel's series constants, X and rule, from its index in a band of rows starting at row0.
+#define SERIES_TEXEL(index)                                                                       \
+    const int x = (index) % width, y = row0 + (index) / width;                                   \
     const int i_cos = x % n_cos, i_eta3 = x / n_cos;   /* the tile packing: lutbake/layout.py */  \
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
+    const int pair = i_opd * n_cos + i_cos;                                                       \
     __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
-    __global const REAL *f = film + 3 * (i_opd * n_cos + i_cos);                                  \
+    __global const REAL *f = film + 3 * pair;                                                     \
     const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
     REAL bound;                                                                                    \
     const int cap = series_cap(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
 
-// The rule's outcome per texel of a band of rows: term cap (−1: direct) and a-priori bound.
-__kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                        __global int *cap_out, __global REAL *bound_out, const int n_items)
+// Ŵ(mX), m = 1 … terms, of each (cos θ, D) pair in [pair0, pair0 + n_items): `offset` (n_items + 1,
+// from 0) places pair pair0 + j's terms at out[6·offset[j] …]. The same evaluation, to the bit, as a
+// texel evaluating its own terms.
+__kernel void pair_transform(__global const REAL *film, __global const int *offset, const int pair0,
+                             __global const REAL *table, const int intervals, const REAL step,
+                             __global REAL *out, const int n_items)
 {
     ITEMS_GUARD
-    SERIES_TEXEL
-    cap_out[gid] = cap;
-    bound_out[gid] = bound;
+    const REAL x_step = film[3 * (pair0 + gid)] / step;
+    const int first = offset[gid], count = offset[gid + 1] - first;
+    for (int m = 1; m <= count; ++m) {
+        CPLX w[3];
+        weight_transform(table, intervals, m * x_step, w);
+        __global REAL *o = out + 6 * (first + m - 1);
+        o[0] = w[0].x; o[1] = w[0].y; o[2] = w[1].x; o[3] = w[1].y; o[4] = w[2].x; o[5] = w[2].y;
+    }
 }
 
-// bake_rows with the series wherever its rule allows, the direct quadrature elsewhere.
-__kernel void bake_rows_series(
-    __global const REAL *cos_axis,
-    __global const REAL *cos2_hi, __global const REAL *cos2_lo,
-    __global const REAL *opd_hi, __global const REAL *opd_lo,
-    __global const REAL *eta3_column, __global const REAL *kappa3_axis,
-    __global const REAL *nu_hi, __global const REAL *nu_lo,
-    __global const REAL *weights,
-    __global const int *levels,
-    const REAL eta1, const REAL eta2,
-    const int n_cos, const int n_opd, const int width, const int row0, const int n_min,
-    SERIES_ARGS, __global REAL *rgb_out, const int n_items)
+// The bake's first pass over a band: the series for every texel whose rule allows it and whose pair is in
+// [pair0, pair1) (the pairs whose terms `pair_w` holds, placed by `offset` as in pair_transform); the
+// others of those pairs are appended to `rest` (their band index; `rest_count` counts them).
+__kernel void bake_rows_series(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                               __global const int *offset, const int pair0, const int pair1,
+                               __global const REAL *pair_w, __global REAL *rgb_out,
+                               __global int *rest, __global int *rest_count, const int n_items)
 {
     ITEMS_GUARD
-    SERIES_TEXEL
-    if (cap >= 0) {
-        series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, table, intervals, step, tail, tol, rgb_out + 3 * gid);
+    SERIES_TEXEL(gid)
+    if (pair < pair0 || pair >= pair1) return;
+    if (cap < 0) {
+        rest[atomic_inc(rest_count)] = gid;
         return;
     }
-    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
-                                opd_lo[i_opd], eta3_column[x], kappa3_axis[i_kappa3], eta1, eta2);
-    const int n_nodes = n_min << levels[gid];
-    const int first = n_nodes - n_min;
-    direct_rgb(&t, nu_hi + first, nu_lo + first, weights + 3 * first, n_nodes, rgb_out + 3 * gid);
+    const int terms = series_terms(sp, pp, f[0], cap, tail, tol);
+    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), terms, pair_w + 6 * offset[pair - pair0], table, rgb_out + 3 * gid);
 }

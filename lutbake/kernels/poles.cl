@@ -1,0 +1,247 @@
+// lutbake: the spectral integral in closed form by the poles of the Airy series (lutbake/poles.py, whose
+// docstring derives it; docs/spectral.md). Appended to airy.cl; the host defines the tables' geometry
+// (CAUCHY_*, CHEB_NODES, …) from lutbake/poles.py when it builds the program.
+//
+// Per polarization, I_c = Σ_m K q^{m−1} Ŵ_c(mX) = ∫ w_c f dλ with f = K z/(1 − q z), z = e^{i2πX/λ},
+// whose poles are P_n = 1/p_n, p_n = ζ + n/X, ζ = i log q/(2πX), residues R_n = (K/q) P_n²/(i2πX):
+//     I_c = Σ_{near} R_n Γ_c(P_n) + Σ_i Ω_ci h(λ_i),   h = f − Σ_{near} R_n/(λ − P_n),
+// near = inside the Bernstein ellipse E_NEAR_RHO of the band, Γ_c the weights' Cauchy transform
+// (tables), Ω the Chebyshev product rule. float64 only: in float32 the pole positions carry too little
+// of q (the texels go to the direct quadrature).
+
+inline CPLX c_log(CPLX z) { return (CPLX)(log(length(z)), atan2(z.y, z.x)); }
+inline CPLX c_recip(CPLX z) { return c_div((CPLX)(1, 0), z); }
+inline CPLX c_scale(CPLX z, REAL s) { return (CPLX)(z.x * s, z.y * s); }
+
+// ρ of the Bernstein ellipse of [360, 830] nm through P (any square root of w² − 1 will do: max of both).
+inline REAL bernstein_rho(CPLX P) {
+    const CPLX w = (CPLX)((P.x - BAND_CENTRE) / BAND_HALF, P.y / BAND_HALF);
+    const CPLX s = c_sqrt_upper(c_mul(w, w) - (CPLX)(1, 0));
+    return fmax(length(w + s), length(w - s));
+}
+
+inline REAL semi_major(REAL rho) { return BAND_HALF * (REAL)0.5 * (rho + 1 / rho); }
+
+#define CAUCHY_ARGS \
+    __global const REAL *cauchy_shallow, /* (cells, 3, SHALLOW_DEGREE + 1, re/im) */       \
+    __global const REAL *cauchy_deep,    /* (cells, 3, DEEP_DEGREE + 1, re/im) */          \
+    __global const REAL *cauchy_knots,   /* a (3 × N_KNOTS), then b (3 × N_KNOTS) */       \
+    __global const REAL *cheb,           /* nodes (CHEB_NODES), weights (3 × CHEB_NODES) */ \
+    const REAL gamma_bound, const REAL weight_mass
+
+#define CAUCHY_PASS cauchy_shallow, cauchy_deep, cauchy_knots, cheb, gamma_bound, weight_mass
+
+// Σ_m c_m u^m for the three channels' coefficient rows (degree d, complex, contiguous).
+inline void horner3(__global const REAL *c, int d, CPLX u, CPLX g[3]) {
+    for (int ch = 0; ch < 3; ++ch, c += 2 * (d + 1)) {
+        CPLX v = (CPLX)(c[2 * d], c[2 * d + 1]);
+        for (int m = d - 1; m >= 0; --m) v = c_mul(v, u) + (CPLX)(c[2 * m], c[2 * m + 1]);
+        g[ch] = v;
+    }
+}
+
+// Γ_c(P) = ∫ w_c(λ)/(λ − P) dλ, Im P > 0, from the tables (lutbake.poles.CauchyTable).
+inline void cauchy_gamma(CPLX P, CAUCHY_ARGS, CPLX g[3]) {
+    if (P.y < CAUCHY_SHALLOW) {
+        const int j = (int)floor(P.x);
+        horner3(cauchy_shallow + (j - CAUCHY_RE_MIN) * 6 * (SHALLOW_DEGREE + 1), SHALLOW_DEGREE,
+                P - (CPLX)((REAL)j + (REAL)0.5, 0), g);
+        for (int k = max(j + 1 - CAUCHY_NEAR_KNOTS, KNOT_MIN); k <= min(j + CAUCHY_NEAR_KNOTS, KNOT_MIN + N_KNOTS - 1);
+             ++k) {
+            const CPLX lg = c_log((CPLX)((REAL)k - P.x, -P.y));
+            for (int ch = 0; ch < 3; ++ch) {
+                const REAL a = cauchy_knots[ch * N_KNOTS + k - KNOT_MIN];
+                const REAL b = cauchy_knots[(3 + ch) * N_KNOTS + k - KNOT_MIN];
+                g[ch] += c_mul((CPLX)(a + b * P.x, b * P.y), lg);
+            }
+        }
+        return;
+    }
+    int level = clamp((int)floor(log2(P.y / CAUCHY_SHALLOW)), 0, DEEP_LEVELS - 1);
+    int first = 0;
+    for (int l = 0; l < level; ++l) first += 2 * (int)ceil((CAUCHY_RE_MAX - CAUCHY_RE_MIN) / ((REAL)0.5 * CAUCHY_SHALLOW * (REAL)(1 << l)));
+    const REAL depth = CAUCHY_SHALLOW * (REAL)(1 << level), width = (REAL)0.5 * depth;
+    const int cols = (int)ceil((CAUCHY_RE_MAX - CAUCHY_RE_MIN) / width);
+    const int row = P.y >= (REAL)1.5 * depth;
+    const int col = clamp((int)floor((P.x - CAUCHY_RE_MIN) / width), 0, cols - 1);
+    const CPLX centre = (CPLX)(CAUCHY_RE_MIN + ((REAL)col + (REAL)0.5) * width, depth * ((REAL)1.25 + (REAL)0.5 * row));
+    horner3(cauchy_deep + (first + row * cols + col) * 6 * (DEEP_DEGREE + 1), DEEP_DEGREE, P - centre, g);
+}
+
+// A polarization's poles: the near ones (position, residue) and the bound M on |h| over E_BOUND_RHO.
+typedef struct { CPLX P[MAX_NEAR]; CPLX R[MAX_NEAR]; int count; CPLX kq, reference; REAL x, M, residues; } Poles;
+
+// Enumerate the poles with Re p_n in the window (lutbake.poles.closed_form): 0 where more than
+// MAX_NEAR are near (the texel goes to the direct quadrature).
+inline int find_poles(CPLX k, CPLX q, REAL x, Poles *s) {
+    const CPLX lq = c_log(q);
+    const CPLX zeta = c_scale((CPLX)(-lq.y, lq.x), 1 / (2 * PI_R * x));
+    const REAL n_lo = floor(x * (WINDOW_LO - zeta.x)), n_hi = ceil(x * (WINDOW_HI - zeta.x));
+    s->kq = c_div(k, q);
+    s->x = x;
+    s->count = 0;
+    s->residues = 0;
+    REAL explicit_far = 0, best = INFINITY;
+    const REAL to_residue = 1 / (2 * PI_R * x);
+    for (REAL n = n_lo; n <= n_hi; n += 1) {
+        const CPLX p = zeta + (CPLX)(n / x, 0);
+        const CPLX P = c_recip(p);
+        const CPLX P2 = c_mul(P, P);
+        // R = (K/q) P²/(i2πX) = −i (K/q) P²/(2πX)
+        const CPLX kp2 = c_mul(s->kq, P2);
+        const CPLX R = c_scale((CPLX)(kp2.y, -kp2.x), to_residue);
+        const REAL rho = bernstein_rho(P);
+        const REAL off_centre = fabs(p.x - (REAL)1 / BAND_CENTRE);
+        if (off_centre < best) { best = off_centre; s->reference = P; }
+        if (rho < NEAR_RHO) {
+            if (s->count == MAX_NEAR) return 0;
+            s->P[s->count] = P;
+            s->R[s->count] = R;
+            s->residues += length(R);
+            ++s->count;
+        } else {
+            explicit_far += length(R) / (semi_major(rho) - semi_major(BOUND_RHO));
+        }
+    }
+    // the far tail (lutbake.poles._far_tail) and K/(1 − q)
+    const REAL tail = length(s->kq) / (2 * PI_R * x * (REAL)129) * 2 * ((REAL)1 / ((REAL)2e-3 * (REAL)2e-3) + x / (REAL)2e-3);
+    s->M = length(c_div(k, (CPLX)(1 - q.x, -q.y))) + explicit_far + tail;
+    return 1;
+}
+
+// The a-priori bound on |ΔI_c| (largest channel): the Chebyshev rule's and the table's.
+inline REAL poles_bound(const Poles *s, REAL gamma_bound, REAL weight_mass) {
+    return weight_mass * 4 * s->M * pow(BOUND_RHO, -(REAL)(CHEB_NODES - 1)) / (BOUND_RHO - 1) + s->residues * gamma_bound;
+}
+
+// 1/(e^x − 1) − 1/x, smooth at x = 0 (Bernoulli series there).
+inline CPLX expm1_inverse_minus_pole(CPLX x) {
+    if (length(x) < (REAL)0.05) {
+        const CPLX x2 = c_mul(x, x);
+        CPLX s = (CPLX)((REAL)-1 / (REAL)1209600, 0);
+        s = c_mul(s, x2) + (CPLX)((REAL)1 / (REAL)30240, 0);
+        s = c_mul(s, x2) + (CPLX)((REAL)-1 / (REAL)720, 0);
+        s = c_mul(s, x2) + (CPLX)((REAL)1 / (REAL)12, 0);
+        return c_mul(s, x) + (CPLX)((REAL)-0.5, 0);
+    }
+    // e^x − 1 = (e^{Re x} − 1) cos(Im x) − 2 sin²(Im x/2) + i e^{Re x} sin(Im x)
+    const REAL s_half = sin((REAL)0.5 * x.y), e = exp(x.x);
+    const CPLX em1 = (CPLX)(expm1(x.x) * cos(x.y) - 2 * s_half * s_half, e * sin(x.y));
+    return c_recip(em1) - c_recip(x);
+}
+
+// I_c of one polarization (its poles found), added to out[3].
+inline void poles_integral(const Poles *s, CAUCHY_ARGS, CPLX out[3]) {
+    for (int j = 0; j < s->count; ++j) {
+        CPLX g[3];
+        cauchy_gamma(s->P[j], CAUCHY_PASS, g);
+        for (int ch = 0; ch < 3; ++ch) out[ch] += c_mul(s->R[j], g[ch]);
+    }
+    const CPLX pole_scale = (CPLX)(0, -1 / (2 * PI_R * s->x));   // 1/(i2πX)
+    for (int i = 0; i < CHEB_NODES; ++i) {
+        const REAL lam = cheb[i];
+        int star = -1;
+        REAL best = INFINITY;
+        for (int j = 0; j < s->count; ++j) {
+            const REAL d = length(s->P[j] - (CPLX)(lam, 0));
+            if (d < best) { best = d; star = j; }
+        }
+        // q z = e^{iθ}, θ = 2πX (P* − λ)/(λ P*): f relative to the nearest pole, no rounding amplified
+        const CPLX ps = star >= 0 ? s->P[star] : s->reference;
+        const CPLX theta = c_scale(c_div(ps - (CPLX)(lam, 0), c_scale(ps, lam)), 2 * PI_R * s->x);
+        const CPLX ix = (CPLX)(-theta.y, theta.x);
+        CPLX h = (CPLX)(-1, 0) - expm1_inverse_minus_pole(ix);
+        h += star >= 0 ? c_mul(ps, pole_scale) : -c_recip(ix);
+        h = c_mul(s->kq, h);
+        for (int j = 0; j < s->count; ++j)
+            if (j != star) h -= c_div(s->R[j], (CPLX)(lam, 0) - s->P[j]);
+        for (int ch = 0; ch < 3; ++ch) out[ch] += c_scale(h, cheb[CHEB_NODES * (1 + ch) + i]);
+    }
+}
+
+// The texel's path (0 series, 1 closed form, 2 direct) and the bound it enforces; *terms the series' terms.
+inline int texel_path(SeriesPol sp, SeriesPol pp, REAL x, int cap, REAL series_bound, __global const REAL *tail,
+                      REAL tol, CAUCHY_ARGS, REAL *bound, int *terms) {
+    *terms = 0;
+    *bound = 0;
+    if (cap >= 0) {
+        *terms = series_terms(sp, pp, x, cap, tail, tol);
+        *bound = series_bound;
+        return 0;
+    }
+#ifdef LUTBAKE_FP64
+    if (sp.one_minus_q < 0) return 2;
+    Poles s, p;
+    if (!find_poles(sp.k, sp.q, x, &s) || !find_poles(pp.k, pp.q, x, &p)) return 2;
+    const REAL bs = poles_bound(&s, gamma_bound, weight_mass), bp = poles_bound(&p, gamma_bound, weight_mass);
+    if (fmax(bs, bp) > tol) return 2;
+    *bound = bs + bp;
+    return 1;
+#else
+    return 2;
+#endif
+}
+
+// The rule's outcome over a band, reduced per work-group of PLAN_GROUP work-items: texels per path
+// (counts: 3 per group) and the largest bound per path (bounds: 2 per group, series and closed
+// form); the series' terms per (cos θ, D) pair go to pair_terms (the most any texel of the pair takes).
+__kernel __attribute__((reqd_work_group_size(PLAN_GROUP, 1, 1)))
+void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS, CAUCHY_ARGS,
+               __global int *pair_terms, __global int *counts, __global REAL *bounds, const int n_items)
+{
+    __local int path_of[PLAN_GROUP];
+    __local REAL bound_of[PLAN_GROUP];
+    const int gid = get_global_id(0), lid = get_local_id(0);
+    path_of[lid] = -1;
+    if (gid < n_items) {
+        SERIES_TEXEL(gid)
+        int terms;
+        REAL texel_bound;
+        path_of[lid] = texel_path(sp, pp, f[0], cap, bound, tail, tol, CAUCHY_PASS, &texel_bound, &terms);
+        bound_of[lid] = texel_bound;
+        if (terms > 0) atomic_max(pair_terms + pair, terms);
+    }
+    barrier(CLK_LOCAL_MEM_FENCE);
+    if (lid == 0) {
+        int c[3] = {0, 0, 0};
+        REAL b[2] = {0, 0};
+        for (int i = 0; i < PLAN_GROUP; ++i) {
+            const int path = path_of[i];
+            if (path < 0) continue;
+            ++c[path];
+            if (path < 2) b[path] = fmax(b[path], bound_of[i]);
+        }
+        const int group = get_group_id(0);
+        for (int j = 0; j < 3; ++j) counts[3 * group + j] = c[j];
+        bounds[2 * group] = b[0];
+        bounds[2 * group + 1] = b[1];
+    }
+}
+
+// The bake's second pass: the closed form at the texels the series left (`texels`: band indices); those
+// it cannot take (out of scope, too many near poles, bound above tol) are appended to `rest` for the
+// direct quadrature. Only the float64 program integrates; float32 passes every texel on.
+__kernel void bake_texels_closed(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                                 CAUCHY_ARGS, __global const int *texels, __global REAL *rgb_out,
+                                 __global int *rest, __global int *rest_count, const int n_items)
+{
+    ITEMS_GUARD
+    const int index = texels[gid];
+    SERIES_TEXEL(index)
+#ifdef LUTBAKE_FP64
+    CPLX acc[3] = {(CPLX)(0, 0), (CPLX)(0, 0), (CPLX)(0, 0)};
+    Poles poles;
+    int ok = cap < 0 && sp.one_minus_q >= 0
+             && find_poles(sp.k, sp.q, f[0], &poles) && poles_bound(&poles, gamma_bound, weight_mass) <= tol;
+    if (ok) poles_integral(&poles, CAUCHY_PASS, acc);
+    ok = ok && find_poles(pp.k, pp.q, f[0], &poles) && poles_bound(&poles, gamma_bound, weight_mass) <= tol;
+    if (ok) poles_integral(&poles, CAUCHY_PASS, acc);
+    if (ok) {
+        const REAL c0 = (REAL)0.5 * (sp.c0 + pp.c0);
+        __global REAL *rgb = rgb_out + 3 * index;
+        for (int c = 0; c < 3; ++c) rgb[c] = c0 * table[12 * c] + acc[c].x;
+        return;
+    }
+#endif
+    rest[atomic_inc(rest_count)] = index;
+}
