@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, weight_transform
+from .fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
 from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
 from .errors import ParameterError
@@ -165,10 +165,24 @@ def spectral_error(spec: BakeSpec) -> float:
     return _error_at(spec, _probe_points(spec))
 
 
-def capped_error(spec: BakeSpec) -> tuple:
-    """(texels past the node cap, their a-priori bound, the error measured at the worst 64)."""
-    count, bound, texels = spec.capped_texels()
-    return count, bound, _error_at(spec, spec.texel_stacks(texels))
+def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
+    """(texels past the node cap among those the direct quadrature integrates, their a-priori bound, the
+    error measured at the worst 64).
+
+    ``direct_texels``: how many texels the integrator leaves to the direct quadrature (its plan); None
+    when it integrates every texel so (the numpy path, ``integrator='direct'``). Where the series or the
+    poles' closed form take the rest, the capped texels among them are found by the same rule in numpy
+    (lutbake.fourier.series_colour) and only those on the direct path are counted and measured."""
+    if direct_texels == 0:
+        return 0, 0.0, 0.0
+    if direct_texels is None:
+        count, bound, texels = spec.capped_texels()
+        return count, bound, _error_at(spec, spec.texel_stacks(texels))
+    _, _, texels = spec.capped_texels(limit=spec.cells)
+    texels = tuple(t[series_colour(spec.texel_stacks(texels), spec.observer, spec.space).path == 2] for t in texels)
+    bound = spec.truncation_estimate(*texels)
+    worst = np.argsort(-bound, kind="stable")[:64]
+    return int(bound.size), float(bound.max(initial=0.0)), _error_at(spec, spec.texel_stacks(t[worst] for t in texels))
 
 
 def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
@@ -261,17 +275,24 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute, integrator, device)
+    plan = integrator.series_plan(spec)
     error = spectral_error(spec)
-    capped = capped_error(spec)
-    meta = metadata(spec, error, capped, integrator.series_plan(spec).describe())
+    capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
+    meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
     width, height = spec.image_size
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
     with exr_rows(files.temp(out_path), width, height, meta, spec.precision) as exr:
-        for y0, y1 in chunks:
-            exr.write_rows(integrator.bake_rows(spec, y0, y1))
-            if on_band:
-                on_band(y1 - y0, height)
+        # band k is written while the device bakes band k + 1
+        pending = None
+        for band in [*chunks, None]:
+            started = integrator.begin_rows(spec, *band) if band else None
+            if pending is not None:
+                rows = pending.result()
+                exr.write_rows(rows)
+                if on_band:
+                    on_band(rows.shape[0], height)
+            pending = started
     files.temp(out_path.with_suffix(".json")).write_text(json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
     for suffix, text in shader_includes(meta, out_path.name).items():
         files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)

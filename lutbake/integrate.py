@@ -52,6 +52,9 @@ class NumpyBackend:
         stacks = spec.texel_stacks(a.ravel() for a in spec.cell_params(y0, y1))
         return self.evaluate(spec, stacks).reshape(y1 - y0, -1, 3)
 
+    def begin_rows(self, spec, y0, y1) -> "PendingRows":
+        return PendingRows(self.bake_rows(spec, y0, y1))
+
     @staticmethod
     def series_plan(spec) -> "SeriesStats":
         """This path integrates every texel directly."""
@@ -179,7 +182,6 @@ def find_device(selector: str):
 
 
 KERNEL_SOURCES = ("kernels/airy.cl", "kernels/poles.cl")
-PLAN_GROUP = 64   # plan_rows reduces its outcome per work-group of this size
 
 
 def _kernel_defines() -> list:
@@ -193,7 +195,7 @@ def _kernel_defines() -> list:
              "CAUCHY_RE_MAX": int(poles.RE_MAX_NM), "CAUCHY_NEAR_KNOTS": poles.NEAR_KNOTS,
              "SHALLOW_DEGREE": poles.SHALLOW_DEGREE, "DEEP_DEGREE": poles.DEEP_DEGREE, "DEEP_LEVELS": poles.DEEP_LEVELS,
              "KNOT_MIN": int(poles.WAVELENGTH_MIN_NM), "N_KNOTS": poles.N_KNOTS,
-             "CHEB_NODES": poles.CHEBYSHEV_DEGREE + 1, "PLAN_GROUP": PLAN_GROUP}
+             "CHEB_NODES": poles.CHEBYSHEV_DEGREE + 1}
     return ([f"-D{name}=((REAL){value!r})" for name, value in real.items()]
             + [f"-D{name}={value}" for name, value in whole.items()])
 
@@ -298,6 +300,22 @@ class SeriesStats:
                 "series_bound_rgb_max": self.bounds[0], "closed_form_bound_rgb_max": self.bounds[1]}
 
 
+class PendingRows:
+    """A band being baked: ``result()`` waits for it and returns it (rows, width, 3) in float64."""
+
+    def __init__(self, rows, event=None, keep=()):
+        self._rows, self._event, self._keep = rows, event, keep
+
+    def result(self) -> np.ndarray:
+        if self._event is not None:
+            self._event.wait()
+            for item in self._keep:
+                if isinstance(item, tuple) and (item[1].wait() or item[0][0]):
+                    raise RuntimeError(f"{item[0][0]} texels left for a direct pass the plan did not expect")
+            self._event = self._keep = None
+        return self._rows.astype(np.float64, copy=False)
+
+
 PAIR_TABLE_BYTES = 64 << 20   # most memory the pairs' Ŵ(mX) take at once (more: in groups of pairs)
 
 
@@ -381,6 +399,8 @@ class OpenCLBackend:
             self.closed_kernel = cl.Kernel(program, "bake_texels_closed")
             self.pair_kernel = cl.Kernel(program, "pair_transform")
             self.plan_kernel = cl.Kernel(program, "plan_rows")
+            self.plan_closed_kernel = cl.Kernel(program, "plan_texels_closed")
+            self.max_kernel = cl.Kernel(program, "max_chunks")
             self.points_kernel = cl.Kernel(program, "reflectance_points")
             self.stack_terms_kernel = cl.Kernel(program, "stack_terms")
             self.stack_kernel = cl.Kernel(program, "stack_rgb")
@@ -465,12 +485,6 @@ class OpenCLBackend:
         self._cauchy = (key, args)
         return args
 
-    def _run_plan(self, n_items: int, *args):
-        """plan_rows over ``n_items`` texels in work-groups of exactly PLAN_GROUP (its reduction's size)."""
-        groups = -(-n_items // PLAN_GROUP)
-        self.plan_kernel(self.queue, (groups * PLAN_GROUP,), (PLAN_GROUP,), *args, np.int32(n_items))
-        return groups
-
     def _band_args(self, spec, y0):
         width, _ = spec.image_size
         n_cos, n_opd, _, _ = spec.shape
@@ -489,17 +503,27 @@ class OpenCLBackend:
         mf = cl.mem_flags
         terms_buf = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=pair_terms)
         width, _ = spec.image_size
+        real = np.dtype(self.dtype)
         for y0, y1 in spec.row_chunks():
             cells = (y1 - y0) * width
-            groups = -(-cells // PLAN_GROUP)
-            counts, bounds = np.empty((groups, 3), np.int32), np.empty((groups, 2), self.dtype)
-            count_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, counts.nbytes)
-            bound_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, bounds.nbytes)
-            self._run_plan(cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec), terms_buf, count_buf,
-                           bound_buf)
-            cl.enqueue_copy(self.queue, counts, count_buf)
-            cl.enqueue_copy(self.queue, bounds, bound_buf)
-            stats.add(counts, bounds)
+            rest = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4)
+            rest_count = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
+            bounds = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * real.itemsize)
+            self._run(self.plan_kernel, cells, *self._band_args(spec, y0), terms_buf, rest, rest_count, bounds)
+            left = self._count(rest_count)
+            series_bound = self._max(bounds, cells)
+            closed = [0, 0]
+            closed_bound = 0.0
+            if left:
+                path, bound = np.empty(left, np.int8), np.empty(left, self.dtype)
+                path_buf, bound_buf = (cl.Buffer(self.ctx, mf.WRITE_ONLY, a.nbytes) for a in (path, bound))
+                self._run(self.plan_closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
+                          rest, rest_count, path_buf, bound_buf)
+                cl.enqueue_copy(self.queue, path, path_buf)
+                cl.enqueue_copy(self.queue, bound, bound_buf)
+                closed = np.bincount(path, minlength=3)[1:3]
+                closed_bound = float(bound.max())
+            stats.add([[cells - left, *closed]], [[series_bound, closed_bound]])
         cl.enqueue_copy(self.queue, pair_terms, terms_buf)
         self._plan = _BakePlan(spec.content_hash, stats, pair_terms)
         return self._plan
@@ -527,6 +551,12 @@ class OpenCLBackend:
         return plan.group_offsets, plan.table
 
     def bake_rows(self, spec, y0, y1):
+        return self.begin_rows(spec, y0, y1).result()
+
+    def begin_rows(self, spec, y0, y1) -> "PendingRows":
+        """Enqueue the band [y0, y1) and return at once (unless some of its texels take the direct
+        quadrature, whose rule levels the host computes): the caller writes the previous band while the
+        device works."""
         import pyopencl as cl
 
         width, _ = spec.image_size
@@ -534,30 +564,44 @@ class OpenCLBackend:
         out = np.empty((y1 - y0, width, 3), self.dtype)
         mf = cl.mem_flags
         out_buf = cl.Buffer(self.ctx, mf.READ_WRITE, out.nbytes)
+        keep = [out_buf]
         if self.integrator == "direct":
-            self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
+            keep += self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
         else:
             plan = self._bake_plan(spec)
             lists = [cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4) for _ in range(2)]
             counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
                       for _ in range(2)]
+            keep += lists + counts
             for group in plan.groups:
                 offsets, table = self._pair_table(spec, plan, group)
                 self._run(self.series_kernel, cells, *self._band_args(spec, y0), offsets, np.int32(group[0]),
                           np.int32(group[1]), table, out_buf, lists[0], counts[0])
-            left = self._count(counts[0])
-            if left:
-                self._run(self.closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
-                          lists[0], out_buf, lists[1], counts[1])
-                left = self._count(counts[1])
+            if plan.stats.closed_form_texels or plan.stats.direct_texels:
+                self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
+                          lists[0], counts[0], out_buf, lists[1], counts[1])
+            left = self._count(counts[1]) if plan.stats.direct_texels else 0
             if left:
                 texels = np.empty(left, np.int32)
                 cl.enqueue_copy(self.queue, texels, lists[1])
                 texels.sort()
                 params = [np.ravel(p)[texels] for p in spec.cell_params(y0, y1)]
-                self._direct(spec, y0, texels, spec.cell_levels(*params), out_buf)
-        cl.enqueue_copy(self.queue, out, out_buf)
-        return out.astype(np.float64, copy=False)
+                keep += self._direct(spec, y0, texels, spec.cell_levels(*params), out_buf)
+            else:   # the plan said none: check that the band agrees (the same rule ran)
+                unplanned = np.zeros(1, np.int32)
+                keep.append((unplanned, cl.enqueue_copy(self.queue, unplanned, counts[1], is_blocking=False)))
+        return PendingRows(out, cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False), keep)
+
+    def _max(self, values, count: int) -> float:
+        """The largest of ``count`` values in a device buffer (max_chunks, then the host)."""
+        import pyopencl as cl
+
+        chunk = 4096
+        parts = np.empty(max(1, -(-count // chunk)), self.dtype)
+        out = cl.Buffer(self.ctx, cl.mem_flags.WRITE_ONLY, parts.nbytes)
+        self._run(self.max_kernel, parts.size, values, np.int32(count), np.int32(chunk), out)
+        cl.enqueue_copy(self.queue, parts, out)
+        return float(parts.max())
 
     def _count(self, buffer) -> int:
         import pyopencl as cl
@@ -566,8 +610,9 @@ class OpenCLBackend:
         cl.enqueue_copy(self.queue, count, buffer)
         return int(count[0])
 
-    def _direct(self, spec, y0, texels, levels, out_buf):
-        """The direct quadrature at ``texels`` (band indices) of the band starting at row y0."""
+    def _direct(self, spec, y0, texels, levels, out_buf) -> list:
+        """Enqueue the direct quadrature at ``texels`` (band indices) of the band starting at row y0; the
+        buffers it reads (to keep until it is done)."""
         import pyopencl as cl
 
         buffers, n_min = self._static_buffers(spec)
@@ -579,6 +624,7 @@ class OpenCLBackend:
         self._run(self.direct_kernel, texels.size, *buffers, texel_buf, level_buf, real(spec.eta1), real(spec.eta2),
                   np.int32(n_cos), np.int32(n_opd), np.int32(spec.image_size[0]), np.int32(y0), np.int32(n_min),
                   out_buf)
+        return [texel_buf, level_buf]
 
     def evaluate(self, spec, stack: FilmPoints):
         """RGB (P, 3) of P stacks of the spec's film (flat fields): the kernel's R at each one's rule nodes."""

@@ -433,6 +433,18 @@ inline int series_terms(SeriesPol s, SeriesPol p, REAL x, int cap, __global cons
     return m;
 }
 
+// At least series_terms (≤ cap), in closed form: the remainder bound with sup |Ŵ| ≤ mass is ≤ tol once
+// (|K_s|/(1 − |q_s|) + |K_p|/(1 − |q_p|)) max|q|^m · mass ≤ tol; one more term covers rounding of the logs.
+// The plan sizes each pair's table with it, without running the loop.
+inline int series_terms_bound(SeriesPol s, SeriesPol p, REAL x, int cap, __global const REAL *tail, REAL tol) {
+    if (x == 0 || cap == 0) return 0;
+    const Remainder r = remainder_setup(s, p, x, tail);
+    const REAL lead = (r.as + r.ap) * r.mass, q = fmax(r.qs, r.qp);
+    if (lead <= tol) return 0;
+    if (q == 0) return min(1, cap);
+    return (int)fmin((REAL)cap, ceil(log(tol / lead) / log(q)) + 1);
+}
+
 // RGB by the series, `terms` terms, reading the pair's Ŵ(mX) (6 REAL per term: three channels, re and
 // im, demodulated); X = 0 sums it in closed form.
 inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, __global const REAL *w,

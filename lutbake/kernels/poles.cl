@@ -125,8 +125,9 @@ inline CPLX expm1_inverse_minus_pole(CPLX x) {
         return c_mul(s, x) + (CPLX)((REAL)-0.5, 0);
     }
     // e^x − 1 = (e^{Re x} − 1) cos(Im x) − 2 sin²(Im x/2) + i e^{Re x} sin(Im x)
-    const REAL s_half = sin((REAL)0.5 * x.y), e = exp(x.x);
-    const CPLX em1 = (CPLX)(expm1(x.x) * cos(x.y) - 2 * s_half * s_half, e * sin(x.y));
+    REAL c, s = sincos(x.y, &c);
+    const REAL s_half = sin((REAL)0.5 * x.y);
+    const CPLX em1 = (CPLX)(expm1(x.x) * c - 2 * s_half * s_half, exp(x.x) * s);
     return c_recip(em1) - c_recip(x);
 }
 
@@ -143,7 +144,7 @@ inline void poles_integral(const Poles *s, CAUCHY_ARGS, CPLX out[3]) {
         int star = -1;
         REAL best = INFINITY;
         for (int j = 0; j < s->count; ++j) {
-            const REAL d = length(s->P[j] - (CPLX)(lam, 0));
+            const REAL d = c_abs2(s->P[j] - (CPLX)(lam, 0));
             if (d < best) { best = d; star = j; }
         }
         // q z = e^{iθ}, θ = 2πX (P* − λ)/(λ P*): f relative to the nearest pole, no rounding amplified
@@ -159,73 +160,71 @@ inline void poles_integral(const Poles *s, CAUCHY_ARGS, CPLX out[3]) {
     }
 }
 
-// The texel's path (0 series, 1 closed form, 2 direct) and the bound it enforces; *terms the series' terms.
-inline int texel_path(SeriesPol sp, SeriesPol pp, REAL x, int cap, REAL series_bound, __global const REAL *tail,
-                      REAL tol, CAUCHY_ARGS, REAL *bound, int *terms) {
-    *terms = 0;
-    *bound = 0;
-    if (cap >= 0) {
-        *terms = series_terms(sp, pp, x, cap, tail, tol);
-        *bound = series_bound;
-        return 0;
+// The plan's first pass over a band: for each texel the series takes, its bound (else 0) in `bound_out`
+// and each (cos θ, D) pair's pair_terms raised to at least its terms; the rest appended to `rest` for
+// plan_texels_closed. No work-group reduction here: a barrier halved this pass's speed on a CPU runtime
+// (max_chunks reduces the bounds).
+__kernel void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                        __global int *pair_terms, __global int *rest, __global int *rest_count,
+                        __global REAL *bound_out, const int n_items)
+{
+    ITEMS_GUARD
+    SERIES_TEXEL(gid)
+    bound_out[gid] = 0;
+    if (cap < 0) {
+        rest[atomic_inc(rest_count)] = gid;
+        return;
     }
+    const int terms = series_terms_bound(sp, pp, f[0], cap, tail, tol);
+    if (terms > pair_terms[pair]) atomic_max(pair_terms + pair, terms);   // a read spares most atomics
+    bound_out[gid] = bound;
+}
+
+// The largest of each `chunk` consecutive values (count of them in all).
+__kernel void max_chunks(__global const REAL *values, const int count, const int chunk, __global REAL *out,
+                         const int n_items)
+{
+    ITEMS_GUARD
+    REAL m = 0;
+    for (int i = gid * chunk; i < min(count, (gid + 1) * chunk); ++i) m = fmax(m, values[i]);
+    out[gid] = m;
+}
+
+// The plan's second pass: at the texels the series left (`texel_count` of them in `texels`), the path
+// (1 closed form, 2 direct) and the closed form's bound, per list entry. float32 programs send every
+// such texel to the direct path.
+__kernel void plan_texels_closed(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                                 CAUCHY_ARGS, __global const int *texels, __global const int *texel_count,
+                                 __global char *path_out, __global REAL *bound_out, const int n_items)
+{
+    ITEMS_GUARD
+    if (gid >= *texel_count) return;
+    const int index = texels[gid];
+    SERIES_TEXEL(index)
+    path_out[gid] = 2;
+    bound_out[gid] = 0;
 #ifdef LUTBAKE_FP64
-    if (sp.one_minus_q < 0) return 2;
-    Poles s, p;
-    if (!find_poles(sp.k, sp.q, x, &s) || !find_poles(pp.k, pp.q, x, &p)) return 2;
-    const REAL bs = poles_bound(&s, gamma_bound, weight_mass), bp = poles_bound(&p, gamma_bound, weight_mass);
-    if (fmax(bs, bp) > tol) return 2;
-    *bound = bs + bp;
-    return 1;
-#else
-    return 2;
+    Poles poles;
+    if (sp.one_minus_q < 0 || !find_poles(sp.k, sp.q, f[0], &poles)) return;
+    const REAL bs = poles_bound(&poles, gamma_bound, weight_mass);
+    if (bs > tol || !find_poles(pp.k, pp.q, f[0], &poles)) return;
+    const REAL bp = poles_bound(&poles, gamma_bound, weight_mass);
+    if (bp > tol) return;
+    path_out[gid] = 1;
+    bound_out[gid] = bs + bp;
 #endif
 }
 
-// The rule's outcome over a band, reduced per work-group of PLAN_GROUP work-items: texels per path
-// (counts: 3 per group) and the largest bound per path (bounds: 2 per group, series and closed
-// form); the series' terms per (cos θ, D) pair go to pair_terms (the most any texel of the pair takes).
-__kernel __attribute__((reqd_work_group_size(PLAN_GROUP, 1, 1)))
-void plan_rows(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS, CAUCHY_ARGS,
-               __global int *pair_terms, __global int *counts, __global REAL *bounds, const int n_items)
-{
-    __local int path_of[PLAN_GROUP];
-    __local REAL bound_of[PLAN_GROUP];
-    const int gid = get_global_id(0), lid = get_local_id(0);
-    path_of[lid] = -1;
-    if (gid < n_items) {
-        SERIES_TEXEL(gid)
-        int terms;
-        REAL texel_bound;
-        path_of[lid] = texel_path(sp, pp, f[0], cap, bound, tail, tol, CAUCHY_PASS, &texel_bound, &terms);
-        bound_of[lid] = texel_bound;
-        if (terms > 0) atomic_max(pair_terms + pair, terms);
-    }
-    barrier(CLK_LOCAL_MEM_FENCE);
-    if (lid == 0) {
-        int c[3] = {0, 0, 0};
-        REAL b[2] = {0, 0};
-        for (int i = 0; i < PLAN_GROUP; ++i) {
-            const int path = path_of[i];
-            if (path < 0) continue;
-            ++c[path];
-            if (path < 2) b[path] = fmax(b[path], bound_of[i]);
-        }
-        const int group = get_group_id(0);
-        for (int j = 0; j < 3; ++j) counts[3 * group + j] = c[j];
-        bounds[2 * group] = b[0];
-        bounds[2 * group + 1] = b[1];
-    }
-}
-
-// The bake's second pass: the closed form at the texels the series left (`texels`: band indices); those
-// it cannot take (out of scope, too many near poles, bound above tol) are appended to `rest` for the
-// direct quadrature. Only the float64 program integrates; float32 passes every texel on.
+// The bake's second pass: the closed form at the texels the series left (`texels`, `texel_count` of them,
+// read here so that the host need not wait for the first pass); those it cannot take (out of scope, too
+// many near poles, bound above tol) are appended to `rest` for the direct quadrature. Only the float64
+// program integrates; float32 passes every texel on.
 __kernel void bake_texels_closed(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                                 CAUCHY_ARGS, __global const int *texels, __global REAL *rgb_out,
-                                 __global int *rest, __global int *rest_count, const int n_items)
+                                 CAUCHY_ARGS, __global const int *texels, __global const int *texel_count,
+                                 __global REAL *rgb_out, __global int *rest, __global int *rest_count, const int n_items)
 {
     ITEMS_GUARD
+    if (gid >= *texel_count) return;
     const int index = texels[gid];
     SERIES_TEXEL(index)
 #ifdef LUTBAKE_FP64
