@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -275,8 +276,10 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
     start = time.perf_counter()
     integrator = make_backend(backend, spec.compute, integrator, device)
-    plan = integrator.series_plan(spec)
-    error = spectral_error(spec)
+    with ThreadPoolExecutor(1) as host:   # the probes' ground truth (numpy) while the device plans
+        probes = host.submit(spectral_error, spec)
+        plan = integrator.series_plan(spec)
+        error = probes.result()
     capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}

@@ -278,6 +278,32 @@ def _program(device, compute: str):
         return OpenCLUnavailable(f"{device_label(device)}: {next((l for l in lines if 'error' in l), lines[0])}")
 
 
+KERNELS = {"direct_kernel": "bake_texels_direct", "series_kernel": "bake_rows_series",
+           "closed_kernel": "bake_texels_closed", "pair_kernel": "pair_transform", "plan_kernel": "plan_rows",
+           "plan_closed_kernel": "plan_texels_closed", "max_kernel": "max_chunks",
+           "points_kernel": "reflectance_points", "stack_terms_kernel": "stack_terms", "stack_kernel": "stack_rgb"}
+
+
+_DEVICE_STATE = {}
+
+
+def _device_kernels(device, compute: str):
+    """(context, queue, kernels by name, table buffers by key) of one device's program (``_program``),
+    made once per program: every backend on it shares them (the default set's six bakes upload the
+    colour-weight tables once), or the OpenCLUnavailable saying why the program does not build."""
+    import pyopencl as cl
+
+    built = _program(device, compute)
+    if isinstance(built, OpenCLUnavailable):
+        return built
+    ctx, program = built
+    key = (device.int_ptr, compute)
+    if key not in _DEVICE_STATE or _DEVICE_STATE[key][0] is not program:
+        kernels = {name: cl.Kernel(program, name) for name in KERNELS.values()}
+        _DEVICE_STATE[key] = (program, (ctx, cl.CommandQueue(ctx), kernels, {}))
+    return _DEVICE_STATE[key][1]
+
+
 class SeriesStats:
     """The rule's outcome over a bake: texels per path (the series, the poles' closed form, the direct
     quadrature) and the largest a-priori bound each of the first two enforces."""
@@ -381,36 +407,30 @@ class OpenCLBackend:
     name = "opencl"
 
     def __init__(self, compute: str = "float64", integrator: str = "series", device=None):
-        import pyopencl as cl
-
         self.compute = compute
         self.integrator = integrator
         self.dtype = np.float64 if compute == "float64" else np.float32
         reasons = []
         for candidate in _candidate_devices(device):
-            self._static = self._series = self._plan = self._cauchy = None   # buffers belong to one context
-            built = _program(candidate, compute)
+            self._static = self._series = self._plan = None   # buffers belong to one context
+            built = _device_kernels(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
                 reasons.append(str(built))
                 continue
-            self.ctx, program = built
-            self.direct_kernel = cl.Kernel(program, "bake_texels_direct")
-            self.series_kernel = cl.Kernel(program, "bake_rows_series")
-            self.closed_kernel = cl.Kernel(program, "bake_texels_closed")
-            self.pair_kernel = cl.Kernel(program, "pair_transform")
-            self.plan_kernel = cl.Kernel(program, "plan_rows")
-            self.plan_closed_kernel = cl.Kernel(program, "plan_texels_closed")
-            self.max_kernel = cl.Kernel(program, "max_chunks")
-            self.points_kernel = cl.Kernel(program, "reflectance_points")
-            self.stack_terms_kernel = cl.Kernel(program, "stack_terms")
-            self.stack_kernel = cl.Kernel(program, "stack_rgb")
-            self.queue = cl.CommandQueue(self.ctx)
+            self.ctx, self.queue, self._kernels, self._tables = built
             error = _self_check(self, candidate)
             if error <= SELF_CHECK_TOLERANCE[compute]:
                 return
             reasons.append(f"{device_label(candidate)}: fails the self-check (|ΔR| {error:.2g} against numpy, "
                            f"tolerance {SELF_CHECK_TOLERANCE[compute]:g})")
         raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
+
+    def __getattr__(self, name):
+        """The program's kernels as attributes: self.series_kernel is bake_rows_series, …"""
+        kernels = self.__dict__.get("_kernels")
+        if kernels is not None and name in KERNELS:
+            return kernels[KERNELS[name]]
+        raise AttributeError(name)
 
     @property
     def device(self) -> str:
@@ -453,14 +473,18 @@ class OpenCLBackend:
         if self._series and self._series[0] == spec.content_hash:
             return self._series[1]
         wt = weight_transform(spec.observer, spec.space)
-        table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
-        tail = np.array([wt.mass.max(), wt.edge.max(), wt.variation.max()])
         mf = cl.mem_flags
         buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
-                   for a in (*_series_arrays(spec), table)]
-        tail_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=tail.astype(self.dtype))
+                   for a in _series_arrays(spec)]
+        key = ("fourier", spec.observer, spec.space)
+        if key not in self._tables:
+            table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
+            tail = np.array([wt.mass.max(), wt.edge.max(), wt.variation.max()])
+            self._tables[key] = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                                 for a in (table, tail)]
+        table_buf, tail_buf = self._tables[key]
         real = self.dtype
-        args = [*buffers, np.int32(table.shape[0]), real(wt.step_nm), tail_buf,
+        args = [*buffers, table_buf, np.int32(wt.coefficients.shape[0]), real(wt.step_nm), tail_buf,
                 real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_BUDGET)]
         self._series = (spec.content_hash, args)
         return args
@@ -472,18 +496,17 @@ class OpenCLBackend:
 
         from .poles import cauchy_table, chebyshev_rule
 
-        key = (spec.observer, spec.space)
-        if self._cauchy and self._cauchy[0] == key:
-            return self._cauchy[1]
-        table, rule = cauchy_table(*key), chebyshev_rule(*key)
+        key = ("cauchy", spec.observer, spec.space)
+        if key in self._tables:
+            return self._tables[key]
+        table, rule = cauchy_table(*key[1:]), chebyshev_rule(*key[1:])
         arrays = [np.stack([t.real, t.imag], -1) for t in (table.shallow, table.deep)]
         arrays += [np.concatenate([table.knot_a, table.knot_b]), np.concatenate([rule.wavelength_nm[None], rule.weights])]
         mf = cl.mem_flags
         buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
                    for a in arrays]
-        args = [*buffers, self.dtype(table.bound.max()), self.dtype(rule.mass.max())]
-        self._cauchy = (key, args)
-        return args
+        self._tables[key] = [*buffers, self.dtype(table.bound.max()), self.dtype(rule.mass.max())]
+        return self._tables[key]
 
     def _band_args(self, spec, y0):
         width, _ = spec.image_size

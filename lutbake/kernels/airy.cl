@@ -418,22 +418,7 @@ inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global con
     return cap;
 }
 
-// Terms the series sums: the first m ≤ cap whose remainder bound is ≤ tol (0 for X = 0). The plan and
-// the bake run this same loop, so a pair's table (pair_transform) holds every term its texels read.
-inline int series_terms(SeriesPol s, SeriesPol p, REAL x, int cap, __global const REAL *tail, REAL tol) {
-    if (x == 0) return 0;
-    const Remainder r = remainder_setup(s, p, x, tail);
-    REAL qs_m = 1, qp_m = 1;
-    int m = 0;
-    while (m < cap && remainder_after(&r, qs_m, qp_m, m) > tol) {
-        ++m;
-        qs_m *= r.qs;
-        qp_m *= r.qp;
-    }
-    return m;
-}
-
-// At least series_terms (≤ cap), in closed form: the remainder bound with sup |Ŵ| ≤ mass is ≤ tol once
+// At least the terms series_rgb sums (≤ cap), in closed form: the remainder bound with sup |Ŵ| ≤ mass is ≤ tol once
 // (|K_s|/(1 − |q_s|) + |K_p|/(1 − |q_p|)) max|q|^m · mass ≤ tol; one more term covers rounding of the logs.
 // The plan sizes each pair's table with it, without running the loop.
 inline int series_terms_bound(SeriesPol s, SeriesPol p, REAL x, int cap, __global const REAL *tail, REAL tol) {
@@ -445,10 +430,11 @@ inline int series_terms_bound(SeriesPol s, SeriesPol p, REAL x, int cap, __globa
     return (int)fmin((REAL)cap, ceil(log(tol / lead) / log(q)) + 1);
 }
 
-// RGB by the series, `terms` terms, reading the pair's Ŵ(mX) (6 REAL per term: three channels, re and
-// im, demodulated); X = 0 sums it in closed form.
-inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, __global const REAL *w,
-                       __global const REAL *table, __global REAL *rgb) {
+// RGB by the series, term by term until the remainder bound is ≤ tol (by `cap` terms at the latest),
+// reading the pair's Ŵ(mX) (6 REAL per term: three channels, re and im, demodulated; `w` holds at least
+// series_terms_bound of them); X = 0 sums it in closed form.
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __global const REAL *w,
+                       __global const REAL *table, __global const REAL *tail, REAL tol, __global REAL *rgb) {
     const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
     const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
     REAL acc[3] = {0, 0, 0};
@@ -459,15 +445,19 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int terms, _
         for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
         return;
     }
+    const Remainder r = remainder_setup(s, p, x, tail);
     const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
     CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
-    for (int m = 0; m < terms; ++m, w += 6) {
+    REAL qs_m = 1, qp_m = 1;
+    for (int m = 1; m <= cap && remainder_after(&r, qs_m, qp_m, m - 1) > tol; ++m, w += 6) {
         const CPLX a = ks + kp;
         acc[0] += a.x * w[0] - a.y * w[1];
         acc[1] += a.x * w[2] - a.y * w[3];
         acc[2] += a.x * w[4] - a.y * w[5];
         ks = c_mul(ks, qs_t);
         kp = c_mul(kp, qp_t);
+        qs_m *= r.qs;
+        qp_m *= r.qp;
     }
     for (int c = 0; c < 3; ++c) rgb[c] = c0 * w0[c] + acc[c];
 }
@@ -523,6 +513,6 @@ __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width
         rest[atomic_inc(rest_count)] = gid;
         return;
     }
-    const int terms = series_terms(sp, pp, f[0], cap, tail, tol);
-    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), terms, pair_w + 6 * offset[pair - pair0], table, rgb_out + 3 * gid);
+    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, pair_w + 6 * offset[pair - pair0], table, tail, tol,
+               rgb_out + 3 * gid);
 }
