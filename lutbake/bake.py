@@ -176,14 +176,11 @@ def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
     (lutbake.fourier.series_colour) and only those on the direct path are counted and measured."""
     if direct_texels == 0:
         return 0, 0.0, 0.0
-    if direct_texels is None:
-        count, bound, texels = spec.capped_texels()
-        return count, bound, _error_at(spec, spec.texel_stacks(texels))
-    _, _, texels = spec.capped_texels(limit=spec.cells)
-    texels = tuple(t[series_colour(spec.texel_stacks(texels), spec.observer, spec.space).path == 2] for t in texels)
-    bound = spec.truncation_estimate(*texels)
-    worst = np.argsort(-bound, kind="stable")[:64]
-    return int(bound.size), float(bound.max(initial=0.0)), _error_at(spec, spec.texel_stacks(t[worst] for t in texels))
+    def direct(texels):
+        return series_colour(spec.texel_stacks(texels), spec.observer, spec.space, integrate=False).path == 2
+
+    count, bound, texels = spec.capped_texels(keep=None if direct_texels is None else direct)
+    return count, bound, _error_at(spec, spec.texel_stacks(texels))
 
 
 def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
@@ -265,21 +262,27 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     ['oxide.exr', 'oxide.glsl', 'oxide.hlsl', 'oxide.json']
     """
     out_path = Path(out_path)
-    spec.check_budget(memory_limit_gib)
+    spec.check_budget(memory_limit_gib, backend, integrator)
     _check_writable(out_path)
     with open_set(out_path.parent, out_path.name) as files:
-        return write_lut(spec, out_path, files, backend, on_band, chunk_cells, integrator, device)
+        return write_lut(spec, out_path, files, backend, on_band, chunk_cells, integrator, device, memory_limit_gib)
 
 
 def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
-              chunk_cells=None, integrator: str = "series", device=None) -> BakeResult:
-    """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
+              chunk_cells=None, integrator: str = "series", device=None,
+              memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> BakeResult:
+    """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
+    the memory budget is checked again with the runtime's resident memory as measured."""
     start = time.perf_counter()
+    path = integrator
     integrator = make_backend(backend, spec.compute, integrator, device)
+    runtime = resident_bytes()
+    spec.check_budget(memory_limit_gib, integrator.name, path, runtime)
     with ThreadPoolExecutor(1) as host:   # the probes' ground truth (numpy) while the device plans
         probes = host.submit(spectral_error, spec)
         plan = integrator.series_plan(spec)
         error = probes.result()
+    spec.check_budget(memory_limit_gib, integrator.name, path, runtime, plan)
     capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
@@ -301,6 +304,20 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
         files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
     return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device,
                       error, *capped)
+
+
+def resident_bytes(peak: bool = False) -> int:
+    """The process's resident memory now (or its peak so far), bytes: Linux's VmRSS (VmHWM) in
+    /proc/self/status; elsewhere getrusage's peak. (getrusage's peak is not this process's alone: a
+    process forked from a larger one reports the parent's resident size until it outgrows it.)"""
+    import resource
+
+    field = "VmHWM:" if peak else "VmRSS:"
+    try:
+        with open("/proc/self/status") as status:
+            return next(int(line.split()[1]) * 1024 for line in status if line.startswith(field))
+    except (OSError, ValueError, IndexError, StopIteration):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def lut_members(out_path: Path) -> list:

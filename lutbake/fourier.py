@@ -278,28 +278,32 @@ class SeriesResult:
 
 
 def series_colour(stack, observer="cie1931", space="rec709", basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE,
-                  budget=SERIES_BUDGET) -> SeriesResult:
+                  budget=SERIES_BUDGET, integrate: bool = True) -> SeriesResult:
     """RGB of film stacks of constant indices (points.FilmPoints, flat fields) in float64: by the series
     where its rule allows, else by the poles' closed form (lutbake/poles.py) where the film propagates
-    and that form's bound is within ``tolerance`` per polarization, else left to the direct path (NaN)."""
+    and that form's bound is within ``tolerance`` per polarization, else left to the direct path (NaN).
+    ``integrate=False``: the rule's outcome alone (``values`` None, no integration)."""
     stack.require("series", film=None, base=None)
     wt = weight_transform(observer, space, basis)
     co = series_coefficients(stack.eta1, stack.eta2, np.asarray(stack.cos_theta, float), stack.opd_nm, stack.eta3,
                              stack.kappa3)
     terms = series_plan(co, wt, tolerance, budget)
-    values, bound = _series_sum(co, wt, terms)
+    values, bound = _series_sum(co, wt, terms) if integrate else (None, np.where(terms >= 0, np.nan, 0.0))
     path = np.where(terms >= 0, 0, 2)
     todo = np.flatnonzero((terms < 0) & co.in_scope)
     if todo.size:
         from .poles import closed_form
 
-        w0 = wt(np.zeros(1))[:, 0].real
-        forms = [closed_form(co.k[p, todo], co.q[p, todo], co.x_nm[todo], observer, space) for p in (0, 1)]
+        forms = [closed_form(co.k[p, todo], co.q[p, todo], co.x_nm[todo], observer, space, integrate) for p in (0, 1)]
         ok = forms[0].ok & forms[1].ok & (np.maximum(forms[0].bound, forms[1].bound) <= tolerance)
-        rgb = 0.5 * sum(co.c0[p, todo][:, None] * w0 + 2 * f.integral.real for p, f in enumerate(forms))
         done = todo[ok]
-        values[done], bound[done], path[done] = rgb[ok], (forms[0].bound + forms[1].bound)[ok], 1
-    values[path == 2] = np.nan
+        bound[done], path[done] = (forms[0].bound + forms[1].bound)[ok], 1
+        if integrate:
+            w0 = wt(np.zeros(1))[:, 0].real
+            rgb = 0.5 * sum(co.c0[p, todo][:, None] * w0 + 2 * f.integral.real for p, f in enumerate(forms))
+            values[done] = rgb[ok]
+    if integrate:
+        values[path == 2] = np.nan
     return SeriesResult(values, terms, bound, path)
 
 

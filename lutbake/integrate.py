@@ -46,7 +46,7 @@ class NumpyBackend:
 
     name = "numpy"
     device = "numpy / float64 (host CPU)"
-    _CELLS_X_NODES = 2_000_000
+    _CELLS_X_NODES = 1 << 19   # (cell, node) pairs per optics call: ~310 bytes each (plan.MEMORY)
 
     def bake_rows(self, spec, y0, y1):
         stacks = spec.texel_stacks(a.ravel() for a in spec.cell_params(y0, y1))
@@ -191,7 +191,7 @@ def _kernel_defines() -> list:
     real = {"BAND_CENTRE": poles.BAND_CENTRE_NM, "BAND_HALF": poles.BAND_HALF_NM, "NEAR_RHO": poles.NEAR_RHO,
             "BOUND_RHO": poles.BOUND_RHO, "WINDOW_LO": poles.WINDOW_NU_PER_NM[0],
             "WINDOW_HI": poles.WINDOW_NU_PER_NM[1], "CAUCHY_SHALLOW": poles.SHALLOW_NM}
-    whole = {"MAX_NEAR": poles.MAX_NEAR_POLES, "CAUCHY_RE_MIN": int(poles.RE_MIN_NM),
+    whole = {"MAX_NEAR": poles.MAX_NEAR_POLES, "MAX_WINDOW": poles.MAX_WINDOW, "CAUCHY_RE_MIN": int(poles.RE_MIN_NM),
              "CAUCHY_RE_MAX": int(poles.RE_MAX_NM), "CAUCHY_NEAR_KNOTS": poles.NEAR_KNOTS,
              "SHALLOW_DEGREE": poles.SHALLOW_DEGREE, "DEEP_DEGREE": poles.DEEP_DEGREE, "DEEP_LEVELS": poles.DEEP_LEVELS,
              "KNOT_MIN": int(poles.WAVELENGTH_MIN_NM), "N_KNOTS": poles.N_KNOTS,
@@ -311,6 +311,7 @@ class SeriesStats:
     def __init__(self, texels=(0, 0, 0), bounds=(0.0, 0.0)):
         self.texels = list(texels)
         self.bounds = list(bounds)
+        self.shared_terms = 0   # Ŵ(mX) values the (cos θ, D) pairs share (0: the texels evaluate the table)
 
     def add(self, counts, bounds):
         """Fold in per-group counts (groups, 3) and largest bounds (groups, 2)."""
@@ -342,53 +343,57 @@ class PendingRows:
         return self._rows.astype(np.float64, copy=False)
 
 
-PAIR_TABLE_BYTES = 64 << 20   # most memory the pairs' Ŵ(mX) take at once (more: in groups of pairs)
+PAIR_TABLE_BYTES = 48 << 20   # most memory the pairs' shared Ŵ(mX) take (more: each texel evaluates the table)
+
+
+# Texels of a (cos θ, D) pair that share its Ŵ(mX) before a shared table pays (the table costs a pair
+# its largest term count in evaluations; each texel then saves its own).
+MIN_TEXELS_PER_PAIR = 8
 
 
 class _BakePlan:
-    """A spec's rule outcome on one device: stats, each (cos θ, D) pair's series terms as running
-    offsets, and the pairs grouped so that each group's Ŵ(mX) fits PAIR_TABLE_BYTES (the last group's
-    table kept)."""
+    """A spec's rule outcome on one device: stats, and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and
+    enough texels share each pair, their running term offsets (else None: texels evaluate the table)."""
 
-    def __init__(self, key, stats, pair_terms):
+    def __init__(self, key, stats, pair_terms, texels_per_pair):
         self.key, self.stats = key, stats
-        self.offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
-        self.groups = _pair_groups(self.offsets, PAIR_TABLE_BYTES // 48)
-        self.group = self.table = self.group_offsets = None
+        offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
+        fits = offsets[-1] * 48 <= PAIR_TABLE_BYTES
+        self.offsets = offsets.astype(np.int32) if fits and texels_per_pair >= MIN_TEXELS_PER_PAIR else None
+        stats.shared_terms = int(offsets[-1]) if self.offsets is not None else 0
+        self.buffers = None
 
 
-def _pair_groups(offsets, most_terms) -> list:
-    """[(first pair, end pair)] covering every pair, each holding at most ``most_terms`` terms (a pair
-    with more takes a group of its own)."""
-    groups, start = [], 0
-    n = offsets.size - 1
-    while start < n:
-        end = int(np.searchsorted(offsets, offsets[start] + most_terms, "right")) - 1
-        end = min(max(end, start + 1), n)
-        groups.append((start, end))
-        start = end
-    return groups
+_CHUNK = 1 << 16   # columns or pairs per step of _series_arrays: its temporaries stay bounded
 
 
-def _series_arrays(spec):
-    """Host inputs of kernels/airy.cl's series: (coefficients, film) in the kernel's layout, float64.
+def _series_arrays(spec, dtype=np.float64):
+    """Host inputs of kernels/airy.cl's series in the kernel's layout, as ``dtype``, built a chunk at a
+    time (no temporary scales with the grid):
 
     coefficients (κ3, η3, cos θ, [s, p] × [C0, K, q, 1 − |q|]), 1 − |q| = −1
     marking an evanescent film; film (D, cos θ, [X, e^{i2πXν0}]).
     """
     ax = {a.name: a.values() for a in spec.axes}
-    n_cos, n_eta3 = ax["cos_theta"].size, ax["eta3"].size
-    cos_t = np.broadcast_to(ax["cos_theta"][:, None, None], (n_cos, n_eta3, ax["kappa3"].size))
-    e3 = np.broadcast_to(spec.eta3_columns().reshape(n_eta3, n_cos).T[:, :, None], cos_t.shape)
-    k3 = np.broadcast_to(ax["kappa3"][None, None, :], cos_t.shape)
-    co = series_coefficients(spec.eta1, spec.eta2, cos_t.ravel(), 0.0, e3.ravel(), k3.ravel())
-    one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
-    per_pol = [np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real, co.q[p].imag, one_minus_q[p]], -1)
-               for p in (0, 1)]
-    coefficients = np.concatenate(per_pol, -1).reshape(cos_t.shape + (12,)).transpose(2, 1, 0, 3)
-    x_nm = ax["opd_nm"][:, None] * (_signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0))[None, :]
-    turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
-    film = np.stack([x_nm, turn.real, turn.imag], -1)
+    n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
+    eta3 = spec.eta3_columns()                                   # (η3, cos θ) flattened
+    coefficients = np.empty((n_kappa3 * n_eta3 * n_cos, 12), dtype)
+    for start in range(0, coefficients.shape[0], _CHUNK):
+        flat = np.arange(start, min(start + _CHUNK, coefficients.shape[0]))
+        column, i_kappa3 = flat % (n_eta3 * n_cos), flat // (n_eta3 * n_cos)
+        co = series_coefficients(spec.eta1, spec.eta2, ax["cos_theta"][column % n_cos], 0.0, eta3[column],
+                                 ax["kappa3"][i_kappa3])
+        one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
+        for p in (0, 1):
+            coefficients[flat, 6 * p:6 * p + 6] = np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real,
+                                                            co.q[p].imag, one_minus_q[p]], -1)
+    cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0)
+    film = np.empty((n_opd * n_cos, 3), dtype)
+    for start in range(0, film.shape[0], _CHUNK):
+        flat = np.arange(start, min(start + _CHUNK, film.shape[0]))
+        x_nm = ax["opd_nm"][flat // n_cos] * cos2[flat % n_cos]
+        turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
+        film[flat] = np.stack([x_nm, turn.real, turn.imag], -1)
     return coefficients, film
 
 
@@ -474,8 +479,8 @@ class OpenCLBackend:
             return self._series[1]
         wt = weight_transform(spec.observer, spec.space)
         mf = cl.mem_flags
-        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
-                   for a in _series_arrays(spec)]
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+                   for a in _series_arrays(spec, self.dtype)]
         key = ("fourier", spec.observer, spec.space)
         if key not in self._tables:
             table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
@@ -548,7 +553,7 @@ class OpenCLBackend:
                 closed_bound = float(bound.max())
             stats.add([[cells - left, *closed]], [[series_bound, closed_bound]])
         cl.enqueue_copy(self.queue, pair_terms, terms_buf)
-        self._plan = _BakePlan(spec.content_hash, stats, pair_terms)
+        self._plan = _BakePlan(spec.content_hash, stats, pair_terms, spec.shape[2] * spec.shape[3])
         return self._plan
 
     def series_plan(self, spec) -> SeriesStats:
@@ -557,21 +562,21 @@ class OpenCLBackend:
             return NumpyBackend.series_plan(spec)
         return self._bake_plan(spec).stats
 
-    def _pair_table(self, spec, plan, group):
-        """(offsets, Ŵ(mX)) buffers of the pairs of ``group`` (pair_transform; kept while it is the last
-        group asked for: one group per spec unless the grid is huge)."""
+    def _pair_table(self, spec, plan):
+        """(shared, offsets, Ŵ(mX)) for bake_rows_series: the pairs' shared values (pair_transform, once
+        per spec), or placeholders where the texels evaluate the table themselves."""
         import pyopencl as cl
 
-        if plan.group != group:
-            p0, p1 = group
-            offsets = (plan.offsets[p0:p1 + 1] - plan.offsets[p0]).astype(np.int32)
+        if plan.buffers is None:
             mf = cl.mem_flags
-            plan.group_offsets = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=offsets)
-            plan.table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(offsets[-1])) * np.dtype(self.dtype).itemsize)
-            args = self._series_buffers(spec)
-            self._run(self.pair_kernel, p1 - p0, args[1], plan.group_offsets, np.int32(p0), *args[2:5], plan.table)
-            plan.group = group
-        return plan.group_offsets, plan.table
+            offsets = plan.offsets if plan.offsets is not None else np.zeros(1, np.int32)
+            offset_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=offsets)
+            table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(offsets[-1])) * np.dtype(self.dtype).itemsize)
+            if plan.offsets is not None:
+                args = self._series_buffers(spec)
+                self._run(self.pair_kernel, offsets.size - 1, args[1], offset_buf, *args[2:5], table)
+            plan.buffers = (np.int32(plan.offsets is not None), offset_buf, table)
+        return plan.buffers
 
     def bake_rows(self, spec, y0, y1):
         return self.begin_rows(spec, y0, y1).result()
@@ -596,10 +601,8 @@ class OpenCLBackend:
             counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
                       for _ in range(2)]
             keep += lists + counts
-            for group in plan.groups:
-                offsets, table = self._pair_table(spec, plan, group)
-                self._run(self.series_kernel, cells, *self._band_args(spec, y0), offsets, np.int32(group[0]),
-                          np.int32(group[1]), table, out_buf, lists[0], counts[0])
+            self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
+                      lists[0], counts[0])
             if plan.stats.closed_form_texels or plan.stats.direct_texels:
                 self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
                           lists[0], counts[0], out_buf, lists[1], counts[1])

@@ -52,14 +52,33 @@ METHODS = ("spectral",)
 MAX_COUNT = 1 << 24
 MAX_CELLS = 2_000_000_000
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
-# Peak memory, an upper estimate: the process and its libraries, float64 intermediates per cell of a
-# band, and the node-cap screen over (cos θ, η3, κ3). 864 MiB at 1 Mi-cell bands, against 363 MiB
-# (kernel, bench/memory-result.json) and 850 MiB (numpy, bench/b1-result.json) measured.
-_PROCESS_BYTES = 320 << 20
-_BAND_BYTES_PER_CELL = 544
-_SCREEN_BYTES_PER_CELL = 96
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
+SCREEN_CHUNK = 1 << 16   # texels capped_texels screens at once
+_MIB = 1 << 20
+# The memory model (``BakeSpec.memory``): what a bake holds, in bytes, item by item from the code that
+# allocates it, with per-item constants fitted to peak RSS measured by bench/bench_memory.py (a process
+# that bakes one shape; the allocators keep some freed memory, so these are resident bytes, not the
+# arrays' sizes alone); tests/test_memory.py holds the estimate within 1.25x of measured peaks.
+MEMORY = {
+    # interpreter, numpy, OpenEXR, the colour tables; OpenCL: pyopencl, the runtime, the program (measured
+    # once the integrator is up where a bake can: runtimes differ by 2x between machines)
+    "runtime": {"opencl": 232 * _MIB, "numpy": 48 * _MIB},
+    "tables": 24 * _MIB,           # the closed form's Cauchy table (8.3 MB) on the host and the device
+    "column": 96,                  # per (cos θ, η3, κ3): the series constants on the device
+    "pair": 56,                    # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
+    "build": (96, 24, 700 << 16),  # while integrate._series_arrays builds them on the host: per column, per pair,
+                                   # and the temporaries of one chunk of 2^16 columns
+    "pair_table": 48 * _MIB,       # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
+    "plan_cell": 12,               # per cell of a band during the plan: the texels left and the series bounds
+    "probes": 30 * _MIB,           # the ground truth at the 48 probes (reference.py) ...
+    "probes_per_um": 0.52 * _MIB,  # ... and its growth with the thickest film D (finer rules)
+    "band_cell": {"series": 90, "direct": 160},  # per cell of a band: RGB float64 on the host and the device for
+                                                  # two bands in flight, the lists of texels left (direct: levels)
+    "numpy_cell": 168,             # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
+    "numpy_chunk": 330,            # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
+    "screen": 750 << 16,           # capped_texels: one chunk of 2^16 texels screened and filtered
+}
 
 
 @dataclass(frozen=True)
@@ -265,24 +284,66 @@ class BakeSpec:
     def cells(self) -> int:
         return math.prod(self.shape)
 
-    def budget(self) -> dict:
-        """Cells, output bytes, estimated peak memory and bake seconds (per backend), before any work."""
-        n_cos, _, n_eta3, n_kappa3 = self.shape
-        width, _ = self.image_size
-        band_cells = max(_CHUNK_CELLS, width)  # a band holds at least one image row
-        peak = (_PROCESS_BYTES + band_cells * _BAND_BYTES_PER_CELL
-                + n_cos * n_eta3 * n_kappa3 * _SCREEN_BYTES_PER_CELL)
+    def memory(self, backend: str = "opencl", integrator: str = "series", runtime_bytes: int = None,
+               plan=None) -> dict:
+        """Estimated peak resident memory of baking this spec, bytes, by item (``MEMORY``): ``peak`` is the
+        runtime, what persists through the bake, and the larger of its two phases (the plan with the probes
+        beside it and the capped texels' screen; the bands). Before any work the runtime is MEMORY's and
+        the shared table and the closed form's table are bounded from the shape; a bake checks again with
+        the runtime's resident bytes measured (``runtime_bytes``) and its plan's outcome (``plan``:
+        integrate.SeriesStats). That last estimate is within 1.25x of peak RSS measured over several
+        shapes (tests/test_memory.py)."""
+        from .spectral import MAX_WAVENUMBER_NODES
+
+        n_cos, n_opd, n_eta3, n_kappa3 = self.shape
+        band = min(self.cells, max(_CHUNK_CELLS, self.image_size[0]))   # row_chunks: at least one image row
+        exr = band * 9 * (2 if self.precision == "half" else 4)         # stored, its planes and their bytes
+        probes = MEMORY["probes"] + MEMORY["probes_per_um"] * self.axis["opd_nm"].hi / 1000.0
+        items = {"runtime": runtime_bytes or MEMORY["runtime"]["numpy" if backend == "numpy" else "opencl"]}
+        if backend == "numpy":
+            chunk = min(band * MAX_WAVENUMBER_NODES, 1 << 19) * MEMORY["numpy_chunk"]
+            items["phases"] = max(probes + MEMORY["screen"], band * MEMORY["numpy_cell"] + exr + chunk)
+        else:
+            columns, pairs = n_cos * n_eta3 * n_kappa3, n_cos * n_opd
+            closed = plan is None or plan.closed_form_texels or plan.direct_texels
+            items["tables"] = MEMORY["tables"] if closed else 0
+            items["arrays"] = columns * MEMORY["column"] + pairs * MEMORY["pair"]
+            shared = integrator == "series" and n_eta3 * n_kappa3 >= 8
+            terms = pairs * 512 if plan is None else plan.shared_terms
+            items["pair_table"] = min(MEMORY["pair_table"], terms * 48) if shared else 0
+            per_column, per_pair, chunk = MEMORY["build"]
+            plan = columns * per_column + pairs * per_pair + chunk + band * MEMORY["plan_cell"] + probes
+            if integrator == "direct":
+                plan += MEMORY["screen"]
+            items["phases"] = max(plan, band * MEMORY["band_cell"][integrator] + exr)
+        items["peak"] = sum(items.values())
+        return items
+
+    def budget(self, backend: str = "auto", integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+        """Cells, output bytes, estimated peak memory (``memory``) and bake seconds (per backend), before
+        any work. ``backend`` 'auto' takes the larger of the two paths' peaks (it may fall back to numpy)."""
+        names = ("opencl", "numpy") if backend == "auto" else (backend,)
+        peak = max(self.memory(name, integrator, runtime_bytes, plan)["peak"] for name in names)
         return {"cells": self.cells, "output_bytes": self.cells * 3 * (2 if self.precision == "half" else 4),
                 "peak_memory_bytes": peak,
                 "seconds_estimate": {name: self.cells / rate for name, rate in _CELLS_PER_SECOND.items()}}
 
-    def check_budget(self, memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> dict:
-        """The budget, or ParameterError when its peak memory exceeds ``memory_limit_gib``."""
-        b = self.budget()
-        if b["peak_memory_bytes"] > memory_limit_gib * (1 << 30):
+    def check_budget(self, memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB, backend: str = "auto",
+                     integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+        """The budget, or ParameterError when ``memory_limit_gib`` is not a finite number > 0 or the
+        estimated peak memory exceeds it."""
+        try:
+            limit = float(memory_limit_gib)
+        except (TypeError, ValueError):
+            limit = float("nan")
+        if not (math.isfinite(limit) and limit > 0):
+            raise ParameterError("{memory_limit_gib} {value} is not allowed: must be a finite number of GiB > 0",
+                                 value=repr(memory_limit_gib))
+        b = self.budget(backend, integrator, runtime_bytes, plan)
+        if b["peak_memory_bytes"] > limit * (1 << 30):
             raise ParameterError("grid {grid} needs about {need} GiB of memory, over the {limit} GiB limit: use "
                                  "fewer nodes or raise {memory_limit_gib}", grid=" x ".join(map(str, self.shape)),
-                                 need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}", limit=f"{memory_limit_gib:g}")
+                                 need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}", limit=f"{limit:g}")
         return b
 
     def snell2(self, cos_theta):
@@ -346,26 +407,41 @@ class BakeSpec:
         bound = self.ladder.truncation_estimate(*self._fringes(cos_theta, opd_nm, eta3, kappa3))
         return np.where(np.asarray(cos_theta) > 0.0, bound, 0.0)
 
-    def capped_texels(self, limit: int = 64) -> tuple:
-        """Texels past the ladder's cap: (count, largest bound, the ``limit`` worst as
-        (cos θ, D, η3, κ3) arrays).
+    def capped_texels(self, limit: int = 64, keep=None) -> tuple:
+        """Texels past the ladder's cap (of those for which ``keep(texels)`` is true, given it): (count,
+        largest bound, the ``limit`` worst as (cos θ, D, η3, κ3) arrays).
 
         Cycles, hence the need for nodes and the bound, grow with D, so each
-        (image column, κ3) pair is screened at its largest D first.
+        (image column, κ3) pair is screened at its largest D first; screened and expanded a chunk at a
+        time, so memory stays bounded (SCREEN_CHUNK texels) whatever the grid.
         """
         v = {a.name: a.values() for a in self.axes}
-        x, kappa3 = (g.ravel() for g in np.meshgrid(np.arange(self.image_size[0]), v["kappa3"], indexing="ij"))
-        cos_t, eta3 = v["cos_theta"][self.layout.nodes(x, 0)[0]], self.eta3_columns()[x]
-        screen = self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3)
-        cols = np.flatnonzero(screen)
-        if cols.size == 0:
-            return 0, 0.0, tuple(np.empty(0) for _ in range(4))
-        n_opd = v["opd_nm"].size
-        params = (np.repeat(cos_t[cols], n_opd), np.tile(v["opd_nm"], cols.size),
-                  np.repeat(eta3[cols], n_opd), np.repeat(kappa3[cols], n_opd))
-        bound = self.truncation_estimate(*params)
-        worst = np.argsort(-bound, kind="stable")[:min(limit, int(np.count_nonzero(bound)))]
-        return int(np.count_nonzero(bound)), float(bound.max()), tuple(p[worst] for p in params)
+        width, n_opd, n_kappa3 = self.image_size[0], v["opd_nm"].size, v["kappa3"].size
+        eta3_columns = self.eta3_columns()
+        count, best, worst = 0, 0.0, tuple(np.empty(0) for _ in range(4))
+        worst_bound = np.empty(0)
+        for start in range(0, width * n_kappa3, SCREEN_CHUNK):
+            column = np.arange(start, min(start + SCREEN_CHUNK, width * n_kappa3))   # x major, κ3 minor
+            x, kappa3 = column // n_kappa3, v["kappa3"][column % n_kappa3]
+            cos_t, eta3 = v["cos_theta"][self.layout.nodes(x, 0)[0]], eta3_columns[x]
+            cols = np.flatnonzero(self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3))
+            step = max(1, SCREEN_CHUNK // n_opd)
+            for c in range(0, cols.size, step):
+                sub = cols[c:c + step]
+                params = (np.repeat(cos_t[sub], n_opd), np.tile(v["opd_nm"], sub.size),
+                          np.repeat(eta3[sub], n_opd), np.repeat(kappa3[sub], n_opd))
+                bound = self.truncation_estimate(*params)
+                mask = bound > 0
+                if keep is not None and mask.any():
+                    mask[mask] = keep(tuple(p[mask] for p in params))
+                count += int(mask.sum())
+                best = max(best, float(bound[mask].max(initial=0.0)))
+                # the worst so far, in grid order among equals (a stable sort over what came first)
+                worst_bound = np.concatenate([worst_bound, bound[mask]])
+                worst = tuple(np.concatenate([w, p[mask]]) for w, p in zip(worst, params))
+                keep_order = np.argsort(-worst_bound, kind="stable")[:limit]
+                worst_bound, worst = worst_bound[keep_order], tuple(w[keep_order] for w in worst)
+        return count, best, worst
 
     def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""

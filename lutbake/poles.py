@@ -49,7 +49,7 @@ from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from .usercache import cached_arrays
 
 __all__ = ["CauchyTable", "cauchy_table", "ChebyshevRule", "chebyshev_rule", "ClosedForm", "closed_form",
-           "bernstein_rho", "NEAR_RHO", "BOUND_RHO", "CHEBYSHEV_DEGREE", "MAX_NEAR_POLES", "DEEP_LIMIT_NM",
+           "bernstein_rho", "NEAR_RHO", "BOUND_RHO", "CHEBYSHEV_DEGREE", "MAX_NEAR_POLES", "MAX_WINDOW", "DEEP_LIMIT_NM",
            "WINDOW_NU_PER_NM"]
 
 BAND_CENTRE_NM = 0.5 * (WAVELENGTH_MIN_NM + WAVELENGTH_MAX_NM)
@@ -58,6 +58,7 @@ NEAR_RHO = 3.0             # poles inside this Bernstein ellipse of the band are
 BOUND_RHO = 2.5            # the ellipse on which |h| is bounded (inside E_3, outside the band)
 CHEBYSHEV_DEGREE = 40      # 41 nodes: ρ^{−n} = 1.2e-16 at ρ = 2.5
 MAX_NEAR_POLES = 32        # more (films thicker than ~6 µm) go to the direct quadrature
+MAX_WINDOW = 256           # poles enumerated per texel at most (X up to ~25 µm; more: direct quadrature)
 N_KNOTS = int(WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM) + 1   # the 1 nm samples of the weights
 # Table geometry: Re P in [200, 990) nm covers E_3 ([203, 987]); depth below 1 nm is "shallow" (knots
 # within L of P exact), deeper cells are levels 2^ℓ ≤ Im P < 2^{ℓ+1} nm up to 512 nm (E_3 reaches 313).
@@ -336,16 +337,42 @@ def _node_values(k_over_q, X, P_near, R_near, near, lam, reference):
     return h - others.sum(axis=2)
 
 
-def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709") -> ClosedForm:
+def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709", integrate: bool = True) -> ClosedForm:
     """I_c = Σ_m K q^{m−1} Ŵ_c(mX) by the poles (module docstring), for flat arrays K, q (|q| < 1,
-    q ≠ 0) and X > 0 of n texel-polarizations, in float64."""
+    q ≠ 0) and X > 0 of n texel-polarizations, in float64, a chunk of texels at a time (memory stays
+    bounded); ``integrate=False`` gives the rule's outcome and bound alone (``integral`` None)."""
     k, q, X = (np.atleast_1d(np.asarray(v)) for v in (k, q, x_nm))
     X = X.astype(float)
-    table, rule = cauchy_table(observer, space), chebyshev_rule(observer, space)
+    n = k.size
+    integral, bound, count = np.zeros((n, 3), complex), np.full(n, np.inf), np.zeros(n, np.int64)
+    start = 0
+    while start < n:
+        # a chunk whose pole windows × nodes stay within 2^18 values
+        width = _window_width(q[start:start + 4096], X[start:start + 4096])
+        end = start + max(1, min(4096, (1 << 18) // ((CHEBYSHEV_DEGREE + 1) * max(1, width))))
+        part = slice(start, end)
+        integral[part], bound[part], count[part] = _closed_form(k[part], q[part], X[part], observer, space, integrate)
+        start = end
+    ok = np.isfinite(bound)
+    return ClosedForm(integral if integrate else None, bound, ok, count)
+
+
+def _window(q, X):
+    """First and last n of each texel's enumerated poles (Re p_n within WINDOW_NU_PER_NM), and ζ."""
     zeta = 1j * np.log(q) / (2 * np.pi * X)
-    n_lo = np.floor(X * (WINDOW_NU_PER_NM[0] - zeta.real))
-    n_hi = np.ceil(X * (WINDOW_NU_PER_NM[1] - zeta.real))
-    width = int((n_hi - n_lo).max(initial=0)) + 1
+    return np.floor(X * (WINDOW_NU_PER_NM[0] - zeta.real)), np.ceil(X * (WINDOW_NU_PER_NM[1] - zeta.real)), zeta
+
+
+def _window_width(q, X) -> int:
+    n_lo, n_hi, _ = _window(q, X)
+    return int(min(MAX_WINDOW, (n_hi - n_lo).max(initial=0) + 1))
+
+
+def _closed_form(k, q, X, observer, space, integrate):
+    """(integral (n, 3), bound (n,) (inf where the closed form does not apply), near poles (n,))."""
+    table, rule = cauchy_table(observer, space), chebyshev_rule(observer, space)
+    n_lo, n_hi, zeta = _window(q, X)
+    width = _window_width(q, X)
     n = n_lo[:, None] + np.arange(width)[None]
     valid = n <= n_hi[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -355,7 +382,7 @@ def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709") ->
     k_over_q = k / q
     R = k_over_q[:, None] * P**2 / (2j * np.pi * X[:, None])
     count = near.sum(axis=1)
-    ok = count <= MAX_NEAR_POLES
+    ok = (count <= MAX_NEAR_POLES) & (n_hi - n_lo + 1 <= MAX_WINDOW)
     # |h| on E_2.5: K/(1 − q) plus every far pole's |R|/distance (confocal ellipses are at least the
     # difference of their semi-major axes apart), the window explicitly, the rest by _far_tail
     far = valid & ~near
@@ -363,15 +390,16 @@ def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709") ->
         gap = np.where(far, _semi_major(rho) - _semi_major(BOUND_RHO), np.inf)
         explicit = np.where(far, np.abs(R) / gap, 0.0).sum(axis=1)
     M = np.abs(k / (1 - q)) + explicit + _far_tail(X, k_over_q)
-    cheb_bound = rule.mass.max() * 4 * M * BOUND_RHO ** (-CHEBYSHEV_DEGREE) / (BOUND_RHO - 1)
-    P_near = np.where(near, P, 1j * BAND_HALF_NM + BAND_CENTRE_NM)      # a harmless placeholder
     R_near = np.where(near, R, 0.0)
-    gamma = table(P_near)                                               # (3, n, W)
-    integral = np.einsum("cnw,nw->nc", gamma, R_near)
+    bound = (rule.mass.max() * 4 * M * BOUND_RHO ** (-CHEBYSHEV_DEGREE) / (BOUND_RHO - 1)
+             + np.abs(R_near).sum(axis=1) * table.bound.max())
+    bound = np.where(ok, bound, np.inf)
+    if not integrate:
+        return 0.0, bound, count
+    P_near = np.where(near, P, 1j * BAND_HALF_NM + BAND_CENTRE_NM)      # a harmless placeholder
+    integral = np.einsum("cnw,nw->nc", table(P_near), R_near)
     # the reference pole for texels without a near pole: the window's pole closest to the band's centre
     closest = np.argmin(np.where(valid, np.abs(1.0 / np.where(valid, P, 1.0) - 1.0 / BAND_CENTRE_NM), np.inf), 1)
     reference = np.take_along_axis(P, closest[:, None], 1)[:, 0]
     h = _node_values(k_over_q, X, P_near, R_near, near, rule.wavelength_nm, reference)
-    integral = integral + h @ rule.weights.T
-    bound = cheb_bound + (np.abs(R_near).sum(axis=1)) * table.bound.max()
-    return ClosedForm(integral, np.where(ok, bound, np.inf), ok, count)
+    return integral + h @ rule.weights.T, bound, count

@@ -412,15 +412,14 @@ def test_cells_are_exact_integers_checked_before_work():
 
 
 def test_peak_memory_estimate_covers_the_measured_peaks():
+    """Every bake bench/bench_memory.py measured (its shapes, each in its own process) peaked below the
+    estimate its budget checks before any work (tests/test_memory.py measures the model's accuracy)."""
     from lutbake.bake import default_specs
 
-    root = Path(__file__).resolve().parents[1] / "bench"
-    b1 = json.loads((root / "b1-result.json").read_text())["runtimes"]  # lutbake's own bakes, every device
-    measured = [row["peak_rss_mib"] for paths in b1.values() for row in paths.values() if isinstance(row, dict)]
-    measured += [row["peak_rss_mib"] for row in json.loads((root / "memory-result.json").read_text())]
+    rows = json.loads((Path(__file__).resolve().parents[1] / "bench" / "memory-result.json").read_text())
+    assert rows and all(row["peak_rss_mib"] <= row["estimate_before_work_mib"] for row in rows)
     spec = next(iter(default_specs().values()))
     budget = spec.budget()
-    assert budget["peak_memory_bytes"] >= max(measured) * (1 << 20)
     assert spec.precision == "half" and budget["output_bytes"] == spec.cells * 3 * 2  # RGB, 2 bytes each
 
 

@@ -430,11 +430,12 @@ inline int series_terms_bound(SeriesPol s, SeriesPol p, REAL x, int cap, __globa
     return (int)fmin((REAL)cap, ceil(log(tol / lead) / log(q)) + 1);
 }
 
-// RGB by the series, term by term until the remainder bound is ≤ tol (by `cap` terms at the latest),
-// reading the pair's Ŵ(mX) (6 REAL per term: three channels, re and im, demodulated; `w` holds at least
-// series_terms_bound of them); X = 0 sums it in closed form.
-inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __global const REAL *w,
-                       __global const REAL *table, __global const REAL *tail, REAL tol, __global REAL *rgb) {
+// RGB by the series, term by term until the remainder bound is ≤ tol (by `cap` terms at the latest);
+// X = 0 sums it in closed form. Ŵ(mX) comes from the pair's shared values `w` where `shared` (6 REAL per
+// term: three channels, re and im, demodulated; at least series_terms_bound of them), else from the table.
+inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, int shared, __global const REAL *w,
+                       __global const REAL *table, int intervals, REAL step, __global const REAL *tail, REAL tol,
+                       __global REAL *rgb) {
     const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
     const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
     REAL acc[3] = {0, 0, 0};
@@ -448,12 +449,17 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
     const Remainder r = remainder_setup(s, p, x, tail);
     const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
     CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
+    const REAL x_step = x / step;
     REAL qs_m = 1, qp_m = 1;
     for (int m = 1; m <= cap && remainder_after(&r, qs_m, qp_m, m - 1) > tol; ++m, w += 6) {
+        CPLX v[3];
+        if (shared) {
+            v[0] = (CPLX)(w[0], w[1]); v[1] = (CPLX)(w[2], w[3]); v[2] = (CPLX)(w[4], w[5]);
+        } else {
+            weight_transform(table, intervals, m * x_step, v);
+        }
         const CPLX a = ks + kp;
-        acc[0] += a.x * w[0] - a.y * w[1];
-        acc[1] += a.x * w[2] - a.y * w[3];
-        acc[2] += a.x * w[4] - a.y * w[5];
+        for (int c = 0; c < 3; ++c) acc[c] += a.x * v[c].x - a.y * v[c].y;
         ks = c_mul(ks, qs_t);
         kp = c_mul(kp, qp_t);
         qs_m *= r.qs;
@@ -480,15 +486,14 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, __g
     REAL bound;                                                                                    \
     const int cap = series_cap(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
 
-// Ŵ(mX), m = 1 … terms, of each (cos θ, D) pair in [pair0, pair0 + n_items): `offset` (n_items + 1,
-// from 0) places pair pair0 + j's terms at out[6·offset[j] …]. The same evaluation, to the bit, as a
-// texel evaluating its own terms.
-__kernel void pair_transform(__global const REAL *film, __global const int *offset, const int pair0,
+// Ŵ(mX), m = 1 … terms, of each (cos θ, D) pair: `offset` (pairs + 1, from 0) places pair j's terms at
+// out[6·offset[j] …]. The same evaluation, to the bit, as a texel evaluating its own terms.
+__kernel void pair_transform(__global const REAL *film, __global const int *offset,
                              __global const REAL *table, const int intervals, const REAL step,
                              __global REAL *out, const int n_items)
 {
     ITEMS_GUARD
-    const REAL x_step = film[3 * (pair0 + gid)] / step;
+    const REAL x_step = film[3 * gid] / step;
     const int first = offset[gid], count = offset[gid + 1] - first;
     for (int m = 1; m <= count; ++m) {
         CPLX w[3];
@@ -498,21 +503,20 @@ __kernel void pair_transform(__global const REAL *film, __global const int *offs
     }
 }
 
-// The bake's first pass over a band: the series for every texel whose rule allows it and whose pair is in
-// [pair0, pair1) (the pairs whose terms `pair_w` holds, placed by `offset` as in pair_transform); the
-// others of those pairs are appended to `rest` (their band index; `rest_count` counts them).
+// The bake's first pass over a band: the series for every texel whose rule allows it (Ŵ(mX) shared per
+// pair where `shared`: `pair_w` placed by `offset` as in pair_transform); the others are appended to
+// `rest` (their band index; `rest_count` counts them).
 __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                               __global const int *offset, const int pair0, const int pair1,
-                               __global const REAL *pair_w, __global REAL *rgb_out,
-                               __global int *rest, __global int *rest_count, const int n_items)
+                               const int shared, __global const int *offset, __global const REAL *pair_w,
+                               __global REAL *rgb_out, __global int *rest, __global int *rest_count,
+                               const int n_items)
 {
     ITEMS_GUARD
     SERIES_TEXEL(gid)
-    if (pair < pair0 || pair >= pair1) return;
     if (cap < 0) {
         rest[atomic_inc(rest_count)] = gid;
         return;
     }
-    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, pair_w + 6 * offset[pair - pair0], table, tail, tol,
-               rgb_out + 3 * gid);
+    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, shared, pair_w + (shared ? 6 * offset[pair] : 0), table,
+               intervals, step, tail, tol, rgb_out + 3 * gid);
 }

@@ -72,11 +72,12 @@ inline void cauchy_gamma(CPLX P, CAUCHY_ARGS, CPLX g[3]) {
 typedef struct { CPLX P[MAX_NEAR]; CPLX R[MAX_NEAR]; int count; CPLX kq, reference; REAL x, M, residues; } Poles;
 
 // Enumerate the poles with Re p_n in the window (lutbake.poles.closed_form): 0 where more than
-// MAX_NEAR are near (the texel goes to the direct quadrature).
+// MAX_NEAR are near or the window holds more than MAX_WINDOW (the texel goes to the direct quadrature).
 inline int find_poles(CPLX k, CPLX q, REAL x, Poles *s) {
     const CPLX lq = c_log(q);
     const CPLX zeta = c_scale((CPLX)(-lq.y, lq.x), 1 / (2 * PI_R * x));
     const REAL n_lo = floor(x * (WINDOW_LO - zeta.x)), n_hi = ceil(x * (WINDOW_HI - zeta.x));
+    if (n_hi - n_lo + 1 > MAX_WINDOW) return 0;
     s->kq = c_div(k, q);
     s->x = x;
     s->count = 0;
