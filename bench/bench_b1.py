@@ -1,18 +1,19 @@
-"""Benchmark B1 (docs/spectral.md): the kernel's series and direct paths on every OpenCL
-runtime, and an independent numpy integration at 2 nm, in one run.
+"""Benchmark B1 (docs/spectral.md): `lutbake bake` of the B1 grid on every OpenCL runtime, the direct
+quadrature alone, and an independent numpy integration at 2 nm, in one run.
 
     python bench/bench_b1.py [--points 1000] [--seed 1] [--json FILE] [--skip-numpy]
 
 Grid: η1 = 1, η2 = 1.5; cos θ ∈ [0, 1] × 64, D ∈ [0, 4000] nm × 256,
 η3 ∈ [1, 3] × 16, κ3 ∈ [0, 5] × 16 (4.19 M cells), Rec.709, CIE 1931 2°.
-Each path bakes in its own subprocess (so peak RSS is its own) and reports
-cells/s, the bake's wall time, the whole process's wall time (interpreter
-start and imports included, what `lutbake bake` costs) and peak RSS. The
-numpy path evaluates optics.film_reflectance at 360, 362, …, 830 nm with
-trapezoid weights: a straightforward independent integration. Accuracy: the
-baked texels (not interpolated points) at random grid nodes and on a stiff
-grid (thick films near grazing incidence over metals and over a base that
-reflects totally), against the ground truth (reference.py).
+Each path runs in its own process: the bakes through the CLI (`lutbake bake … --device KEY`, float64
+and --compute float32) and, for reference, the direct quadrature on every texel (bake() with
+integrator='direct'; no CLI flag). Each row gives the bake's wall time, the whole process's (interpreter
+start and imports included: what `lutbake bake` costs), cells/s of both, peak RSS (VmHWM) and the
+texels per path (series, closed form, direct) from the LUT's header. The numpy path evaluates
+optics.film_reflectance at 360, 362, …, 830 nm with trapezoid weights: a straightforward independent
+integration. Accuracy: the baked texels (not interpolated points) at random grid nodes and on a stiff
+grid (thick films near grazing incidence over metals and over a base that reflects totally), against the
+ground truth (reference.py).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy as np
 
 B1_AXES = ("0:1:64", "0:4000:256", "1:3:16", "0:5:16")
 STIFF = dict(eta2=2.5, axes=("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4"))
+_FLAGS = ("--cos-theta", "--opd", "--eta3", "--kappa3")
 
 
 def _spec(eta2, axes, compute="float64"):
@@ -38,8 +40,9 @@ def _spec(eta2, axes, compute="float64"):
     return BakeSpec(eta2=eta2, compute=compute, axes=tuple(parse_axis(n, a) for n, a in zip(AXIS_NAMES, axes)))
 
 
-def numpy_2nm(spec, out: str) -> None:
-    """RGB of every texel by R at 2 nm steps and trapezoid weights; saved as .npy."""
+def numpy_2nm(spec, out: str, rows: int = None) -> None:
+    """RGB of every texel (of the first ``rows`` image rows) by R at 2 nm steps and trapezoid weights;
+    saved as .npy."""
     from lutbake.colorimetry import colorimetry
     from lutbake.optics import film_reflectance
 
@@ -47,9 +50,9 @@ def numpy_2nm(spec, out: str) -> None:
     quad = np.full(lam.size, 2.0)
     quad[[0, -1]] = 1.0
     weights = colorimetry(spec.observer, spec.space).sensitivity(lam) * quad
-    height = spec.image_size[1]
-    image = np.concatenate([_rows_2nm(spec, y0, y1, lam, weights, film_reflectance)
-                            for y0, y1 in spec.row_chunks(1 << 14)])
+    height = rows or spec.image_size[1]
+    chunks = [(y0, min(y1, height)) for y0, y1 in spec.row_chunks(1 << 14) if y0 < height]
+    image = np.concatenate([_rows_2nm(spec, y0, y1, lam, weights, film_reflectance) for y0, y1 in chunks])
     np.save(out, image.reshape(height, -1, 3))
 
 
@@ -59,37 +62,55 @@ def _rows_2nm(spec, y0, y1, lam, weights, film_reflectance):
     return refl @ weights.T
 
 
-def child(path: str, out: str, compute: str, grid: str) -> None:
+def cli_argv(eta2, axes, compute, device, out) -> list:
+    """`lutbake bake` for one LUT of the grid."""
+    flags = [token for flag, axis in zip(_FLAGS, axes) for token in (flag, axis)]
+    return ["bake", "--quiet", "--eta2", str(eta2), *flags, "--compute", compute, "--backend", "opencl",
+            "--device", device, "--out", out]
+
+
+def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     """Bake one grid with one path and print a JSON line (run in a fresh process)."""
-    import resource
+    from lutbake.bake import resident_bytes
 
-    from lutbake.bake import bake
-
-    spec = _spec(1.5, B1_AXES, compute) if grid == "b1" else _spec(STIFF["eta2"], STIFF["axes"], compute)
+    eta2, axes = (1.5, B1_AXES) if grid == "b1" else (STIFF["eta2"], STIFF["axes"])
+    spec = _spec(eta2, axes, compute)
     start = time.perf_counter()
     row = {"path": path, "compute": compute}
     if path == "numpy-2nm":
         numpy_2nm(spec, out)
+    elif path == "series":
+        from lutbake.cli import main
+
+        sys.argv = ["lutbake", *cli_argv(eta2, axes, compute, device, out)]
+        try:
+            main()
+        except SystemExit as exc:
+            if exc.code:
+                raise
     else:
-        bake(spec, out, "opencl", integrator=path)
+        from lutbake.bake import bake
+
+        bake(spec, out, "opencl", integrator=path, device=device)
+    if path != "numpy-2nm":
         sidecar = json.loads(Path(out).with_suffix(".json").read_text())
         row["device"] = sidecar["baked_on"]["device"]
         row["integrator"] = sidecar["integrator"]
     wall = time.perf_counter() - start
     row.update(cells=spec.cells, wall_s=wall, cells_per_s=spec.cells / wall,
-               peak_rss_mib=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+               peak_rss_mib=resident_bytes(peak=True) / 2**20)
     print(json.dumps(row))
 
 
 def run_path(path: str, out: Path, compute: str = "float64", device: str = "", grid: str = "b1") -> dict:
-    env = dict(os.environ, LUTBAKE_DEVICE=device) if device else os.environ
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, __file__, "--child", path, "--out", str(out), "--compute", compute,
-                           "--grid", grid], capture_output=True, text=True, env=env)
+                           "--grid", grid, "--device", device], capture_output=True, text=True)
     if proc.returncode:
         raise SystemExit(f"{path} bake failed: {proc.stderr.strip()}")
     row = json.loads(proc.stdout.strip().splitlines()[-1])
     row["process_wall_s"] = time.perf_counter() - start
+    row["process_cells_per_s"] = row["cells"] / row["process_wall_s"]
     return row
 
 
@@ -98,6 +119,18 @@ def devices() -> list:
     from lutbake.integrate import OpenCLUnavailable, _program, device_key, opencl_devices
 
     return [device_key(d) for d in opencl_devices() if not isinstance(_program(d, "float64"), OpenCLUnavailable)]
+
+
+def not_building() -> dict:
+    """{device key: why not} for the OpenCL devices whose compiler does not build the kernel."""
+    from lutbake.integrate import OpenCLUnavailable, _program, device_key, opencl_devices
+
+    return {device_key(d): str(built) for d in opencl_devices()
+            if isinstance(built := _program(d, "float64"), OpenCLUnavailable)}
+
+
+def load_average() -> list:
+    return [round(v, 2) for v in os.getloadavg()]
 
 
 def _image(path: Path) -> np.ndarray:
@@ -126,15 +159,17 @@ def main() -> None:
     ap.add_argument("--out")
     ap.add_argument("--grid", default="b1")
     ap.add_argument("--compute", default="float64")
+    ap.add_argument("--device", default="")
     ap.add_argument("--points", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json")
     ap.add_argument("--skip-numpy", action="store_true")
     args = ap.parse_args()
     if args.child:
-        child(args.child, args.out, args.compute, args.grid)
+        child(args.child, args.out, args.compute, args.grid, args.device)
         return
-    report = {"grid": "B1", "cells": _spec(1.5, B1_AXES).cells, "runtimes": {}}
+    report = {"grid": "B1", "cells": _spec(1.5, B1_AXES).cells, "load_average_start": load_average(),
+              "not_building": not_building(), "runtimes": {}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         images, stiff = {}, {}
@@ -164,6 +199,7 @@ def main() -> None:
                                 "eta2": STIFF["eta2"],
                                 "rgb_abs_max_vs_ground_truth": texel_error(stiff, _spec(STIFF["eta2"], STIFF["axes"]),
                                                                             1 << 30, args.seed)}
+    report["load_average_end"] = load_average()
     text = json.dumps(report, indent=2)
     print(text)
     if args.json:

@@ -279,6 +279,7 @@ def _program(device, compute: str):
 
 
 KERNELS = {"direct_kernel": "bake_texels_direct", "series_kernel": "bake_rows_series",
+           "series_table_kernel": "bake_rows_series_table",
            "closed_kernel": "bake_texels_closed", "pair_kernel": "pair_transform", "plan_kernel": "plan_rows",
            "plan_closed_kernel": "plan_texels_closed", "max_kernel": "max_chunks",
            "points_kernel": "reflectance_points", "stack_terms_kernel": "stack_terms", "stack_kernel": "stack_rgb"}
@@ -365,19 +366,21 @@ class _BakePlan:
 
 
 _CHUNK = 1 << 16   # columns or pairs per step of _series_arrays: its temporaries stay bounded
+_COLUMN = 24   # REAL per column in the kernel's layout (COLUMN in airy.cl)
 
 
 def _series_arrays(spec, dtype=np.float64):
     """Host inputs of kernels/airy.cl's series in the kernel's layout, as ``dtype``, built a chunk at a
     time (no temporary scales with the grid):
 
-    coefficients (κ3, η3, cos θ, [s, p] × [C0, K, q, 1 − |q|]), 1 − |q| = −1
-    marking an evanescent film; film (D, cos θ, [X, e^{i2πXν0}]).
+    coefficients (κ3, η3, cos θ, _COLUMN): [s, p] × [C0, K, q, 1 − |q|] (1 − |q| = −1 marking an
+    evanescent film), then the column's rule constants (_column_rule); film (D, cos θ, [X, e^{i2πXν0}]).
     """
     ax = {a.name: a.values() for a in spec.axes}
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
     eta3 = spec.eta3_columns()                                   # (η3, cos θ) flattened
-    coefficients = np.empty((n_kappa3 * n_eta3 * n_cos, 12), dtype)
+    wt = weight_transform(spec.observer, spec.space)
+    coefficients = np.zeros((n_kappa3 * n_eta3 * n_cos, _COLUMN), dtype)
     for start in range(0, coefficients.shape[0], _CHUNK):
         flat = np.arange(start, min(start + _CHUNK, coefficients.shape[0]))
         column, i_kappa3 = flat % (n_eta3 * n_cos), flat // (n_eta3 * n_cos)
@@ -387,6 +390,7 @@ def _series_arrays(spec, dtype=np.float64):
         for p in (0, 1):
             coefficients[flat, 6 * p:6 * p + 6] = np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real,
                                                             co.q[p].imag, one_minus_q[p]], -1)
+        coefficients[flat, 12:21] = _column_rule(co, wt.mass.max())
     cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0)
     film = np.empty((n_opd * n_cos, 3), dtype)
     for start in range(0, film.shape[0], _CHUNK):
@@ -395,6 +399,21 @@ def _series_arrays(spec, dtype=np.float64):
         turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
         film[flat] = np.stack([x_nm, turn.real, turn.imag], -1)
     return coefficients, film
+
+
+def _column_rule(co, mass) -> np.ndarray:
+    """(n, 9): the rule's constants of each column, float64: |K|/(1 − |q|) (0 where K = 0), |q|, log |q|,
+    |K| per polarization (s, p), then the terms after which (Σ_pol |K|/(1 − |q|)) max|q|^m · mass ≤ tol
+    (a bound on the series' terms: sup |Ŵ| ≤ mass), +1 for the rounding of the logs."""
+    k_abs, q_abs = np.abs(co.k), np.abs(co.q)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lead = np.where(k_abs == 0, 0.0, k_abs / co.one_minus_q)
+        log_q = np.log(q_abs)
+        total = lead.sum(axis=0) * mass
+        geometric = np.ceil(np.log(DEFAULT_SERIES_TOLERANCE / total) / np.log(q_abs.max(axis=0))) + 1
+    geometric = np.where(total <= DEFAULT_SERIES_TOLERANCE, 0.0, np.where(q_abs.max(axis=0) == 0, 1.0, geometric))
+    geometric = np.nan_to_num(geometric, nan=SERIES_BUDGET, posinf=SERIES_BUDGET)   # evanescent: never used
+    return np.stack([*lead, *q_abs, *np.nan_to_num(log_q, nan=0.0, neginf=-1e300), *k_abs, geometric], -1)
 
 
 class OpenCLBackend:
@@ -562,20 +581,17 @@ class OpenCLBackend:
             return NumpyBackend.series_plan(spec)
         return self._bake_plan(spec).stats
 
-    def _pair_table(self, spec, plan):
-        """(shared, offsets, Ŵ(mX)) for bake_rows_series: the pairs' shared values (pair_transform, once
-        per spec), or placeholders where the texels evaluate the table themselves."""
+    def _pair_table(self, spec, plan) -> list:
+        """The pairs' shared Ŵ(mX) for bake_rows_series (pair_transform, once per spec): [offsets, values]."""
         import pyopencl as cl
 
         if plan.buffers is None:
             mf = cl.mem_flags
-            offsets = plan.offsets if plan.offsets is not None else np.zeros(1, np.int32)
-            offset_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=offsets)
-            table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(offsets[-1])) * np.dtype(self.dtype).itemsize)
-            if plan.offsets is not None:
-                args = self._series_buffers(spec)
-                self._run(self.pair_kernel, offsets.size - 1, args[1], offset_buf, *args[2:5], table)
-            plan.buffers = (np.int32(plan.offsets is not None), offset_buf, table)
+            offset_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=plan.offsets)
+            table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(plan.offsets[-1])) * np.dtype(self.dtype).itemsize)
+            args = self._series_buffers(spec)
+            self._run(self.pair_kernel, plan.offsets.size - 1, args[1], offset_buf, *args[2:5], table)
+            plan.buffers = [offset_buf, table]
         return plan.buffers
 
     def bake_rows(self, spec, y0, y1):
@@ -601,8 +617,11 @@ class OpenCLBackend:
             counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
                       for _ in range(2)]
             keep += lists + counts
-            self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
-                      lists[0], counts[0])
+            if plan.offsets is not None:
+                self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
+                          lists[0], counts[0])
+            else:
+                self._run(self.series_table_kernel, cells, *self._band_args(spec, y0), out_buf, lists[0], counts[0])
             if plan.stats.closed_form_texels or plan.stats.direct_texels:
                 self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
                           lists[0], counts[0], out_buf, lists[1], counts[1])

@@ -65,9 +65,9 @@ MEMORY = {
     # once the integrator is up where a bake can: runtimes differ by 2x between machines)
     "runtime": {"opencl": 232 * _MIB, "numpy": 48 * _MIB},
     "tables": 24 * _MIB,           # the closed form's Cauchy table (8.3 MB) on the host and the device
-    "column": 96,                  # per (cos θ, η3, κ3): the series constants on the device
+    "column": 192,                 # per (cos θ, η3, κ3): the series and rule constants on the device (24 REAL)
     "pair": 56,                    # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
-    "build": (96, 24, 700 << 16),  # while integrate._series_arrays builds them on the host: per column, per pair,
+    "build": (192, 24, 700 << 16),  # while integrate._series_arrays builds them on the host: per column, per pair,
                                    # and the temporaries of one chunk of 2^16 columns
     "pair_table": 48 * _MIB,       # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
     "plan_cell": 12,               # per cell of a band during the plan: the texels left and the series bounds

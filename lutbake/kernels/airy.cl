@@ -362,21 +362,24 @@ inline SeriesPol series_pol(__global const REAL *c) {
     return p;
 }
 
+// A column's (cos θ, η3, κ3) constants of the rule, from the host (lutbake.integrate._series_arrays; they
+// do not depend on D): |K|/(1 − |q|), |q|, log |q| and |K| per polarization, and `geometric`, the terms
+// after which the remainder bound with sup |Ŵ| ≤ mass is ≤ tol (+1 for rounding).
+#define COLUMN 24   // REAL per column: s, p (6 each), then the rule's 9, padded
+typedef struct { REAL as, ap, qs, qp, log_qs, log_qp, ks, kp, geometric; } ColumnRule;
+
+inline ColumnRule column_rule(__global const REAL *c) {
+    ColumnRule r = {c[12], c[13], c[14], c[15], c[16], c[17], c[18], c[19], c[20]};
+    return r;
+}
+
 // A texel's remainder bound after m terms, Σ_pol |K| |q|^m/(1 − |q|) · sup_{y ≥ (m+1)X} |Ŵ(y)|,
 // with sup |Ŵ(y)| ≤ min(mass, edge/(2πy) + variation/(2πy)²) (tail: those three, largest channel).
 // Everything but |q|^m is hoisted: the rule's loop is latency-bound scalar code.
 typedef struct { REAL as, ap, qs, qp, mass, edge, variation, inv_2pi_x; } Remainder;
 
-inline Remainder remainder_setup(SeriesPol s, SeriesPol p, REAL x, __global const REAL *tail) {
-    Remainder r;
-    r.as = s.k.x == 0 && s.k.y == 0 ? (REAL)0 : length(s.k) / s.one_minus_q;
-    r.ap = p.k.x == 0 && p.k.y == 0 ? (REAL)0 : length(p.k) / p.one_minus_q;
-    r.qs = length(s.q);
-    r.qp = length(p.q);
-    r.mass = tail[0];
-    r.edge = tail[1];
-    r.variation = tail[2];
-    r.inv_2pi_x = 1 / (2 * PI_R * x);
+inline Remainder remainder_setup(ColumnRule c, REAL x, __global const REAL *tail) {
+    Remainder r = {c.as, c.ap, c.qs, c.qp, tail[0], tail[1], tail[2], 1 / (2 * PI_R * x)};
     return r;
 }
 
@@ -403,39 +406,32 @@ inline void weight_transform(__global const REAL *table, int intervals, REAL s, 
 // `budget` terms. Closed form (no loop). *bound gets the a-priori bound the
 // series then enforces: tol plus the table's interpolation error carried
 // through at most min(cap, 1/(1 − |q|)) terms of size |K|.
-inline int series_cap(SeriesPol s, SeriesPol p, REAL x, REAL x_max, __global const REAL *tail, REAL interp,
-                      REAL tol, int budget, REAL *bound) {
+inline int series_cap(SeriesPol s, SeriesPol p, ColumnRule c, REAL x, REAL x_max, __global const REAL *tail,
+                      REAL interp, REAL tol, int budget, REAL *bound) {
     *bound = 0;
     if (s.one_minus_q < 0) return -1;
     if (x == 0) return 0;
-    const Remainder r = remainder_setup(s, p, x, tail);
+    const Remainder r = remainder_setup(c, x, tail);
     const int cap = (int)fmin(floor(x_max / x), (REAL)budget);
     // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
-    const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qs)), qp_cap = cap == 0 ? (REAL)1 : exp(cap * log(r.qp));
+    const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qs), qp_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qp);
     if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
-    *bound = tol + interp * (length(s.k) * fmin((REAL)cap, 1 / s.one_minus_q)
-                             + length(p.k) * fmin((REAL)cap, 1 / p.one_minus_q));
+    *bound = tol + interp * (c.ks * fmin((REAL)cap, 1 / s.one_minus_q) + c.kp * fmin((REAL)cap, 1 / p.one_minus_q));
     return cap;
 }
 
-// At least the terms series_rgb sums (≤ cap), in closed form: the remainder bound with sup |Ŵ| ≤ mass is ≤ tol once
-// (|K_s|/(1 − |q_s|) + |K_p|/(1 − |q_p|)) max|q|^m · mass ≤ tol; one more term covers rounding of the logs.
-// The plan sizes each pair's table with it, without running the loop.
-inline int series_terms_bound(SeriesPol s, SeriesPol p, REAL x, int cap, __global const REAL *tail, REAL tol) {
-    if (x == 0 || cap == 0) return 0;
-    const Remainder r = remainder_setup(s, p, x, tail);
-    const REAL lead = (r.as + r.ap) * r.mass, q = fmax(r.qs, r.qp);
-    if (lead <= tol) return 0;
-    if (q == 0) return min(1, cap);
-    return (int)fmin((REAL)cap, ceil(log(tol / lead) / log(q)) + 1);
+// At least the terms series_rgb sums (≤ cap): the column's geometric count (the plan sizes each pair's
+// table with it, without running the loop).
+inline int series_terms_bound(ColumnRule c, REAL x, int cap) {
+    return x == 0 ? 0 : (int)fmin((REAL)cap, c.geometric);
 }
 
 // RGB by the series, term by term until the remainder bound is ≤ tol (by `cap` terms at the latest);
 // X = 0 sums it in closed form. Ŵ(mX) comes from the pair's shared values `w` where `shared` (6 REAL per
 // term: three channels, re and im, demodulated; at least series_terms_bound of them), else from the table.
-inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, int shared, __global const REAL *w,
-                       __global const REAL *table, int intervals, REAL step, __global const REAL *tail, REAL tol,
-                       __global REAL *rgb) {
+inline void series_rgb(SeriesPol s, SeriesPol p, ColumnRule column, REAL x, CPLX turn, int cap, int shared,
+                       __global const REAL *w, __global const REAL *table, int intervals, REAL step,
+                       __global const REAL *tail, REAL tol, __global REAL *rgb) {
     const REAL w0[3] = {table[0], table[12], table[24]};   // Ŵ_c(0), real
     const REAL c0 = (REAL)0.5 * (s.c0 + p.c0);
     REAL acc[3] = {0, 0, 0};
@@ -446,7 +442,7 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, int
         for (int c = 0; c < 3; ++c) rgb[c] = (c0 + a.x) * w0[c];
         return;
     }
-    const Remainder r = remainder_setup(s, p, x, tail);
+    const Remainder r = remainder_setup(column, x, tail);
     const CPLX qs_t = c_mul(s.q, turn), qp_t = c_mul(p.q, turn);
     CPLX ks = c_mul(s.k, turn), kp = c_mul(p.k, turn);   // K (q e^{i2πXν0})^{m−1} e^{i2πXν0}
     const REAL x_step = x / step;
@@ -469,7 +465,7 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, int
 }
 
 #define SERIES_ARGS \
-    __global const REAL *coefficients, /* per (i_kappa3, i_eta3, i_cos): s then p, 6 REAL each */ \
+    __global const REAL *coefficients, /* per (i_kappa3, i_eta3, i_cos): s, p (6 REAL each), rule */ \
     __global const REAL *film,         /* per (i_opd, i_cos): X, e^{i2πXν0} (3 REAL) */           \
     __global const REAL *table, const int intervals, const REAL step,                             \
     __global const REAL *tail, const REAL interp, const REAL tol, const int budget  /* tail: mass, edge, variation */
@@ -480,11 +476,12 @@ inline void series_rgb(SeriesPol s, SeriesPol p, REAL x, CPLX turn, int cap, int
     const int i_cos = x % n_cos, i_eta3 = x / n_cos;   /* the tile packing: lutbake/layout.py */  \
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
     const int pair = i_opd * n_cos + i_cos;                                                       \
-    __global const REAL *co = coefficients + 12 * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
+    __global const REAL *co = coefficients + COLUMN * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
     __global const REAL *f = film + 3 * pair;                                                     \
     const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
+    const ColumnRule column = column_rule(co);                                                    \
     REAL bound;                                                                                    \
-    const int cap = series_cap(sp, pp, f[0], step * intervals, tail, interp, tol, budget, &bound);
+    const int cap = series_cap(sp, pp, column, f[0], step * intervals, tail, interp, tol, budget, &bound);
 
 // Ŵ(mX), m = 1 … terms, of each (cos θ, D) pair: `offset` (pairs + 1, from 0) places pair j's terms at
 // out[6·offset[j] …]. The same evaluation, to the bit, as a texel evaluating its own terms.
@@ -503,11 +500,11 @@ __kernel void pair_transform(__global const REAL *film, __global const int *offs
     }
 }
 
-// The bake's first pass over a band: the series for every texel whose rule allows it (Ŵ(mX) shared per
-// pair where `shared`: `pair_w` placed by `offset` as in pair_transform); the others are appended to
-// `rest` (their band index; `rest_count` counts them).
+// The bake's first pass over a band: the series for every texel whose rule allows it, Ŵ(mX) read from its
+// pair's shared values (`pair_w`, placed by `offset` as in pair_transform); the other texels are appended
+// to `rest` (their band index; `rest_count` counts them).
 __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                               const int shared, __global const int *offset, __global const REAL *pair_w,
+                               __global const int *offset, __global const REAL *pair_w,
                                __global REAL *rgb_out, __global int *rest, __global int *rest_count,
                                const int n_items)
 {
@@ -517,6 +514,23 @@ __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width
         rest[atomic_inc(rest_count)] = gid;
         return;
     }
-    series_rgb(sp, pp, f[0], (CPLX)(f[1], f[2]), cap, shared, pair_w + (shared ? 6 * offset[pair] : 0), table,
-               intervals, step, tail, tol, rgb_out + 3 * gid);
+    // `shared` a literal: the compiler drops the other branch (a run-time flag made this 3x slower)
+    series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 1, pair_w + 6 * offset[pair], table, intervals, step,
+               tail, tol, rgb_out + 3 * gid);
+}
+
+// bake_rows_series where the pairs share nothing (few texels per pair, or their table would not fit):
+// each texel evaluates the table for its own terms.
+__kernel void bake_rows_series_table(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
+                                     __global REAL *rgb_out, __global int *rest, __global int *rest_count,
+                                     const int n_items)
+{
+    ITEMS_GUARD
+    SERIES_TEXEL(gid)
+    if (cap < 0) {
+        rest[atomic_inc(rest_count)] = gid;
+        return;
+    }
+    series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 0, table, table, intervals, step, tail, tol,
+               rgb_out + 3 * gid);
 }

@@ -125,10 +125,10 @@ inline CPLX expm1_inverse_minus_pole(CPLX x) {
         s = c_mul(s, x2) + (CPLX)((REAL)1 / (REAL)12, 0);
         return c_mul(s, x) + (CPLX)((REAL)-0.5, 0);
     }
-    // e^x − 1 = (e^{Re x} − 1) cos(Im x) − 2 sin²(Im x/2) + i e^{Re x} sin(Im x)
-    REAL c, s = sincos(x.y, &c);
-    const REAL s_half = sin((REAL)0.5 * x.y);
-    const CPLX em1 = (CPLX)(expm1(x.x) * c - 2 * s_half * s_half, exp(x.x) * s);
+    // e^x − 1 = (e^a − 1) − 2 e^a sin²(b/2) + 2i e^a sin(b/2) cos(b/2), x = a + ib: no cancellation
+    REAL c_half, s_half = sincos((REAL)0.5 * x.y, &c_half);
+    const REAL em = expm1(x.x), e = em + 1;
+    const CPLX em1 = (CPLX)(em - 2 * e * s_half * s_half, 2 * e * s_half * c_half);
     return c_recip(em1) - c_recip(x);
 }
 
@@ -176,7 +176,7 @@ __kernel void plan_rows(const int n_cos, const int n_opd, const int width, const
         rest[atomic_inc(rest_count)] = gid;
         return;
     }
-    const int terms = series_terms_bound(sp, pp, f[0], cap, tail, tol);
+    const int terms = series_terms_bound(column, f[0], cap);
     if (terms > pair_terms[pair]) atomic_max(pair_terms + pair, terms);   // a read spares most atomics
     bound_out[gid] = bound;
 }
