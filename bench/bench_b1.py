@@ -102,16 +102,21 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     print(json.dumps(row))
 
 
-def run_path(path: str, out: Path, compute: str = "float64", device: str = "", grid: str = "b1") -> dict:
+def run_child(script: str, *args: str) -> dict:
+    """``script --child ARGS`` in a fresh process: the JSON line it prints, with the process's wall time
+    and cells per second of it."""
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, __file__, "--child", path, "--out", str(out), "--compute", compute,
-                           "--grid", grid, "--device", device], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, script, "--child", *args], capture_output=True, text=True)
     if proc.returncode:
-        raise SystemExit(f"{path} bake failed: {proc.stderr.strip()}")
+        raise SystemExit(f"{' '.join(args)} failed: {proc.stderr.strip()}")
     row = json.loads(proc.stdout.strip().splitlines()[-1])
     row["process_wall_s"] = time.perf_counter() - start
     row["process_cells_per_s"] = row["cells"] / row["process_wall_s"]
     return row
+
+
+def run_path(path: str, out: Path, compute: str = "float64", device: str = "", grid: str = "b1") -> dict:
+    return run_child(__file__, path, "--out", str(out), "--compute", compute, "--grid", grid, "--device", device)
 
 
 def devices() -> list:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -25,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_building, numpy_2nm
+from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_building, numpy_2nm, run_child
 
 
 def child(what: str, out: str, device: str, rows: int) -> None:
@@ -65,15 +64,7 @@ def child(what: str, out: str, device: str, rows: int) -> None:
 def run(what: str, out: Path, device: str = "", rows: int = 0) -> dict:
     if what == "b1":
         out.parent.mkdir(parents=True, exist_ok=True)
-    start = time.perf_counter()
-    proc = subprocess.run([sys.executable, __file__, "--child", what, "--out", str(out), "--device", device,
-                           "--rows", str(rows)], capture_output=True, text=True)
-    if proc.returncode:
-        raise SystemExit(f"{what} failed: {proc.stderr.strip()}")
-    row = json.loads(proc.stdout.strip().splitlines()[-1])
-    row["process_wall_s"] = time.perf_counter() - start
-    row["process_cells_per_s"] = row["cells"] / row["process_wall_s"]
-    return row
+    return run_child(__file__, what, "--out", str(out), "--device", device, "--rows", str(rows))
 
 
 def main() -> None:

@@ -500,6 +500,10 @@ __kernel void pair_transform(__global const REAL *film, __global const int *offs
     }
 }
 
+// The series kernels' work-item: its texel's constants and rule; a texel the series does not take is
+// appended to `rest` (its band index; `rest_count` counts them) and the work-item is done.
+#define SERIES_OR_REST ITEMS_GUARD SERIES_TEXEL(gid) if (cap < 0) { rest[atomic_inc(rest_count)] = gid; return; }
+
 // The bake's first pass over a band: the series for every texel whose rule allows it, Ŵ(mX) read from its
 // pair's shared values (`pair_w`, placed by `offset` as in pair_transform); the other texels are appended
 // to `rest` (their band index; `rest_count` counts them).
@@ -508,12 +512,7 @@ __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width
                                __global REAL *rgb_out, __global int *rest, __global int *rest_count,
                                const int n_items)
 {
-    ITEMS_GUARD
-    SERIES_TEXEL(gid)
-    if (cap < 0) {
-        rest[atomic_inc(rest_count)] = gid;
-        return;
-    }
+    SERIES_OR_REST
     // `shared` a literal: the compiler drops the other branch (a run-time flag made this 3x slower)
     series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 1, pair_w + 6 * offset[pair], table, intervals, step,
                tail, tol, rgb_out + 3 * gid);
@@ -525,12 +524,7 @@ __kernel void bake_rows_series_table(const int n_cos, const int n_opd, const int
                                      __global REAL *rgb_out, __global int *rest, __global int *rest_count,
                                      const int n_items)
 {
-    ITEMS_GUARD
-    SERIES_TEXEL(gid)
-    if (cap < 0) {
-        rest[atomic_inc(rest_count)] = gid;
-        return;
-    }
+    SERIES_OR_REST
     series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 0, table, table, intervals, step, tail, tol,
                rgb_out + 3 * gid);
 }
