@@ -176,20 +176,29 @@ def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
     (lutbake.fourier.series_colour) and only those on the direct path are counted and measured."""
     if direct_texels == 0:
         return 0, 0.0, 0.0
-    def direct(texels):
-        return series_colour(spec.texel_stacks(texels), spec.observer, spec.space, integrate=False).path == 2
+    def direct(texels):   # float32 kernels have no closed form: what the series leaves is direct there
+        path = series_colour(spec.texel_stacks(texels), spec.observer, spec.space, integrate=False).path
+        return path == 2 if spec.compute == "float64" else path > 0
 
     count, bound, texels = spec.capped_texels(keep=None if direct_texels is None else direct)
     return count, bound, _error_at(spec, spec.texel_stacks(texels))
 
 
 def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
-    """The per-texel choice of integrator: the series' rule and its outcome over the grid."""
+    """The per-texel choice of integrator: the rules of the series and of the poles' closed form, and
+    their outcome over the grid."""
+    from . import poles
+
     wt = weight_transform(spec.observer, spec.space)
-    return {"rule": "fourier-series where in scope and within budget, else the direct spectral rule",
+    return {"rule": "fourier-series where in scope and within budget, else the poles' closed form where the film "
+                    "propagates and its bound is within the tolerance, else the direct spectral rule",
             "series_tolerance_per_polarization": DEFAULT_SERIES_TOLERANCE, "series_budget_terms": SERIES_BUDGET,
             "table_step_nm": wt.step_nm, "table_max_nm": wt.x_max_nm,
-            "table_interpolation_bound": float(wt.interpolation_bound.max()), **series}
+            "table_interpolation_bound": float(wt.interpolation_bound.max()),
+            "closed_form": {"near_ellipse_rho": poles.NEAR_RHO, "bound_ellipse_rho": poles.BOUND_RHO,
+                            "chebyshev_degree": poles.CHEBYSHEV_DEGREE, "max_near_poles": poles.MAX_NEAR_POLES,
+                            "cauchy_table_bound": float(poles.cauchy_table(spec.observer, spec.space).bound.max())},
+            **series}
 
 
 def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:

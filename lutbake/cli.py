@@ -596,8 +596,10 @@ def inspect_cmd(lut, as_json):
                    f"{spectral['truncation_bound_rgb']:.1e}, measured ≤ {spectral['capped_error_rgb_max']:.1e}")
     if "integrator" in meta:
         mix = meta["integrator"]
+        closed = (f", poles' closed form at {mix['closed_form_texels']} (bound ≤ {mix['closed_form_bound_rgb_max']:.1e})"
+                  if "closed_form_texels" in mix else "")
         click.echo(f"  integrator: Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ "
-                   f"{mix['series_bound_rgb_max']:.1e}), direct rule at {mix['direct_texels']}")
+                   f"{mix['series_bound_rgb_max']:.1e}){closed}, direct rule at {mix['direct_texels']}")
     click.echo(f"  content hash {meta['content_hash']}")
 
 

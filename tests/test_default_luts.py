@@ -63,13 +63,20 @@ def test_common_bases_fall_inside_a_default_lut_of_every_film(base):
         assert inside, f"{base} at eta2 {eta2}: outside {pair}"
 
 
-def test_inspect_prints_the_texels_past_the_spectral_cap():
-    """docs/stability.md: `lutbake inspect` shows the count, the bound and the measured residual of the
-    texels past the node cap, as recorded in the header (the metal LUTs have the most)."""
+def test_no_default_texel_takes_the_direct_path_and_inspect_says_how_each_was_integrated():
+    """docs/spectral.md: the series and, beyond it, the poles' closed form integrate every texel of the
+    default set (no texel past the direct rule's node cap is left to measure); `lutbake inspect` prints
+    the mix the header records."""
+    for name in default_specs():
+        meta = Lut.load(LUTS / f"{name}.exr").meta
+        mix = meta["integrator"]
+        assert mix["direct_texels"] == 0 and meta["spectral"]["capped_texels"] == 0, name
+        assert mix["series_texels"] + mix["closed_form_texels"] == default_specs()[name].cells
+        assert mix["closed_form_bound_rgb_max"] <= 1e-9
     path = LUTS / "lutbake-eta2-2.00-metal.exr"
-    spectral = Lut.load(path).meta["spectral"]
-    assert spectral["capped_texels"] > 0
+    mix = Lut.load(path).meta["integrator"]
+    assert mix["closed_form_texels"] > 0
     text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(path)], capture_output=True,
                           text=True).stdout
-    assert (f"past the node cap: {spectral['capped_texels']} texels, bound |ΔRGB| ≤ "
-            f"{spectral['truncation_bound_rgb']:.1e}, measured ≤ {spectral['capped_error_rgb_max']:.1e}") in text
+    assert (f"Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ {mix['series_bound_rgb_max']:.1e}), "
+            f"poles' closed form at {mix['closed_form_texels']}") in text and "past the node cap" not in text

@@ -470,11 +470,27 @@ inline void series_rgb(SeriesPol s, SeriesPol p, ColumnRule column, REAL x, CPLX
     __global const REAL *table, const int intervals, const REAL step,                             \
     __global const REAL *tail, const REAL interp, const REAL tol, const int budget  /* tail: mass, edge, variation */
 
-// The texel's series constants, X and rule, from its index in a band of rows starting at row0.
+// The texel's series constants, X and rule. `index` is its place in the band, row by row (rgb_out and the
+// lists of texels left); the band's passes over all its texels take them column by column within groups
+// of BAND_ROWS rows instead (BAND_TEXEL): neighbouring work-items then share (cos θ, η3, κ3) and step
+// along D, so a SIMD vector's texels need about as many terms each and read the same column's constants,
+// while consecutive vectors write neighbouring texels of the same rows.
 #define SERIES_TEXEL(index)                                                                       \
     const int x = (index) % width, y = row0 + (index) / width;                                   \
-    const int i_cos = x % n_cos, i_eta3 = x / n_cos;   /* the tile packing: lutbake/layout.py */  \
-    const int i_opd = y % n_opd, i_kappa3 = y / n_opd;                                            \
+    SERIES_TEXEL_AT(x, y)
+
+#define BAND_ROWS 16   // rows per group of BAND_TEXEL's order
+#define BAND_TEXEL                                                                                \
+    const int group = gid / (BAND_ROWS * width), first_row = group * BAND_ROWS;                  \
+    const int group_rows = min(BAND_ROWS, n_items / width - first_row);                          \
+    const int within = gid - first_row * width;                                                   \
+    const int x = within / group_rows, y = row0 + first_row + within % group_rows;              \
+    const int index = (y - row0) * width + x;                                                     \
+    SERIES_TEXEL_AT(x, y)
+
+#define SERIES_TEXEL_AT(x, y)                                                                     \
+    const int i_cos = (x) % n_cos, i_eta3 = (x) / n_cos;   /* the tile packing: lutbake/layout.py */ \
+    const int i_opd = (y) % n_opd, i_kappa3 = (y) / n_opd;                                        \
     const int pair = i_opd * n_cos + i_cos;                                                       \
     __global const REAL *co = coefficients + COLUMN * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
     __global const REAL *f = film + 3 * pair;                                                     \
@@ -502,7 +518,7 @@ __kernel void pair_transform(__global const REAL *film, __global const int *offs
 
 // The series kernels' work-item: its texel's constants and rule; a texel the series does not take is
 // appended to `rest` (its band index; `rest_count` counts them) and the work-item is done.
-#define SERIES_OR_REST ITEMS_GUARD SERIES_TEXEL(gid) if (cap < 0) { rest[atomic_inc(rest_count)] = gid; return; }
+#define SERIES_OR_REST ITEMS_GUARD BAND_TEXEL if (cap < 0) { rest[atomic_inc(rest_count)] = index; return; }
 
 // The bake's first pass over a band: the series for every texel whose rule allows it, Ŵ(mX) read from its
 // pair's shared values (`pair_w`, placed by `offset` as in pair_transform); the other texels are appended
@@ -515,7 +531,7 @@ __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width
     SERIES_OR_REST
     // `shared` a literal: the compiler drops the other branch (a run-time flag made this 3x slower)
     series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 1, pair_w + 6 * offset[pair], table, intervals, step,
-               tail, tol, rgb_out + 3 * gid);
+               tail, tol, rgb_out + 3 * index);
 }
 
 // bake_rows_series where the pairs share nothing (few texels per pair, or their table would not fit):
@@ -526,5 +542,5 @@ __kernel void bake_rows_series_table(const int n_cos, const int n_opd, const int
 {
     SERIES_OR_REST
     series_rgb(sp, pp, column, f[0], (CPLX)(f[1], f[2]), cap, 0, table, table, intervals, step, tail, tol,
-               rgb_out + 3 * gid);
+               rgb_out + 3 * index);
 }

@@ -170,10 +170,10 @@ __kernel void plan_rows(const int n_cos, const int n_opd, const int width, const
                         __global REAL *bound_out, const int n_items)
 {
     ITEMS_GUARD
-    SERIES_TEXEL(gid)
+    BAND_TEXEL
     bound_out[gid] = 0;
     if (cap < 0) {
-        rest[atomic_inc(rest_count)] = gid;
+        rest[atomic_inc(rest_count)] = index;
         return;
     }
     const int terms = series_terms_bound(column, f[0], cap);
