@@ -547,33 +547,35 @@ class OpenCLBackend:
         stats = SeriesStats()
         n_cos, n_opd, _, _ = spec.shape
         pair_terms = np.zeros(n_cos * n_opd, np.int32)
-        mf = cl.mem_flags
-        terms_buf = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=pair_terms)
-        width, _ = spec.image_size
-        real = np.dtype(self.dtype)
+        terms_buf = cl.Buffer(self.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=pair_terms)
         for y0, y1 in spec.row_chunks():
-            cells = (y1 - y0) * width
-            rest = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4)
-            rest_count = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
-            bounds = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * real.itemsize)
-            self._run(self.plan_kernel, cells, *self._band_args(spec, y0), terms_buf, rest, rest_count, bounds)
-            left = self._count(rest_count)
-            series_bound = self._max(bounds, cells)
-            closed = [0, 0]
-            closed_bound = 0.0
-            if left:
-                path, bound = np.empty(left, np.int8), np.empty(left, self.dtype)
-                path_buf, bound_buf = (cl.Buffer(self.ctx, mf.WRITE_ONLY, a.nbytes) for a in (path, bound))
-                self._run(self.plan_closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
-                          rest, rest_count, path_buf, bound_buf)
-                cl.enqueue_copy(self.queue, path, path_buf)
-                cl.enqueue_copy(self.queue, bound, bound_buf)
-                closed = np.bincount(path, minlength=3)[1:3]
-                closed_bound = float(bound.max())
-            stats.add([[cells - left, *closed]], [[series_bound, closed_bound]])
+            stats.add(*self._plan_band(spec, y0, y1, terms_buf))
         cl.enqueue_copy(self.queue, pair_terms, terms_buf)
         self._plan = _BakePlan(spec.content_hash, stats, pair_terms, spec.shape[2] * spec.shape[3])
         return self._plan
+
+    def _plan_band(self, spec, y0, y1, terms_buf) -> tuple:
+        """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]]),
+        the pairs' term counts raised in ``terms_buf``."""
+        import pyopencl as cl
+
+        cells = (y1 - y0) * spec.image_size[0]
+        mf = cl.mem_flags
+        rest = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4)
+        rest_count = cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
+        bounds = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * np.dtype(self.dtype).itemsize)
+        self._run(self.plan_kernel, cells, *self._band_args(spec, y0), terms_buf, rest, rest_count, bounds)
+        left, series_bound = self._count(rest_count), self._max(bounds, cells)
+        if not left:
+            return [[cells, 0, 0]], [[series_bound, 0.0]]
+        path, bound = np.empty(left, np.int8), np.empty(left, self.dtype)
+        path_buf, bound_buf = (cl.Buffer(self.ctx, mf.WRITE_ONLY, a.nbytes) for a in (path, bound))
+        self._run(self.plan_closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec), rest,
+                  rest_count, path_buf, bound_buf)
+        cl.enqueue_copy(self.queue, path, path_buf)
+        cl.enqueue_copy(self.queue, bound, bound_buf)
+        closed, direct = np.bincount(path, minlength=3)[1:3]
+        return [[cells - left, closed, direct]], [[series_bound, float(bound[path == 1].max(initial=0.0))]]
 
     def series_plan(self, spec) -> SeriesStats:
         """The rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
@@ -612,30 +614,38 @@ class OpenCLBackend:
         if self.integrator == "direct":
             keep += self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
         else:
-            plan = self._bake_plan(spec)
-            lists = [cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4) for _ in range(2)]
-            counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32))
-                      for _ in range(2)]
-            keep += lists + counts
-            if plan.offsets is not None:
-                self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
-                          lists[0], counts[0])
-            else:
-                self._run(self.series_table_kernel, cells, *self._band_args(spec, y0), out_buf, lists[0], counts[0])
-            if plan.stats.closed_form_texels or plan.stats.direct_texels:
-                self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
-                          lists[0], counts[0], out_buf, lists[1], counts[1])
-            left = self._count(counts[1]) if plan.stats.direct_texels else 0
-            if left:
-                texels = np.empty(left, np.int32)
-                cl.enqueue_copy(self.queue, texels, lists[1])
-                texels.sort()
-                params = [np.ravel(p)[texels] for p in spec.cell_params(y0, y1)]
-                keep += self._direct(spec, y0, texels, spec.cell_levels(*params), out_buf)
-            else:   # the plan said none: check that the band agrees (the same rule ran)
-                unplanned = np.zeros(1, np.int32)
-                keep.append((unplanned, cl.enqueue_copy(self.queue, unplanned, counts[1], is_blocking=False)))
+            keep += self._series_passes(spec, y0, y1, out_buf)
         return PendingRows(out, cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False), keep)
+
+    def _series_passes(self, spec, y0, y1, out_buf) -> list:
+        """Enqueue the series, the closed form at what it leaves and (where the plan expects any) the
+        direct quadrature at what that leaves; the buffers to keep until they are done."""
+        import pyopencl as cl
+
+        plan = self._bake_plan(spec)
+        cells = (y1 - y0) * spec.image_size[0]
+        mf = cl.mem_flags
+        lists = [cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4) for _ in range(2)]
+        counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32)) for _ in range(2)]
+        keep = lists + counts
+        if plan.offsets is not None:
+            self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
+                      lists[0], counts[0])
+        else:
+            self._run(self.series_table_kernel, cells, *self._band_args(spec, y0), out_buf, lists[0], counts[0])
+        if plan.stats.closed_form_texels or plan.stats.direct_texels:
+            self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
+                      lists[0], counts[0], out_buf, lists[1], counts[1])
+        left = self._count(counts[1]) if plan.stats.direct_texels else 0
+        if left:
+            texels = np.empty(left, np.int32)
+            cl.enqueue_copy(self.queue, texels, lists[1])
+            texels.sort()
+            params = [np.ravel(p)[texels] for p in spec.cell_params(y0, y1)]
+            return keep + self._direct(spec, y0, texels, spec.cell_levels(*params), out_buf)
+        # the plan said none: check that the band agrees (the same rule ran)
+        unplanned = np.zeros(1, np.int32)
+        return keep + [(unplanned, cl.enqueue_copy(self.queue, unplanned, counts[1], is_blocking=False))]
 
     def _max(self, values, count: int) -> float:
         """The largest of ``count`` values in a device buffer (max_chunks, then the host)."""
