@@ -30,6 +30,7 @@ import numpy as np
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
 from .optics import film_reflectance, normal_admittance
+from .plan import SERIES_CHUNK
 from .points import FilmPoints
 from .reference import subset
 
@@ -365,40 +366,48 @@ class _BakePlan:
         self.buffers = None
 
 
-_CHUNK = 1 << 16   # columns or pairs per step of _series_arrays: its temporaries stay bounded
+_CHUNK = SERIES_CHUNK   # columns or pairs per step of _series_chunks: its temporaries stay bounded
 _COLUMN = 24   # REAL per column in the kernel's layout (COLUMN in airy.cl)
 
 
-def _series_arrays(spec, dtype=np.float64):
-    """Host inputs of kernels/airy.cl's series in the kernel's layout, as ``dtype``, built a chunk at a
-    time (no temporary scales with the grid):
+def _series_shapes(spec) -> tuple:
+    """Shapes of the series kernels' two inputs (_series_chunks): coefficients, film."""
+    n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
+    return (n_kappa3 * n_eta3 * n_cos, _COLUMN), (n_opd * n_cos, 3)
+
+
+def _series_chunks(spec, dtype=np.float64):
+    """Host inputs of kernels/airy.cl's series in the kernel's layout, as ``dtype``, a chunk of rows at a
+    time, so that neither they nor their temporaries scale with the grid on the host: yields (input,
+    first row, rows) with input 0 the coefficients, 1 the film (shapes: _series_shapes).
 
     coefficients (κ3, η3, cos θ, _COLUMN): [s, p] × [C0, K, q, 1 − |q|] (1 − |q| = −1 marking an
-    evanescent film), then the column's rule constants (_column_rule); film (D, cos θ, [X, e^{i2πXν0}]).
+    evanescent film), then the column's rule constants (_column_rule), then zeros; film (D, cos θ,
+    [X, e^{i2πXν0}]).
     """
     ax = {a.name: a.values() for a in spec.axes}
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
     eta3 = spec.eta3_columns()                                   # (η3, cos θ) flattened
     wt = weight_transform(spec.observer, spec.space)
-    coefficients = np.zeros((n_kappa3 * n_eta3 * n_cos, _COLUMN), dtype)
-    for start in range(0, coefficients.shape[0], _CHUNK):
-        flat = np.arange(start, min(start + _CHUNK, coefficients.shape[0]))
+    (n_columns, _), (n_pairs, _) = _series_shapes(spec)
+    for start in range(0, n_columns, _CHUNK):
+        flat = np.arange(start, min(start + _CHUNK, n_columns))
         column, i_kappa3 = flat % (n_eta3 * n_cos), flat // (n_eta3 * n_cos)
         co = series_coefficients(spec.eta1, spec.eta2, ax["cos_theta"][column % n_cos], 0.0, eta3[column],
                                  ax["kappa3"][i_kappa3])
         one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
+        block = np.zeros((flat.size, _COLUMN), dtype)
         for p in (0, 1):
-            coefficients[flat, 6 * p:6 * p + 6] = np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real,
-                                                            co.q[p].imag, one_minus_q[p]], -1)
-        coefficients[flat, 12:21] = _column_rule(co, wt.mass.max())
+            block[:, 6 * p:6 * p + 6] = np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real,
+                                                  co.q[p].imag, one_minus_q[p]], -1)
+        block[:, 12:21] = _column_rule(co, wt.mass.max())
+        yield 0, start, block
     cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0)
-    film = np.empty((n_opd * n_cos, 3), dtype)
-    for start in range(0, film.shape[0], _CHUNK):
-        flat = np.arange(start, min(start + _CHUNK, film.shape[0]))
+    for start in range(0, n_pairs, _CHUNK):
+        flat = np.arange(start, min(start + _CHUNK, n_pairs))
         x_nm = ax["opd_nm"][flat // n_cos] * cos2[flat % n_cos]
         turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
-        film[flat] = np.stack([x_nm, turn.real, turn.imag], -1)
-    return coefficients, film
+        yield 1, start, np.stack([x_nm, turn.real, turn.imag], -1).astype(dtype)
 
 
 def _column_rule(co, mass) -> np.ndarray:
@@ -498,8 +507,11 @@ class OpenCLBackend:
             return self._series[1]
         wt = weight_transform(spec.observer, spec.space)
         mf = cl.mem_flags
-        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
-                   for a in _series_arrays(spec, self.dtype)]
+        size = np.dtype(self.dtype).itemsize
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY, size=rows * width * size)
+                   for rows, width in _series_shapes(spec)]
+        for which, start, block in _series_chunks(spec, self.dtype):   # chunk by chunk: no host copy of the whole
+            cl.enqueue_copy(self.queue, buffers[which], block, device_offset=start * block.shape[1] * size)
         key = ("fourier", spec.observer, spec.space)
         if key not in self._tables:
             table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)

@@ -55,6 +55,7 @@ DEFAULT_MEMORY_LIMIT_GIB = 8.0
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 SCREEN_CHUNK = 1 << 16   # texels capped_texels screens at once
+SERIES_CHUNK = 1 << 16   # columns (or pairs) integrate._series_chunks builds at once
 _MIB = 1 << 20
 # The memory model (``BakeSpec.memory``): what a bake holds, in bytes, item by item from the code that
 # allocates it, with per-item constants fitted to peak RSS measured by bench/bench_memory.py (a process
@@ -67,8 +68,8 @@ MEMORY = {
     "tables": 24 * _MIB,           # the closed form's Cauchy table (8.3 MB) on the host and the device
     "column": 192,                 # per (cos θ, η3, κ3): the series and rule constants on the device (24 REAL)
     "pair": 56,                    # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
-    "build": (192, 24, 700 << 16),  # while integrate._series_arrays builds them on the host: per column, per pair,
-                                   # and the temporaries of one chunk of 2^16 columns
+    "build": 1400,                 # per column of the chunk (2^16 at most) integrate._series_chunks builds and copies
+                                   # to the device at a time: the chunk and its temporaries (827 B traced)
     "pair_table": 48 * _MIB,       # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
     "plan_cell": 12,               # per cell of a band during the plan: the texels left and the series bounds
     "probes": 30 * _MIB,           # the ground truth at the 48 probes (reference.py) ...
@@ -311,8 +312,7 @@ class BakeSpec:
             shared = integrator == "series" and n_eta3 * n_kappa3 >= 8
             terms = pairs * 512 if plan is None else plan.shared_terms
             items["pair_table"] = min(MEMORY["pair_table"], terms * 48) if shared else 0
-            per_column, per_pair, chunk = MEMORY["build"]
-            plan = columns * per_column + pairs * per_pair + chunk + band * MEMORY["plan_cell"] + probes
+            plan = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
             if integrator == "direct":
                 plan += MEMORY["screen"]
             items["phases"] = max(plan, band * MEMORY["band_cell"][integrator] + exr)

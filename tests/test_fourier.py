@@ -174,6 +174,17 @@ def test_kernel_rule_is_the_numpy_rule(grid_spec, kernel_device):
     assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bounds[0] <= 1e-7
 
 
+def test_series_inputs_copied_to_the_device_chunk_by_chunk_are_the_whole(grid_spec, series_grid, kernel_device,
+                                                                        monkeypatch):
+    """The series constants go to the device a chunk of columns (and of (cos θ, D) pairs) at a time, each at
+    its offset (the host never holds them whole): with 37-row chunks, 56 of each, the bake is the same."""
+    import lutbake.integrate
+    from lutbake.bake import bake_array
+
+    monkeypatch.setattr(lutbake.integrate, "_CHUNK", 37)
+    assert np.array_equal(bake_array(grid_spec, "opencl", device=kernel_device), series_grid)
+
+
 def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid, kernel_device):
     from dataclasses import replace
 

@@ -362,7 +362,7 @@ inline SeriesPol series_pol(__global const REAL *c) {
     return p;
 }
 
-// A column's (cos θ, η3, κ3) constants of the rule, from the host (lutbake.integrate._series_arrays; they
+// A column's (cos θ, η3, κ3) constants of the rule, from the host (lutbake.integrate._series_chunks; they
 // do not depend on D): |K|/(1 − |q|), |q|, log |q| and |K| per polarization, and `geometric`, the terms
 // after which the remainder bound with sup |Ŵ| ≤ mass is ≤ tol (+1 for rounding).
 #define COLUMN 24   // REAL per column: s, p (6 each), then the rule's 9, padded
