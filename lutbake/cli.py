@@ -432,8 +432,8 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
 
 
 def _bake_scene(scene_path, out, force, backend, as_json, meter):
-    from .atlas import bake_scene, check_scene_outputs
-    from .scene import load_scene
+    from .scene_bake import bake_scene, check_scene_outputs
+    from .scene_toml import load_scene
 
     if out is None:
         raise BadInput("--out DIR is required with --scene")
@@ -473,7 +473,8 @@ def plan_cmd(scene_path, as_json):
     rate measured now, here; the grids themselves go through the bake's integrator.
     """
     from .progress import format_seconds
-    from .scene import load_scene, plan_scene, truth_rate
+    from .scene_plan import plan_scene, truth_rate
+    from .scene_toml import load_scene
 
     plan = plan_scene(load_scene(scene_path))
     rate = truth_rate(plan)
