@@ -273,7 +273,7 @@ class _Parts:
             channels.append(names[key])
         return {"mapping": mapping, "f0": f0, "eta3": eta.tolist(), "kappa3": kappa.tolist(),
                 "clamped": bool(clamped.any()), "channels": channels,
-                "reflectance_error_max": max(reflectance_error(e, k, min(f, F0_MAX[mapping]))["max"]
+                "reflectance_error_max": max(reflectance_error(float(e), float(k), min(f, F0_MAX[mapping]))["max"]
                                              for e, k, f in zip(eta, kappa, f0))}
 
     def _metal_range(self, f0_factor, mapping: str) -> dict:

@@ -21,6 +21,8 @@ two-parameter family of conductors); KHR_materials_iridescence, three.js r187 ``
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .optics import fresnel_p, fresnel_s, normal_admittance
@@ -47,7 +49,9 @@ def conductor_reflectance(eta, kappa, cos_theta):
     eta, kappa, c = np.broadcast_arrays(*(np.asarray(v, float) for v in (eta, kappa, cos_theta)))
     g1, g3 = normal_admittance(1.0, 0.0, 1.0, c), normal_admittance(eta, kappa, 1.0, c)
     n3 = eta + 1j * kappa
-    return 0.5 * (np.abs(fresnel_s(g1, g3)) ** 2 + np.abs(fresnel_p(g1, g3, 1.0, n3)) ** 2)
+    with np.errstate(invalid="ignore"):  # 0/0 only for a base matching air at grazing incidence: R → 0
+        r = 0.5 * (np.abs(fresnel_s(g1, g3)) ** 2 + np.abs(fresnel_p(g1, g3, 1.0, n3)) ** 2)
+    return np.nan_to_num(r, nan=0.0)
 
 
 def _kappa_for(f0, eta):
@@ -62,15 +66,17 @@ def _max_error(f0, eta, cos_grid=_COS_GRID):
     return np.abs(r - gltf_metal_reflectance(f0, cos_grid)[None, :]).max(axis=1)
 
 
+@functools.lru_cache(maxsize=4096)
 def _fitted(f0: float) -> tuple:
     """(η, κ) of the ``fitted`` mapping for one F0 in [0, F0_MAX['fitted']]: a log-spaced search over
-    η between its two κ = 0 ends, refined by golden sections around the best step."""
+    η between its two κ = 0 ends (every 4th cos θ node), refined by golden sections around the best
+    step (every node). Cached: a scene's metals share few distinct F0."""
     if f0 <= 0.0:
         return 1.0, 0.0
     r = np.sqrt(f0)
     lo, hi = np.log((1.0 - r) / (1.0 + r)), np.log((1.0 + r) / (1.0 - r))
     grid = np.linspace(lo, hi, _ETA_STEPS)
-    best = int(np.argmin(_max_error(f0, np.exp(grid))))
+    best = int(np.argmin(_max_error(f0, np.exp(grid), _COS_GRID[::4])))
     a, b = grid[max(best - 1, 0)], grid[min(best + 1, _ETA_STEPS - 1)]
     ratio = (np.sqrt(5.0) - 1.0) / 2.0
     for _ in range(_GOLDEN_ITERATIONS):
@@ -94,6 +100,7 @@ def conductor(f0, mapping: str) -> tuple:
     return pairs[:, 0], pairs[:, 1], clamped
 
 
+@functools.lru_cache(maxsize=4096)
 def reflectance_error(eta: float, kappa: float, f0: float) -> dict:
     """The searched maximum of |R(θ) − Schlick(θ)| over cos θ ∈ [0, 1] (the 1025-node grid's worst
     node, refined by golden sections between its neighbours): {'max', 'cos_theta'}."""
@@ -110,4 +117,4 @@ def reflectance_error(eta: float, kappa: float, f0: float) -> dict:
         a, b = (a, x2) if at(x1) >= at(x2) else (x1, b)
     c = 0.5 * (a + b)
     best = max((at(c), c), (float(err[i]), float(_COS_GRID[i])), (at(0.0), 0.0), (at(1.0), 1.0))
-    return {"max": best[0], "cos_theta": best[1]}
+    return {"max": best[0], "cos_theta": float(best[1])}
