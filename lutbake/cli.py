@@ -765,6 +765,8 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
 
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    if Path(lut).suffix.lower() == ".json":  # a glTF bake's manifest: one receipt per glTF material
+        return _gltf_receipts(lut, n_points, seed, out_dir, as_json)
     table = load_table(lut)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
     if isinstance(table, Atlas):
@@ -791,6 +793,25 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
             click.echo(f"gate p99 ΔE00 {p99:.3f} {'>' if gate_failed else '<='} {max_de:g}: "
                        f"{'FAIL' if gate_failed else 'pass'}")
     return EXIT_GATE if gate_failed else 0
+
+
+def _gltf_receipts(manifest, n_points, seed, out_dir, as_json):
+    """`report OUT/ASSET.json`: the receipts of a glTF bake (receipt.py), as JSON and HTML in --out."""
+    from .receipt import gltf_receipts, write_receipts
+
+    receipts = gltf_receipts(manifest, min(n_points, 1000), seed)
+    if out_dir:
+        write_receipts(receipts, out_dir)
+    if as_json:
+        echo_json(receipts)
+        return 0
+    for r in receipts["materials"]:
+        costs = "; ".join(f"{part}: baked p99 {p['de00']['baked']['de00_p99']:.2f}, three.js p99 "
+                          f"{p['de00']['threejs']['de00_p99']:.2f}" for part, p in r["parts"].items())
+        click.echo(f"material {r['gltf_index']} {r['name']!r}: {costs or r['why_not']}")
+    if out_dir:
+        click.echo(f"receipts in {out_dir}/receipts.html and receipts.json")
+    return 0
 
 
 def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:

@@ -95,7 +95,7 @@ def conductor(f0, mapping: str) -> tuple:
     f0 = np.clip(f0, 0.0, F0_MAX[mapping])
     if mapping == "threejs":
         r = np.sqrt(f0)
-        return (1.0 + r) / (1.0 - r), np.zeros_like(f0), clamped
+        return np.minimum((1.0 + r) / (1.0 - r), MAX_INDEX), np.zeros_like(f0), clamped  # F0_MAX: η = 10 ± 1 ulp
     pairs = np.array([_fitted(float(v)) for v in f0]).reshape(-1, 2)
     return pairs[:, 0], pairs[:, 1], clamped
 

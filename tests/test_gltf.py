@@ -220,3 +220,25 @@ def test_fitted_conductor_keeps_f0_and_stays_near_gltf_metal_curve():
     assert gltf_metal_reflectance(0.5, 0.0) == 1.0
     e4, k4, _ = conductor([1e-4], "fitted")
     assert reflectance_error(float(e4[0]), float(k4[0]), 1e-4)["max"] > 0.1
+
+
+def test_receipts_say_what_each_choice_costs(tmp_path):
+    """`report OUT/ASSET.json`: per material the values read (defaults flagged), what was baked against the
+    truth (within the target), three.js's own term (far off) and the other metal mapping's truth. The
+    coloured metal is per channel: reading every channel from the red slice would miss the target."""
+    doc = document([iridescent(ior=1.4, d_min=200, d_max=500, thickness_texture=True),
+                    iridescent(ior=1.6, d_max=350, metallic=1.0, colour=[0.9, 0.6, 0.3])], textures=[{}])
+    gltf = write_gltf(tmp_path / "coat.gltf", doc)
+    assert cli("bake", "--gltf", gltf, "--out", tmp_path / "out").returncode == 0
+    proc = cli("report", tmp_path / "out" / "coat.json", "--points", 150, "--json", "--out", tmp_path / "rec")
+    assert proc.returncode == 0, proc.stderr
+    receipts = json.loads(proc.stdout)
+    assert json.loads((tmp_path / "rec" / "receipts.json").read_text()) == receipts
+    assert "<h2>material 1: (unnamed)</h2>" in (tmp_path / "rec" / "receipts.html").read_text()
+    dielectric, metal = (r["parts"] for r in receipts["materials"])
+    assert receipts["materials"][0]["read"]["ior"] == {"value": 1.5, "default": True}
+    for part in (dielectric["dielectric"], metal["metal"]):
+        assert part["de00"]["baked"]["de00_p99"] <= 1.0
+        assert part["de00"]["threejs"]["de00_p99"] > 3 * part["de00"]["baked"]["de00_p99"]
+    assert len(set(metal["metal"]["channels"])) == 3 and metal["metal"]["de00"]["other_mapping"]["mapping"] == "threejs"
+    assert metal["metal"]["de00"]["other_mapping"]["de00_p99"] > 5  # the mapping matters more than any LUT error
