@@ -45,14 +45,14 @@ def main(argv=None):
         sys.stdout.flush()
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
-    except (click.exceptions.Abort, KeyboardInterrupt):
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         # Files were cleaned up as the exception unwound. Leave without interpreter finalization:
         # an interrupt that landed inside a library's import can make Python re-raise SIGINT at exit
         # (seen: killed by SIGINT instead of exit 130 when Ctrl-C hit matplotlib's first start-up).
         click.echo("\nlutbake: interrupted", err=True)
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(130)
+        os._exit(128 + getattr(exc, "signum", signal.SIGINT))  # 130 for Ctrl-C, 143 for SIGTERM
     except click.exceptions.NoArgsIsHelpError as exc:  # bare `lutbake`: the help, not an error line
         click.echo(exc.ctx.get_help())
         sys.exit(0)

@@ -41,7 +41,9 @@ class GltfAsset:
         self.textures = self.array("textures", dict)
 
     def error(self, where: str, message: str) -> ValueError:
-        return ValueError(f"{self.path}: {where}{': ' if where else ''}{message}")
+        """'FILE: WHERE = VALUE …' for a message that starts with '= ', else 'FILE: WHERE: MESSAGE'."""
+        joint = "" if not where else " " if message.startswith("= ") else ": "
+        return ValueError(f"{self.path}: {where}{joint}{message}")
 
     def array(self, key: str, item_type, parent: dict | None = None, where: str = "") -> list:
         """``parent[key]`` (the document's by default): a list of at most MAX_ITEMS ``item_type``, or []."""

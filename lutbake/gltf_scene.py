@@ -248,12 +248,12 @@ class _Parts:
         self.reader.read["baseColorFactor"] = {"value": value, "default": "baseColorFactor" not in pbr}
         return [min(max(float(v), 0.0), 1.0) for v in value[:3]]
 
-    def _add(self, part: str, base, field: str) -> str:
+    def _add(self, part: str, base, field: str, base_path=None) -> str:
         name = f"{self.stem}-{part}"
         origin = {"film": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.iridescenceIor",
                   "thickness_nm": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.{self.reader.thickness_key}",
                   "base": f"{self.reader.asset.path}: {self.reader.label}: {field}"}
-        self.materials.append(SceneMaterial(name, self.record["film"], self.thickness, base, origin))
+        self.materials.append(SceneMaterial(name, self.record["film"], self.thickness, base, origin, base_path))
         return name
 
     def _metal(self, f0, textured: bool, named: str | None, mapping: str) -> dict:
@@ -286,7 +286,8 @@ class _Parts:
         box = ((float(eta.min()), float(eta.max())), (float(kappa.min()), float(kappa.max())))
         if box[0][0] == box[0][1] and box[1][0] == box[1][1]:  # a black texture range: one constant base
             box = (box[0][0], box[1][0])
-        name = self._add("metal", box, "pbrMetallicRoughness.baseColorTexture")
+        name = self._add("metal", box, "pbrMetallicRoughness.baseColorTexture",
+                         None if isinstance(box[0], float) else (tuple(eta), tuple(kappa)))
         return {"mapping": mapping, "texture": True, "f0_max": [min(f, F0_MAX[mapping]) for f in f0_factor],
                 "channels": [name] * 3,
                 "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()}}

@@ -25,7 +25,8 @@ from .integrate import backend as make_backend
 from .materials import material
 from .points import FilmPoints
 from .reference import reference_colour
-from .refine import Trial, refine, tune
+from .refine import Trial, lut_measure, refine, tune
+from .report import HeldOutPoints
 from .sample import Atlas
 from .scene_plan import HELD_OUT_POINTS, MAX_SLICE_COUNT, TRUTH_TOLERANCE, SceneJob
 from .slices import integrate_slice
@@ -91,15 +92,36 @@ def _constant_index_error(job: SceneJob, held, integrator) -> float | None:
 
 
 def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet) -> dict:
-    """Bake the 4D LUT at the smallest counts (refine.tune) whose p99 ΔE00 meets the target into
-    ``files``; its record (counts, p99, whether the target was met, the EXR's SHA-256)."""
+    """Bake the 4D LUT at the smallest counts whose p99 ΔE00 meets the target into ``files``: scored
+    at uniform points of its domain (refine.tune), or along its ``base_path`` when the engine reads it
+    only there; its record (counts, p99, whether the target was met, the EXR's SHA-256)."""
     spec = job.lut_spec()
-    result = tune(spec, job.scene.max_de, n_points=HELD_OUT_POINTS["lut"], seed=0, backend=backend,
-                  max_rounds=_LUT_MAX_ROUNDS, start=job.counts, frozen=(1,) if job.fixed_thickness else ())
+    frozen = (1,) if job.fixed_thickness else ()
+    if "base_path" in job.key:
+        held = _path_points(spec, job.key["base_path"], HELD_OUT_POINTS["lut along a base path"])
+        measure = lut_measure(spec, held, make_backend(backend, spec.compute))
+        result = refine(measure, job.counts, job.scene.max_de, frozen=frozen, max_rounds=_LUT_MAX_ROUNDS)
+    else:
+        result = tune(spec, job.scene.max_de, n_points=HELD_OUT_POINTS["lut"], seed=0, backend=backend,
+                      max_rounds=_LUT_MAX_ROUNDS, start=job.counts, frozen=frozen)
     axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result.counts))
     write_lut(replace(spec, axes=axes), path, files, backend)
     return {"counts": list(result.counts), "de00_p99": result.best.de00_p99, "target_met": result.met,
             "sha256": sha256_file(files.members[path])}
+
+
+def _path_points(spec, base_path, n: int, seed: int = 0) -> HeldOutPoints:
+    """Held-out points of a 4D LUT read along a base curve: cos θ uniform in √cos θ, D uniform over the
+    LUT's axis, (η3, κ3) at a uniform position along the curve's nodes (linear between them)."""
+    rng = np.random.default_rng(seed)
+    etas, kappas = (np.asarray(v, float) for v in base_path)
+    at = rng.uniform(0.0, etas.size - 1.0, n)
+    opd = spec.axes[1]
+    stack = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=rng.uniform(0.0, 1.0, n) ** 2,
+                             opd_nm=rng.uniform(opd.lo, opd.hi, n), eta3=np.interp(at, np.arange(etas.size), etas),
+                             kappa3=np.interp(at, np.arange(kappas.size), kappas))
+    truth = reference_colour(stack, spec.observer, spec.space, tolerance=TRUTH_TOLERANCE).values
+    return HeldOutPoints(stack, np.array(["uniform"] * n), truth)
 
 
 class Device:

@@ -101,3 +101,65 @@ def sphere_grid(name: str, path: Path) -> Path:
         materials.append({"extensions": ext, "pbrMetallicRoughness": {
             "metallicFactor": m["metallicFactor"], "baseColorFactor": [grey, grey, grey, 1], "roughnessFactor": 0.1}})
     return write_gltf(path, document(materials))
+
+
+def _sphere(stacks: int = 24, slices: int = 48):
+    """A unit UV sphere: (positions, normals, uvs, indices) as float32/uint16 arrays."""
+    import numpy as np
+
+    v, u = np.meshgrid(np.linspace(0, 1, stacks + 1), np.linspace(0, 1, slices + 1), indexing="ij")
+    theta, phi = v * np.pi, u * 2 * np.pi
+    normals = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], -1).reshape(-1, 3)
+    uvs = np.stack([u, v], -1).reshape(-1, 2)
+    row = slices + 1
+    quads = [(i * row + j, (i + 1) * row + j, i * row + j + 1, (i + 1) * row + j + 1)
+             for i in range(stacks) for j in range(slices)]
+    indices = np.array([(a, c, b, c, d, b) for a, b, c, d in quads], dtype=np.uint16).ravel()
+    return normals.astype(np.float32), normals.astype(np.float32), uvs.astype(np.float32), indices
+
+
+def _gradient_png(path: Path, seed: int) -> None:
+    """A 32×32 RGB texture whose channels vary across it (thickness in G, metalness in B, colour in RGB)."""
+    import numpy as np
+    from PIL import Image
+
+    y, x = np.mgrid[0:32, 0:32] / 31.0
+    phase = seed * 0.7
+    rgb = np.stack([0.5 + 0.5 * np.sin(6 * x + phase), y, 0.5 + 0.5 * np.cos(5 * (x + y) + phase)], -1)
+    Image.fromarray((rgb * 255).round().astype("uint8")).save(path)
+
+
+def stand_in(doc: dict, folder: Path, name: str) -> Path:
+    """The asset's materials, textures and samplers as they are, on generated geometry and images: one unit
+    sphere per material that has KHR_materials_iridescence, each its own mesh and node (the material used
+    directly, variants included), gradient PNGs for every image. Written to FOLDER/NAME.gltf + .bin."""
+    import numpy as np
+
+    folder.mkdir(parents=True, exist_ok=True)
+    positions, normals, uvs, indices = _sphere()
+    blobs = [positions.tobytes(), normals.tobytes(), uvs.tobytes(), indices.tobytes()]
+    offsets = np.cumsum([0] + [len(b) for b in blobs])
+    (folder / f"{name}.bin").write_bytes(b"".join(blobs))
+    views = [{"buffer": 0, "byteOffset": int(o), "byteLength": len(b)} for o, b in zip(offsets, blobs)]
+    count = len(positions)
+    accessors = [{"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3",
+                  "min": [-1, -1, -1], "max": [1, 1, 1]},
+                 {"bufferView": 1, "componentType": 5126, "count": count, "type": "VEC3"},
+                 {"bufferView": 2, "componentType": 5126, "count": count, "type": "VEC2"},
+                 {"bufferView": 3, "componentType": 5123, "count": len(indices), "type": "SCALAR"}]
+    textures = doc.get("textures", [])
+    images = max([t.get("source", 0) for t in textures] + [-1]) + 1
+    for i in range(images):
+        _gradient_png(folder / f"{name}-image{i}.png", i)
+    used = [i for i, m in enumerate(doc["materials"]) if "KHR_materials_iridescence" in m.get("extensions", {})]
+    attributes = {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, "TEXCOORD_1": 2}
+    out = {"asset": {"version": "2.0"}, "materials": doc["materials"],
+           "textures": [{"source": t.get("source", 0), **({"sampler": t["sampler"]} if "sampler" in t else {})}
+                        for t in textures],
+           "samplers": doc.get("samplers", []), "images": [{"uri": f"{name}-image{i}.png"} for i in range(images)],
+           "buffers": [{"uri": f"{name}.bin", "byteLength": int(offsets[-1])}], "bufferViews": views,
+           "accessors": accessors,
+           "meshes": [{"primitives": [{"attributes": attributes, "indices": 3, "material": i}]} for i in used],
+           "nodes": [{"mesh": k} for k in range(len(used))], "scenes": [{"nodes": list(range(len(used)))}],
+           "scene": 0, "extensionsUsed": doc.get("extensionsUsed", [])}
+    return write_gltf(folder / f"{name}.gltf", out)
