@@ -28,6 +28,7 @@ _API = {
     "report_lut": "report",
     "write_report": "report",
     "load_scene": "scene_toml",
+    "load_gltf_scene": "gltf_scene",
     "plan_scene": "scene_plan",
     "bake_scene": "scene_bake",
     "run_checks": "check",

@@ -70,6 +70,20 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
     ------
     ValueError
         One line naming the file, the material and the field.
+
+    Examples
+    --------
+    >>> import json, lutbake
+    >>> film = {"KHR_materials_iridescence": {"iridescenceIor": 1.33, "iridescenceThicknessMaximum": 380}}
+    >>> asset = {"asset": {"version": "2.0"}, "materials": [
+    ...     {"name": "bubble", "extensions": film, "pbrMetallicRoughness": {"metallicFactor": 0}}],
+    ...     "meshes": [{"primitives": [{"attributes": {}, "material": 0}]}]}
+    >>> _ = open("bubble.gltf", "w").write(json.dumps(asset))
+    >>> scene = lutbake.load_gltf_scene("bubble.gltf")
+    >>> [(m.name, m.film, m.thickness_nm, m.base) for m in scene.materials]
+    [('m0-bubble-dielectric', 1.33, (380.0, 380.0), (1.5, 0.0))]
+    >>> lutbake.bake_scene(scene, "baked").unmet
+    {}
     """
     asset = read_gltf(path)
     default, named, mapping_file = _metal_mapping(metal_mapping, asset)
