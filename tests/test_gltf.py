@@ -209,3 +209,13 @@ def test_receipts_say_what_each_choice_costs(tmp_path):
         assert part["de00"]["threejs"]["de00_p99"] > 3 * part["de00"]["baked"]["de00_p99"]
     assert len(set(metal["metal"]["channels"])) == 3 and metal["metal"]["de00"]["other_mapping"]["mapping"] == "threejs"
     assert metal["metal"]["de00"]["other_mapping"]["de00_p99"] > 5  # the mapping matters more than any LUT error
+
+
+def test_an_unchanged_asset_is_up_to_date_and_a_changed_material_rebakes_one_slice(tmp_path):
+    doc = document([iridescent(ior=1.4, d_max=300, base_ior=1.5), iridescent(ior=1.8, d_max=500, base_ior=1.2)])
+    gltf = write_gltf(tmp_path / "a.gltf", doc)
+    first = bake_scene(load_gltf_scene(gltf), tmp_path / "out")
+    assert len(first.computed) == 2 and bake_scene(load_gltf_scene(gltf), tmp_path / "out").up_to_date
+    doc["materials"][1]["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessMaximum"] = 520
+    again = bake_scene(load_gltf_scene(write_gltf(gltf, doc)), tmp_path / "out")
+    assert len(again.computed) == 1 and len(again.reused) == 1

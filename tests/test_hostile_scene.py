@@ -203,3 +203,18 @@ def test_report_on_a_manifest_that_is_no_gltf_bake_is_one_line(tmp_path, capfd, 
     (tmp_path / "m.json").write_text(json.dumps({"format": "lutbake-scene-manifest"}))
     _, _, err = run_case(["report", "m.json"], tmp_path, capfd, monkeypatch, {2})
     assert "not the manifest of a glTF bake" in err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["plan", "--scene", "s.toml", "--gltf", "a.gltf"], "give exactly one of --scene FILE.toml or --gltf"),
+    (["plan"], "give exactly one of --scene FILE.toml or --gltf"),
+    (["plan", "--scene", "s.toml", "--metal-mapping", "threejs"], "--metal-mapping applies to --gltf only"),
+    (["bake", "--eta2", "1.5", "--metal-mapping", "threejs", "--out", "x.exr"], "--metal-mapping applies to --gltf"),
+    (["bake", "--gltf", "a.gltf", "--opd", "0:100:8", "--out", "T"], "--opd cannot be combined with --gltf"),
+    (["bake", "--gltf", "a.gltf", "--out", "T.exr"], "a scene bakes into a folder"),
+])
+def test_gltf_flag_conflicts_are_one_line(argv, message, tmp_path, capfd, monkeypatch):
+    (tmp_path / "s.toml").write_text(SCENE)
+    (tmp_path / "a.gltf").write_text(json.dumps(_VALID))
+    _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
+    assert message in err, err
