@@ -465,15 +465,13 @@ def load_scene_source(scene_path, gltf, metal_mapping):
 
 
 def _bake_scene(scene, out, force, backend, as_json, meter):
-    from .scene_bake import bake_scene, check_scene_outputs
+    from .scene_bake import bake_scene
 
     if out is None:
         raise BadInput("--out DIR is required with --scene or --gltf")
     if Path(out).suffix.lower() == ".exr":
         raise BadInput(f"--out {out!r}: a scene bakes into a folder")
-    check_scene_outputs(Path(out), scene)
-    _make_folder(Path(out))
-    result = bake_scene(scene, out, force, backend, meter)
+    result = bake_scene(scene, out, force, backend, meter)  # checks every output before it makes the folder
     meter.close("up to date" if result.up_to_date else "done")
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
            "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,

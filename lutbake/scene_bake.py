@@ -132,7 +132,11 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     out = Path(out_dir)
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError("{out_dir} folder {out} cannot be created: {why}", out=repr(str(out)),
+                             why=exc.strerror or type(exc).__name__) from None
     scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials],
                                *([] if scene.source is None else [scene.source]))
     outputs = scene_outputs(out, scene, plan)
