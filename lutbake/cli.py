@@ -45,14 +45,14 @@ def main(argv=None):
         sys.stdout.flush()
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
-    except (click.exceptions.Abort, KeyboardInterrupt):
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         # Files were cleaned up as the exception unwound. Leave without interpreter finalization:
         # an interrupt that landed inside a library's import can make Python re-raise SIGINT at exit
         # (seen: killed by SIGINT instead of exit 130 when Ctrl-C hit matplotlib's first start-up).
         click.echo("\nlutbake: interrupted", err=True)
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(130)
+        os._exit(128 + getattr(exc, "signum", signal.SIGINT))  # 130 for Ctrl-C, 143 for SIGTERM
     except click.exceptions.NoArgsIsHelpError as exc:  # bare `lutbake`: the help, not an error line
         click.echo(exc.ctx.get_help())
         sys.exit(0)
@@ -357,10 +357,20 @@ def _default_axis(axis, eta1: float):
     return axis
 
 
+def scene_source_options(f):
+    """--gltf and --metal-mapping: a glTF asset as the scene's source (docs/gltf.md)."""
+    f = click.option("--metal-mapping", default=None, metavar="fitted|threejs|FILE.json",
+                     help="With --gltf: how a metal's base colour becomes η3 + iκ3 (default fitted; a JSON file "
+                          "names a lutbake material per glTF material).")(f)
+    return click.option("--gltf", type=click.Path(dir_okay=False), default=None,
+                        help="glTF asset (.gltf/.glb): bake what its KHR_materials_iridescence materials need.")(f)
+
+
 @cli.command("bake")
 @domain_options
 @click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML): bake what it needs into --out DIR.")
-@click.option("--force", is_flag=True, help="With --scene: recompute every slice and LUT.")
+@scene_source_options
+@click.option("--force", is_flag=True, help="With --scene or --gltf: recompute every slice and LUT.")
 @click.option("--out", "out", type=click.Path(), default=None,
               help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
 @click.option("--film", "named_film", hidden=True)
@@ -370,8 +380,8 @@ def _default_axis(axis, eta1: float):
 @click.option("--max-memory-gib", type=click.FloatRange(0.5, 4096), default=8.0, show_default=True,
               help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).")
 def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, interpolation, compute,
-             method, samples_per_cycle, backend, scene, force, out, named_film, named_base, quiet, force_progress, as_json,
-             max_memory_gib):
+             method, samples_per_cycle, backend, scene, gltf, metal_mapping, force, out, named_film, named_base, quiet,
+             force_progress, as_json, max_memory_gib):
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
     Without --eta2, bakes the default LUT set into a folder. Named materials
@@ -384,13 +394,17 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         raise BadInput(f"bake has no {flag}: a LUT bakes constant indices (--eta2, --eta3 A:B:N); named materials "
                        f"are baked through a scene manifest: lutbake bake --scene FILE.toml --out DIR (docs/scene.md)")
     axis_flags = {"--eta2": eta2, "--cos-theta": cos_theta, "--opd": opd_nm, "--eta3": eta3, "--kappa3": kappa3}
-    if scene:
+    if scene or gltf:
         given = [f for f, v in axis_flags.items() if v is not None]
         if given:
-            raise BadInput(f"{given[0]} cannot be combined with --scene: the scene manifest sets films and axes")
-        return _bake_scene(scene, out, force, backend, as_json, progress_meter("bake scene", quiet, force_progress))
+            flag = "--scene" if scene else "--gltf"
+            raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
+        return _bake_scene(load_scene_source(scene, gltf, metal_mapping), out, force, backend, as_json,
+                           progress_meter("bake scene", quiet, force_progress))
     if force:
-        raise BadInput("--force applies to --scene bakes only (a LUT bake always recomputes)")
+        raise BadInput("--force applies to --scene and --gltf bakes only (a LUT bake always recomputes)")
+    if metal_mapping is not None:
+        raise BadInput("--metal-mapping applies to --gltf only")
     flags = dict(eta2=eta2, eta1=eta1, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3,
                  space=space, observer=observer, precision=precision, interpolation=interpolation,
                  compute=compute, method=method, samples_per_cycle=samples_per_cycle)
@@ -431,18 +445,33 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         click.echo(f"default LUT set in {jobs[0][0].parent}/")
 
 
-def _bake_scene(scene_path, out, force, backend, as_json, meter):
-    from .atlas import bake_scene, check_scene_outputs
-    from .scene import load_scene
+def load_scene_source(scene_path, gltf, metal_mapping):
+    """The scene model from exactly one source, a scene file (TOML) or a glTF asset; the glTF
+    mapping's warnings go to stderr, one line each."""
+    if bool(scene_path) == bool(gltf):
+        raise BadInput("give exactly one of --scene FILE.toml or --gltf ASSET.gltf|.glb")
+    if scene_path:
+        if metal_mapping is not None:
+            raise BadInput("--metal-mapping applies to --gltf only")
+        from .scene_toml import load_scene
+
+        return load_scene(scene_path)
+    from .gltf_scene import load_gltf_scene
+
+    scene = load_gltf_scene(gltf, metal_mapping or "fitted")
+    for line in scene.source["asset_warnings"] + [w for r in scene.source["materials"] for w in r["warnings"]]:
+        click.echo(f"lutbake: warning: {scene.file_name}: {line}", err=True)
+    return scene
+
+
+def _bake_scene(scene, out, force, backend, as_json, meter):
+    from .scene_bake import bake_scene
 
     if out is None:
-        raise BadInput("--out DIR is required with --scene")
+        raise BadInput("--out DIR is required with --scene or --gltf")
     if Path(out).suffix.lower() == ".exr":
         raise BadInput(f"--out {out!r}: a scene bakes into a folder")
-    scene = load_scene(scene_path)
-    check_scene_outputs(Path(out), scene)
-    _make_folder(Path(out))
-    result = bake_scene(scene, out, force, backend, meter)
+    result = bake_scene(scene, out, force, backend, meter)  # checks every output before it makes the folder
     meter.close("up to date" if result.up_to_date else "done")
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
            "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
@@ -450,9 +479,9 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
-        click.echo(f"{scene_path}: up to date in {out}/ (nothing written)")
+        click.echo(f"{scene.path}: up to date in {out}/ (nothing written)")
     else:
-        click.echo(f"{scene_path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+        click.echo(f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
                    f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
     if result.unmet:
         reached = ", ".join(f"{name} p99 ΔE00 {p99:.3f}" for name, p99 in result.unmet.items())
@@ -463,32 +492,41 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
 
 
 @cli.command("plan")
-@click.option("--scene", "scene_path", type=click.Path(dir_okay=False), required=True,
+@click.option("--scene", "scene_path", type=click.Path(dir_okay=False), default=None,
               help="Scene manifest (TOML) to plan.")
+@scene_source_options
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
-def plan_cmd(scene_path, as_json):
-    """What `bake --scene` would bake: slices, axes, counts, bytes, and time (bakes nothing).
+def plan_cmd(scene_path, gltf, metal_mapping, as_json):
+    """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
     rate measured now, here; the grids themselves go through the bake's integrator.
     """
     from .progress import format_seconds
-    from .scene import load_scene, plan_scene, truth_rate
+    from .scene_plan import plan_scene, truth_rate
 
-    plan = plan_scene(load_scene(scene_path))
+    scene = load_scene_source(scene_path, gltf, metal_mapping)
+    plan = plan_scene(scene)
     rate = truth_rate(plan)
     doc = plan.describe(rate)
     doc["seconds_per_truth_point"] = rate
+    if gltf:
+        from .gltf_scene import material_rows
+
+        doc["gltf_materials"] = material_rows(scene, plan)
     if as_json:
         echo_json(doc)
         return
     s = doc["settings"]
-    click.echo(f"{scene_path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
+    click.echo(f"{scene.path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
                f"target p99 ΔE00 ≤ {s['max_de']:g}")
     for job in doc["jobs"]:
         shape = " × ".join(str(c) for c in job["counts"])
         click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
                    f"{job['bytes_start']} bytes, ~{format_seconds(job['truth_seconds_estimate'])} of ground truth")
+    for row in doc.get("gltf_materials", []):
+        served = row["slice"] or row["lut"] or f"nothing: {row['why_not']}"
+        click.echo(f"  glTF material {row['gltf_index']} {row['name']!r}: {served}")
     total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
     click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
                f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
@@ -725,6 +763,8 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
 
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    if Path(lut).suffix.lower() == ".json":  # a glTF bake's manifest: one receipt per glTF material
+        return _gltf_receipts(lut, n_points, seed, out_dir, as_json)
     table = load_table(lut)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
     if isinstance(table, Atlas):
@@ -751,6 +791,25 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
             click.echo(f"gate p99 ΔE00 {p99:.3f} {'>' if gate_failed else '<='} {max_de:g}: "
                        f"{'FAIL' if gate_failed else 'pass'}")
     return EXIT_GATE if gate_failed else 0
+
+
+def _gltf_receipts(manifest, n_points, seed, out_dir, as_json):
+    """`report OUT/ASSET.json`: the receipts of a glTF bake (receipt.py), as JSON and HTML in --out."""
+    from .receipt import gltf_receipts, write_receipts
+
+    receipts = gltf_receipts(manifest, min(n_points, 1000), seed)
+    if out_dir:
+        write_receipts(receipts, out_dir)
+    if as_json:
+        echo_json(receipts)
+        return 0
+    for r in receipts["materials"]:
+        costs = "; ".join(f"{part}: baked p99 {p['de00']['baked']['de00_p99']:.2f}, three.js p99 "
+                          f"{p['de00']['threejs']['de00_p99']:.2f}" for part, p in r["parts"].items())
+        click.echo(f"material {r['gltf_index']} {r['name']!r}: {costs or r['why_not']}")
+    if out_dir:
+        click.echo(f"receipts in {out_dir}/receipts.html and receipts.json")
+    return 0
 
 
 def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:

@@ -35,11 +35,11 @@ from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS
 from .layout import TileLayout
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
-           "pack_atlas", "write_atlas", "atlas_includes", "write_text_atomic", "atomic_path", "shader_includes",
+           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes",
            "shader_ident", "shader_template", "flat_attributes", "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
-ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
+ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py, write_atlas)
 EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
 # LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
 # "sqrt-admittance" spacing (docs/lut-format.md); older LUTs (no such axis) still read.
@@ -139,23 +139,8 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
         yield rows
 
 
-def pack_atlas(slices) -> dict:
-    """A scene atlas's layout: slices (each (rows, columns, 3)) stacked vertically, left-aligned, each a
-    rect [x0, y0, width, height] of texels that sampling stays inside; the image zero elsewhere."""
-    if not slices:
-        return {"width": 0, "height": 0, "rects": [], "image": None}
-    width, height = max(v.shape[1] for v in slices), sum(v.shape[0] for v in slices)
-    image = np.zeros((height, width, 3))
-    rects, y = [], 0
-    for v in slices:
-        image[y:y + v.shape[0], :v.shape[1]] = v
-        rects.append([0, y, v.shape[1], v.shape[0]])
-        y += v.shape[0]
-    return {"width": width, "height": height, "rects": rects, "image": image}
-
-
 def write_atlas(path: Path, atlas: dict, meta: dict, precision: str) -> None:
-    """Write a packed atlas (``pack_atlas``) with its header (format ATLAS_FORMAT, read by ``read_lut``)."""
+    """Write a packed atlas (atlas.pack_atlas) with its header (format ATLAS_FORMAT, read by ``read_lut``)."""
     with exr_rows(path, atlas["width"], atlas["height"], meta, precision) as exr:
         exr.write_rows(atlas["image"])
 
@@ -337,38 +322,6 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }
     return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
-
-
-_ATLAS_LINES = {
-    "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
-             "// {name}: 4D LUT {file} (sample it with {stem}.glsl)"),
-    "hlsl": ("static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
-             "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)"),
-}
-
-
-def atlas_includes(manifest: dict, atlas: dict) -> dict:
-    """GLSL and HLSL include texts for a scene (its manifest and ``pack_atlas`` layout), keyed by suffix."""
-    return {lang: _atlas_include(manifest, atlas, lang) for lang in _ATLAS_LINES}
-
-
-def _atlas_include(manifest: dict, atlas: dict, lang: str) -> str:
-    """The scene's atlas sampler and one LutbakeSlice constant per slice material (a comment per 4D LUT)."""
-    slice_line, lut_line = _ATLAS_LINES[lang]
-    scene = Path(manifest["scene"]).stem
-    size = ", ".join(str(float(v)) for v in (atlas["width"], atlas["height"]))
-    lines = []
-    for name, e in manifest["materials"].items():
-        if e["kind"] == "slice":
-            th = e["axes"]["thickness_nm"]
-            lines.append(slice_line.format(ident=shader_ident(f"{scene}_{name}"), size=size,
-                                           rect=", ".join(str(float(v)) for v in e["rect"]),
-                                           thick=f"{float(th['min'])}, {float(th['max'])}"))
-        else:
-            lines.append(lut_line.format(name=name, file=e["file"], stem=Path(e["file"]).stem))
-    return shader_template(f"atlas.{lang}.in").substitute(
-        scene=manifest["scene"], scene_hash=manifest["scene_hash"][:16], atlas=f"{scene}.exr",
-        materials="\n".join(lines))
 
 
 def shader_template(name: str) -> string.Template:

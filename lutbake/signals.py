@@ -2,7 +2,8 @@
 
 Ctrl-C while modules load prints one line and exits 130 without a traceback;
 once the CLI runs, SIGINT and SIGTERM unwind as KeyboardInterrupt, so open
-file sets are discarded (fileset.py) and the CLI exits 130.
+file sets are discarded (fileset.py) and the CLI exits 128 + the signal
+(130 for SIGINT, 143 for SIGTERM).
 """
 
 import os
@@ -16,9 +17,17 @@ def interrupted_at_start_up(signum, frame):
     os._exit(130)
 
 
+class Interrupted(KeyboardInterrupt):
+    """KeyboardInterrupt raised for a signal other than SIGINT; the CLI exits 128 + ``signum``."""
+
+    def __init__(self, signum: int):
+        super().__init__(f"signal {signum}")
+        self.signum = signum
+
+
 def raise_interrupt(signum, frame):
     """Unwind like Ctrl-C (the CLI's SIGTERM handler)."""
-    raise KeyboardInterrupt(f"signal {signum}")
+    raise Interrupted(signum)
 
 
 def set_handler(signum, handler):
