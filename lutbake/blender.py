@@ -24,12 +24,13 @@ import numpy as np
 
 from .blender_nodes import SceneReads, SliceRead, read_manifest
 from .errors import ParameterError
+from .exact import RGB_WAVELENGTHS_NM
 from .lutfile import atomic_path
 from .points import FilmPoints
 from .sample import Atlas, Lut
 
 __all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
-           "verify_library"]
+           "verify_library", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
 
 BLENDER_ENV = "LUTBAKE_BLENDER"
 RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
@@ -169,6 +170,34 @@ def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
     return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
 
 
+def lutbake_probes(scene: SceneReads, library, probes: list, closure: str = "glossy", first: int = 0) -> tuple:
+    """(job materials, job probes) rendering ``probes`` (one ``Probes`` per material of ``scene``) with the
+    library's materials; probe material indices start at ``first``."""
+    materials = [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": scene.group_name(p.material),
+                  "closure": closure} for p in probes]
+    return materials, [_probe(first + i, p, j) for i, p in enumerate(probes) for j in range(len(p.cos_theta))]
+
+
+def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple:
+    """(job materials, job probes) rendering ``points`` with Blender's own thin film: a Principled BSDF
+    (film over a dielectric base of index η3) or a Metallic BSDF's Physical Conductor (per-channel n, k)
+    over an absorbing one. Blender's film and base indices are constants: a named film is taken at
+    549 nm, a named base at 611/549/464 nm (exact.base_rgb, the dominant wavelengths of the Rec.709
+    primaries, as exact.base_rgb; the principled base at 549 nm). Probe material indices start at ``first``."""
+    n = len(points)
+    eta2 = (np.full(n, float(points.film.index(RGB_WAVELENGTHS_NM[1])[0])) if points.film is not None
+            else np.broadcast_to(points.eta2, n))
+    if points.base is not None:
+        eta_rgb, kappa_rgb = (np.broadcast_to(v, (n, 3)) for v in points.base.index(np.array(RGB_WAVELENGTHS_NM)))
+    else:
+        eta_rgb, kappa_rgb = (np.repeat(np.broadcast_to(v, n)[:, None], 3, axis=1) for v in (points.eta3, points.kappa3))
+    cos_theta, thickness = np.broadcast_to(points.cos_theta, n), np.broadcast_to(points.thickness_nm, n)
+    probes = [{"material": first + int((kappa_rgb[i] > 0).any()), "cos_theta": float(cos_theta[i]),
+               "thickness_nm": float(thickness[i]), "eta2": float(eta2[i]), "eta3": float(eta_rgb[i, 1]),
+               "eta3_rgb": eta_rgb[i].tolist(), "kappa3_rgb": kappa_rgb[i].tolist()} for i in range(n)]
+    return [{"kind": "principled"}, {"kind": "conductor"}], probes
+
+
 def verify_library(manifest, library, blender=None, engine: str = "CYCLES", closure: str = "glossy",
                    n_points: int = 24) -> dict:
     """Render every material of ``library`` (written by ``write_library`` for ``manifest``) at
@@ -184,11 +213,8 @@ def verify_library(manifest, library, blender=None, engine: str = "CYCLES", clos
     """
     scene = read_manifest(manifest)
     probes = [probe_points(scene, read, n_points, seed) for seed, read in enumerate(scene.reads)]
-    job = {"engine": engine, "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()),
-                                            "material": scene.group_name(p.material), "closure": closure}
-                                           for p in probes],
-           "probes": [_probe(i, p, j) for i, p in enumerate(probes) for j in range(len(p.cos_theta))]}
-    result = render_probes(job, blender)
+    materials, job_probes = lutbake_probes(scene, library, probes, closure)
+    result = render_probes({"engine": engine, "materials": materials, "probes": job_probes}, blender)
     rgb = np.asarray(result["rgb"]).reshape(len(probes), n_points, 3)
     expected = np.array([p.expected for p in probes])
     if closure == "glossy" or engine != "CYCLES":

@@ -16,10 +16,14 @@ properties read by Attribute nodes (type Object), the way a texture would feed t
   properties; closure "emission" shows the group's output through an Emission shader instead;
 - ``{"kind": "principled"}``: Blender's Principled BSDF with its own thin film (film η2 over a
   dielectric η3), base colour black, roughness 0;
-- ``{"kind": "conductor"}``: Blender's Metallic BSDF, Physical Conductor, per-channel n and k, thin film.
+- ``{"kind": "conductor"}``: Blender's Metallic BSDF, Physical Conductor, per-channel n and k, thin film;
+- ``{"kind": "glossy", "color": [r, g, b]}``: a Glossy BSDF of a constant colour (a cost baseline).
 
-Result: per probe the mean RGB of the plane's inner pixels and their spread (max − min over those
-pixels and channels), the engine, Blender's version and the render's wall seconds.
+Optional job keys: ``cell_px`` (pixels per probe cell, default 4), ``samples`` (Cycles samples per
+pixel, default 1: each probe is deterministic) and ``repeat`` (renders of the same scene, default 1).
+Result: per probe the mean RGB of the cell's inner pixels and their spread (max − min over those
+pixels and channels), the engine, Blender's version, the first render's wall seconds (with EEVEE's
+shader compilation) and the later ones'.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from pathlib import Path
 
 import bpy
 
-CELL_PX = 4          # pixels per probe along x and y; the inner 2 × 2 are measured
+CELL_PX = 4          # default pixels per probe along x and y; all but the outer ring are measured
 PROPERTIES = ("thickness_nm", "eta2", "eta3", "kappa3", "eta3_rgb", "kappa3_rgb")
 
 
@@ -86,7 +90,19 @@ def conductor_material(spec: dict):
     return material
 
 
-MATERIALS = {"lutbake": lutbake_material, "principled": principled_material, "conductor": conductor_material}
+def glossy_material(spec: dict):
+    material = bpy.data.materials.new("glossy")
+    tree = material.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.inputs["Color"].default_value = (*spec["color"], 1.0)
+    glossy.inputs["Roughness"].default_value = 0.0
+    tree.links.new(glossy.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    return material
+
+
+MATERIALS = {"lutbake": lutbake_material, "principled": principled_material, "conductor": conductor_material,
+             "glossy": glossy_material}
 
 
 def _plane(material):
@@ -124,19 +140,19 @@ def build_scene(job: dict):
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     scene.world = world
-    _render_settings(scene, job["engine"], n)
+    _render_settings(scene, job["engine"], n, job.get("cell_px", CELL_PX), job.get("samples", 1))
     return scene
 
 
-def _render_settings(scene, engine: str, n: int):
+def _render_settings(scene, engine: str, n: int, cell_px: int, samples: int):
     render = scene.render
     render.engine = engine
-    render.resolution_x, render.resolution_y, render.resolution_percentage = n * CELL_PX, CELL_PX, 100
+    render.resolution_x, render.resolution_y, render.resolution_percentage = n * cell_px, cell_px, 100
     render.image_settings.file_format, render.image_settings.color_depth = "OPEN_EXR", "32"
     scene.view_settings.view_transform, scene.view_settings.look = "Standard", "None"
     scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
     if engine == "CYCLES":
-        scene.cycles.device, scene.cycles.samples = "CPU", 1
+        scene.cycles.device, scene.cycles.samples = "CPU", samples
         scene.cycles.use_denoising, scene.cycles.use_adaptive_sampling = False, False
         scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
     else:
@@ -148,21 +164,24 @@ def render(job: dict) -> dict:
     scene = build_scene(job)
     with tempfile.TemporaryDirectory() as folder:
         scene.render.filepath = str(Path(folder) / "probes.exr")
-        start = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
-        seconds = time.perf_counter() - start
+        seconds = []
+        for _ in range(job.get("repeat", 1)):   # later renders reuse what the first compiled (EEVEE's shaders)
+            start = time.perf_counter()
+            bpy.ops.render.render(write_still=True)
+            seconds.append(time.perf_counter() - start)
         image = bpy.data.images.load(scene.render.filepath)
         width, height = image.size
         pixels = [0.0] * (width * height * 4)
         image.pixels.foreach_get(pixels)
-    rgb, spread = [], []
+    rgb, spread, cell = [], [], job.get("cell_px", CELL_PX)
+    ring = int(0.05 * cell) + 1   # pixels wholly inside the plane, which spans 0.05–0.95 of its cell
     for i in range(len(job["probes"])):
         inner = [pixels[4 * (row * width + col): 4 * (row * width + col) + 3]
-                 for row in range(1, CELL_PX - 1) for col in range(i * CELL_PX + 1, (i + 1) * CELL_PX - 1)]
+                 for row in range(ring, cell - ring) for col in range(i * cell + ring, (i + 1) * cell - ring)]
         rgb.append([sum(p[c] for p in inner) / len(inner) for c in range(3)])
         spread.append(max(max(p[c] for p in inner) - min(p[c] for p in inner) for c in range(3)))
     return {"rgb": rgb, "spread": spread, "engine": job["engine"], "blender": bpy.app.version_string,
-            "render_seconds": seconds}
+            "render_seconds": seconds[0], "repeat_seconds": seconds[1:]}
 
 
 def main(argv=None) -> int:
