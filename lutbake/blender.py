@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .blender_nodes import SceneReads, SliceRead, read_manifest
+from .blender_nodes import BLENDER_SPACES, SceneReads, SliceRead, read_manifest
 from .errors import ParameterError
 from .exact import RGB_WAVELENGTHS_NM
 from .lutfile import atomic_path
@@ -99,7 +99,9 @@ def write_library(manifest, out, blender=None, pack: bool = True) -> dict:
     Returns
     -------
     dict
-        ``library`` (the path), ``groups`` (material → node group name), ``blender``, ``seconds``.
+        ``library`` (the path), ``groups`` (material → node group name), ``working_space`` (Blender's name
+        of the bake's space: the library file's, and the one a file that appends the groups must use),
+        ``blender``, ``seconds``.
     """
     scene = read_manifest(manifest)
     out = Path(out)
@@ -118,7 +120,7 @@ def write_library(manifest, out, blender=None, pack: bool = True) -> dict:
         finally:
             blend.unlink(missing_ok=True)
     return {"library": str(out), "groups": {r.material: scene.group_name(r.material) for r in scene.reads},
-            "blender": exe, "seconds": seconds}
+            "working_space": BLENDER_SPACES[scene.space], "blender": exe, "seconds": seconds}
 
 
 def render_probes(job: dict, blender=None) -> dict:

@@ -587,7 +587,8 @@ def blender_cmd(manifest, out, blender, link, verify, as_json):
     if as_json:
         echo_json(doc)
     else:
-        click.echo(f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())})")
+        click.echo(f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "
+                   f"working colour space {doc['working_space']} (a file that appends them must use it too)")
         if verify:
             v = doc["verify"]
             click.echo(f"Cycles at {v['points']} probes: max |ΔRGB| {v['max_abs_rgb']:.1e} against lutbake sample "
