@@ -22,15 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .blender_nodes import BLENDER_SPACES, SceneReads, SliceRead, read_manifest
+from .blender_nodes import BLENDER_SPACES, EXACT_MATERIAL, SceneReads, SliceRead, read_manifest
 from .errors import ParameterError
-from .exact import RGB_WAVELENGTHS_NM
-from .lutfile import atomic_path
+from .exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, include_fields, read_exact_table
+from .lutfile import atomic_path, shader_template
+from .materials import material
+from .colorimetry import delta_e00
 from .points import FilmPoints
+from .reference import reference_rgb
 from .sample import Atlas, Lut
 
 __all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
-           "verify_library", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
+           "verify_library", "verify_exact", "exact_osl", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
 
 BLENDER_ENV = "LUTBAKE_BLENDER"
 RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
@@ -81,29 +84,35 @@ def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> flo
     return time.perf_counter() - start
 
 
-def write_library(manifest, out, blender=None, pack: bool = True) -> dict:
+def write_library(manifest, out, blender=None, pack: bool = True, exact=None) -> dict:
     """Write ``out`` (.blend): one node group and one material per material of the scene bake whose
-    manifest is ``manifest`` (blender_nodes.py), committed atomically (nothing is written on failure).
+    manifest is ``manifest`` (blender_nodes.py), and with ``exact`` (an `exact-table` EXR) the exact
+    mode's OSL material; committed atomically (nothing is written on failure).
 
     Parameters
     ----------
-    manifest : str or os.PathLike
-        SCENE.json of a scene bake (its atlas and 4D LUTs beside it).
+    manifest : str or os.PathLike or None
+        SCENE.json of a scene bake (its atlas and 4D LUTs beside it); None with ``exact`` only.
     out : str or os.PathLike
         The .blend to write.
     blender : str, optional
         A Blender executable or a Python with bpy (default: ``find_blender()``).
     pack : bool
         Pack the EXRs into the .blend (default) rather than reference them by relative path.
+    exact : str or os.PathLike, optional
+        An exact-mode table (`lutbake exact-table`): the OSL script reads it at its absolute path.
 
     Returns
     -------
     dict
         ``library`` (the path), ``groups`` (material → node group name), ``working_space`` (Blender's name
         of the bake's space: the library file's, and the one a file that appends the groups must use),
-        ``blender``, ``seconds``.
+        ``exact_material``, ``blender``, ``seconds``.
     """
-    scene = read_manifest(manifest)
+    if manifest is None and exact is None:
+        raise ParameterError("nothing to write: give a scene manifest, {exact}, or both")
+    scene = read_manifest(manifest) if manifest is not None else None
+    osl = exact_osl(exact) if exact is not None else None
     out = Path(out)
     if out.suffix != ".blend":
         raise ParameterError("{out_path} {out} must end in .blend", out=repr(str(out)))
@@ -111,16 +120,28 @@ def write_library(manifest, out, blender=None, pack: bool = True) -> dict:
         raise ParameterError("{out_path} {out} is a folder, expected a file or nothing", out=repr(str(out)))
     exe = find_blender(blender)
     out.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out) as tmp:
+    args = [str(Path(manifest).absolute())] if manifest is not None else []
+    with atomic_path(out) as tmp, tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
         blend = tmp.with_name(tmp.name + ".blend")   # Blender saves only to a name ending in .blend
+        if osl is not None:
+            (Path(folder) / "lutbake_exact.osl").write_text(osl)
+            args += ["--osl", str(Path(folder) / "lutbake_exact.osl")]
         try:
-            seconds = _run(exe, "blender_nodes.py", [str(Path(manifest).absolute()), "--out", str(blend.absolute()),
-                                                      *([] if pack else ["--link"])])
+            seconds = _run(exe, "blender_nodes.py", [*args, "--out", str(blend.absolute()), *([] if pack else ["--link"])])
             os.replace(blend, tmp)
         finally:
             blend.unlink(missing_ok=True)
-    return {"library": str(out), "groups": {r.material: scene.group_name(r.material) for r in scene.reads},
-            "working_space": BLENDER_SPACES[scene.space], "blender": exe, "seconds": seconds}
+    groups = {r.material: scene.group_name(r.material) for r in scene.reads} if scene else {}
+    return {"library": str(out), "groups": groups, "working_space": BLENDER_SPACES[scene.space] if scene else None,
+            "exact_material": EXACT_MATERIAL if osl else None, "blender": exe, "seconds": seconds}
+
+
+def exact_osl(table) -> str:
+    """The exact mode's OSL script (shaders/exact.osl.in) for the `exact-table` EXR ``table``, whose
+    absolute path it reads."""
+    path = Path(table).absolute()
+    meta = read_exact_table(path).meta
+    return shader_template("exact.osl.in").substitute({**include_fields(meta, path.name), "table_path": str(path)})
 
 
 def render_probes(job: dict, blender=None) -> dict:
@@ -231,6 +252,46 @@ def verify_library(manifest, library, blender=None, engine: str = "CYCLES", clos
             "by_material": by_material, "negative_points": clamped,
             "spread_max": float(max(result["spread"])),
             "tolerance": RENDER_TOLERANCE, "ok": worst <= RENDER_TOLERANCE,
+            "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
+
+
+def verify_exact(library, table, blender=None, n_points: int = 48, seed: int = 0) -> dict:
+    """Render ``library``'s exact material (``write_library(..., exact=table)``) in Cycles with OSL at
+    ``n_points`` probes (cos θ 0.03–1, d 0–1000 nm, films η2 1.2, 1.6, 2.4; dielectric bases η3 1–2.5 and
+    the metals Au, Ag, Cu, Al, Fe, Cr per channel) and compare with ``exact.exact_colour``, the float64
+    evaluation of the same series on the same table (held at 0 where negative, as Glossy BSDF clamps);
+    at the dielectric probes also ΔE00 against the ground truth."""
+    rng = np.random.default_rng(seed)
+    films = (1.2, 1.6, 2.4)
+    eta2 = np.repeat(films, -(-n_points // len(films)))[:n_points]
+    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03 ** 0.5, 1.0, n_points - 2) ** 2])
+    thickness = np.concatenate([[0.0, 1000.0], rng.uniform(0.0, 1000.0, n_points - 2)])
+    metals = [np.array(material(name).index(np.array(RGB_WAVELENGTHS_NM))) for name in METALS]   # (2, 3) each
+    eta3, kappa3 = np.empty((n_points, 3)), np.empty((n_points, 3))
+    for j in range(n_points):
+        if j % 2:
+            eta3[j], kappa3[j] = metals[(j // 2) % len(metals)]
+        else:
+            eta3[j], kappa3[j] = rng.uniform(1.0, 2.5), 0.0
+    exact = read_exact_table(table)
+    expected = np.empty((n_points, 3))
+    for film in films:
+        at = eta2 == film
+        expected[at] = exact_colour(exact, cos_theta[at], thickness[at], 1.0, film, eta3[at], kappa3[at]).values
+    probes = [{"cos_theta": float(cos_theta[j]), "thickness_nm": float(thickness[j]), "eta2": float(eta2[j]),
+               "eta3_rgb": eta3[j].tolist(), "kappa3_rgb": kappa3[j].tolist()} for j in range(n_points)]
+    job = {"engine": "CYCLES", "osl": True, "probes": probes,
+           "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": EXACT_MATERIAL}]}
+    result = render_probes(job, blender)
+    rgb = np.asarray(result["rgb"])
+    errors = np.abs(rgb - np.maximum(expected, 0.0))
+    dielectric = kappa3[:, 0] == 0   # one index for all wavelengths: the ground truth applies as it is
+    truth = reference_rgb(FilmPoints.build(eta2=eta2[dielectric], cos_theta=cos_theta[dielectric],
+                                           thickness_nm=thickness[dielectric], eta3=eta3[dielectric, 0]))
+    return {"engine": "CYCLES (OSL)", "blender": result["blender"], "points": n_points,
+            "max_abs_rgb": float(errors.max()), "spread_max": float(max(result["spread"])),
+            "de00_max_dielectric_vs_truth": float(delta_e00(rgb[dielectric], truth).max()),
+            "tolerance": RENDER_TOLERANCE, "ok": bool(errors.max() <= RENDER_TOLERANCE),
             "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
 
 

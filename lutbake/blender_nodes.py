@@ -9,6 +9,10 @@ and EEVEE alike (docs/blender.md)::
     python blender_nodes.py SCENE.json --out LIB.blend          # a Python with the bpy module
     lutbake blender SCENE.json --out LIB.blend                  # the same, from lutbake (lutbake/blender.py)
 
+With ``--osl EXACT.osl`` (lutbake writes it for an exact-mode table: `lutbake blender --exact`) the file
+also holds material ``lutbake exact``: the exact runtime mode, any film and base, as an OSL Script node
+(Cycles with Open Shading Language on; shaders/exact.osl.in).
+
 Every read is one *node program* (``slice_program``, ``lut_program``, ``bilinear_program``) written
 against a small graph interface, so one text of the maths both becomes Blender nodes (``NodeGraph``)
 and is evaluated by numpy (``NumpyGraph``), which tests hold to ``lutbake sample`` without Blender.
@@ -36,8 +40,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "SliceRead", "LutRead", "SceneReads", "read_manifest",
-           "NumpyGraph", "NodeGraph", "slice_program", "lut_program", "bilinear_program", "build_library", "main"]
+__all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "EXACT_MATERIAL", "SliceRead", "LutRead", "SceneReads",
+           "read_manifest", "NumpyGraph", "NodeGraph", "slice_program", "lut_program", "bilinear_program",
+           "build_library", "build_exact", "main"]
 
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 # lutbake's working spaces (lutbake/names.py) as Blender's colour-management names.
@@ -429,8 +434,13 @@ def _read_group(scene: SceneReads, read, images: dict, subgroups: dict):
 
 
 def _incidence_group():
-    """N·V from the geometry, clamped to [0, 1]: the cos θ of a mirror-like specular."""
-    tree, _, group_out = _new_group(f"{GROUP_PREFIX} N·V", {}, ("Cos Theta", "NodeSocketFloat"))
+    """N·V from the geometry, clamped to [0, 1]: the cos θ of a mirror-like specular (one per file)."""
+    import bpy
+
+    name = f"{GROUP_PREFIX} N·V"
+    if name in bpy.data.node_groups:
+        return bpy.data.node_groups[name]
+    tree, _, group_out = _new_group(name, {}, ("Cos Theta", "NodeSocketFloat"))
     tree.description = "cos θ = N·V (Geometry: Normal · Incoming), clamped to [0, 1]"
     geometry = tree.nodes.new("ShaderNodeNewGeometry")
     dot = tree.nodes.new("ShaderNodeVectorMath")
@@ -445,19 +455,18 @@ def _incidence_group():
     return tree
 
 
-def _material(scene: SceneReads, read, group, incidence):
-    """Geometry N·V and a thickness value into the read group, into a Glossy BSDF (roughness 0)."""
+def _material(name: str, incidence, reader):
+    """Geometry N·V into ``reader`` (a function adding the node that returns the Fresnel term to a node
+    tree), into a Glossy BSDF (roughness 0)."""
     import bpy
 
-    material = bpy.data.materials.new(scene.group_name(read.material))
-    material.use_nodes = True
+    material = bpy.data.materials.new(name)
     tree = material.node_tree
     tree.nodes.clear()
     cos_node = tree.nodes.new("ShaderNodeGroup")
     cos_node.node_tree = incidence
-    read_node = tree.nodes.new("ShaderNodeGroup")
-    read_node.node_tree = group
-    tree.links.new(cos_node.outputs[0], read_node.inputs["Cos Theta"])
+    read_node = reader(tree)
+    tree.links.new(cos_node.outputs[0], next(s for s in read_node.inputs if s.name in ("Cos Theta", "CosTheta")))
     glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
     glossy.inputs["Roughness"].default_value = 0.0
     tree.links.new(read_node.outputs[0], glossy.inputs["Color"])
@@ -466,6 +475,26 @@ def _material(scene: SceneReads, read, group, incidence):
     for i, node in enumerate((cos_node, read_node, glossy, out)):
         node.location = (i * 260, 0)
     return material
+
+
+def _group_node(group):
+    def add(tree):
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        return node
+    return add
+
+
+def _script_node(text):
+    """An OSL Script node running ``text``; Cycles compiles it and makes its sockets (the scene's
+    engine must be Cycles with OSL on)."""
+    def add(tree):
+        node = tree.nodes.new("ShaderNodeScript")
+        node.mode, node.script = "INTERNAL", text
+        if not node.inputs:
+            raise RuntimeError(f"Cycles did not compile {text.name} (see Blender's messages above)")
+        return node
+    return add
 
 
 def _load_image(folder: Path, name: str, pack: bool):
@@ -492,26 +521,65 @@ def build_library(manifest, pack: bool = True) -> dict:
     incidence, subgroups, groups = _incidence_group(), {}, {}
     for read in scene.reads:
         groups[read.material] = _read_group(scene, read, images, subgroups)
-        material = _material(scene, read, groups[read.material], incidence)
-        for item in (groups[read.material], material):
-            item.asset_mark()
-            item.asset_data.description = groups[read.material].description
+        material = _material(scene.group_name(read.material), incidence, _group_node(groups[read.material]))
+        _mark_asset(groups[read.material].description, groups[read.material], material)
     return groups
 
 
+EXACT_MATERIAL = f"{GROUP_PREFIX} exact"
+
+
+def build_exact(osl_path) -> None:
+    """The exact runtime mode as an OSL Script node (Cycles, OSL on) in material EXACT_MATERIAL: the
+    script's text (written by lutbake for one exact table, whose path it holds) is kept in the file."""
+    import bpy
+
+    scene = bpy.context.scene
+    scene.render.engine, scene.cycles.shading_system = "CYCLES", True
+    text = bpy.data.texts.new(Path(osl_path).name)
+    text.from_string(Path(osl_path).read_text())
+    material = _material(EXACT_MATERIAL, _incidence_group(), _script_node(text))
+    _mark_asset("Exact thin-film Fresnel term for any film and base (Cycles with Open Shading Language on): "
+                "lutbake's exact runtime mode", material)
+
+
+def _mark_asset(description: str, *items):
+    for item in items:
+        item.asset_mark()
+        item.asset_data.description = description
+
+
+def _bundled_modules() -> None:
+    """Blender's own Python modules (oslquery, which compiling a Script node needs) on sys.path: a Blender
+    executable has them there, the bpy module keeps them beside its scripts."""
+    import bpy
+
+    folder = Path(bpy.utils.resource_path("LOCAL")) / "python" / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "site-packages"
+    if folder.is_dir() and str(folder) not in sys.path:
+        sys.path.append(str(folder))
+
+
 def main(argv=None) -> int:
-    """``blender_nodes.py SCENE.json --out LIB.blend [--link]``: a new file holding the scene's groups."""
+    """``blender_nodes.py [SCENE.json] [--osl EXACT.osl] --out LIB.blend [--link]``: a new file holding the
+    scene's groups and materials, and the exact mode's OSL material."""
     import bpy
 
     if argv is None:
         argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     parser = argparse.ArgumentParser(prog="blender_nodes.py", description=__doc__.split("\n")[0])
-    parser.add_argument("manifest", help="SCENE.json of a lutbake scene bake")
+    parser.add_argument("manifest", nargs="?", help="SCENE.json of a lutbake scene bake")
     parser.add_argument("--out", required=True, help="the .blend to write")
     parser.add_argument("--link", action="store_true", help="reference the EXRs by path instead of packing them")
+    parser.add_argument("--osl", help="an exact-mode OSL script (lutbake writes it for an exact table)")
     args = parser.parse_args(argv)
+    if args.manifest is None and args.osl is None:
+        parser.error("give a manifest, --osl, or both")
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    build_library(args.manifest, pack=not args.link)
+    _bundled_modules()
+    if args.manifest:
+        build_library(args.manifest, pack=not args.link)
+    if args.osl:
+        build_exact(args.osl)
     bpy.ops.wm.save_as_mainfile(filepath=str(Path(args.out).absolute()), relative_remap=True, compress=False)
     return 0
 

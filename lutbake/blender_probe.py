@@ -20,7 +20,8 @@ properties read by Attribute nodes (type Object), the way a texture would feed t
 - ``{"kind": "glossy", "color": [r, g, b]}``: a Glossy BSDF of a constant colour (a cost baseline).
 
 Optional job keys: ``cell_px`` (pixels per probe cell, default 4), ``samples`` (Cycles samples per
-pixel, default 1: each probe is deterministic) and ``repeat`` (renders of the same scene, default 1).
+pixel, default 1: each probe is deterministic), ``repeat`` (renders of the same scene, default 1) and
+``osl`` (Cycles' Open Shading Language, which the exact mode's Script node needs; default off).
 Result: per probe the mean RGB of the cell's inner pixels and their spread (max − min over those
 pixels and channels), the engine, Blender's version, the first render's wall seconds (with EEVEE's
 shader compilation) and the later ones'.
@@ -47,16 +48,24 @@ def _attribute(tree, name: str, output: str = "Fac"):
     return node.outputs[output]
 
 
+# The reading node's inputs (a node group's, or the exact mode's Script node's) and the probe property
+# feeding each; a colour input (the Script node's per-channel η3, κ3) takes the property's _rgb vector.
+FED_INPUTS = {"Thickness (nm)": "thickness_nm", "Thickness": "thickness_nm", "Eta2": "eta2", "Eta3": "eta3",
+              "Kappa3": "kappa3"}
+
+
 def lutbake_material(spec: dict):
-    """The library's material with its read group's free inputs fed from the probe's properties."""
+    """The library's material with its reading node's free inputs fed from the probe's properties."""
     with bpy.data.libraries.load(spec["library"], link=False) as (source, target):
         target.materials = [spec["material"]]
     material = target.materials[0]
     tree = material.node_tree
-    group = next(n for n in tree.nodes if n.type == "GROUP" and "Thickness (nm)" in n.inputs)
-    for socket, prop in (("Thickness (nm)", "thickness_nm"), ("Eta3", "eta3"), ("Kappa3", "kappa3")):
-        if socket in group.inputs:
-            tree.links.new(_attribute(tree, prop), group.inputs[socket])
+    group = next(n for n in tree.nodes if n.type in ("GROUP", "SCRIPT") and len(n.inputs) > 1)
+    for socket in group.inputs:
+        if socket.name in FED_INPUTS:
+            per_channel = socket.type == "RGBA"
+            prop = FED_INPUTS[socket.name] + ("_rgb" if per_channel else "")
+            tree.links.new(_attribute(tree, prop, "Vector" if per_channel else "Fac"), socket)
     if spec.get("closure", "glossy") == "emission":   # the group alone, without the engine's closure storage
         emission = tree.nodes.new("ShaderNodeEmission")
         tree.links.new(group.outputs[0], emission.inputs["Color"])
@@ -140,11 +149,11 @@ def build_scene(job: dict):
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     scene.world = world
-    _render_settings(scene, job["engine"], n, job.get("cell_px", CELL_PX), job.get("samples", 1))
+    _render_settings(scene, job["engine"], n, job.get("cell_px", CELL_PX), job.get("samples", 1), job.get("osl", False))
     return scene
 
 
-def _render_settings(scene, engine: str, n: int, cell_px: int, samples: int):
+def _render_settings(scene, engine: str, n: int, cell_px: int, samples: int, osl: bool):
     render = scene.render
     render.engine = engine
     render.resolution_x, render.resolution_y, render.resolution_percentage = n * cell_px, cell_px, 100
@@ -153,6 +162,7 @@ def _render_settings(scene, engine: str, n: int, cell_px: int, samples: int):
     scene.view_settings.exposure, scene.view_settings.gamma = 0.0, 1.0
     if engine == "CYCLES":
         scene.cycles.device, scene.cycles.samples = "CPU", samples
+        scene.cycles.shading_system = osl
         scene.cycles.use_denoising, scene.cycles.use_adaptive_sampling = False, False
         scene.cycles.pixel_filter_type, scene.cycles.filter_width = "BOX", 1.0
     else:
