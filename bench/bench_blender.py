@@ -23,11 +23,14 @@ colour per plane, compared with lutbake's ground truth (reference.reference_rgb)
    the error of the clamping alone is given too). A 4D LUT's group reads linearly; `lutbake sample`'s
    cubic and linear reads are given beside it.
 4. ``eevee``: does EEVEE use the thin-film inputs? The Principled BSDF at d = 300 nm against d = 0.
-5. ``cost``: render seconds of one frame (64 probes × 32² px; Cycles 16 samples per pixel, EEVEE 1)
+5. ``exact_mode_osl``: `lutbake blender --exact`'s OSL material in Cycles at 96 probes against the
+   float64 evaluation of the same series (blender.verify_exact) and, on dielectric bases, the truth.
+6. ``cost``: render seconds of one frame (64 probes × 32² px; Cycles 16 samples per pixel, EEVEE 1)
    for a constant-colour Glossy BSDF, lutbake's slice group and 4D LUT group into the same Glossy, and
    the Principled BSDF with its thin film: the median of 3 renders after a first one in the same
    Blender (the first, with EEVEE's shader compilation, is recorded apart), as ratios to the Glossy
-   BSDF in the same run. Node counts per group.
+   BSDF in the same run; the exact mode's OSL material against the Glossy BSDF with Cycles' OSL on
+   (OSL shades every material more slowly than Cycles' own nodes). Node counts per group.
 
 The machine's 1-minute load average is recorded (timings are taken on a shared machine: compare the
 ratios, not the seconds).
@@ -49,8 +52,10 @@ sys.path.insert(0, str(ROOT))
 
 import lutbake  # noqa: E402
 from lutbake.blender import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
-                             write_library)
-from lutbake.blender_nodes import LutRead, NumpyGraph, bilinear_program, read_manifest, read_program  # noqa: E402
+                             verify_exact, write_library)
+from lutbake.blender_nodes import (EXACT_MATERIAL, LutRead, NumpyGraph, bilinear_program, read_manifest,  # noqa: E402
+                                   read_program)
+from lutbake.exact import write_exact_table  # noqa: E402
 from lutbake.colorimetry import delta_e00  # noqa: E402
 from lutbake.sample import Lut  # noqa: E402
 
@@ -209,6 +214,21 @@ def node_counts(read, size) -> dict:
     return {"group": group.nodes, "bilinear group": bilinear.nodes}
 
 
+def _exact_probes(folder: Path, points) -> tuple:
+    """The exact mode's OSL material (library exact.blend, written by exact_mode()) at ``points``."""
+    fields = np.broadcast_arrays(points.cos_theta, points.thickness_nm, points.eta2, points.eta3)
+    probes = [{"cos_theta": float(c), "thickness_nm": float(d), "eta2": float(e2), "eta3_rgb": [float(e3)] * 3,
+               "kappa3_rgb": [0.0] * 3} for c, d, e2, e3 in zip(*fields)]
+    return [{"kind": "lutbake", "library": str(folder / "exact.blend"), "material": EXACT_MATERIAL}], probes
+
+
+def exact_mode(blender, folder: Path) -> dict:
+    """`lutbake blender --exact`: the OSL material against the float64 series and the ground truth."""
+    write_exact_table(folder / "exact.exr")
+    write_library(None, folder / "exact.blend", blender, exact=folder / "exact.exr")
+    return verify_exact(folder / "exact.blend", folder / "exact.exr", blender, n_points=96)
+
+
 def cost(blender, folder: Path, repeats: int = 3) -> dict:
     steel = read_manifest(ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.json")
     coated = read_manifest(ROOT / "docs" / "scenes" / "textured-base" / "textured-base.json")
@@ -221,15 +241,19 @@ def cost(blender, folder: Path, repeats: int = 3) -> dict:
         candidates[label] = lutbake_probes(scene, folder / f"{scene.name}.blend", [probes])   # written by examples()
     pts = lutbake.FilmPoints.build(eta2=2.9, thickness_nm=rng.uniform(10, 70, n), cos_theta=cos_theta, eta3=1.5)
     candidates["Principled BSDF, thin film"] = blender_thin_film_probes(pts)
+    exact = {"Glossy BSDF, constant colour": candidates["Glossy BSDF, constant colour"],
+             "lutbake exact (OSL)": _exact_probes(folder, pts)}
     out = {}
-    for engine, samples in (("CYCLES", 16), ("BLENDER_EEVEE", 1)):
+    for engine, samples, osl, chosen in (("CYCLES", 16, False, candidates), ("BLENDER_EEVEE", 1, False, candidates),
+                                         ("CYCLES", 16, True, exact)):
         rows = {}
-        for label, (materials, probes) in candidates.items():
-            result = render(blender, engine, materials, probes, cell_px=32, samples=samples, repeat=repeats + 1)
+        for label, (materials, probes) in chosen.items():
+            result = render(blender, engine, materials, probes, cell_px=32, samples=samples, repeat=repeats + 1, osl=osl)
             rows[label] = {"first_render_seconds": result["render_seconds"],
                            "render_seconds": float(np.median(result["repeat_seconds"]))}
         base = rows["Glossy BSDF, constant colour"]["render_seconds"]
-        out[engine] = {label: {**row, "ratio_to_glossy": row["render_seconds"] / base} for label, row in rows.items()}
+        out[engine + (" (OSL)" if osl else "")] = {label: {**row, "ratio_to_glossy": row["render_seconds"] / base}
+                                                   for label, row in rows.items()}
     out["nodes"] = {"slice (tempered-steel/steel_werner)": node_counts(steel.reads[-1], (32, 84)),
                     "4D LUT (textured-base/coated_metal)": node_counts(coated.reads[0], (64, 144))}
     out["library_bytes"] = {p.name: p.stat().st_size for p in sorted(folder.glob("*.blend"))}
@@ -252,6 +276,7 @@ def main():
         doc["blender_thin_film"] = blender_thin_film(args.blender, rng, args.points)
         doc["examples"] = examples(args.blender, rng, folder)
         doc["eevee"] = eevee_thin_film(args.blender, rng)
+        doc["exact_mode_osl"] = exact_mode(args.blender, folder)
         doc["cost"] = cost(args.blender, folder)
     doc["blender"] = render_probes({"engine": "CYCLES", "materials": [{"kind": "glossy", "color": [1, 1, 1]}],
                                     "probes": [{"cos_theta": 1.0}]}, args.blender)["blender"]

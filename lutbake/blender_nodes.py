@@ -42,7 +42,7 @@ from pathlib import Path
 
 __all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "EXACT_MATERIAL", "SliceRead", "LutRead", "SceneReads",
            "read_manifest", "NumpyGraph", "NodeGraph", "slice_program", "lut_program", "bilinear_program",
-           "build_library", "build_exact", "main"]
+           "read_program", "evaluate", "build_library", "build_exact", "main"]
 
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 # lutbake's working spaces (lutbake/names.py) as Blender's colour-management names.
