@@ -6,18 +6,21 @@ stderr naming the value and what is allowed; nothing written).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
 
-from .signals import interrupted_at_start_up, raise_interrupt, set_handler
+from .signals import STOP_SIGNALS, exit_status, interrupted_at_start_up, message, raise_interrupted, set_handler
 
-set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
+for _signum in STOP_SIGNALS:
+    set_handler(_signum, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
+from .errors import OpenCLUnavailable  # noqa: E402
 from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
@@ -36,23 +39,23 @@ def main(argv=None):
     The context is driven directly rather than through ``cli.main``, which maps a
     closed pipe to exit 1; a reader that stops early is not a failure here (exit 0).
     """
-    set_handler(signal.SIGINT, signal.default_int_handler)
-    set_handler(signal.SIGTERM, raise_interrupt)  # unwind like Ctrl-C: half-written sets are discarded
+    for signum in STOP_SIGNALS:  # unwind like Ctrl-C: half-written sets are discarded (signals.py)
+        set_handler(signum, raise_interrupted)
     args = sys.argv[1:] if argv is None else list(argv)
     try:
         with cli.make_context("lutbake", args) as ctx:
             rv = cli.invoke(ctx)
-        sys.stdout.flush()
+        _flush(sys.stdout)
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
-    except (click.exceptions.Abort, KeyboardInterrupt):
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         # Files were cleaned up as the exception unwound. Leave without interpreter finalization:
         # an interrupt that landed inside a library's import can make Python re-raise SIGINT at exit
         # (seen: killed by SIGINT instead of exit 130 when Ctrl-C hit matplotlib's first start-up).
-        click.echo("\nlutbake: interrupted", err=True)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(130)
+        click.echo("\n" + message(getattr(exc, "signum", signal.SIGINT)), err=True)
+        _flush(sys.stdout)
+        _flush(sys.stderr)
+        os._exit(exit_status(exc))
     except click.exceptions.NoArgsIsHelpError as exc:  # bare `lutbake`: the help, not an error line
         click.echo(exc.ctx.get_help())
         sys.exit(0)
@@ -67,7 +70,16 @@ def main(argv=None):
     except (ValueError, OSError) as exc:
         BadInput(_in_flags(exc)).show()
         sys.exit(EXIT_BAD_INPUT)
+    except OpenCLUnavailable as exc:  # --backend opencl (or --fast with it) where no device runs the kernel
+        BadInput(f"OpenCL cannot run the kernel here ({exc}): use --backend auto or numpy").show()
+        sys.exit(EXIT_BAD_INPUT)
     sys.exit(rv or 0)
+
+
+def _flush(stream) -> None:
+    """Flush ``stream`` unless it is closed (`lutbake inspect X >&-`: Python then sets it to None)."""
+    if stream is not None:
+        stream.flush()
 
 
 # The library's parameter names (errors.ParameterError) as this command line spells them.
@@ -89,7 +101,7 @@ def _in_flags(exc: Exception) -> str:
 def _quiet_broken_pipe():
     """The reader went away (`lutbake inspect X | head -1`): not an error. Point stdout at
     /dev/null so the interpreter's final flush does not fail again."""
-    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
 
 
 def _print_version(ctx, param, value):
