@@ -420,13 +420,13 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
                 for name, spec in default_specs(precision or "half").items()]
         for _, spec in jobs:
             spec.check_budget(max_memory_gib)
-        _make_folder(folder)
+        _make_folder(folder)   # then bake_set checks every member's path before any work
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
         jobs = [(Path(out), domain_spec(**flags))]
-    results = [_bake_one(path, spec, backend, progress_meter(f"baking {path.name}", quiet, force_progress),
-                         max_memory_gib) for path, spec in jobs]
+    set_name = "lutbake-default-set" if eta2 is None else jobs[0][0].name
+    results = _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib)
     summary = [_bake_summary(r) for r in results]
     if as_json:
         echo_json({"luts": summary})
@@ -518,24 +518,26 @@ def _make_folder(folder: Path):
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early
 
 
-def _bake_one(path, spec, backend, meter, max_memory_gib):
-    """Bake one LUT, band by band; ``meter`` shows rows done and the ETA from the measured rate."""
-    from .bake import bake
+def _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib):
+    """Bake (path, spec) jobs as one file set (all committed or none), band by band; a progress line per
+    LUT shows rows done and the ETA from the measured rate."""
+    from .bake import bake_set
 
-    width, height = spec.image_size
-    rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
-    done = 0
+    def options(path, spec):
+        width, height = spec.image_size
+        rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
+        meter, done = progress_meter(f"baking {path.name}", quiet, force_progress), 0
 
-    def on_band(rows, total):
-        nonlocal done
-        done += rows
-        meter(done, total, "rows")
+        def on_band(rows, total):  # called with 0 rows before the first band
+            nonlocal done
+            done += rows
+            meter(done, total, "rows" if done else "measuring the spectral rule's error at probe cells")
+            if done == total:
+                meter.close()
 
-    meter(0, height, "measuring the spectral rule's error at probe cells")
-    result = bake(spec, path, backend, on_band=on_band, chunk_cells=rows_per_band * width,
-                  memory_limit_gib=max_memory_gib)
-    meter.close()
-    return result
+        return {"on_band": on_band, "chunk_cells": rows_per_band * width}
+
+    return bake_set([(path, spec, options(path, spec)) for path, spec in jobs], set_name, backend, max_memory_gib)
 
 
 def _bake_summary(result):
