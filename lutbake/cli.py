@@ -182,24 +182,34 @@ def _refuse_conflicts(flags, conflicts):
             raise BadInput(f"--{a.replace('_', '-')} cannot be combined with --{b}: {why}")
 
 
-def build_points(points_csv, **flags):
+def build_points(points_csv, defaults=None, **flags):
+    """FilmPoints from the point flags and --points CSV; ``defaults`` (a LUT's or material's film) fill
+    what neither gives."""
     from .points import FilmPoints
 
     _refuse_conflicts(flags, _POINT_CONFLICTS)
     given = {k: v for k, v in flags.items() if v is not None}
     if points_csv:
-        return FilmPoints.from_csv(_read_points(points_csv), **given)
-    return FilmPoints.build(**given)
+        with _open_points(points_csv) as stream:
+            return FilmPoints.from_csv(stream, defaults, **given)
+    return FilmPoints.build(**{**(defaults or {}), **given})
 
 
-def _read_points(points_csv) -> str:
+@contextlib.contextmanager
+def _open_points(points_csv):
+    """The --points CSV as a binary stream (stdin for '-'), read line by line by points.read_csv_columns."""
     if points_csv == "-":
-        return sys.stdin.read()
+        if sys.stdin is None:
+            raise BadInput("--points -: stdin is closed: pipe a CSV in or give a file")
+        yield sys.stdin.buffer
+        return
     try:
-        return Path(points_csv).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        why = getattr(exc, "strerror", None) or "not UTF-8 text"
-        raise BadInput(f"--points {points_csv!r} cannot be read ({why}): give a CSV file or '-' for stdin") from None
+        stream = open(points_csv, "rb")
+    except OSError as exc:
+        raise BadInput(f"--points {points_csv!r} cannot be read ({exc.strerror}): give a CSV file or '-' for "
+                       "stdin") from None
+    with stream:
+        yield stream
 
 
 def echo_json(doc):
@@ -664,10 +674,8 @@ def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, *
     if filter_bits is not None and interpolation == "cubic":
         raise BadInput(f"--filter-bits {filter_bits} applies to linear reads; {lut!r} is read cubic "
                        f"(texel reads without filtering): add --interpolation linear")
-    for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
-        if flags.get(name) is None:  # the LUT's film unless given (Lut.sample refuses another)
-            flags[name] = value
-    points = build_points(points_csv, **flags)
+    # the LUT's film unless given (Lut.sample refuses another)
+    points = build_points(points_csv, {"eta1": table.eta1, "eta2": table.eta2}, **flags)
     rgb = table.sample(points, filter_bits, interpolation)
     inside = table.in_domain(points)
     opd = points.opd_nm
@@ -710,7 +718,7 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
     if given:
         raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
                        f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
-    points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
+    points = build_points(points_csv, atlas.film_stack(material), **flags)
     rgb = atlas.sample(material, points, filter_bits)
     inside = atlas.in_domain(material, points)
     rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
@@ -737,8 +745,12 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
     from .report import gate, report_lut, write_report
     from .sample import Atlas, load_table
 
+    from .report import REPORT_FILES
+
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    if out_dir:
+        refuse_overwriting_inputs({"LUT": lut}, [Path(out_dir) / name for name in REPORT_FILES])
     table = load_table(lut)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
     if isinstance(table, Atlas):
@@ -770,14 +782,31 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
 def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:
     """Per-slice ΔE00 of a scene atlas as stored; summary.json in out_dir when given."""
     from .lutfile import write_text_atomic
-    from .report import report_atlas
+    from .report import REPORT_FILES, report_atlas
     from .strictjson import dumps
 
     summary = report_atlas(atlas, path, n_points, seed)
     if out_dir:
         Path(out_dir).mkdir(parents=True, exist_ok=True)
-        write_text_atomic(Path(out_dir) / "summary.json", dumps(summary) + "\n")
+        write_text_atomic(Path(out_dir) / REPORT_FILES[0], dumps(summary) + "\n")
     return summary
+
+
+def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+    """Exit 2 when a file a command would write is one of its inputs (``inputs``: what to call it → path),
+    the same file by any path or hard link, before anything is written."""
+    for what, path in inputs.items():
+        for out in outputs:
+            if _same_file(Path(path), Path(out)):
+                raise BadInput(f"{what} {str(path)!r} would be overwritten by the output {str(out)!r}: write "
+                               "the output elsewhere")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare where they would be
+        return a.resolve() == b.resolve()
 
 
 def _print_error_rows(rows, summary):
