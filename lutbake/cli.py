@@ -137,9 +137,14 @@ def progress_meter(label, quiet, force_progress):
     """The Meter for a command's progress flags (conflicting flags are refused)."""
     from .progress import meter
 
+    return meter(label, show_progress(quiet, force_progress))
+
+
+def show_progress(quiet, force_progress):
+    """progress.meter's ``show`` for the flags: False, True, or None (on a terminal only)."""
     if quiet and force_progress:
         raise BadInput("--quiet and --progress contradict each other: give one")
-    return meter(label, False if quiet else (True if force_progress else None))
+    return False if quiet else (True if force_progress else None)
 
 
 def point_options(f, named=True):
@@ -532,14 +537,18 @@ def _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib):
     """Bake (path, spec) jobs as one file set (all committed or none), band by band; a progress line per
     LUT shows rows done and the ETA from the measured rate."""
     from .bake import bake_set
+    from .progress import meter as make_meter
+
+    show = show_progress(quiet, force_progress)
 
     def options(path, spec):
         width, height = spec.image_size
         rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
-        meter, done = progress_meter(f"baking {path.name}", quiet, force_progress), 0
+        meter, done = None, 0
 
-        def on_band(rows, total):  # called with 0 rows before the first band
-            nonlocal done
+        def on_band(rows, total):  # called with 0 rows when this LUT's bake starts: its clock starts then
+            nonlocal meter, done
+            meter = meter or make_meter(f"baking {path.name}", show)
             done += rows
             meter(done, total, "rows" if done else "measuring the spectral rule's error at probe cells")
             if done == total:
