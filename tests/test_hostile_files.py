@@ -768,3 +768,15 @@ def test_environment_cases(good_files, sandbox, tmp_path):
     closed = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", lut], cwd=sandbox, stderr=subprocess.PIPE,
                             text=True, timeout=CASE_SECONDS, preexec_fn=lambda: os.close(1))   # `inspect good.exr >&-`
     assert closed.returncode == 0 and closed.stderr == "", closed.stderr
+
+
+def test_the_engine_loaders_check_atlas_and_exact_sets_too(good_files, tmp_path):
+    """checkSameSet on every (EXR, include) pair of a LUT, an atlas and an exact table: each EXR with its own
+    include is loaded, with another's refused (a LUT's and an exact table's includes name a content hash,
+    an atlas's a scene hash)."""
+    from test_fileset import _engine_accepts
+
+    folder = good_files["lut"].parent
+    stems = {kind: str(path.relative_to(folder).with_suffix("")) for kind, path in good_files.items()}
+    pairs = [(f"{stems[a]}.exr", f"{stems[b]}.glsl") for a in stems for b in stems]
+    assert _engine_accepts(folder, pairs) == [a == b for a in stems for b in stems]
