@@ -190,7 +190,7 @@ def read_lut(path, formats=(FORMAT,)):
         raise ValueError(f"{str(path)!r}: metadata field {exc} is missing or invalid") from None
     image = _read_pixels(path, structure)
     if not np.isfinite(image).all():
-        raise ValueError(f"{str(path)!r}: metadata field image (non-finite texels) is missing or invalid")
+        raise ValueError(f"{str(path)!r}: image holds non-finite texels (NaN or Inf): bake it again")
     return meta, image
 
 
