@@ -32,7 +32,7 @@ __all__ = ["exr_header", "check_structure", "check_metadata", "MAX_ATTRIBUTE_BYT
 
 _MAGIC = 20000630
 _TILED, _LONG_NAMES, _DEEP, _MULTIPART = 0x200, 0x400, 0x800, 0x1000
-PIXEL_TYPES = {0: "UINT", 1: "HALF", 2: "FLOAT"}
+_PIXEL_TYPES = {0: "UINT", 1: "HALF", 2: "FLOAT"}
 _PIXEL_BYTES = {"HALF": 2, "FLOAT": 4}
 # Lossless compressions with a known worst-case ratio (uncompressed/compressed bytes): none; RLE (127
 # equal bytes in 2); deflate (258 bytes per ≥ 2 bits of a match: 1032:1), which ZIPS and ZIP use.
@@ -85,7 +85,7 @@ def _channels(data: bytes) -> dict:
         name = data[at:end].decode("latin-1")
         _need(end + 17 <= len(data), "channel list cut short")
         kind, _, xs, ys = struct.unpack("<iB3xii", data[end + 1:end + 17])
-        out[name] = (PIXEL_TYPES.get(kind, str(kind)), xs, ys)
+        out[name] = (_PIXEL_TYPES.get(kind, str(kind)), xs, ys)
         at = end + 17
     return out
 
@@ -95,8 +95,10 @@ def check_structure(header: dict) -> dict:
     naming what is not (see the module docstring)."""
     attributes, flags = header["attributes"], header["flags"]
     _need(not flags & (_TILED | _DEEP | _MULTIPART), "not a single-part scanline image")
-    for name, kind in (("channels", "chlist"), ("compression", "compression"), ("dataWindow", "box2i")):
-        _need(attributes.get(name, ("",))[0] == kind, f"no {name} attribute")
+    for name, kind, size in (("channels", "chlist", None), ("compression", "compression", 1),
+                             ("dataWindow", "box2i", 16)):
+        found, value = attributes.get(name, ("", b""))
+        _need(found == kind and (size is None or len(value) == size), f"no {name} attribute of type {kind}")
     channels = _channels(attributes["channels"][1])
     _need(sorted(channels) == ["B", "G", "R"], f"channels {', '.join(sorted(channels)) or 'none'}, expected R, G, B")
     kinds = {kind for kind, _, _ in channels.values()}

@@ -336,9 +336,18 @@ STRUCTURES = {
     "multi-part flag": lambda d: d[:4] + struct.pack("<I", struct.unpack("<I", d[4:8])[0] | 0x1000) + d[8:],
     "wrong magic number": lambda d: b"\x76\x2f\x31\x00" + d[4:],
     "attribute size past the end": lambda d: _oversized(d),
+    "compression attribute of 0 bytes": lambda d: _emptied(d, b"compression\0compression\0"),
+    "data window attribute of 0 bytes": lambda d: _emptied(d, b"dataWindow\0box2i\0"),
     "header cut in the middle": lambda d: d[:300],
     "attribute name longer than 31 bytes": lambda d: d.replace(b"compression\0", b"c" * 40 + b"\0", 1),
 }
+
+
+def _emptied(data: bytes, key: bytes) -> bytes:
+    """The attribute starting with ``key`` (name, type) given size 0 and no value."""
+    at = data.index(key) + len(key)
+    (size,) = struct.unpack("<i", data[at:at + 4])
+    return data[:at] + struct.pack("<i", 0) + data[at + 4 + size:]
 
 
 def _oversized(data: bytes) -> bytes:
