@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .lutfile import ATLAS_FORMAT, shader_ident, shader_template
+from .names import shader_comment
 
 __all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_includes"]
 
@@ -87,7 +88,8 @@ def _atlas_include(manifest: dict, atlas: dict, lang: str) -> str:
                                            rect=", ".join(str(float(v)) for v in e["rect"]),
                                            thick=f"{float(th['min'])}, {float(th['max'])}"))
         else:
-            lines.append(lut_line.format(name=name, file=e["file"], stem=Path(e["file"]).stem))
+            lines.append(lut_line.format(name=shader_comment(name), file=shader_comment(e["file"]),
+                                         stem=shader_comment(Path(e["file"]).stem)))
     return shader_template(f"atlas.{lang}.in").substitute(
-        scene=manifest["scene"], scene_hash=manifest["scene_hash"][:16], atlas=f"{scene}.exr",
-        materials="\n".join(lines))
+        scene=shader_comment(manifest["scene"]), scene_hash=manifest["scene_hash"][:16],
+        atlas=shader_comment(f"{scene}.exr"), materials="\n".join(lines))

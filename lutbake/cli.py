@@ -6,18 +6,21 @@ stderr naming the value and what is allowed; nothing written).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
 
-from .signals import interrupted_at_start_up, raise_interrupt, set_handler
+from .signals import STOP_SIGNALS, exit_status, interrupted_at_start_up, message, raise_interrupted, set_handler
 
-set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
+for _signum in STOP_SIGNALS:
+    set_handler(_signum, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
+from .errors import OpenCLUnavailable  # noqa: E402
 from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
@@ -36,23 +39,23 @@ def main(argv=None):
     The context is driven directly rather than through ``cli.main``, which maps a
     closed pipe to exit 1; a reader that stops early is not a failure here (exit 0).
     """
-    set_handler(signal.SIGINT, signal.default_int_handler)
-    set_handler(signal.SIGTERM, raise_interrupt)  # unwind like Ctrl-C: half-written sets are discarded
+    for signum in STOP_SIGNALS:  # unwind like Ctrl-C: half-written sets are discarded (signals.py)
+        set_handler(signum, raise_interrupted)
     args = sys.argv[1:] if argv is None else list(argv)
     try:
         with cli.make_context("lutbake", args) as ctx:
             rv = cli.invoke(ctx)
-        sys.stdout.flush()
+        _flush(sys.stdout)
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
     except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         # Files were cleaned up as the exception unwound. Leave without interpreter finalization:
         # an interrupt that landed inside a library's import can make Python re-raise SIGINT at exit
         # (seen: killed by SIGINT instead of exit 130 when Ctrl-C hit matplotlib's first start-up).
-        click.echo("\nlutbake: interrupted", err=True)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(128 + getattr(exc, "signum", signal.SIGINT))  # 130 for Ctrl-C, 143 for SIGTERM
+        click.echo("\n" + message(getattr(exc, "signum", signal.SIGINT)), err=True)
+        _flush(sys.stdout)
+        _flush(sys.stderr)
+        os._exit(exit_status(exc))
     except click.exceptions.NoArgsIsHelpError as exc:  # bare `lutbake`: the help, not an error line
         click.echo(exc.ctx.get_help())
         sys.exit(0)
@@ -67,7 +70,16 @@ def main(argv=None):
     except (ValueError, OSError) as exc:
         BadInput(_in_flags(exc)).show()
         sys.exit(EXIT_BAD_INPUT)
+    except OpenCLUnavailable as exc:  # --backend opencl (or --fast with it) where no device runs the kernel
+        BadInput(f"OpenCL cannot run the kernel here ({exc}): use --backend auto or numpy").show()
+        sys.exit(EXIT_BAD_INPUT)
     sys.exit(rv or 0)
+
+
+def _flush(stream) -> None:
+    """Flush ``stream`` unless it is closed (`lutbake inspect X >&-`: Python then sets it to None)."""
+    if stream is not None:
+        stream.flush()
 
 
 # The library's parameter names (errors.ParameterError) as this command line spells them.
@@ -89,7 +101,7 @@ def _in_flags(exc: Exception) -> str:
 def _quiet_broken_pipe():
     """The reader went away (`lutbake inspect X | head -1`): not an error. Point stdout at
     /dev/null so the interpreter's final flush does not fail again."""
-    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
 
 
 def _print_version(ctx, param, value):
@@ -125,9 +137,14 @@ def progress_meter(label, quiet, force_progress):
     """The Meter for a command's progress flags (conflicting flags are refused)."""
     from .progress import meter
 
+    return meter(label, show_progress(quiet, force_progress))
+
+
+def show_progress(quiet, force_progress):
+    """progress.meter's ``show`` for the flags: False, True, or None (on a terminal only)."""
     if quiet and force_progress:
         raise BadInput("--quiet and --progress contradict each other: give one")
-    return meter(label, False if quiet else (True if force_progress else None))
+    return False if quiet else (True if force_progress else None)
 
 
 def point_options(f, named=True):
@@ -170,24 +187,34 @@ def _refuse_conflicts(flags, conflicts):
             raise BadInput(f"--{a.replace('_', '-')} cannot be combined with --{b}: {why}")
 
 
-def build_points(points_csv, **flags):
+def build_points(points_csv, defaults=None, **flags):
+    """FilmPoints from the point flags and --points CSV; ``defaults`` (a LUT's or material's film) fill
+    what neither gives."""
     from .points import FilmPoints
 
     _refuse_conflicts(flags, _POINT_CONFLICTS)
     given = {k: v for k, v in flags.items() if v is not None}
     if points_csv:
-        return FilmPoints.from_csv(_read_points(points_csv), **given)
-    return FilmPoints.build(**given)
+        with _open_points(points_csv) as stream:
+            return FilmPoints.from_csv(stream, defaults, **given)
+    return FilmPoints.build(**{**(defaults or {}), **given})
 
 
-def _read_points(points_csv) -> str:
+@contextlib.contextmanager
+def _open_points(points_csv):
+    """The --points CSV as a binary stream (stdin for '-'), read line by line by points.read_csv_columns."""
     if points_csv == "-":
-        return sys.stdin.read()
+        if sys.stdin is None:
+            raise BadInput("--points -: stdin is closed: pipe a CSV in or give a file")
+        yield sys.stdin.buffer
+        return
     try:
-        return Path(points_csv).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        why = getattr(exc, "strerror", None) or "not UTF-8 text"
-        raise BadInput(f"--points {points_csv!r} cannot be read ({why}): give a CSV file or '-' for stdin") from None
+        stream = open(points_csv, "rb")
+    except OSError as exc:
+        raise BadInput(f"--points {points_csv!r} cannot be read ({exc.strerror}): give a CSV file or '-' for "
+                       "stdin") from None
+    with stream:
+        yield stream
 
 
 def echo_json(doc):
@@ -422,13 +449,13 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
                 for name, spec in default_specs(precision or "half").items()]
         for _, spec in jobs:
             spec.check_budget(max_memory_gib)
-        _make_folder(folder)
+        _make_folder(folder)   # then bake_set checks every member's path before any work
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
         jobs = [(Path(out), domain_spec(**flags))]
-    results = [_bake_one(path, spec, backend, progress_meter(f"baking {path.name}", quiet, force_progress),
-                         max_memory_gib) for path, spec in jobs]
+    set_name = "lutbake-default-set" if eta2 is None else jobs[0][0].name
+    results = _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib)
     summary = [_bake_summary(r) for r in results]
     if as_json:
         echo_json({"luts": summary})
@@ -544,24 +571,30 @@ def _make_folder(folder: Path):
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early
 
 
-def _bake_one(path, spec, backend, meter, max_memory_gib):
-    """Bake one LUT, band by band; ``meter`` shows rows done and the ETA from the measured rate."""
-    from .bake import bake
+def _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib):
+    """Bake (path, spec) jobs as one file set (all committed or none), band by band; a progress line per
+    LUT shows rows done and the ETA from the measured rate."""
+    from .bake import bake_set
+    from .progress import meter as make_meter
 
-    width, height = spec.image_size
-    rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
-    done = 0
+    show = show_progress(quiet, force_progress)
 
-    def on_band(rows, total):
-        nonlocal done
-        done += rows
-        meter(done, total, "rows")
+    def options(path, spec):
+        width, height = spec.image_size
+        rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
+        meter, done = None, 0
 
-    meter(0, height, "measuring the spectral rule's error at probe cells")
-    result = bake(spec, path, backend, on_band=on_band, chunk_cells=rows_per_band * width,
-                  memory_limit_gib=max_memory_gib)
-    meter.close()
-    return result
+        def on_band(rows, total):  # called with 0 rows when this LUT's bake starts: its clock starts then
+            nonlocal meter, done
+            meter = meter or make_meter(f"baking {path.name}", show)
+            done += rows
+            meter(done, total, "rows" if done else "measuring the spectral rule's error at probe cells")
+            if done == total:
+                meter.close()
+
+        return {"on_band": on_band, "chunk_cells": rows_per_band * width}
+
+    return bake_set([(path, spec, options(path, spec)) for path, spec in jobs], set_name, backend, max_memory_gib)
 
 
 def _bake_summary(result):
@@ -727,10 +760,8 @@ def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, *
     if filter_bits is not None and interpolation == "cubic":
         raise BadInput(f"--filter-bits {filter_bits} applies to linear reads; {lut!r} is read cubic "
                        f"(texel reads without filtering): add --interpolation linear")
-    for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
-        if flags.get(name) is None:  # the LUT's film unless given (Lut.sample refuses another)
-            flags[name] = value
-    points = build_points(points_csv, **flags)
+    # the LUT's film unless given (Lut.sample refuses another)
+    points = build_points(points_csv, {"eta1": table.eta1, "eta2": table.eta2}, **flags)
     rgb = table.sample(points, filter_bits, interpolation)
     inside = table.in_domain(points)
     opd = points.opd_nm
@@ -773,7 +804,7 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
     if given:
         raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
                        f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
-    points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
+    points = build_points(points_csv, atlas.film_stack(material), **flags)
     rgb = atlas.sample(material, points, filter_bits)
     inside = atlas.in_domain(material, points)
     rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
@@ -797,11 +828,13 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
 @progress_options
 def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json, quiet, force_progress):
     """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points."""
-    from .report import gate, report_lut, write_report
+    from .report import REPORT_FILES, gate, report_lut, write_report
     from .sample import Atlas, load_table
 
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    if out_dir:
+        refuse_overwriting_inputs({"LUT": lut}, [Path(out_dir) / name for name in REPORT_FILES])
     if Path(lut).suffix.lower() == ".json":  # a glTF bake's manifest: one receipt per glTF material
         return _gltf_receipts(lut, n_points, seed, out_dir, as_json)
     table = load_table(lut)
@@ -854,14 +887,31 @@ def _gltf_receipts(manifest, n_points, seed, out_dir, as_json):
 def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:
     """Per-slice ΔE00 of a scene atlas as stored; summary.json in out_dir when given."""
     from .lutfile import write_text_atomic
-    from .report import report_atlas
+    from .report import REPORT_FILES, report_atlas
     from .strictjson import dumps
 
     summary = report_atlas(atlas, path, n_points, seed)
     if out_dir:
         Path(out_dir).mkdir(parents=True, exist_ok=True)
-        write_text_atomic(Path(out_dir) / "summary.json", dumps(summary) + "\n")
+        write_text_atomic(Path(out_dir) / REPORT_FILES[0], dumps(summary) + "\n")
     return summary
+
+
+def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+    """Exit 2 when a file a command would write is one of its inputs (``inputs``: what to call it → path),
+    the same file by any path or hard link, before anything is written."""
+    for what, path in inputs.items():
+        for out in outputs:
+            if _same_file(Path(path), Path(out)):
+                raise BadInput(f"{what} {str(path)!r} would be overwritten by the output {str(out)!r}: write "
+                               "the output elsewhere")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare where they would be
+        return a.resolve() == b.resolve()
 
 
 def _print_error_rows(rows, summary):

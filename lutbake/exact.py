@@ -38,6 +38,7 @@ from .fileset import open_set
 from .fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 from .lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
+from .names import shader_comment
 
 __all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
            "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
@@ -212,7 +213,7 @@ def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
 def include_fields(meta: dict, table_name: str) -> dict:
     """The template fields of a Ŵ table's shader sources (exact.*.in): its constants and defaults."""
     table, tail = meta["table"], meta["tail"]
-    return {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
+    return {"table_name": shader_comment(table_name), "content_hash": meta["content_hash"], "space": meta["space"],
             "observer": meta["observer"], "step": repr(table["step_nm"]), "width": table["width"],
             "rows": table["rows_per_part"], "texels": table["texels"], "x_max": repr(table["x_max_nm"]),
             "nu0": repr(table["nu0_per_nm"]), "mass": repr(tail["mass"]), "edge": repr(tail["edge"]),

@@ -114,7 +114,7 @@ def pytest_collection_modifyitems(items):
 
 
 def _device_of(report):
-    return dict(report.user_properties).get("kernel_device")
+    return dict(getattr(report, "user_properties", ())).get("kernel_device")   # collection reports have none
 
 
 def pytest_terminal_summary(terminalreporter):
