@@ -49,6 +49,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "docs"))
 
 import lutbake  # noqa: E402
 from lutbake.blender import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
@@ -58,6 +59,7 @@ from lutbake.blender_nodes import (EXACT_MATERIAL, LutRead, NumpyGraph, bilinear
 from lutbake.exact import write_exact_table  # noqa: E402
 from lutbake.colorimetry import delta_e00  # noqa: E402
 from lutbake.sample import Lut  # noqa: E402
+from make_scene_examples import bake_example  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 EXAMPLE_POINTS = 200
@@ -134,6 +136,8 @@ def _probes_in_domain(read, rng, n: int, cos_theta=None) -> Probes:
 
 def examples(blender, rng, folder: Path) -> dict:
     rows = {}
+    for scene in sorted((ROOT / "examples").glob("*.toml")):   # docs/scenes is baked, not kept in the repository
+        bake_example(scene.stem)
     for manifest in sorted((ROOT / "docs" / "scenes").glob("*/*.json")):
         if manifest.stem.startswith("lut-"):
             continue

@@ -28,6 +28,8 @@ from lutbake.plan import Axis, BakeSpec
 from lutbake.sample import Atlas, Lut
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "docs"))
+from make_scene_examples import bake_example  # noqa: E402
 BPY_VERSION = "5.0.1"
 INSTALL = (f"python3.11 -m venv .venv-blender && .venv-blender/bin/pip install bpy=={BPY_VERSION} "
            "(bpy needs numpy < 2, so not in lutbake's environment), or set LUTBAKE_BLENDER to a Blender executable")
@@ -212,7 +214,7 @@ def test_blenders_own_thin_film_against_the_truth(tmp_path):
     bare = np.array(render_probes({"engine": "CYCLES", "materials": materials, "probes": probes}, blender)["rgb"])
     assert np.abs(bare - lutbake.reference_rgb(fresnel)).max() <= 1e-6
 
-    manifest = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.json"
+    manifest = bake_example("tempered-steel") / "tempered-steel.json"   # docs/scenes is baked, not committed
     scene = read_manifest(manifest)
     write_library(manifest, tmp_path / "steel.blend", blender)
     points = [probe_points(scene, read, n, seed) for seed, read in enumerate(scene.reads)]
