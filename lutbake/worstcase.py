@@ -233,7 +233,8 @@ def _snap(axes, u):
 
 
 def _product(columns) -> np.ndarray:
-    return np.array(list(itertools.product(*columns)), float).reshape(-1, len(columns))
+    """Every combination of the columns' values, (n, len(columns)); one empty row for no columns."""
+    return np.array(list(itertools.product(*columns)), float).reshape(-1, len(columns)) if columns else np.zeros((1, 0))
 
 
 def _corners(axes) -> np.ndarray:

@@ -95,6 +95,15 @@ def test_intersections_of_singular_places_are_seeded_with_their_corners_and_edge
         assert find_worst(error, AXES4, singular={one: places[one]}, budget=8000).value == 0.0
 
 
+def test_places_that_fix_every_axis_together_seed_their_single_point():
+    """Four places, one per axis: their intersection is one point, and a cone of radius 1e-3 there is
+    found (from that point, or a climb nearby)."""
+    at = np.array([0.11, 0.52, 0.33, 0.94])
+    places = {name: {name: float(u)} for name, u in zip("abcd", at)}
+    worst = find_worst(_cone(at, 1e-3), AXES4, singular=places, budget=8000)
+    assert worst.value == 1.0 and worst.best.found_by == "singular: a & b & c & d, corner"
+
+
 def test_a_discrete_axis_is_enumerated_and_held_while_refining():
     """Level 2 of 4 carries the peak; the search reports that level exactly (u = 2/3), never between."""
     axes = (SearchAxis("x", cells=10), SearchAxis("y", cells=10), SearchAxis("kind", levels=4))
