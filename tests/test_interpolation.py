@@ -1,8 +1,9 @@
 """The cubic rule (lutbake/interpolation.py) against an independent statement of it: pad the 4D grid
 with its ghost nodes explicitly (mirror at the low end of a √ axis from 0, quadratic extrapolation
-elsewhere), then apply the textbook Catmull-Rom formula to the padded grid. Also the properties
-the rule is chosen for: it returns node values at nodes, reproduces quadratics in the node
-coordinate exactly, and beats linear reads of the same texels on a real LUT."""
+elsewhere), apply the textbook Catmull-Rom formula to the padded grid, and clamp to the range of the
+real nodes around the point. Also the properties the rule is chosen for: it returns node values at
+nodes, reproduces quadratics in the node coordinate exactly, never overshoots the texels it reads, and
+beats linear reads of the same texels on a real LUT."""
 
 import itertools
 
@@ -68,6 +69,15 @@ def _catmull_rom(padded, f):
     return total
 
 
+def _stencil_range(grid, f):
+    """Per channel (min, max) of the real nodes in the 4-node stencil around f (lower − 1 … lower + 2,
+    cut to the grid): the texels a read weighs when f is off the nodes in every axis, or on them in all."""
+    cut = tuple(slice(max(min(int(np.floor(fi)), n - 2) - 1, 0), min(int(np.floor(fi)) + 3, n))
+                for fi, n in zip(f, grid.shape[:4]))
+    block = grid[cut].reshape(-1, 3)
+    return block.min(axis=0), block.max(axis=0)
+
+
 @pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
                                       ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt")])
 def test_cubic_reads_match_the_padded_textbook_rule(spacings):
@@ -87,10 +97,32 @@ def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     values = [a.from_unit(f[:, i] / (a.count - 1), snell2) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
     padded = _padded(grid, mirror)
-    want = np.array([_catmull_rom(padded, p) for p in f])
+    unclamped = np.array([_catmull_rom(padded, p) for p in f])
+    want = np.array([np.clip(u, *_stencil_range(grid, p)) for u, p in zip(unclamped, f)])
     assert np.abs(got - want).max() < 1e-10
-    # The control: the linear rule is another function of the same texels.
+    # The controls: the clamp acts at some of these points, and the linear rule is another function.
+    assert np.abs(unclamped - want).max() > 1e-3
     assert np.abs(lut.sample(_stack(values), interpolation="linear") - want).max() > 0.1
+
+
+def test_cubic_reads_stay_within_the_texels_they_read_where_catmull_rom_overshoots():
+    """A step (1 at cos θ node 0, 0 beyond; R at grazing over a base matching the ambient): plain
+    Catmull-Rom dips to −0.074 in the second cell (the issue's read at cos θ 0.001, D 0); clamped reads
+    stay in [0, 1] and equal the unclamped sum wherever it lies inside."""
+    axes = _axes(SHAPE, ("uniform",) * 4)
+    grid = np.zeros(SHAPE + (3,))
+    grid[0] = 1.0
+    lut = _lut(grid, axes)
+    f0 = np.linspace(0.0, 3.0, 301)
+    rng = np.random.default_rng(9)
+    f = np.column_stack([f0, *(rng.uniform(0, n - 1, f0.size) for n in SHAPE[1:])])
+    values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
+    got = lut.sample(_stack(values))
+    unclamped = np.array([_catmull_rom(_padded(grid, [False] * 4), p) for p in f])
+    assert unclamped.min() < -0.07   # the overshoot being fixed
+    assert got.min() >= 0.0 and got.max() <= 1.0
+    inside = np.all((unclamped >= 0) & (unclamped <= 1), axis=1)
+    assert np.abs(got - unclamped)[inside].max() < 1e-12
 
 
 def test_cubic_reads_return_nodes_and_reproduce_quadratics():

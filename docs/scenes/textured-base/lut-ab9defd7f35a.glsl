@@ -115,7 +115,8 @@ highp vec3 lutbake_texel(highp sampler2D lut, LutbakeLut l, highp vec4 node) {
     return texelFetch(lut, xy, 0).rgb;
 }
 
-// Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads.
+// Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads, the sum
+// clamped per channel to the range of the texels read with a non-zero weight (no overshoot).
 highp vec3 lutbake_sample_cubic(highp sampler2D lut, LutbakeLut l, highp float cos_theta, highp float opd_nm,
                                 highp float eta3, highp float kappa3) {
     highp vec4 f = lutbake_node_coord(l, vec4(cos_theta, opd_nm, eta3, kappa3));
@@ -126,19 +127,26 @@ highp vec3 lutbake_sample_cubic(highp sampler2D lut, LutbakeLut l, highp float c
     highp vec4 we = lutbake_cubic_weights(f.z, l.count.z, mirror.z, first.z);
     highp vec4 wk = lutbake_cubic_weights(f.w, l.count.w, mirror.w, first.w);
     highp vec3 sum = vec3(0.0);
+    highp vec3 low = vec3(1e30);
+    highp vec3 high = vec3(-1e30);
     for (int k = 0; k < 4; ++k) {
         for (int e = 0; e < 4; ++e) {
             highp float w_base = wk[k] * we[e];
             if (w_base == 0.0) continue;
             for (int d = 0; d < 4; ++d) {
                 for (int c = 0; c < 4; ++c) {
-                    sum += (w_base * wd[d] * wc[c])
-                           * lutbake_texel(lut, l, first + vec4(float(c), float(d), float(e), float(k)));
+                    highp float w = w_base * wd[d] * wc[c];
+                    highp vec3 texel = lutbake_texel(lut, l, first + vec4(float(c), float(d), float(e), float(k)));
+                    sum += w * texel;
+                    if (w != 0.0) {
+                        low = min(low, texel);
+                        high = max(high, texel);
+                    }
                 }
             }
         }
     }
-    return sum;
+    return clamp(sum, low, high);
 }
 
 // Linear RGB reflectance of the film stack by the LUT's own interpolation rule.

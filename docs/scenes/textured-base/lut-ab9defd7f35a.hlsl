@@ -116,7 +116,8 @@ float3 lutbake_texel(Texture2D<float3> lut, LutbakeLut l, float4 node) {
     return lut.Load(int3(xy, 0));
 }
 
-// Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads.
+// Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads, the sum
+// clamped per channel to the range of the texels read with a non-zero weight (no overshoot).
 float3 lutbake_sample_cubic(Texture2D<float3> lut, LutbakeLut l, float cos_theta, float opd_nm, float eta3,
                             float kappa3) {
     float4 f = lutbake_node_coord(l, float4(cos_theta, opd_nm, eta3, kappa3));
@@ -127,18 +128,26 @@ float3 lutbake_sample_cubic(Texture2D<float3> lut, LutbakeLut l, float cos_theta
     float4 we = lutbake_cubic_weights(f.z, l.count.z, mirror.z, first.z);
     float4 wk = lutbake_cubic_weights(f.w, l.count.w, mirror.w, first.w);
     float3 sum = 0.0;
+    float3 low = 1e30;
+    float3 high = -1e30;
     for (int k = 0; k < 4; ++k) {
         for (int e = 0; e < 4; ++e) {
             float w_base = wk[k] * we[e];
             if (w_base == 0.0) continue;
             for (int d = 0; d < 4; ++d) {
                 for (int c = 0; c < 4; ++c) {
-                    sum += (w_base * wd[d] * wc[c]) * lutbake_texel(lut, l, first + float4(c, d, e, k));
+                    float w = w_base * wd[d] * wc[c];
+                    float3 texel = lutbake_texel(lut, l, first + float4(c, d, e, k));
+                    sum += w * texel;
+                    if (w != 0.0) {
+                        low = min(low, texel);
+                        high = max(high, texel);
+                    }
                 }
             }
         }
     }
-    return sum;
+    return clamp(sum, low, high);
 }
 
 // Linear RGB reflectance of the film stack by the LUT's own interpolation rule (the sampler state is
