@@ -77,7 +77,8 @@ class Lut:
     def in_memory(cls, spec, image) -> "Lut":
         """The LUT of ``spec`` whose texels are ``image`` (as stored), without a file: what tune scores."""
         return cls({"axes": [a.describe() for a in spec.axes], "interpolation": spec.interpolation,
-                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}}, image)
+                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}, "space": spec.space,
+                    "observer": spec.observer}, image)
 
     @property
     def axes(self) -> list:
