@@ -716,13 +716,14 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), help="Folder for report.html, PNGs, summary.json.")
 @click.option("--max-de", type=float, default=None, help="Gate: exit 1 when p99 ΔE00 exceeds this.")
 @click.option("--no-approximations", is_flag=True, help="Skip the engine-approximation rows.")
-@click.option("--search-budget", type=click.IntRange(1000, 10_000_000), default=20000, show_default=True,
-              help="Evaluations of each row's worst-case search (its max is searched over the whole domain).")
+@click.option("--search-budget", type=click.IntRange(100, 10_000_000), default=None,
+              help="Evaluations of each row's worst-case search (its max is searched over the whole domain); "
+                   "default 20000 for a LUT, 2000 per slice of a scene atlas (searched against the ground truth).")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON document.")
 @progress_options
 def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_budget, as_json, quiet, force_progress):
     """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points, max searched."""
-    from .report import gate, report_lut, write_report
+    from .report import SEARCH_BUDGET, SLICE_SEARCH_BUDGET, gate, report_lut, write_report
     from .sample import Atlas, load_table
 
     if max_de is not None and not max_de > 0:
@@ -730,11 +731,12 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_b
     table = load_table(lut)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
     if isinstance(table, Atlas):
-        summary = gate(_atlas_summary(table, lut, n_points, seed, out_dir), max_de)
+        summary = gate(_atlas_summary(table, lut, n_points, seed, out_dir, search_budget or SLICE_SEARCH_BUDGET),
+                       max_de)
         rows = summary["slices"]
     else:
         rep = report_lut(lut, n_points, seed, approximations=not no_approximations, progress=meter,
-                         search_budget=search_budget)
+                         search_budget=search_budget or SEARCH_BUDGET)
         summary = (write_report(rep, out_dir, max_de=max_de, progress=meter) if out_dir
                    else gate(rep.summary(), max_de))
         rows = summary["approximations"]
@@ -745,12 +747,12 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_b
         echo_json(summary)
     else:
         _print_error_rows([summary["lut_error"]] + rows, summary)
-        worst = summary["lut_error"].get("worst_case")
-        if worst:
-            click.echo(f"max is searched over the whole domain ({worst['budget']} evaluations a row); the LUT's: "
-                       f"ΔE00 {worst['de00_max']:.3f} at cos_theta={worst['cos_theta']:.4g} opd_nm={worst['opd_nm']:.4g} "
-                       f"eta3={worst['eta3']:.5g} kappa3={worst['kappa3']:.4g} ({worst['found_by']}; the held-out "
-                       f"points' largest {worst['held_out_max']:.3f})")
+        worst = summary["lut_error"]["worst_case"]
+        where = " ".join(f"{k}={worst[k]:.5g}" for k in ("cos_theta", "opd_nm", "thickness_nm", "eta3", "kappa3")
+                         if k in worst)
+        click.echo(f"max is searched over the whole domain ({worst['budget']} evaluations a row); the largest: "
+                   f"ΔE00 {worst['de00_max']:.3f} at {where} ({worst['found_by']}; the held-out points' largest "
+                   f"{worst['held_out_max']:.3f})")
         if out_dir:
             click.echo(f"report in {out_dir}/{'summary.json' if isinstance(table, Atlas) else 'report.html'}")
         if max_de is not None:
@@ -759,13 +761,13 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_b
     return EXIT_GATE if gate_failed else 0
 
 
-def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:
+def _atlas_summary(atlas, path, n_points, seed, out_dir, search_budget) -> dict:
     """Per-slice ΔE00 of a scene atlas as stored; summary.json in out_dir when given."""
     from .lutfile import write_text_atomic
     from .report import report_atlas
     from .strictjson import dumps
 
-    summary = report_atlas(atlas, path, n_points, seed)
+    summary = report_atlas(atlas, path, n_points, seed, search_budget)
     if out_dir:
         Path(out_dir).mkdir(parents=True, exist_ok=True)
         write_text_atomic(Path(out_dir) / "summary.json", dumps(summary) + "\n")
