@@ -6,14 +6,18 @@ shader includes (shaders/lutbake.*.in) both follow it, on the same texels:
 - ``linear``: multilinear in each axis's own coordinate, 4 bilinear fetches.
 - ``cubic``: Catmull-Rom in each axis's own coordinate, 4 taps per axis, so
   4⁴ = 256 texel reads (no hardware filtering, so no 8-bit weight rounding),
-  the sum clamped per channel to the range of the texels read with a non-zero
-  weight. Its error falls as h⁴ where linear's falls as h², which is what buys
-  the default LUTs their accuracy at the same bytes (docs/accuracy.md). The
-  clamp is the standard remedy for Catmull-Rom's overshoot (its outer weights
-  are negative): where the content turns within a cell, e.g. from R = 1 at
-  cos θ1 = 0 to R = 0 one node later over a base that matches the ambient, the
-  unclamped sum left the texels' range (−0.074 where every texel is ≥ 0); the
-  clamped one never does, so a read is never negative where the texels are not.
+  the sum clamped per channel to the range of those 256 texels. Its error falls
+  as h⁴ where linear's falls as h², which is what buys the default LUTs their
+  accuracy at the same bytes (docs/accuracy.md). The clamp is the standard
+  remedy for Catmull-Rom's overshoot (its outer weights are negative): where the
+  content turns within a cell, e.g. from R = 1 at cos θ1 = 0 to R = 0 one node
+  later over a base that matches the ambient, the unclamped sum left the
+  texels' range (−0.074 where every texel is ≥ 0); the clamped one never does,
+  so a read is never negative where the texels are not. The range is that of
+  every texel read, whatever its weight: it then changes only where the taps do
+  (between cells), not where a weight reaches 0 (at every node: a range over
+  the non-zero weights jumped by 2e-4 between f = N − 1 and N − 1 − 1e-5, which
+  float32 on a GPU and float64 here round apart).
 
 At the ends of an axis the missing tap is a ghost node folded onto real nodes:
 the mirror image f(−s) = f(s) at the low end of a √- or ¼-power-spaced axis

@@ -5,7 +5,7 @@ includes step by step: each axis value → its warp (η3's "admittance" warp at
 the point's own cos θ1) → a continuous node coordinate clamped to [0, N − 1];
 then the header's interpolation rule (lutbake/interpolation.py). Cubic: 4
 Catmull-Rom taps per axis, 256 texels read exactly, the sum clamped to the
-range of the texels it weighs. Linear: (cos θ, D) through
+range of those texels. Linear: (cos θ, D) through
 hardware bilinear filtering inside a tile (texel centres, clamp-to-edge
 addressing), the four tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
 bilinear fetch inside its material's rect. ``filter_bits`` quantizes the
@@ -143,7 +143,7 @@ class Lut:
 
     def _cubic(self, f):
         """Clamped Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile
-        by tile, then clamped per channel to the range of the texels read with a non-zero weight."""
+        by tile, then clamped per channel to the range of the texels read."""
         axes = self.axes
         layout = TileLayout(*(a.count for a in axes))
         taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo)) for fi, a in zip(f, axes)]
@@ -155,8 +155,7 @@ class Lut:
             x, y = layout.texel(*(n[j] for n, j in zip(nodes, k)))
             texel = self.image[y, x].astype(np.float64)
             out += weight * texel
-            read = weight != 0.0
-            low, high = np.where(read, np.minimum(low, texel), low), np.where(read, np.maximum(high, texel), high)
+            low, high = np.minimum(low, texel), np.maximum(high, texel)
         return np.clip(out, low, high)
 
 

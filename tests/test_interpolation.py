@@ -1,7 +1,7 @@
 """The cubic rule (lutbake/interpolation.py) against an independent statement of it: pad the 4D grid
 with its ghost nodes explicitly (mirror at the low end of a √ axis from 0, quadratic extrapolation
 elsewhere), apply the textbook Catmull-Rom formula to the padded grid, and clamp to the range of the
-real nodes around the point. Also the properties the rule is chosen for: it returns node values at
+4⁴ real nodes the read takes. Also the properties the rule is chosen for: it returns node values at
 nodes, reproduces quadratics in the node coordinate exactly, never overshoots the texels it reads, and
 beats linear reads of the same texels on a real LUT."""
 
@@ -70,11 +70,15 @@ def _catmull_rom(padded, f):
 
 
 def _stencil_range(grid, f):
-    """Per channel (min, max) of the real nodes in the 4-node stencil around f (lower − 1 … lower + 2,
-    cut to the grid): the texels a read weighs when f is off the nodes in every axis, or on them in all."""
-    cut = tuple(slice(max(min(int(np.floor(fi)), n - 2) - 1, 0), min(int(np.floor(fi)) + 3, n))
-                for fi, n in zip(f, grid.shape[:4]))
-    block = grid[cut].reshape(-1, 3)
+    """Per channel (min, max) of the 4 × 4 × 4 × 4 real nodes a read takes (docs/lut-format.md): per axis
+    nodes lower − 1 … lower + 2, moved inside the grid at its ends (0 … 3 in the first cell, N − 4 … N − 1
+    in the last)."""
+    cut = []
+    for fi, n in zip(f, grid.shape[:4]):
+        lower = min(int(np.floor(fi)), n - 2)
+        first = min(max(lower - 1, 0), n - 4)
+        cut.append(slice(first, first + 4))
+    block = grid[tuple(cut)].reshape(-1, 3)
     return block.min(axis=0), block.max(axis=0)
 
 
@@ -100,9 +104,25 @@ def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     unclamped = np.array([_catmull_rom(padded, p) for p in f])
     want = np.array([np.clip(u, *_stencil_range(grid, p)) for u, p in zip(unclamped, f)])
     assert np.abs(got - want).max() < 1e-10
-    # The controls: the clamp acts at some of these points, and the linear rule is another function.
-    assert np.abs(unclamped - want).max() > 1e-3
+    # The control: the linear rule is another function of the same texels (the clamp acts: below).
     assert np.abs(lut.sample(_stack(values), interpolation="linear") - want).max() > 0.1
+
+
+def test_cubic_reads_are_continuous_where_a_weight_reaches_zero():
+    """At the last node (t = 1) three taps of an axis weigh 0; 1e-6 inside they weigh ~1e-6. The read must
+    not jump there (a clamp to the non-zero weights' texels jumped by the other axes' overshoot: 2e-4 on a
+    default metal LUT, where a GPU's float32 node coordinate lands 1e-5 short of the node)."""
+    axes = _axes(SHAPE, ("uniform",) * 4)
+    rng = np.random.default_rng(11)
+    grid = rng.normal(size=SHAPE + (3,))
+    lut = _lut(grid, axes)
+    f = rng.uniform(0, 1, (200, 4)) * (np.array(SHAPE) - 1)
+    on = f.copy()
+    on[:, 0] = SHAPE[0] - 1
+    near = on.copy()
+    near[:, 0] -= 1e-6
+    reads = [lut.sample(_stack([a.from_unit(g[:, i] / (a.count - 1)) for i, a in enumerate(axes)])) for g in (on, near)]
+    assert np.abs(reads[0] - reads[1]).max() < 1e-4
 
 
 def test_cubic_reads_stay_within_the_texels_they_read_where_catmull_rom_overshoots():
@@ -123,6 +143,8 @@ def test_cubic_reads_stay_within_the_texels_they_read_where_catmull_rom_overshoo
     assert got.min() >= 0.0 and got.max() <= 1.0
     inside = np.all((unclamped >= 0) & (unclamped <= 1), axis=1)
     assert np.abs(got - unclamped)[inside].max() < 1e-12
+    clamped = np.array([np.clip(u, *_stencil_range(grid, p)) for u, p in zip(unclamped, f)])
+    assert np.abs(got - clamped).max() < 1e-12
 
 
 def test_cubic_reads_return_nodes_and_reproduce_quadratics():

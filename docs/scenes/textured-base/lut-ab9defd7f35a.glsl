@@ -116,7 +116,7 @@ highp vec3 lutbake_texel(highp sampler2D lut, LutbakeLut l, highp vec4 node) {
 }
 
 // Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads, the sum
-// clamped per channel to the range of the texels read with a non-zero weight (no overshoot).
+// clamped per channel to the range of the 256 texels read (no overshoot).
 highp vec3 lutbake_sample_cubic(highp sampler2D lut, LutbakeLut l, highp float cos_theta, highp float opd_nm,
                                 highp float eta3, highp float kappa3) {
     highp vec4 f = lutbake_node_coord(l, vec4(cos_theta, opd_nm, eta3, kappa3));
@@ -132,16 +132,12 @@ highp vec3 lutbake_sample_cubic(highp sampler2D lut, LutbakeLut l, highp float c
     for (int k = 0; k < 4; ++k) {
         for (int e = 0; e < 4; ++e) {
             highp float w_base = wk[k] * we[e];
-            if (w_base == 0.0) continue;
             for (int d = 0; d < 4; ++d) {
                 for (int c = 0; c < 4; ++c) {
-                    highp float w = w_base * wd[d] * wc[c];
                     highp vec3 texel = lutbake_texel(lut, l, first + vec4(float(c), float(d), float(e), float(k)));
-                    sum += w * texel;
-                    if (w != 0.0) {
-                        low = min(low, texel);
-                        high = max(high, texel);
-                    }
+                    sum += (w_base * wd[d] * wc[c]) * texel;
+                    low = min(low, texel);
+                    high = max(high, texel);
                 }
             }
         }

@@ -117,7 +117,7 @@ float3 lutbake_texel(Texture2D<float3> lut, LutbakeLut l, float4 node) {
 }
 
 // Linear RGB reflectance of the film stack, cubic interpolation: 4 x 4 x 4 x 4 texel reads, the sum
-// clamped per channel to the range of the texels read with a non-zero weight (no overshoot).
+// clamped per channel to the range of the 256 texels read (no overshoot).
 float3 lutbake_sample_cubic(Texture2D<float3> lut, LutbakeLut l, float cos_theta, float opd_nm, float eta3,
                             float kappa3) {
     float4 f = lutbake_node_coord(l, float4(cos_theta, opd_nm, eta3, kappa3));
@@ -133,16 +133,12 @@ float3 lutbake_sample_cubic(Texture2D<float3> lut, LutbakeLut l, float cos_theta
     for (int k = 0; k < 4; ++k) {
         for (int e = 0; e < 4; ++e) {
             float w_base = wk[k] * we[e];
-            if (w_base == 0.0) continue;
             for (int d = 0; d < 4; ++d) {
                 for (int c = 0; c < 4; ++c) {
-                    float w = w_base * wd[d] * wc[c];
                     float3 texel = lutbake_texel(lut, l, first + float4(c, d, e, k));
-                    sum += w * texel;
-                    if (w != 0.0) {
-                        low = min(low, texel);
-                        high = max(high, texel);
-                    }
+                    sum += (w_base * wd[d] * wc[c]) * texel;
+                    low = min(low, texel);
+                    high = max(high, texel);
                 }
             }
         }
