@@ -112,6 +112,25 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
     assert lut_row["de00_max"] == lut_row["worst_case"]["de00_max"] >= lut_row["worst_case"]["held_out_max"]
 
 
+def test_the_truth_has_no_limit_at_the_corner_and_corner_distance_measures_the_way_there():
+    """Ground truth along three rays into cos θ1, D, η3 − η1, κ3 → 0 (η1 = 1, η2 1.33, η3 = η1, κ3 = 0),
+    (cos θ1, D) shrinking by a common factor s: R keeps a constant on each ray — 0 with no film, 0.372 with
+    D = 600·cos θ1 nm, 0.998 with D = 20000·cos θ1 nm — so it has no limit at the corner; report.corner_distance
+    falls as s."""
+    from lutbake.report import corner_distance
+
+    s = np.array([1e-3, 1e-4, 1e-5])
+    limits = []
+    for slope in (0.0, 600.0, 20000.0):
+        ray = FilmPoints.build(eta2=1.33, cos_theta=s, opd_nm=slope * s, eta3=1.0, kappa3=0.0)
+        r = reference_colour(ray).values[:, 1]
+        assert np.ptp(r) < 1e-5
+        limits.append(r[-1])
+        rho = corner_distance(ray)
+        assert np.allclose(rho[1:] / rho[:-1], 0.1, rtol=1e-3) and rho[0] < 0.07
+    assert limits[0] < 1e-12 and abs(limits[1] - 0.372) < 1e-3 and limits[2] > 0.99
+
+
 def _corner_lut(tmp_path_factory):
     """A soap-film LUT on the default set's dielectric parameterization, small: it reaches the corner where
     cos θ1, D, η3 − η1 and κ3 all vanish."""
