@@ -783,6 +783,12 @@ def _print_error_rows(rows, summary):
                    f"{r['de00_p99']:8.3f}{r['de00_max']:8.3f}{r['rgb_abs_max']:11.2e}")
 
 
+def search_budget_option(default: int):
+    """--search-budget of sweep and tune: evaluations of each searched max (report.search_max)."""
+    return click.option("--search-budget", type=click.IntRange(100, 10_000_000), default=default, show_default=True,
+                        help="Evaluations of each searched max (over the whole domain).")
+
+
 def held_out_options(default_points: int, help_text: str):
     """--points/--seed of sweep and tune."""
     def options(f):
@@ -798,14 +804,15 @@ def held_out_options(default_points: int, help_text: str):
               help="Folder for sweep.json and pareto.png.")
 @held_out_options(600, "Held-out points, uniform over the domain (no cell centres: the variants' grids differ), "
                        "so p99 reads lower than `report`'s on the same LUT.")
+@search_budget_option(5000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rows as one JSON document.")
 @progress_options
-def sweep_cmd(out_dir, n_points, seed, as_json, quiet, force_progress, backend, **flags):
+def sweep_cmd(out_dir, n_points, seed, search_budget, as_json, quiet, force_progress, backend, **flags):
     """Error against bake time and bytes over LUT variants of one domain, plus engine approximations."""
     from .sweep import sweep
 
     meter = progress_meter("sweep", quiet, force_progress)
-    doc = sweep(domain_spec(**flags), out_dir, n_points, seed, backend, progress=meter)
+    doc = sweep(domain_spec(**flags), out_dir, n_points, seed, backend, progress=meter, search_budget=search_budget)
     meter.close()
     if as_json:
         echo_json(doc)
@@ -824,9 +831,10 @@ def sweep_cmd(out_dir, n_points, seed, as_json, quiet, force_progress, backend, 
 @click.option("--max-de", type=float, required=True, help="Target p99 ΔE00, as `report --max-de` gates it.")
 @held_out_options(1000, "Held-out points per trial, as `report` scores them: half uniform, half at centres of "
                         "the trial grid's cells.")
+@search_budget_option(20000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rounds and result as one JSON document.")
 @progress_options
-def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **flags):
+def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progress, backend, **flags):
     """Smallest per-axis counts whose p99 ΔE00 meets --max-de (exit 1 if not reached).
 
     Each accepted round is printed as it happens (with --json: one document at the end).
@@ -848,7 +856,8 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
                    f"the target holds (the 99.73th percentile: a fresh report's p99 stays below it at 99 % of "
                    f"seeds), round by round (bytes: the texture as stored):")
     spec = domain_spec(**flags)
-    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round)
+    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round,
+                  search_budget=search_budget)
     meter.close()
     doc = tune_document(spec, result)
     if as_json:

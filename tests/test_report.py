@@ -263,7 +263,7 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     axes = (Axis("cos_theta", 0.3, 1.0, 8), Axis("opd_nm", 0.0, 800.0, 16), Axis("eta3", 1.4, 1.6, 4),
             Axis("kappa3", 0.0, 0.5, 4))
     spec = BakeSpec(eta2=1.33, axes=axes)
-    doc = sweep(spec, tmp_path / "s", n_points=120, seed=0)
+    doc = sweep(spec, tmp_path / "s", n_points=120, seed=0, search_budget=300)
     kinds = [r["kind"] for r in doc["rows"]]
     assert kinds.count("lut") >= 8 and kinds.count("approximation") == 3  # two approximations, the exact mode
     assert (tmp_path / "s" / "pareto.png").stat().st_size > 1000
@@ -277,7 +277,7 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     assert res["admittance grid"]["de00_p99"] != res["√ grid"]["de00_p99"]
     assert res["res×1 linear reads"]["bytes"] == res["res×1"]["bytes"]  # same file, read by the other rule
     assert res["res×1"]["de00_p99"] < res["res×1 linear reads"]["de00_p99"]
-    result = tune(spec, max_de=0.2, n_points=120, seed=0)
+    result = tune(spec, max_de=0.2, n_points=120, seed=0, search_budget=300)
     assert result.met and result.best.de00_p99 <= 0.2
     assert result.rounds[0].de00_p99 > 0.2  # the search had to grow the grid
 
