@@ -7,8 +7,9 @@ that matches the ambient). ``find_worst`` looks where a maximum is likely, then 
 
 1. Starts: the caller's points (e.g. held-out points already scored), every corner of the box, points
    along every edge, points on the singular places the caller names (faces such as D = 0 or cos θ = 0,
-   and their intersections: the corners and edges of each and a random scatter on it), and a random
-   scatter.
+   and their intersections: the corners and edges of each and a random scatter on it), a random
+   scatter, and then a scatter within two cells of the best of those (a narrow peak sits among cells
+   that err already).
 2. The best starts, one per place (no two within a cell of each other), are refined by compass search
    (Kolda, Lewis & Torczon 2003): all 2·d axis steps of every start are evaluated in one call, each start
    moves to its best improving step, and halves its steps when none improves, until they are a
@@ -36,8 +37,9 @@ import numpy as np
 
 __all__ = ["SearchAxis", "Candidate", "WorstCase", "find_worst"]
 
-# Shares of the budget for the starts; the rest (at least half) refines.
-_EDGE_SHARE, _SINGULAR_SHARE, _RANDOM_SHARE = 0.15, 0.15, 0.1
+# Shares of the budget for the starts; the rest (at least 40 %) refines.
+_EDGE_SHARE, _SINGULAR_SHARE, _RANDOM_SHARE, _NEAR_SHARE = 0.15, 0.15, 0.1, 0.2
+_NEAR_PLACES, _NEAR_CELLS = 32, 2   # scatter around the best places, within 2 cells on every axis
 _UNGRIDDED_CELLS = 8          # cell width assumed on an axis without a grid
 _FINAL_STEP_CELLS = 1e-4      # compass steps stop below this fraction of a cell
 _STEPS_PER_START = 50         # compass iterations a start is expected to take (sizes each batch)
@@ -196,7 +198,9 @@ def find_worst(error, axes, *, points=None, errors=None, singular=None, budget: 
             values.append(counter(u))
             kinds += [kind] * len(u)
     u, e, kinds = np.vstack(starts), np.concatenate(values), np.array(kinds)
-    order = _distinct(axes, u, np.argsort(-e, kind="stable"), limit=max(counter.left // _per_start(axes), 1))
+    near, near_kinds = _near(axes, u, e, kinds, int(_NEAR_SHARE * budget), rng)
+    u, e, kinds = np.vstack([u, near]), np.concatenate([e, counter(near)]), np.concatenate([kinds, near_kinds])
+    order = _distinct(axes, u, np.argsort(-e, kind="stable"), limit=max(4 * counter.left // _per_start(axes), 1))
     found = _refine_in_batches(counter, axes, u[order], e[order], kinds[order])
     candidates = _distinct_candidates(axes, found, max_candidates)
     counts = dict(zip(*np.unique(kinds, return_counts=True)))
@@ -291,6 +295,18 @@ def _with_fixed(u_free, fixed: dict, d: int) -> np.ndarray:
     for i, value in fixed.items():
         out[:, i] = value
     return out
+
+
+def _near(axes, u, e, kinds, share: int, rng):
+    """A scatter within _NEAR_CELLS cells (every continuous axis) of the best distinct starts, ``share``
+    points in all: an error that peaks narrowly sits among cells that err already, which a start on a node
+    or an edge, or a random one, may only graze."""
+    best = _distinct(axes, u, np.argsort(-e, kind="stable"), _NEAR_PLACES)
+    per = share // max(len(best), 1)
+    width = np.array([0.0 if a.discrete else _NEAR_CELLS * a.cell_width for a in axes])
+    points = [np.clip(u[i] + rng.uniform(-1.0, 1.0, (per, len(axes))) * width, 0.0, 1.0) for i in best]
+    labels = [f"near {kinds[i]}" for i in best for _ in range(per)]
+    return (np.vstack(points) if points else np.zeros((0, len(axes)))), np.array(labels, dtype=object)
 
 
 def _same_place(axes, a, b) -> np.ndarray:

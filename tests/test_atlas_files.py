@@ -109,11 +109,11 @@ def test_sample_rejects_bad_atlas_input(args, message):
 
 
 def test_report_scores_the_stored_atlas_and_gates(tmp_path):
-    out = cli("report", ATLAS, "--points", 100, "--json", "--out", tmp_path / "rep")
+    out = cli("report", ATLAS, "--points", 100, "--json", "--out", tmp_path / "rep", "--search-budget", 200)
     assert out.returncode == 0, out.stderr
     summary = json.loads(out.stdout)
     assert [s["materials"] for s in summary["slices"]] == [["steel_constant"], ["steel_werner"]]
     assert 0 < summary["lut_error"]["de00_p99"] <= 0.5  # the scene's max_de target, on the half bytes
     assert json.loads((tmp_path / "rep" / "summary.json").read_text()) == summary
-    gated = cli("report", ATLAS, "--points", 100, "--max-de", 0.01)
+    gated = cli("report", ATLAS, "--points", 100, "--max-de", 0.01, "--search-budget", 200)
     assert gated.returncode == 1 and "FAIL" in gated.stdout
