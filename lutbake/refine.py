@@ -151,18 +151,21 @@ def uniform_points(spec, n_points: int, seed: int):
                            centre_fraction=0.0)
 
 
-def lut_measure(spec, n_points: int, seed: int, integrator, truth):
+def lut_measure(spec, n_points: int, seed: int, integrator, truth, points=None):
     """``measure`` for 4D grids over ``spec``'s domain: baked in memory, rounded to the stored precision,
     sampled as a GPU would at `report`'s points for that grid (half uniform, the same for every trial;
-    half at centres of its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``."""
+    half at centres of its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``.
+    Given ``points`` (HeldOutPoints where an engine reads the LUT, e.g. along a base curve), every trial is
+    scored at those alone: cell centres off that set are never read."""
     from .integrate import bake_rows_all
     from .report import held_out_points, score
     from .sample import Lut
 
     stored = np.float16 if spec.precision == "half" else np.float32
-    n_centre = n_points // 2
-    uniform = held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points - n_centre,
-                              seed, centre_fraction=0.0, truth=truth)
+    n_centre = 0 if points is not None else n_points // 2
+    uniform = points if points is not None else held_out_points(
+        spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points - n_centre, seed,
+        centre_fraction=0.0, truth=truth)
 
     def measure(counts, label):
         grid = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, counts)))
@@ -170,10 +173,9 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
         image = bake_rows_all(integrator, grid).astype(stored)
         seconds = time.perf_counter() - start
         lut = Lut.in_memory(grid, image)
-        centres = held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre, seed,
-                                  centre_fraction=1.0, truth=truth)
-        de = np.concatenate([score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00
-                             for p in (uniform, centres)])
+        sets = [uniform] + ([held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre,
+                                             seed, centre_fraction=1.0, truth=truth)] if n_centre else [])
+        de = np.concatenate([score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00 for p in sets])
         stats = {"de00_mean": float(de.mean()), "de00_p50": float(np.percentile(de, 50)),
                  "de00_p95": float(np.percentile(de, 95)), "de00_p99": float(np.percentile(de, 99)),
                  "de00_max_held_out": float(de.max())}

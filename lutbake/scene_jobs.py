@@ -99,7 +99,7 @@ def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet) -> dict:
     frozen = (1,) if job.fixed_thickness else ()
     if "base_path" in job.key:
         held = _path_points(spec, job.key["base_path"], HELD_OUT_POINTS["lut along a base path"])
-        measure = lut_measure(spec, held, make_backend(backend, spec.compute))
+        measure = lut_measure(spec, len(held), 0, make_backend(backend, spec.compute), None, points=held)
         result = refine(measure, job.counts, job.scene.max_de, frozen=frozen, max_rounds=_LUT_MAX_ROUNDS)
     else:
         result = tune(spec, job.scene.max_de, n_points=HELD_OUT_POINTS["lut"], seed=0, backend=backend,
