@@ -564,6 +564,27 @@ def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_js
                f"storage ≤ {meta['error']['storage_max']:.1e}) with .json, .glsl, .hlsl")
 
 
+@cli.command("runtime-table")
+@colour_options
+@click.option("--out", "out", type=click.Path(), required=True, help="FILE.exr (with FILE.json, .glsl, .hlsl).")
+@click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
+def runtime_table_cmd(space, observer, out, as_json):
+    """Write the runtime table and its includes: any film, any base, 6 bilinear reads per pixel.
+
+    Shaders call lutbake_iridescence(table, cos θ, d, η1, η2, η3, κ3) or lutbake_iridescence_rgb(…, η3
+    and κ3 per channel): the film's linear RGB Fresnel term (docs/engines.md).
+    """
+    from .runtime import write_runtime_table
+
+    meta = write_runtime_table(out, observer, space)
+    if as_json:
+        echo_json(meta)
+        return
+    table = meta["table"]
+    click.echo(f"wrote {out} ({table['width']}×{table['height']} RGBA half texels, {table['slices']} slices of "
+               f"{table['nodes']}² to X {table['x_max_nm']:g} nm) with .json, .glsl, .hlsl")
+
+
 @cli.command("inspect")
 @click.argument("lut", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
