@@ -23,7 +23,7 @@ from lutbake.fourier import NU0_PER_NM, weight_transform
 from lutbake.runtime import read_runtime_table, runtime_colour, stored_table
 from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, named_error, random_error, stress_error, \
     stress_points, truth
-from lutbake.runtime.files import BAND_ROWS, TILES_PER_ROW
+from lutbake.runtime.files import BAND_ROWS, TILES_PER_ROW, runtime_includes
 from lutbake.runtime.search import search_maximum
 from lutbake.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
 
@@ -44,8 +44,10 @@ def runtime_table_files() -> Path:
         current = stored_table()
         try:
             on_disk = read_runtime_table(path)
-            fresh = on_disk.meta == current.meta and np.array_equal(on_disk.image, current.image)
-        except ValueError:
+            includes = runtime_includes(current.meta, path.name)
+            fresh = (on_disk.meta == current.meta and np.array_equal(on_disk.image, current.image)
+                     and all(path.with_suffix(f".{k}").read_text() == v for k, v in includes.items()))
+        except (ValueError, OSError):
             fresh = False
         if not fresh:
             out = subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(path)],

@@ -57,16 +57,16 @@ def _f32(*columns):
 
 def truth(cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
     """Ground truth (n, 3) with η1 = 1; η3, κ3 (n,) or (n, 3): channel c integrated with the base's c-th
-    index (a base with one index is integrated once for all three channels)."""
+    index (a point whose three indices are equal is integrated once for all three channels)."""
     eta3, kappa3 = np.asarray(eta3, float), np.asarray(kappa3, float)
     if eta3.ndim == 1:
         return reference_colour(FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos_theta, thickness_nm=thickness_nm,
                                                  eta3=eta3, kappa3=kappa3)).values
-    out = np.empty((eta3.shape[0], 3))
-    for c in range(3):
-        pts = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos_theta, thickness_nm=thickness_nm,
-                               eta3=eta3[:, c], kappa3=kappa3[:, c])
-        out[:, c] = reference_colour(pts).values[:, c]
+    columns = [np.broadcast_to(np.asarray(v, float), eta3.shape[:1]) for v in (cos_theta, thickness_nm, eta2)]
+    out = truth(*columns, eta3[:, 0], kappa3[:, 0])
+    split = np.flatnonzero(~((eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)))
+    for c in (1, 2):
+        out[split, c] = truth(*(v[split] for v in columns), eta3[split, c], kappa3[split, c])[:, c]
     return out
 
 

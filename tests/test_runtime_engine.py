@@ -1,0 +1,171 @@
+"""The runtime path in a real engine and in shader compilers.
+
+three.js (pinned, headless Chromium, WebGL2 through SwiftShader) loads luts/lutbake-runtime.exr (written by
+`lutbake runtime-table`) with EXRLoader's default settings and evaluates the shipped GLSL include, pasted
+unmodified, at random points over the issue's domain, at the extremes, at the worst points a search of
+the numpy model found, and for the named metals per channel: it must return runtime.model's numbers to
+1e-4 and meet the contract against the ground truth (max ΔE00 ≤ 1, p99 ≤ 0.3). glslang compiles the
+includes as GLSL 4.50, GLSL ES 3.00 (no precision statement) and HLSL, alone and beside a LUT include and
+the exact mode's include.
+"""
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+from lutbake.colorimetry import delta_e00
+from lutbake.exact import base_rgb
+from lutbake.runtime import read_runtime_table, runtime_colour
+from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, stress_points, truth
+from lutbake.runtime.search import search_maximum
+from test_engine import ENGINE, ROOT, require_engine
+from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, runtime_table_files
+from test_shaders import GLSLANG, PREFIX, compile_shader
+
+TOLERANCE = 1e-4
+ONE_INDEX = "lutbake_iridescence(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
+PER_CHANNEL = "lutbake_iridescence_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
+
+
+def _searched_points(table, box, count):
+    """The ``count`` worst points a search of the numpy model finds (the engine must agree there too)."""
+    result = search_maximum(box_error(table, box), 5, random=64, refine=3, steps=(0.05, 0.01), seed=9)
+    worst = result.points[np.argsort(result.values)[::-1][:count]]
+    return np.column_stack(box.point(worst))
+
+
+def engine_points(table):
+    """(columns (cos, d, η2, η3 (n, 3), κ3 (n, 3)), kind per point), float32-rounded: what the GPU gets."""
+    rng = np.random.default_rng(31)
+    rows, kinds = [], []
+    for name, box in BOXES.items():
+        random = np.column_stack(box.point(rng.random((700, 5))))
+        stress = np.array(stress_points(box, coarse=True)).T
+        for kind, block in (("random", random), ("stress", stress), ("searched", _searched_points(table, box, 40))):
+            rows.append(np.column_stack([block[:, :3], np.repeat(block[:, 3:4], 3, 1), np.repeat(block[:, 4:5], 3, 1)]))
+            kinds += [f"{name} {kind}"] * len(block)
+    for metal in NAMED_METALS:
+        n3, k3 = base_rgb(metal)
+        film = np.column_stack(BOXES["metal"].point(rng.random((60, 5)))[:3])
+        rows.append(np.column_stack([film, np.tile(n3, (60, 1)), np.tile(k3, (60, 1))]))
+        kinds += [f"{metal} per channel"] * 60
+    data = np.float32(np.vstack(rows)).astype(float)
+    return (data[:, 0], data[:, 1], data[:, 2], data[:, 3:6], data[:, 6:9]), np.array(kinds)
+
+
+@pytest.fixture(scope="module")
+def runtime_run(tmp_path_factory):
+    require_engine()
+    path = runtime_table_files()
+    table = read_runtime_table(path)
+    (cos, d, eta2, eta3, kappa3), kinds = engine_points(table)
+    one_index = np.array([not k.endswith("per channel") for k in kinds])
+    points = [[c, t, e, 0.0, *n, 0.0, *k, 0.0] for c, t, e, n, k in zip(cos, d, eta2, eta3, kappa3)]
+    job = {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}"}
+    jobs = [{**job, "call": ONE_INDEX, "points": [p for p, o in zip(points, one_index) if o]},
+            {**job, "call": PER_CHANNEL, "points": points},
+            {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}]
+    folder = tmp_path_factory.mktemp("runtime-engine")
+    (folder / "jobs.json").write_text(json.dumps(jobs))
+    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
+                           str(folder / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    result = json.loads((folder / "result.json").read_text())
+    got = [np.array(r["rgb"]) for r in result["results"]]
+    model_one = runtime_colour(table, cos[one_index], d[one_index], 1.0, eta2[one_index], eta3[one_index, 0],
+                               kappa3[one_index, 0])
+    model_rgb = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3)
+    reference = truth(cos, d, eta2, eta3, kappa3)
+    return {"got": got, "model": (model_one, model_rgb), "truth": reference, "kinds": kinds,
+            "one_index": one_index, "result": result}
+
+
+def test_the_engine_is_three_js_loading_the_table_with_defaults(runtime_run):
+    texture = runtime_run["result"]["results"][0]["texture"]
+    assert runtime_run["result"]["three"] == "187"
+    assert texture["flipY"] is False and texture["type"] == 1016   # THREE.HalfFloatType: EXRLoader's default
+
+
+def test_the_engine_returns_the_model(runtime_run):
+    (one, rgb), (model_one, model_rgb) = runtime_run["got"][:2], runtime_run["model"]
+    assert len(one) >= 2000 and len(rgb) >= 2400
+    assert np.abs(one - model_one).max() <= TOLERANCE
+    assert np.abs(rgb - model_rgb).max() <= TOLERANCE
+
+
+def test_the_engine_meets_the_contract_against_the_ground_truth(runtime_run):
+    kinds, truth_rgb = runtime_run["kinds"], runtime_run["truth"]
+    de_rgb = delta_e00(runtime_run["got"][1], truth_rgb)
+    de_one = delta_e00(runtime_run["got"][0], truth_rgb[runtime_run["one_index"]])
+    for de in (de_one, de_rgb):
+        assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), \
+            (np.percentile(de, 99), de.max(), kinds[np.argmax(de_rgb)])
+    assert {k.split()[-1] for k in kinds} >= {"random", "stress", "searched", "channel"}
+
+
+def test_the_check_fails_with_the_other_row_order(runtime_run):
+    control = runtime_run["got"][2]
+    assert np.abs(control - runtime_run["model"][0][:len(control)]).max() > 0.1
+
+
+LUT_INCLUDE_CALL = ("lutbake_sample(lut_b, LUTBAKE_LUT, params.x, params.y, params.z, params.w)",
+                    "lutbake_sample(lut_b, linear_clamp, LUTBAKE_LUT, params.x, params.y, params.z, params.w)")
+
+
+def _shader(tmp_path, hlsl: bool, extra_includes=(), es: bool = False):
+    path = runtime_table_files()
+    suffix = "hlsl" if hlsl else "glsl"
+    includes = [path.with_suffix(f".{suffix}")] + [p.with_suffix(f".{suffix}") for p in extra_includes]
+    source = "".join(p.read_text() for p in includes)
+    call = ("lutbake_iridescence(table, linear_clamp, params.x, params.y, 1.0, params.z, params.w, 0.5)"
+            " + lutbake_iridescence_rgb(table, linear_clamp, params.x, params.y, 1.0, params.z, params.www, params.www)"
+            if hlsl else
+            "lutbake_iridescence(table, params.x, params.y, 1.0, params.z, params.w, 0.5)"
+            " + lutbake_iridescence_rgb(table, params.x, params.y, 1.0, params.z, params.www, params.www)")
+    if extra_includes:
+        call += " + 0.0 * " + LUT_INCLUDE_CALL[hlsl]
+    if hlsl:
+        main = ("Texture2D<float4> table : register(t0);\nTexture2D<float3> lut_b : register(t1);\n"
+                "SamplerState linear_clamp : register(s0);\n"
+                f"float4 main(float4 params : TEXCOORD0) : SV_Target {{ return float4({call}, 1.0); }}\n")
+        text = main.split("float4 main")[0] + source + "float4 main" + main.split("float4 main")[1]
+    elif es:
+        text = ("#version 300 es\nuniform highp sampler2D table;\nuniform highp sampler2D lut_b;\n" + source +
+                f"in highp vec4 params;\nout highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n")
+    else:
+        text = ("#version 450\nlayout(binding = 0) uniform highp sampler2D table;\n"
+                "layout(binding = 1) uniform highp sampler2D lut_b;\n" + source +
+                "layout(location = 0) in highp vec4 params;\nlayout(location = 0) out highp vec4 colour;\n"
+                f"void main() {{ colour = vec4({call}, 1.0); }}\n")
+    out = tmp_path / ("shader.hlsl" if hlsl else "shader.frag")
+    out.write_text(text)
+    return out
+
+
+@pytest.mark.parametrize("hlsl", [False, True])
+def test_the_includes_compile(tmp_path, hlsl):
+    out = compile_shader(_shader(tmp_path, hlsl), hlsl)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_the_glsl_include_compiles_as_glsl_es_300_without_default_precision(tmp_path):
+    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
+    out = subprocess.run([str(GLSLANG), "-S", "frag", str(_shader(tmp_path, False, es=True))],
+                         capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
+@pytest.mark.parametrize("hlsl", [False, True])
+def test_the_include_shares_a_shader_with_a_lut_and_the_exact_mode(tmp_path, hlsl):
+    from conftest import default_luts
+
+    lut = default_luts() / "lutbake-eta2-1.50.exr"
+    exact = ROOT / "engine" / "exact" / "lutbake-exact.exr"
+    shader = _shader(tmp_path, hlsl, (lut, exact))
+    text = shader.read_text().replace("LUTBAKE_LUT,", "LUTBAKE_ETA2_1_50,")
+    shader.write_text(text)
+    out = compile_shader(shader, hlsl)
+    assert out.returncode == 0, out.stdout + out.stderr
