@@ -1,12 +1,14 @@
 """The three.js iridescence drop-in side by side (docs/img/dropin.png, the table in docs/engines.md).
 
 MeshPhysicalMaterial spheres with KHR_materials_iridescence parameters, their film Fresnel term by three.js's
-built-in evalIridescence, by lutbake's exact mode and by a shipped lutbake LUT (engine/lutbake-iridescence.js),
+built-in evalIridescence, by lutbake's runtime table (the drop-in's default), its exact mode and a shipped
+lutbake LUT (engine/lutbake-iridescence.js),
 read back per pixel with the parameters each pixel used, against the ground truth at those parameters
 (constant indices: the dielectric's ior, the metal's n, k at 611/549/464 nm per channel) and, for metals,
 against the dispersive metal (its n, k at every wavelength): what the per-channel mapping costs.
 
-Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium)
+Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium; writes the
+runtime table into luts/ as `lutbake runtime-table` does)
 """
 
 import json
@@ -35,6 +37,8 @@ MATERIALS = [
     ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
 SWATCH_COS = np.linspace(1.0, 0.05, 16)
+MODES = ("three", "runtime", "exact", "lut")
+RUNTIME = ROOT / "luts" / "lutbake-runtime.exr"
 
 
 def _base(base):
@@ -68,7 +72,8 @@ def spec() -> dict:
     materials, swatches = [], []
     for label, eta2, thickness, base, lut in MATERIALS:
         m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
-             "exact": "/engine/exact/lutbake-exact", "ior": base if isinstance(base, float) else 1.5}
+             "exact": "/engine/exact/lutbake-exact", "runtime": f"/{RUNTIME.relative_to(ROOT).with_suffix('')}",
+             "ior": base if isinstance(base, float) else 1.5}
         if not isinstance(base, float):
             n, k = base_rgb(base)
             m["metal"] = {"eta": n.tolist(), "kappa": k.tolist(),
@@ -104,7 +109,7 @@ def errors(cells: dict, dispersive: bool = True) -> list:
         cos, thickness = params[:, 0], params[:, 1]
         ref = truth(cos, thickness, eta2, base)
         disp = None if isinstance(base, float) or not dispersive else dispersive_truth(cos, thickness, eta2, base)
-        for mode in ("three", "exact", "lut"):
+        for mode in MODES:
             rgb, p = cells[(label, mode)]
             assert np.allclose(p, params, atol=1e-6), "modes rendered different pixels"
             de = delta_e00(rgb, ref)
@@ -113,8 +118,17 @@ def errors(cells: dict, dispersive: bool = True) -> list:
     return rows
 
 
+def write_runtime_table():
+    """luts/lutbake-runtime.* as the current code writes it (`lutbake runtime-table`)."""
+    from lutbake.runtime import write_runtime_table as write
+
+    RUNTIME.parent.mkdir(exist_ok=True)
+    write(RUNTIME)
+
+
 def main():
     bake_default_luts()
+    write_runtime_table()
     rows = errors(run(IMAGE))
     print("| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|")
     for label, mode, worst, p99, disp, n in rows:

@@ -164,11 +164,11 @@ window.lutbakeView = async (spheres, { size = 256 } = {}) => {
   return labels;
 };
 
-// --- drop-in comparison: MeshPhysicalMaterial's iridescence by three.js, lutbake exact and a lutbake LUT ---
+// --- drop-in comparison: MeshPhysicalMaterial's iridescence by three.js and by lutbake's runtime table, exact mode and a LUT ---
 // For each material and mode a sphere is rendered (orthographic, size² pixels) with the film's Fresnel term as
 // output, read back as float, together with the parameters each pixel used; a 2D canvas shows the terms
 // (sRGB-encoded) in a grid, one row per mode and a row of ground-truth swatches the caller computed.
-const DROPIN_MODES = ['three', 'exact', 'lut'];
+const DROPIN_MODES = ['three', 'runtime', 'exact', 'lut'];
 
 async function renderOutput(material, size, output) {
   const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
@@ -201,8 +201,9 @@ function physicalMaterial(m) {
 function encode(v) { return 255 * Math.min(1, Math.max(0, v <= 0.0031308 ? 12.92 * v : 1.055 * v ** (1 / 2.4) - 0.055)); }
 
 window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) => {
-  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut } = await import('./lutbake-iridescence.js');
+  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
   const exact = await loadLutbakeExact(materials[0].exact);
+  const runtime = await loadLutbakeRuntime(materials[0].runtime);
   const canvas = document.createElement('canvas');
   const label = 90;
   canvas.width = label + size * materials.length;
@@ -213,14 +214,14 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
   ctx.fillRect(0, 0, canvas.width, canvas.height);
   ctx.fillStyle = '#ddd';
   ctx.font = '12px sans-serif';
-  ['three.js', 'lutbake exact', 'lutbake LUT', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
+  ['three.js', 'lutbake runtime', 'lutbake exact', 'lutbake LUT', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
   const cells = [];
   for (const [j, m] of materials.entries()) {
     ctx.fillStyle = '#ddd';
     ctx.fillText(m.label, label + size * j + 4, 16);
     const lut = await loadLutbakeLut(m.lut);
     for (const [i, mode] of DROPIN_MODES.entries()) {
-      const options = { mode, exact, lut, metal: m.metal || undefined };
+      const options = { mode, runtime, exact, lut, metal: m.metal || undefined };
       const fresnel = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'fresnel' }), size, 'fresnel');
       const params = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'parameters' }), size, 'parameters');
       const image = ctx.createImageData(size, size);

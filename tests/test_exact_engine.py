@@ -18,6 +18,7 @@ from lutbake.exact import METALS, base_rgb, exact_colour, read_exact_table
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
 from test_engine import ENGINE, ROOT, require_engine
+from test_runtime import runtime_table_files
 
 sys.path.insert(0, str(ROOT / "docs"))
 import make_dropin  # noqa: E402  (the side-by-side page of docs/engines.md)
@@ -138,6 +139,7 @@ class TestDropIn:
         beside the default LUTs' spheres (read from luts/)."""
         require_engine()
         default_luts()
+        runtime_table_files()
         image = tmp_path_factory.mktemp("dropin") / "dropin.png"
         rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
         return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
@@ -148,6 +150,13 @@ class TestDropIn:
         for label, *_ in make_dropin.MATERIALS:
             worst, n = rows[(label, "exact")]
             assert n >= 500 and worst <= 0.1, (label, worst)
+
+    def test_the_drop_in_runtime_table_matches_the_ground_truth(self, dropin):
+        """The drop-in's default path (the runtime table, any iridescenceIOR) on the same spheres."""
+        _, rows = dropin
+        for label, *_ in make_dropin.MATERIALS:
+            worst, n = rows[(label, "runtime")]
+            assert n >= 500 and worst <= 0.3, (label, worst)
 
     def test_the_drop_in_check_can_fail(self, dropin):
         """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
