@@ -1,5 +1,7 @@
 // Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
 // Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
+//        node engine/harness.mjs cost SPEC.json RESULT.json        (bench/bench_runtime_cost.py: shader wall times)
+//        node engine/harness.mjs dropin-cost SPEC.json RESULT.json (bench/bench_runtime_cost.py: the drop-in's)
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
 //        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/test_exact_engine.py)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
@@ -62,12 +64,15 @@ function writeAtomic(path, data) {
   renameSync(tmp, path);
 }
 
+// Commands that hand a JSON spec to one page function and write its JSON result.
+const CALLS = { evaluate: 'lutbakeEvaluate', cost: 'lutbakeCost', 'dropin-cost': 'lutbakeDropinCost' };
+
 const [command, input, output] = process.argv.slice(2);
-if (command === 'evaluate') {
-  const jobs = JSON.parse(readFileSync(input, 'utf8'));
+if (command in CALLS) {
+  const spec = JSON.parse(readFileSync(input, 'utf8'));
   const result = await withPage(async (page, errors) => {
     try {
-      return await page.evaluate((j) => window.lutbakeEvaluate(j), jobs);
+      return await page.evaluate(([fn, s]) => window[fn](s), [CALLS[command], spec]);
     } catch (e) {
       throw new Error(`${e.message}\n${errors.join('\n')}`);
     }
@@ -98,6 +103,6 @@ if (command === 'evaluate') {
   });
   writeAtomic(output, JSON.stringify(result));
 } else {
-  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png');
+  console.error('usage: node engine/harness.mjs evaluate|cost|dropin-cost SPEC.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png');
   process.exit(2);
 }

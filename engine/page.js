@@ -247,3 +247,85 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
   }
   return { three: THREE.REVISION, cells };
 };
+
+// --- cost: wall time of shaders against each other in one page (bench/bench_runtime_cost.py) ---------------
+// Every entry is a scene drawn into the same size² float target; entries are interleaved: each round draws
+// every entry `draws` times (the order rotates per round) and waits for the GPU (a one-pixel read), so a slow
+// stretch of a shared machine hits all of them alike. Returns the wall per draw of every entry and round;
+// round 0 (compilation, first upload) is dropped.
+function timeInterleaved(entries, { size, rounds, draws }) {
+  const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
+  const pixel = new Float32Array(4);
+  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
+  renderer.setRenderTarget(target);
+  for (let round = 0; round <= rounds; round++) {
+    for (let k = 0; k < entries.length; k++) {
+      const { name, scene, camera } = entries[(k + round) % entries.length];
+      renderer.readRenderTargetPixels(target, 0, 0, 1, 1, pixel);
+      const start = performance.now();
+      for (let d = 0; d < draws; d++) renderer.render(scene, camera);
+      renderer.readRenderTargetPixels(target, 0, 0, 1, 1, pixel);
+      if (round > 0) times[name].push((performance.now() - start) / draws);
+    }
+    if (shaderErrors.length) throw new Error(`shader does not compile: ${shaderErrors.join('\n')}`);
+  }
+  renderer.setRenderTarget(null);
+  target.dispose();
+  return times;
+}
+
+// Fragment-shader jobs: one evaluation per pixel of a full-screen pass, parameters from `params` (GLSL of
+// gl_FragCoord shared by all jobs, so every job sees the same pixels). `textures`: name -> {exr, float}.
+window.lutbakeCost = async ({ textures = {}, params, jobs, size = 512, rounds = 9, draws = 3 }) => {
+  const loaded = {};
+  for (const [name, t] of Object.entries(textures)) loaded[name] = await loadLut(t.exr, t.float);
+  const camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0, 1);
+  const entries = [];
+  for (const job of jobs) {
+    const material = lutbakeMaterial({
+      textures: loaded,
+      includes: [...(await Promise.all((job.includes || []).map(loadText))), job.source || ''],
+      vertexShader: FULLSCREEN_VS,
+      body: `layout(location = 0) out highp vec4 colour;
+      void main() {
+        ${params}
+        colour = vec4(${job.call}, 1.0);
+      }`,
+    });
+    const scene = new THREE.Scene();
+    const quad = new THREE.Mesh(new THREE.PlaneGeometry(2, 2), material);
+    quad.frustumCulled = false;
+    scene.add(quad);
+    entries.push({ name: job.name, scene, camera, material });
+  }
+  const times = timeInterleaved(entries, { size, rounds, draws });
+  entries.forEach((e) => e.material.dispose());
+  Object.values(loaded).forEach((t) => t.dispose());
+  const gl = renderer.getContext();
+  return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, size, times };
+};
+
+// The drop-in on lit MeshPhysicalMaterial spheres filling the view: per material, three.js without
+// iridescence (the baseline), with its own iridescence, and the drop-in's modes.
+window.lutbakeDropinCost = async ({ materials, modes, size = 512, rounds = 9, draws = 3 }) => {
+  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
+  const sources = { runtime: await loadLutbakeRuntime(materials[0].runtime), exact: await loadLutbakeExact(materials[0].exact) };
+  const camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.1, 10);
+  camera.position.set(0, 0, 3);
+  const entries = [];
+  for (const m of materials) {
+    const lut = await loadLutbakeLut(m.lut);
+    for (const mode of ['none', 'three', ...modes]) {
+      const material = physicalMaterial({ ...m, iridescenceIOR: m.iridescenceIOR });
+      if (mode === 'none') material.iridescence = 0;
+      else if (mode !== 'three') lutbakeIridescence(material, { mode, ...sources, lut, lutRule: m.lutRule, metal: m.metal || undefined });
+      const scene = new THREE.Scene();
+      scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 128, 64), material));
+      scene.add(new THREE.DirectionalLight(0xffffff, 1.0));
+      entries.push({ name: `${m.label}|${mode}`, scene, camera, material });
+    }
+  }
+  const times = timeInterleaved(entries, { size, rounds, draws });
+  entries.forEach((e) => e.material.dispose());
+  return { three: THREE.REVISION, size, times };
+};

@@ -12,6 +12,7 @@ the exact mode's include.
 import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -169,3 +170,17 @@ def test_the_include_shares_a_shader_with_a_lut_and_the_exact_mode(tmp_path, hls
     shader.write_text(text)
     out = compile_shader(shader, hlsl)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_the_runtime_path_is_six_reads_no_loop_and_at_most_1_5_times_three_js_arithmetic():
+    """glslang + spirv-opt -O (bench/bench_runtime_cost.py's count): three.js r187's evalIridescence is 233
+    scalar arithmetic operations; the runtime path, one base index, ≤ 1.5× that, 6 texture reads, no loop."""
+    runtime_table_files()
+    sys.path.insert(0, str(ROOT / "bench"))
+    from bench_runtime_cost import static_costs
+
+    costs = static_costs(("three", "runtime", "runtime-rgb"))
+    assert costs["three"]["arithmetic"] == 233 and costs["three"]["texture_instructions"] == 0
+    for name in ("runtime", "runtime-rgb"):
+        assert costs[name]["texture_instructions"] == 6 and costs[name]["loops"] == 0, costs[name]
+    assert costs["runtime"]["arithmetic"] <= 1.5 * costs["three"]["arithmetic"], costs["runtime"]

@@ -49,16 +49,17 @@ def _pol(y1, y2, p, q, em1, beta):
     ea = F(4) * y1 * y2 * inv * inv
     pq = (p[0] + q[0], p[1] + q[1])
     n = F(1) / (pq[0] * pq[0] + pq[1] * pq[1])
-    t = ((q[0] * pq[0] + q[1] * pq[1]) * n, (q[1] * pq[0] - q[0] * pq[1]) * n)
-    b = (F(1) - F(2) * t[0], F(-2) * t[1])
+    scale = F(2) * a * n
+    at2 = (scale * (q[0] * pq[0] + q[1] * pq[1]), scale * (q[1] * pq[0] - q[0] * pq[1]))
     eb = np.maximum(F(4) * (p[0] * q[0] + p[1] * q[1]) * n, F(0))
-    idn = F(1) / np.maximum(ea + a * a * eb, F(1e-30))
-    c0 = a * a + (b[0] * b[0] + b[1] * b[1]) * ea * ea * idn
-    bem = (b[0] * em1[0] - b[1] * em1[1], b[0] * em1[1] + b[1] * em1[0])
-    zeta = (F(2) * y1 * inv - F(2) * a * t[0] + a * bem[0], F(0) - F(2) * a * t[1] + a * bem[1])
-    iz = F(1) / np.maximum(zeta[0] * zeta[0] + zeta[1] * zeta[1], F(1e-30))
-    kr = ea * eb * idn
-    f = (kr * (F(1) - zeta[0] * iz), kr * (zeta[1] * iz))
+    eq = ea / np.maximum(ea + a * a * eb, F(1e-30))
+    c0 = a * a + (F(1) - eb) * ea * eq
+    ab = (a - at2[0], -at2[1])
+    zeta = (F(2) * y1 * inv - at2[0] + (ab[0] * em1[0] - ab[1] * em1[1]),
+            -at2[1] + (ab[0] * em1[1] + ab[1] * em1[0]))
+    kr = eb * eq
+    kz = kr / np.maximum(zeta[0] * zeta[0] + zeta[1] * zeta[1], F(1e-30))
+    f = (kr - kz * zeta[0], kz * zeta[1])
     num = (beta - zeta[0], -zeta[1])
     den = (beta + (F(1) - beta) * zeta[0], (F(1) - beta) * zeta[1])
     dd = np.maximum(den[0] * den[0] + den[1] * den[1], F(1e-30))
@@ -80,8 +81,8 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     s = np.sqrt(np.minimum(x / F(t["x_max_nm"]), F(1))) * last
     j = np.minimum(np.floor(s), last - F(1))
     row = np.floor(j / F(TILES_PER_ROW))
-    origin = ((j - row * F(TILES_PER_ROW)) * F(t["nodes"]) + F(0.5), row * F(t["nodes"]) + F(0.5))
-    return dict(c1=c1, g2=g2, em1=em1, beta=beta, xt=s - j, origin=origin)
+    centre = ((j - row * F(TILES_PER_ROW) + F(0.5)) * F(t["nodes"]), (row + F(0.5)) * F(t["nodes"]))  # texels
+    return dict(c1=c1, g2=g2, em1=em1, beta=beta, xt=s - j, centre=centre)
 
 
 def _base(film, eta1, eta2, eta3, kappa3):
@@ -119,8 +120,8 @@ def _bilinear(image, x, y, bits):
 def _read(table: RuntimeTable, film, w, band, bits):
     """V (re, im) of channel band ``band`` (an array or int) at table coordinate w, between the pair's slices."""
     half = F(0.5 * (table.meta["table"]["nodes"] - 1))
-    x = film["origin"][0] + (w[0] + F(1)) * half
-    y = film["origin"][1] + (w[1] + F(1)) * half + np.asarray(band, F) * F(BAND_ROWS * table.meta["table"]["nodes"])
+    x = film["centre"][0] + w[0] * half
+    y = film["centre"][1] + w[1] * half + np.asarray(band, F) * F(BAND_ROWS * table.meta["table"]["nodes"])
     v = _bilinear(table.image, x, y, bits)
     xt = film["xt"]
     return v[:, 0] + (v[:, 2] - v[:, 0]) * xt, v[:, 1] + (v[:, 3] - v[:, 1]) * xt
