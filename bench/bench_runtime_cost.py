@@ -39,6 +39,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "docs")]
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 THREE_CHUNKS = ROOT / "engine" / "node_modules" / "three" / "src" / "renderers" / "shaders" / "ShaderChunk"
 RESULT = ROOT / "bench" / "runtime-cost-result.json"
+SHIPPED = ROOT / "lutbake" / "runtime" / "costs.json"   # what `lutbake report` prints (runtime/costs.py)
 
 ARITHMETIC = re.compile(r"Op(F|I|S|U)(Add|Sub|Mul|Div|Mod|Rem|Negate|Ord\w+|Unord\w+|Equal|NotEqual|LessThan\w*|"
                         r"GreaterThan\w*)$|Op(VectorTimesScalar|MatrixTimesVector|Dot|Select|Logical\w+|Convert\w+|"
@@ -374,6 +375,24 @@ def dropin_costs(rounds: int) -> dict:
     return out
 
 
+def shipped_costs(result: dict) -> dict:
+    """The figures `lutbake report` prints per path: reads, SPIR-V arithmetic, GPU bytes, SwiftShader ×three."""
+    engine = result["swiftshader"]
+    load = result["machine"]
+    where = (f"{engine['renderer']}, {load['cpus']} CPU cores at load average {load['load_average_start']:.1f}–"
+             f"{load['load_average_end']:.1f}, {engine['size']}² pass, median of {engine['rounds']} rounds")
+    paths = {}
+    for name, s in result["static"].items():
+        loop = s.get("per_iteration")
+        reads = str(s["texture_instructions"]) + (f" + {loop['texture_instructions']} per term" if loop else "")
+        if name.startswith("lut-cubic"):
+            reads += f" ({s['texture_instructions'] // 4} at a κ3 node)"
+        paths[name] = {"reads": reads, "gpu_bytes": s["gpu_bytes"],
+                       "spirv_arithmetic": f"{s['arithmetic']} + {loop['arithmetic']} per term" if loop else s["arithmetic"],
+                       "swiftshader_x_three": round(engine["paths"][name]["ratio"], 2)}
+    return {"measured": {"by": "python bench/bench_runtime_cost.py", "where": where}, "paths": paths}
+
+
 def _load_average() -> float:
     return float(Path("/proc/loadavg").read_text().split()[0])
 
@@ -393,6 +412,8 @@ def main():
         result["dropin"] = dropin_costs(args.rounds)
         result["machine"]["load_average_end"] = _load_average()
     RESULT.write_text(json.dumps(result, indent=2) + "\n")
+    if not args.no_engine:
+        SHIPPED.write_text(json.dumps(shipped_costs(result), indent=2, ensure_ascii=False) + "\n")
     three = result["static"]["three"]["arithmetic"]
     print("| path | reads / pixel | SPIR-V arithmetic (× three) | GPU bytes | SwiftShader × three |\n|---|---|---|---|---|")
     for name, s in result["static"].items():

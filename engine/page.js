@@ -301,9 +301,16 @@ window.lutbakeCost = async ({ textures = {}, params, jobs, size = 512, rounds = 
   const times = timeInterleaved(entries, { size, rounds, draws });
   entries.forEach((e) => e.material.dispose());
   Object.values(loaded).forEach((t) => t.dispose());
-  const gl = renderer.getContext();
-  return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, size, times };
+  return { renderer: rendererName(), three: THREE.REVISION, size, times };
 };
+
+// The GPU (or CPU rasterizer) behind WebGL and the browser, for the record of a timing.
+function rendererName() {
+  const gl = renderer.getContext();
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
+  return `${name}; ${navigator.userAgent.match(/Chrom\S+/)?.[0] ?? navigator.userAgent}`;
+}
 
 // The drop-in on lit MeshPhysicalMaterial spheres filling the view: per material, three.js without
 // iridescence (the baseline), with its own iridescence, and the drop-in's modes.

@@ -763,6 +763,10 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
         echo_json(summary)
     else:
         _print_error_rows([summary["lut_error"]] + rows, summary)
+        if summary.get("runtime_paths"):
+            from .runtime.costs import cost_table_text
+
+            click.echo(cost_table_text(summary["runtime_paths"]))
         for w in summary.get("worst_points", [])[:1]:
             click.echo(f"worst: ΔE00 {w['de00']:.3f} at cos_theta={w['cos_theta']:.4f} opd_nm={w['opd_nm']:.1f} "
                        f"eta3={w['eta3']:.3f} kappa3={w['kappa3']:.3f} ({w['kind']})")

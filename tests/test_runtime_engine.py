@@ -20,15 +20,36 @@ import pytest
 from lutbake.colorimetry import delta_e00
 from lutbake.exact import base_rgb
 from lutbake.runtime import read_runtime_table, runtime_colour
+from lutbake.runtime.costs import path_costs
 from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, stress_points, truth
+from lutbake.approximations import khr_iridescence_rgb
+from lutbake.points import FilmPoints
 from lutbake.runtime.search import search_maximum
 from test_engine import ENGINE, ROOT, require_engine
 from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, runtime_table_files
 from test_shaders import GLSLANG, PREFIX, compile_shader
 
+sys.path.insert(0, str(ROOT / "bench"))
+from bench_runtime_cost import static_costs, three_source  # noqa: E402
+
 TOLERANCE = 1e-4
+THREE_CALL = "evalIridescence(1.0, p.z, p.x, p.y, vec3(p.w))"   # three's own term: base F0 in p.w
 ONE_INDEX = "lutbake_iridescence(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
 PER_CHANNEL = "lutbake_iridescence_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
+
+
+def khr_points():
+    """(cos θ, d, η2, base F0 as khr_iridescence_rgb derives it) and the bases (η3, κ3) at 800 points,
+    dielectric and metal, float32-rounded as three.js receives them."""
+    rng = np.random.default_rng(32)
+    n = 800
+    cos, d, eta2 = rng.uniform(0, 1, n), rng.uniform(0, 1500, n), rng.uniform(1, 3, n)
+    metal = rng.random(n) < 0.5
+    eta3 = np.where(metal, rng.uniform(0.05, 4, n), rng.uniform(1, 3, n))
+    kappa3 = np.where(metal, rng.uniform(1.5, 9, n), rng.uniform(0, 2, n))
+    f0 = np.clip(((eta3 - 1) ** 2 + kappa3**2) / ((eta3 + 1) ** 2 + kappa3**2), 0.0, 0.9999)
+    rows = np.float32(np.column_stack([cos, d, eta2, f0])).astype(float)
+    return rows.tolist(), (eta3, kappa3)
 
 
 def _searched_points(table, box, count):
@@ -68,7 +89,8 @@ def runtime_run(tmp_path_factory):
     job = {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}"}
     jobs = [{**job, "call": ONE_INDEX, "points": [p for p, o in zip(points, one_index) if o]},
             {**job, "call": PER_CHANNEL, "points": points},
-            {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}]
+            {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
+            {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]}]
     folder = tmp_path_factory.mktemp("runtime-engine")
     (folder / "jobs.json").write_text(json.dumps(jobs))
     proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
@@ -81,7 +103,7 @@ def runtime_run(tmp_path_factory):
     model_rgb = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3)
     reference = truth(cos, d, eta2, eta3, kappa3)
     return {"got": got, "model": (model_one, model_rgb), "truth": reference, "kinds": kinds,
-            "one_index": one_index, "result": result}
+            "one_index": one_index, "result": result, "khr": khr_points()}
 
 
 def test_the_engine_is_three_js_loading_the_table_with_defaults(runtime_run):
@@ -105,6 +127,32 @@ def test_the_engine_meets_the_contract_against_the_ground_truth(runtime_run):
         assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), \
             (np.percentile(de, 99), de.max(), kinds[np.argmax(de_rgb)])
     assert {k.split()[-1] for k in kinds} >= {"random", "stress", "searched", "channel"}
+
+
+def _khr(points, schlick=None):
+    """khr_iridescence_rgb at three's inputs, with another Schlick term when given."""
+    from lutbake import approximations
+
+    rows, (eta3, kappa3) = points
+    cos, d, eta2, _ = np.array(rows).T
+    stack = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=d, eta3=eta3, kappa3=kappa3)
+    if schlick is None:
+        return khr_iridescence_rgb(stack)
+    saved, approximations._schlick = approximations._schlick, schlick
+    try:
+        return khr_iridescence_rgb(stack)
+    finally:
+        approximations._schlick = saved
+
+
+def test_the_khr_row_is_three_js_as_it_runs(runtime_run):
+    """The report's khr-iridescence-threejs row reproduces three.js r187's own evalIridescence, which
+    approximates Schlick's (1 − cos)^5 by an exp2 fit; the textbook power-5 Schlick misses it by far more.
+    Measured 1.6e-4: SwiftShader's built-in cos (Vulkan allows 2^-11 per call) against numpy's."""
+    got = runtime_run["got"][3]
+    assert np.abs(got - _khr(runtime_run["khr"])).max() <= 5e-4
+    textbook = _khr(runtime_run["khr"], lambda f0, c: f0 + (1 - f0) * (1 - c) ** 5)
+    assert np.abs(got - textbook).max() > 1e-2
 
 
 def test_the_check_fails_with_the_other_row_order(runtime_run):
@@ -176,11 +224,12 @@ def test_the_runtime_path_is_six_reads_no_loop_and_at_most_1_5_times_three_js_ar
     """glslang + spirv-opt -O (bench/bench_runtime_cost.py's count): three.js r187's evalIridescence is 233
     scalar arithmetic operations; the runtime path, one base index, ≤ 1.5× that, 6 texture reads, no loop."""
     runtime_table_files()
-    sys.path.insert(0, str(ROOT / "bench"))
-    from bench_runtime_cost import static_costs
-
     costs = static_costs(("three", "runtime", "runtime-rgb"))
     assert costs["three"]["arithmetic"] == 233 and costs["three"]["texture_instructions"] == 0
     for name in ("runtime", "runtime-rgb"):
         assert costs[name]["texture_instructions"] == 6 and costs[name]["loops"] == 0, costs[name]
     assert costs["runtime"]["arithmetic"] <= 1.5 * costs["three"]["arithmetic"], costs["runtime"]
+    shipped = path_costs()["paths"]   # what `lutbake report` prints: the bench's figures, current
+    for name in costs:
+        assert shipped[name]["spirv_arithmetic"] == costs[name]["arithmetic"]
+        assert shipped[name]["reads"] == str(costs[name]["texture_instructions"])
