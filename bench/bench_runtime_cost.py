@@ -402,9 +402,10 @@ def main():
     parser.add_argument("--rounds", type=int, default=15, help="interleaved rounds per engine run")
     parser.add_argument("--no-engine", action="store_true", help="static counts only (no Chromium)")
     args = parser.parse_args()
-    from make_dropin import bake_default_luts, write_runtime_table
+    from make_dropin import bake_default_luts, write_exact_table, write_runtime_table
 
     bake_default_luts()
+    write_exact_table()
     write_runtime_table()
     result = {"static": static_costs(), "machine": {"cpus": os.cpu_count(), "load_average_start": _load_average()}}
     if not args.no_engine:

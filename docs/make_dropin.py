@@ -7,10 +7,11 @@ read back per pixel with the parameters each pixel used, against the ground trut
 (constant indices: the dielectric's ior, the metal's n, k at 611/549/464 nm per channel) and, for metals,
 against the dispersive metal (its n, k at every wavelength): what the per-channel mapping costs.
 
-Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium; writes the
-runtime table into luts/ as `lutbake runtime-table` does)
+Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium; it writes the exact
+table into engine/exact/ and the runtime table into luts/ first, as `lutbake exact-table` and `lutbake runtime-table` do)
 """
 
+import functools
 import json
 import subprocess
 import sys
@@ -29,6 +30,9 @@ from lutbake.points import FilmPoints  # noqa: E402
 from lutbake.reference import reference_colour  # noqa: E402
 
 IMAGE = ROOT / "docs" / "img" / "dropin.png"
+# The exact mode's table the drop-in loads: written here, not kept in the repository (its float32 texels may
+# differ in the last bit between machines: docs/design-notes.md#determinism).
+EXACT_TABLE = ROOT / "engine" / "exact" / "lutbake-exact.exr"
 # (label, iridescenceIOR, thickness nm, base: an ior or a metal's name, LUT)
 MATERIALS = [
     ("soap bubble, 400 nm", 1.33, 400.0, 1.0, "luts/lutbake-eta2-1.33"),
@@ -83,8 +87,30 @@ def spec() -> dict:
     return {"materials": materials, "swatches": swatches}
 
 
+@functools.lru_cache(maxsize=1)
+def write_exact_table() -> Path:
+    """engine/exact/lutbake-exact.{exr,json,glsl,hlsl} as `lutbake exact-table` writes them on this machine,
+    once per process (a second writer of the folder waits on the bake's lock and writes the same bytes)."""
+    EXACT_TABLE.parent.mkdir(exist_ok=True)
+    subprocess.run([sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(EXACT_TABLE.relative_to(ROOT))],
+                   cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
+    return EXACT_TABLE
+
+
+@functools.lru_cache(maxsize=1)
+def write_runtime_table() -> Path:
+    """luts/lutbake-runtime.{exr,json,glsl,hlsl} as `lutbake runtime-table` writes them on this machine, once
+    per process (generated, not committed: like the exact table, its texels may round differently elsewhere)."""
+    RUNTIME.parent.mkdir(exist_ok=True)
+    subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(RUNTIME.relative_to(ROOT))],
+                   cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
+    return RUNTIME
+
+
 def run(image: Path) -> dict:
     """Render in headless Chromium; {(material, mode): (fresnel (n, 3), parameters (n, 3))}."""
+    write_exact_table()
+    write_runtime_table()
     with tempfile.TemporaryDirectory() as tmp:
         job, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         job.write_text(json.dumps(spec()))
@@ -118,17 +144,8 @@ def errors(cells: dict, dispersive: bool = True) -> list:
     return rows
 
 
-def write_runtime_table():
-    """luts/lutbake-runtime.* as the current code writes it (`lutbake runtime-table`)."""
-    from lutbake.runtime import write_runtime_table as write
-
-    RUNTIME.parent.mkdir(exist_ok=True)
-    write(RUNTIME)
-
-
 def main():
     bake_default_luts()
-    write_runtime_table()
     rows = errors(run(IMAGE))
     print("| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|")
     for label, mode, worst, p99, disp, n in rows:

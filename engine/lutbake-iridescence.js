@@ -26,25 +26,52 @@ async function loadText(url) {
   return response.text();
 }
 
+// The members of a lutbake set identify it (docs/lut-format.md, Guarantees): the EXR header's
+// `lutbake.content_hash` (a LUT, an exact table) or `lutbake.scene_hash` (a scene atlas) is the hash the
+// include's second line names. A folder copied, or a bake killed, while a set's files were being renamed
+// can hold an EXR of one set beside an include of another; sampling it would read the wrong axes. Throws
+// (naming `url`) unless the two belong to one set.
+export function checkSameSet(header, include, url) {
+  const lut = include.match(/^\/\/ content hash ([0-9a-f]+);/m);
+  const scene = include.match(/\(scene hash ([0-9a-f]+)\)/);
+  const inExr = lut ? header['lutbake.content_hash'] : header['lutbake.scene_hash'];
+  const inInclude = lut ? lut[1] : scene && scene[1];
+  if (!inInclude || typeof inExr !== 'string') {
+    throw new Error(`${url}: not a lutbake set (no content or scene hash in the EXR header and include)`);
+  }
+  if (lut ? inExr !== inInclude : !inExr.startsWith(inInclude)) {
+    throw new Error(`${url}: the EXR (hash ${inExr.slice(0, 16)}) and its include (hash ${inInclude.slice(0, 16)}) `
+      + 'are of different bakes (copied or interrupted mid-commit): bake the set again');
+  }
+}
+
+// An EXR as a texture, with its header, and the include beside it, checked to be one set.
+async function loadChecked(stem, loader) {
+  const [{ texture, header }, include] = await Promise.all([
+    new Promise((resolve, reject) => loader.load(`${stem}.exr`, (t, data) => resolve({ texture: t, header: data.header }),
+      undefined, reject)),
+    loadText(`${stem}.glsl`),
+  ]);
+  checkSameSet(header, include, stem);
+  return { table: texture, include };
+}
+
 // The runtime table with EXRLoader's defaults (RGBA half float, linear filtering) and its include.
 export async function loadLutbakeRuntime(stem) {
-  const table = await new EXRLoader().loadAsync(`${stem}.exr`);
-  return { table, include: await loadText(`${stem}.glsl`) };
+  return loadChecked(stem, new EXRLoader());
 }
 
 // The exact mode's table as float32 texels read with texelFetch (no filtering, so no float-linear extension).
 export async function loadLutbakeExact(stem) {
-  const loader = new EXRLoader().setDataType(THREE.FloatType);
-  const table = await loader.loadAsync(`${stem}.exr`);
-  table.minFilter = table.magFilter = THREE.NearestFilter;
-  return { table, include: await loadText(`${stem}.glsl`) };
+  const exact = await loadChecked(stem, new EXRLoader().setDataType(THREE.FloatType));
+  exact.table.minFilter = exact.table.magFilter = THREE.NearestFilter;
+  return exact;
 }
 
 // A baked LUT (EXRLoader's defaults: half float, linear filtering) and its include; `ident` is its constant.
 export async function loadLutbakeLut(stem) {
-  const table = await new EXRLoader().loadAsync(`${stem}.exr`);
-  const include = await loadText(`${stem}.glsl`);
-  return { table, include, ident: include.match(/const LutbakeLut (\w+) =/)[1] };
+  const lut = await loadChecked(stem, new EXRLoader());
+  return { ...lut, ident: lut.include.match(/const LutbakeLut (\w+) =/)[1] };
 }
 
 // GLSL for the film's Fresnel term at (dotNVi, material), one expression per base: three's iridescenceIOR and

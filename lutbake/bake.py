@@ -34,7 +34,7 @@ from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
 
-__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
+__all__ = ["BakeResult", "bake", "bake_set", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
            "spectral_error"]
 
 _PROBES = 48
@@ -225,7 +225,8 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     backend : str
         'auto' (OpenCL, else numpy with a warning), 'opencl' or 'numpy'.
     on_band : callable, optional
-        ``on_band(rows_done, rows_total)`` after each band of image rows.
+        ``on_band(rows_done, rows_total)`` after each band of image rows (and with 0 rows first, before
+        the spectral rule's error is measured).
     chunk_cells : int, optional
         Texels per kernel launch (memory bound); default from the plan.
     integrator : str
@@ -250,16 +251,46 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     ['oxide.exr', 'oxide.glsl', 'oxide.hlsl', 'oxide.json']
     """
     out_path = Path(out_path)
-    spec.check_budget(memory_limit_gib)
-    _check_writable(out_path)
-    with open_set(out_path.parent, out_path.name) as files:
-        return write_lut(spec, out_path, files, backend, on_band, chunk_cells, integrator, device)
+    job = (out_path, spec, {"on_band": on_band, "chunk_cells": chunk_cells})
+    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device)[0]
+
+
+def bake_set(jobs, set_name: str, backend: str = "auto", memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+             integrator: str = "series", device=None) -> list:
+    """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
+    committed together or, when any bake fails or is interrupted, none is (fileset.py).
+
+    Parameters
+    ----------
+    jobs : list of (out_path, BakeSpec, dict)
+        The EXR to write, its spec, and ``on_band``/``chunk_cells`` for it (see ``bake``); one folder.
+    set_name : str
+        The set's name in its commit journal (``.SET_NAME.commit``).
+    backend, memory_limit_gib, integrator, device
+        As for ``bake``; every spec's budget and output path are checked before any work.
+
+    Returns
+    -------
+    list of BakeResult
+        In the order of ``jobs``.
+    """
+    folders = {Path(path).parent for path, _, _ in jobs}
+    if len(folders) != 1:
+        raise ValueError(f"a file set lives in one folder; these LUTs go to {len(folders)}")
+    for path, spec, _ in jobs:
+        spec.check_budget(memory_limit_gib)
+        _check_writable(Path(path))
+    with open_set(folders.pop(), set_name) as files:
+        return [write_lut(spec, Path(path), files, backend, integrator=integrator, device=device, **options)
+                for path, spec, options in jobs]
 
 
 def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
               chunk_cells=None, integrator: str = "series", device=None) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller)."""
     start = time.perf_counter()
+    if on_band:
+        on_band(0, spec.image_size[1])
     integrator = make_backend(backend, spec.compute, integrator, device)
     error = spectral_error(spec)
     capped = capped_error(spec)

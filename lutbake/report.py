@@ -28,7 +28,7 @@ from .runtime.costs import cost_rows, cost_table_html
 from .sample import Atlas, Lut
 
 __all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport", "report_lut",
-           "write_report", "report_atlas"]
+           "write_report", "report_atlas", "REPORT_FILES"]
 
 
 @dataclass
@@ -229,6 +229,10 @@ def gate(summary: dict, max_de) -> dict:
     return summary
 
 
+# What `report --out DIR` may write there (an atlas's report: the first only).
+REPORT_FILES = ("summary.json", "report.html", "delta_e_maps.png", "swatches.png")
+
+
 def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progress=no_progress) -> dict:
     """Write ``rep`` as summary.json, PNG figures (ΔE00 maps, swatch strips) and report.html in ``out_dir``.
 
@@ -272,12 +276,12 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
     figures = []
     if maps:
         figures.append(("ΔE00 of the LUT over (cos θ, D) at the (η3, κ3) of its worst held-out points",
-                        delta_e_maps(rep, out / "delta_e_maps.png", progress=progress)))
+                        delta_e_maps(rep, out / REPORT_FILES[2], progress=progress)))
         progress(0, None, "figure: swatch strips")
-        figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / "swatches.png")))
+        figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / REPORT_FILES[3])))
     summary["figures"] = [f.name for _, f in figures]
-    write_text_atomic(out / "summary.json", dumps(summary) + "\n")
-    write_text_atomic(out / "report.html", _html(summary, figures))
+    write_text_atomic(out / REPORT_FILES[0], dumps(summary) + "\n")
+    write_text_atomic(out / REPORT_FILES[1], _html(summary, figures))
     return summary
 
 

@@ -8,7 +8,6 @@ Measured (docs/engines.md, `python docs/make_runtime.py`): max ≈ 0.15, p99 ≈
 contract, and a tighter regression bound (max ≤ 0.4) so a loss of accuracy well inside it still shows.
 """
 
-import fcntl
 import json
 import os
 import subprocess
@@ -23,37 +22,22 @@ from lutbake.fourier import NU0_PER_NM, weight_transform
 from lutbake.runtime import read_runtime_table, runtime_colour, stored_table
 from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, named_error, random_error, stress_error, \
     stress_points, truth
-from lutbake.runtime.files import BAND_ROWS, TILES_PER_ROW, runtime_includes
+from lutbake.runtime.files import BAND_ROWS, TILES_PER_ROW
 from lutbake.runtime.search import search_maximum
 from lutbake.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "docs"))
+import make_dropin  # noqa: E402  (writes the runtime and exact tables the engine tests load)
 CONTRACT_MAX, CONTRACT_P99 = 1.0, 0.3
 REGRESSION_MAX = 0.4
 
 
 def runtime_table_files() -> Path:
-    """luts/lutbake-runtime.exr (+ .json, .glsl, .hlsl) as `lutbake runtime-table` writes it for the current
-    code, written once (under a lock the test processes share) and rewritten when stale. Generated, not
-    committed: the float64 build may round a half texel differently on another machine."""
-    folder = ROOT / "luts"
-    folder.mkdir(exist_ok=True)
-    path = folder / "lutbake-runtime.exr"
-    with open(folder / ".runtime.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        current = stored_table()
-        try:
-            on_disk = read_runtime_table(path)
-            includes = runtime_includes(current.meta, path.name)
-            fresh = (on_disk.meta == current.meta and np.array_equal(on_disk.image, current.image)
-                     and all(path.with_suffix(f".{k}").read_text() == v for k, v in includes.items()))
-        except (ValueError, OSError):
-            fresh = False
-        if not fresh:
-            out = subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(path)],
-                                 capture_output=True, text=True, cwd=ROOT)
-            assert out.returncode == 0, out.stderr
-    return path
+    """luts/lutbake-runtime.exr (+ .json, .glsl, .hlsl) as `lutbake runtime-table` writes them with the current
+    code, once per test process (docs/make_dropin.py; generated, not committed: the float64 build may round a
+    half texel differently on another machine)."""
+    return make_dropin.write_runtime_table()
 
 
 @pytest.fixture(scope="module")

@@ -26,7 +26,7 @@ from lutbake.approximations import khr_iridescence_rgb
 from lutbake.points import FilmPoints
 from lutbake.runtime.search import search_maximum
 from test_engine import ENGINE, ROOT, require_engine
-from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, runtime_table_files
+from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, make_dropin, runtime_table_files
 from test_shaders import GLSLANG, PREFIX, compile_shader
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -212,7 +212,7 @@ def test_the_include_shares_a_shader_with_a_lut_and_the_exact_mode(tmp_path, hls
     from conftest import default_luts
 
     lut = default_luts() / "lutbake-eta2-1.50.exr"
-    exact = ROOT / "engine" / "exact" / "lutbake-exact.exr"
+    exact = make_dropin.write_exact_table()
     shader = _shader(tmp_path, hlsl, (lut, exact))
     text = shader.read_text().replace("LUTBAKE_LUT,", "LUTBAKE_ETA2_1_50,")
     shader.write_text(text)
