@@ -20,10 +20,9 @@ import pytest
 from lutbake.colorimetry import delta_e00
 from lutbake.fourier import NU0_PER_NM, weight_transform
 from lutbake.runtime import read_runtime_table, runtime_colour, stored_table
-from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, named_error, random_error, stress_error, \
-    stress_points, truth
+from lutbake.runtime.accuracy import BOXES, NAMED_METALS, named_error, random_error, searched_worst, stress_error, \
+    truth
 from lutbake.runtime.files import BAND_ROWS, TILES_PER_ROW
-from lutbake.runtime.search import search_maximum
 from lutbake.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -123,11 +122,9 @@ def test_the_extremes_meet_the_contract(table, box):
 
 @pytest.mark.parametrize("box", sorted(BOXES))
 def test_a_searched_worst_case_meets_the_contract(table, box):
-    """Corners, edges, random starts and the coarse stress grid, refined locally (search.py)."""
-    b = BOXES[box]
-    result = search_maximum(box_error(table, b), 5, random=96, refine=4, steps=(0.05, 0.01, 0.002), seed=5,
-                            starts=b.unit(stress_points(b, coarse=True))[::7])
-    assert result.value <= REGRESSION_MAX, (result.value, b.point(result.worst[None]))
+    """worstcase.find_worst: corners, edges, the singular faces, the coarse stress grid, compass refinement."""
+    worst = searched_worst(table, BOXES[box], budget=800, seed=5)
+    assert worst.value <= REGRESSION_MAX, (worst.value, worst.where_named)
 
 
 def test_eight_bit_filter_weights_keep_the_contract(table):
@@ -140,13 +137,6 @@ def test_the_check_can_fail(table):
     """The same comparison with each tile's two slices swapped (an off-by-one in X) exceeds the contract."""
     broken = type(table)(table.meta, table.image[:, :, [2, 3, 0, 1]].copy())
     assert random_error(broken, BOXES["metal"], 100, seed=22).max() > CONTRACT_MAX
-
-
-def test_search_finds_a_planted_maximum():
-    """The search climbs to a narrow peak that random points miss."""
-    peak = np.array([0.31, 0.77, 0.05])
-    result = search_maximum(lambda u: np.exp(-np.sum((u - peak) ** 2, axis=1) / 1e-4), 3, random=64, seed=1)
-    assert result.value > 0.99 and np.abs(result.worst - peak).max() < 0.003
 
 
 def test_runtime_table_command_writes_one_set_deterministically(tmp_path):

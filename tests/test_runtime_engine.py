@@ -21,10 +21,9 @@ from lutbake.colorimetry import delta_e00
 from lutbake.exact import base_rgb
 from lutbake.runtime import read_runtime_table, runtime_colour
 from lutbake.runtime.costs import path_costs
-from lutbake.runtime.accuracy import BOXES, NAMED_METALS, box_error, stress_points, truth
+from lutbake.runtime.accuracy import BOXES, NAMED_METALS, searched_worst, stress_points, truth
 from lutbake.approximations import khr_iridescence_rgb
 from lutbake.points import FilmPoints
-from lutbake.runtime.search import search_maximum
 from test_engine import ENGINE, ROOT, require_engine
 from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, make_dropin, runtime_table_files
 from test_shaders import GLSLANG, PREFIX, compile_shader
@@ -53,10 +52,10 @@ def khr_points():
 
 
 def _searched_points(table, box, count):
-    """The ``count`` worst points a search of the numpy model finds (the engine must agree there too)."""
-    result = search_maximum(box_error(table, box), 5, random=64, refine=3, steps=(0.05, 0.01), seed=9)
-    worst = result.points[np.argsort(result.values)[::-1][:count]]
-    return np.column_stack(box.point(worst))
+    """The worst points (distinct local maxima, best first) a search of the numpy model finds: the engine
+    must agree there too."""
+    worst = searched_worst(table, box, budget=800, seed=9)
+    return np.column_stack(box.point(np.array([c.where for c in worst.candidates[:count]])))
 
 
 def engine_points(table):
@@ -66,7 +65,7 @@ def engine_points(table):
     for name, box in BOXES.items():
         random = np.column_stack(box.point(rng.random((700, 5))))
         stress = np.array(stress_points(box, coarse=True)).T
-        for kind, block in (("random", random), ("stress", stress), ("searched", _searched_points(table, box, 40))):
+        for kind, block in (("random", random), ("stress", stress), ("searched", _searched_points(table, box, 10))):
             rows.append(np.column_stack([block[:, :3], np.repeat(block[:, 3:4], 3, 1), np.repeat(block[:, 4:5], 3, 1)]))
             kinds += [f"{name} {kind}"] * len(block)
     for metal in NAMED_METALS:

@@ -6,7 +6,8 @@ Three kinds of points, each against reference.py's converged integral at the sam
   1–3, d 0–1500 nm, cos θ 0–1) and the named metals at their per-channel indices (exact.base_rgb);
 - a stress grid of the extremes: grazing incidence (cos θ down to 0), no film (d 0), films matching the
   ambient (η2 1.0001) and bases matching it (η3 1, 1.0001), the metal box's corners;
-- a searched maximum per box (search.py: corners, edges, random starts, local refinement).
+- a searched maximum per box (worstcase.find_worst: corners, edges, the singular faces, random starts,
+  compass refinement), the stress grid among its starts.
 """
 
 from __future__ import annotations
@@ -19,11 +20,12 @@ import numpy as np
 from ..colorimetry import delta_e00
 from ..points import FilmPoints
 from ..reference import reference_colour
+from ..worstcase import SearchAxis, find_worst
 from .files import RuntimeTable
 from .model import runtime_colour
 
 __all__ = ["BOXES", "NAMED_METALS", "Box", "truth", "random_error", "stress_points", "box_error", "named_error",
-           "stress_error"]
+           "stress_error", "searched_worst", "searched_named_worst"]
 
 NAMED_METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 
@@ -102,7 +104,7 @@ def stress_error(table: RuntimeTable, box: Box, coarse: bool = False, filter_bit
 
 
 def box_error(table: RuntimeTable, box: Box, filter_bits=None):
-    """ΔE00 at unit-cube points of ``box``: the error function search_maximum takes."""
+    """ΔE00 at unit-cube points of ``box``: the error function worstcase.find_worst takes."""
     return lambda unit: _de(table, box.point(unit), filter_bits)
 
 
@@ -117,3 +119,25 @@ def named_error(table: RuntimeTable, metal: str, filter_bits=None):
         m = unit.shape[0]
         return _de(table, (*film.point(unit), np.tile(n3, (m, 1)), np.tile(k3, (m, 1))), filter_bits)
     return error
+
+
+_AXES = (SearchAxis("cos_theta", cells=16), SearchAxis("thickness_nm", cells=32), SearchAxis("eta2", cells=16),
+         SearchAxis("eta3", cells=16), SearchAxis("kappa3", cells=16))
+# Faces where the physics is singular: grazing incidence, no film, a film matching the ambient, and
+# (where the box reaches them) a base matching the ambient or without absorption.
+_SINGULAR = {"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0}, "film = ambient": {"eta2": 0.0},
+             "base = ambient": {"eta3": 0.0}, "lossless base": {"kappa3": 0.0}}
+
+
+def searched_worst(table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None):
+    """worstcase.find_worst over ``box`` (unit coordinates linear in cos θ, d, η2, η3, κ3), the coarse stress
+    grid among its starts."""
+    starts = box.unit(stress_points(box, coarse=True))
+    return find_worst(box_error(table, box, filter_bits), _AXES, points=starts, singular=_SINGULAR, budget=budget,
+                      seed=seed)
+
+
+def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, seed: int = 0):
+    """worstcase.find_worst over (cos θ, d, η2) for a named metal at its per-channel indices."""
+    singular = {k: v for k, v in _SINGULAR.items() if set(v) <= {"cos_theta", "thickness_nm", "eta2"}}
+    return find_worst(named_error(table, metal), _AXES[:3], singular=singular, budget=budget, seed=seed)
