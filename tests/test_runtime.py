@@ -4,8 +4,9 @@ extremes, a searched maximum), its identities, and the command's files.
 
 Contract (issue 22): max ΔE00 ≤ 1 and p99 ≤ 0.3 against the ground truth over η2 1–3, d 0–1500 nm, cos θ
 0–1, dielectric bases η3 1–3 / κ3 0–2, metals η3 0.05–4 / κ3 1.5–9 and the named metals per channel.
-Measured (docs/engines.md, `python docs/make_runtime.py`): max ≈ 0.15, p99 ≈ 0.05; the tests hold the
-contract, and a tighter regression bound (max ≤ 0.4) so a loss of accuracy well inside it still shows.
+Measured (docs/engines.md, `python docs/make_runtime.py`): p99 ≈ 0.045, searched max 0.36 (metals; 0.18
+dielectric bases); the tests hold the contract, and a tighter regression bound (max ≤ 0.5) so a loss of accuracy
+well inside it still shows.
 """
 
 import json
@@ -29,7 +30,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "docs"))
 import make_dropin  # noqa: E402  (writes the runtime and exact tables the engine tests load)
 CONTRACT_MAX, CONTRACT_P99 = 1.0, 0.3
-REGRESSION_MAX = 0.4
+REGRESSION_MAX = 0.5
 
 
 def runtime_table_files() -> Path:

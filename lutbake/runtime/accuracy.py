@@ -129,12 +129,14 @@ _SINGULAR = {"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0}, "f
              "base = ambient": {"eta3": 0.0}, "lossless base": {"kappa3": 0.0}}
 
 
-def searched_worst(table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None):
-    """worstcase.find_worst over ``box`` (unit coordinates linear in cos θ, d, η2, η3, κ3), the coarse stress
-    grid among its starts."""
-    starts = box.unit(stress_points(box, coarse=True))
-    return find_worst(box_error(table, box, filter_bits), _AXES, points=starts, singular=_SINGULAR, budget=budget,
-                      seed=seed)
+def searched_worst(table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None,
+                   full_stress: bool = False):
+    """worstcase.find_worst over ``box`` (unit coordinates linear in cos θ, d, η2, η3, κ3), the stress grid
+    (coarse, or the full one, scored first and not counted in the budget) among its starts."""
+    stress = stress_points(box, coarse=not full_stress)
+    errors = stress_error(table, box, coarse=not full_stress, filter_bits=filter_bits) if full_stress else None
+    return find_worst(box_error(table, box, filter_bits), _AXES, points=box.unit(stress), errors=errors,
+                      singular=_SINGULAR, budget=budget, seed=seed)
 
 
 def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, seed: int = 0):
