@@ -195,11 +195,11 @@ def test_a_journaled_temporary_that_changed_is_not_renamed(whole_set, sandbox, c
 @pytest.fixture(scope="module")
 def good_files(tmp_path_factory):
     """A tiny LUT, a one-material scene atlas and an exact table, baked once."""
-    from lutbake.atlas import bake_scene
+    from lutbake.scene_bake import bake_scene
     from lutbake.bake import bake
     from lutbake.exact import write_exact_table
     from lutbake.plan import Axis, BakeSpec
-    from lutbake.scene import load_scene
+    from lutbake.scene_toml import load_scene
 
     folder = tmp_path_factory.mktemp("good")
     axes = (Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 1000.0, 4), Axis("eta3", 1.0, 2.0, 2),
