@@ -232,7 +232,7 @@ highp vec3 f0 = vec3((eta3 - 1.0) * (eta3 - 1.0) / ((eta3 + 1.0) * (eta3 + 1.0))
 """
 # name: (includes, textures (uniform -> (file, float)), call, what it is)
 LUT = "luts/lutbake-eta2-1.50"
-RUNTIME = (["luts/lutbake-runtime.glsl"], {"rt": ("luts/lutbake-runtime.exr", False)})
+RUNTIME = (["luts/runtime/lutbake-runtime.glsl"], {"rt": ("luts/runtime/lutbake-runtime.exr", False)})
 EXACT = (["engine/exact/lutbake-exact.glsl"], {"ex": ("engine/exact/lutbake-exact.exr", True)})
 FILM = "cos_theta, thickness_nm, 1.0, eta2"
 PATHS = {
@@ -361,7 +361,7 @@ def dropin_costs(rounds: int) -> dict:
     materials = []
     for label, eta2, thickness, base, lut in DROPIN_MATERIALS:
         m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
-             "runtime": "/luts/lutbake-runtime", "exact": "/engine/exact/lutbake-exact",
+             "runtime": "/luts/runtime/lutbake-runtime", "exact": "/engine/exact/lutbake-exact",
              "ior": base if isinstance(base, float) else 1.5}
         if not isinstance(base, float):
             n, k = base_rgb(base)

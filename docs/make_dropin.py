@@ -41,8 +41,8 @@ MATERIALS = [
     ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
 SWATCH_COS = np.linspace(1.0, 0.05, 16)
-MODES = ("three", "runtime", "exact", "lut")
-RUNTIME = ROOT / "luts" / "lutbake-runtime.exr"
+MODES = ("three", "runtime", "exact", "lut", "lut-linear")   # lut-linear: the LUT by the drop-in's lutRule 'linear'
+RUNTIME = ROOT / "luts" / "runtime" / "lutbake-runtime.exr"   # beside, not among, the default LUTs
 
 
 def _base(base):
@@ -99,9 +99,9 @@ def write_exact_table() -> Path:
 
 @functools.lru_cache(maxsize=1)
 def write_runtime_table() -> Path:
-    """luts/lutbake-runtime.{exr,json,glsl,hlsl} as `lutbake runtime-table` writes them on this machine, once
+    """luts/runtime/lutbake-runtime.{exr,json,glsl,hlsl} as `lutbake runtime-table` writes them here, once
     per process (generated, not committed: like the exact table, its texels may round differently elsewhere)."""
-    RUNTIME.parent.mkdir(exist_ok=True)
+    RUNTIME.parent.mkdir(parents=True, exist_ok=True)
     subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(RUNTIME.relative_to(ROOT))],
                    cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
     return RUNTIME

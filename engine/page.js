@@ -168,7 +168,7 @@ window.lutbakeView = async (spheres, { size = 256 } = {}) => {
 // For each material and mode a sphere is rendered (orthographic, size² pixels) with the film's Fresnel term as
 // output, read back as float, together with the parameters each pixel used; a 2D canvas shows the terms
 // (sRGB-encoded) in a grid, one row per mode and a row of ground-truth swatches the caller computed.
-const DROPIN_MODES = ['three', 'runtime', 'exact', 'lut'];
+const DROPIN_MODES = ['three', 'runtime', 'exact', 'lut', 'lut-linear'];   // lut-linear: a LUT by lutRule 'linear'
 
 async function renderOutput(material, size, output) {
   const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
@@ -214,14 +214,15 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
   ctx.fillRect(0, 0, canvas.width, canvas.height);
   ctx.fillStyle = '#ddd';
   ctx.font = '12px sans-serif';
-  ['three.js', 'lutbake runtime', 'lutbake exact', 'lutbake LUT', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
+  ['three.js', 'lutbake runtime', 'lutbake exact', 'lutbake LUT', 'LUT, linear reads', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
   const cells = [];
   for (const [j, m] of materials.entries()) {
     ctx.fillStyle = '#ddd';
     ctx.fillText(m.label, label + size * j + 4, 16);
     const lut = await loadLutbakeLut(m.lut);
     for (const [i, mode] of DROPIN_MODES.entries()) {
-      const options = { mode, runtime, exact, lut, metal: m.metal || undefined };
+      const options = { mode: mode === 'lut-linear' ? 'lut' : mode, lutRule: mode === 'lut-linear' ? 'linear' : null,
+                        runtime, exact, lut, metal: m.metal || undefined };
       const fresnel = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'fresnel' }), size, 'fresnel');
       const params = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'parameters' }), size, 'parameters');
       const image = ctx.createImageData(size, size);

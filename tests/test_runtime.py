@@ -34,7 +34,7 @@ REGRESSION_MAX = 0.5
 
 
 def runtime_table_files() -> Path:
-    """luts/lutbake-runtime.exr (+ .json, .glsl, .hlsl) as `lutbake runtime-table` writes them with the current
+    """luts/runtime/lutbake-runtime.exr (+ .json, .glsl, .hlsl) as `lutbake runtime-table` writes them with the current
     code, once per test process (docs/make_dropin.py; generated, not committed: the float64 build may round a
     half texel differently on another machine)."""
     return make_dropin.write_runtime_table()

@@ -1,6 +1,6 @@
 """The runtime path in a real engine and in shader compilers.
 
-three.js (pinned, headless Chromium, WebGL2 through SwiftShader) loads luts/lutbake-runtime.exr (written by
+three.js (pinned, headless Chromium, WebGL2 through SwiftShader) loads luts/runtime/lutbake-runtime.exr (written by
 `lutbake runtime-table`) with EXRLoader's default settings and evaluates the shipped GLSL include, pasted
 unmodified, at random points over the issue's domain, at the extremes, at the worst points a search of
 the numpy model found, and for the named metals per channel: it must return runtime.model's numbers to
