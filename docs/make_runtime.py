@@ -7,9 +7,10 @@ ground truth (reference.py) at float32-rounded inputs:
 1. the runtime path (runtime.model: the include's arithmetic; tests/test_runtime_engine.py holds three.js
    to it within 1e-4): random points, the full stress grid, a searched maximum per box and per metal
    (worstcase.find_worst), and the same random points with 8-bit filter weights;
-2. at the same random points, the other paths that take any film: the exact mode (float64 evaluation of
-   its include on the default table), three.js's evalIridescence (approximations.khr_iridescence_rgb, as
-   r187 runs it) and Belcour & Barla 2017.
+2. at the same random points, the other paths that take any film: the exact mode at tolerances 1e-3, 1e-4
+   (its default) and 1e-5 (float64 evaluation of its include on the default table, with its terms per
+   pixel: its cost), three.js's evalIridescence (approximations.khr_iridescence_rgb, as r187 runs it) and
+   Belcour & Barla 2017.
 
 Rerun: python docs/make_runtime.py [--points N] [--budget B]   (prints Markdown; ~10 min on 2 cores)
 """
@@ -39,13 +40,15 @@ def stats(de) -> dict:
     return {"points": int(de.size), "p99": float(np.percentile(de, 99)), "max": float(de.max())}
 
 
-def exact_mode(cos, d, eta2, eta3, kappa3) -> np.ndarray:
-    """The exact mode's float64 evaluation, one film index per call."""
+def exact_mode(cos, d, eta2, eta3, kappa3, tolerance=None):
+    """The exact mode's float64 evaluation, one film index per call: (RGB (n, 3), terms per point (n,))."""
     table = exact_table()
-    out = np.empty((cos.size, 3))
+    out, terms = np.empty((cos.size, 3)), np.empty(cos.size)
     for i in range(cos.size):
-        out[i] = exact_colour(table, cos[i:i + 1], d[i:i + 1], 1.0, float(eta2[i]), eta3[i:i + 1], kappa3[i:i + 1]).values
-    return out
+        r = exact_colour(table, cos[i:i + 1], d[i:i + 1], 1.0, float(eta2[i]), eta3[i:i + 1], kappa3[i:i + 1],
+                         tolerance=tolerance)
+        out[i], terms[i] = r.values[0], r.terms[0]
+    return out, terms
 
 
 def random_rows(table, n: int, seed: int) -> dict:
@@ -58,9 +61,13 @@ def random_rows(table, n: int, seed: int) -> dict:
                                  kappa3=cols[4])
         paths = {"runtime": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:]),
                  "runtime, 8-bit filter weights": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:], filter_bits=8),
-                 "exact mode": exact_mode(*cols), "three.js r187 (KHR)": khr_iridescence_rgb(stack),
-                 "Belcour & Barla 2017": belcour_barla_rgb(stack)}
+                 "three.js r187 (KHR)": khr_iridescence_rgb(stack), "Belcour & Barla 2017": belcour_barla_rgb(stack)}
         out[name] = {path: stats(delta_e00(rgb, ref)) for path, rgb in paths.items()}
+        for tolerance in (1e-3, 1e-4, 1e-5):   # the exact mode at its tolerances: error against terms (cost)
+            rgb, terms = exact_mode(*cols, tolerance=tolerance)
+            out[name][f"exact mode, tolerance {tolerance:g}"] = {**stats(delta_e00(rgb, ref)),
+                                                                  "terms_mean": float(terms.mean()),
+                                                                  "terms_max": int(terms.max())}
     return out
 
 
@@ -92,10 +99,11 @@ def main():
               f"{s['max']:.3f} | {w['max']:.3f} |")
     for metal, r in result["named"].items():
         print(f"| {metal} per channel | {r['points']} | {r['p99']:.3f} / {r['max']:.3f} | | {r['searched_max']:.3f} |")
-    print("\n| path (any film) | dielectric p99 / max | metal p99 / max |\n|---|---|---|")
+    print("\n| path (any film) | dielectric p99 / max | metal p99 / max | exact mode terms, mean (max) |\n|---|---|---|---|")
     for path in result["random"]["dielectric"]:
         d, m = result["random"]["dielectric"][path], result["random"]["metal"][path]
-        print(f"| {path} | {d['p99']:.3f} / {d['max']:.3f} | {m['p99']:.3f} / {m['max']:.3f} |")
+        terms = f"{d['terms_mean']:.1f} ({d['terms_max']}); {m['terms_mean']:.1f} ({m['terms_max']})" if "terms_mean" in d else ""
+        print(f"| {path} | {d['p99']:.3f} / {d['max']:.3f} | {m['p99']:.3f} / {m['max']:.3f} | {terms} |")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,6 @@ well inside it still shows.
 """
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -18,7 +17,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lutbake.colorimetry import delta_e00
 from lutbake.fourier import NU0_PER_NM, weight_transform
 from lutbake.runtime import read_runtime_table, runtime_colour, stored_table
 from lutbake.runtime.accuracy import BOXES, NAMED_METALS, named_error, random_error, searched_worst, stress_error, \
@@ -163,3 +161,14 @@ def test_runtime_table_refuses_bad_output_in_one_line(tmp_path, out):
                           capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "--out" in proc.stderr
     assert not any(tmp_path.rglob("*"))
+
+
+def test_a_runtime_table_whose_image_does_not_match_its_header_is_refused(tmp_path):
+    from lutbake.runtime.files import _write_exr
+
+    table = stored_table()
+    _write_exr(tmp_path / "cut.exr", table.image[:-33], table.meta)
+    with pytest.raises(ValueError, match="does not match its header"):
+        read_runtime_table(tmp_path / "cut.exr")
+    with pytest.raises(ValueError, match="not a readable"):
+        read_runtime_table(tmp_path / "missing.exr")

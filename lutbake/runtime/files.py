@@ -1,6 +1,6 @@
 """The runtime table as files: one RGBA half EXR, a JSON sidecar, GLSL and HLSL includes.
 
-Image layout (docs/lut-format.md, "Runtime tables"): U_c(X, w) − W_c of transform.py, W_c = Ŵ_c(0) the
+Image layout (docs/engines.md, "Runtime table"): U_c(X, w) − W_c of transform.py, W_c = Ŵ_c(0) the
 channel's white (the table holds the departure from it: half floats keep ~11 bits of it, not of U). Tiles
 of NODES × NODES texels (columns Re w, scanlines Im w, both from −1 to 1); the tile of slice pair j
 (j = 0 … SLICES − 2) of channel c holds slices j and j + 1 as (Re, Im, Re, Im), so one bilinear read
@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..errors import ParameterError
 from ..fileset import open_set
 from ..fourier import NU0_PER_NM
 from ..lutfile import flat_attributes, shader_template
@@ -150,6 +149,10 @@ def read_runtime_table(path) -> RuntimeTable:
         raise ValueError(f"{str(path)!r} is not a readable lutbake runtime table") from None
     if meta.get("format") != RUNTIME_FORMAT or meta.get("format_version") != RUNTIME_FORMAT_VERSION:
         raise ValueError(f"{str(path)!r} is not a {RUNTIME_FORMAT} v{RUNTIME_FORMAT_VERSION} file")
+    t = meta.get("table", {})
+    expected = (3 * t.get("band_rows", 0) * t.get("nodes", 0), t.get("tiles_per_row", 0) * t.get("nodes", 0), 4)
+    if image.shape != expected or not np.isfinite(image).all():
+        raise ValueError(f"{str(path)!r}: its image does not match its header's table layout (or holds non-finite texels)")
     return RuntimeTable(meta, image.astype(np.float32))
 
 

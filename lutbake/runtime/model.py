@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .files import BAND_ROWS, TILES_PER_ROW, RuntimeTable, stored_table
+from .files import RuntimeTable, stored_table
 
 __all__ = ["runtime_colour", "runtime_rgb"]
 
@@ -80,8 +80,9 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     last = F(t["slices"] - 1)
     s = np.sqrt(np.minimum(x / F(t["x_max_nm"]), F(1))) * last
     j = np.minimum(np.floor(s), last - F(1))
-    row = np.floor(j / F(TILES_PER_ROW))
-    centre = ((j - row * F(TILES_PER_ROW) + F(0.5)) * F(t["nodes"]), (row + F(0.5)) * F(t["nodes"]))  # texels
+    tiles = F(t["tiles_per_row"])
+    row = np.floor(j / tiles)
+    centre = ((j - row * tiles + F(0.5)) * F(t["nodes"]), (row + F(0.5)) * F(t["nodes"]))  # texels
     return dict(c1=c1, g2=g2, em1=em1, beta=beta, xt=s - j, centre=centre)
 
 
@@ -119,9 +120,10 @@ def _bilinear(image, x, y, bits):
 
 def _read(table: RuntimeTable, film, w, band, bits):
     """V (re, im) of channel band ``band`` (an array or int) at table coordinate w, between the pair's slices."""
-    half = F(0.5 * (table.meta["table"]["nodes"] - 1))
+    t = table.meta["table"]
+    half = F(0.5 * (t["nodes"] - 1))
     x = film["centre"][0] + w[0] * half
-    y = film["centre"][1] + w[1] * half + np.asarray(band, F) * F(BAND_ROWS * table.meta["table"]["nodes"])
+    y = film["centre"][1] + w[1] * half + np.asarray(band, F) * F(t["band_rows"] * t["nodes"])
     v = _bilinear(table.image, x, y, bits)
     xt = film["xt"]
     return v[:, 0] + (v[:, 2] - v[:, 0]) * xt, v[:, 1] + (v[:, 3] - v[:, 1]) * xt
