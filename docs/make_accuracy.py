@@ -2,9 +2,12 @@
 
 Runs, through the command line, what a user would: `lutbake report` on each
 default LUT (5,000 held-out points, seed 0, and 5,000 more at each of seeds 1
-and 2 for a second look at the maximum) and `lutbake sweep` over the
-default domain for η2 = 1.5, then writes the tables into docs/accuracy.md,
-with where common bases (lutbake's named materials) fall in (η3, κ3) over 400–700 nm.
+and 2; each report searches the maximum with its own seed) and `lutbake sweep`
+over the default domain for η2 = 1.5, then writes the tables into
+docs/accuracy.md, with where common bases (lutbake's named materials) fall in
+(η3, κ3) over 400–700 nm. Through the Python API it adds the searched maximum
+outside the corner where the truth has no limit (report.corner_distance ρ ≥
+0.1 and 0.2) and the map of that corner (docs/accuracy/corner.png).
 """
 
 import json
@@ -17,6 +20,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "accuracy"
 POINTS = 5000
+CORNER_RADII = (0.1, 0.2)   # ρ of the neighbourhoods of the corner left out of the second searched max
 BASES = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr", "water", "SiO2", "TiO2")   # issue 13's metals, common dielectrics
 
 
@@ -54,10 +58,60 @@ def main():
         reports[lut.stem]["again"] = [json.loads(lutbake("report", str(lut.relative_to(ROOT)), "--points", str(POINTS),
                                                          "--seed", seed, "--no-approximations", "--json"))["lut_error"]
                                       for seed in ("1", "2")]
+        reports[lut.stem]["outside_corner"] = {r: searched_outside_corner(lut, r) for r in CORNER_RADII}
+    corner_map(sorted(p for p in (ROOT / "luts").glob("*.exr") if not p.stem.endswith("-metal")), OUT / "corner.png")
     lutbake("sweep", "--eta2", "1.5", "--out", str((OUT / "sweep").relative_to(ROOT)), "--points", "600")
     sweep = json.loads((OUT / "sweep" / "sweep.json").read_text())
     (ROOT / "docs" / "accuracy.md").write_text(render(reports, sweep, base_ranges()))
     print("wrote docs/accuracy.md")
+
+
+def searched_outside_corner(path, radius: float) -> dict:
+    """`report`'s searched max (seed 0, its 5,000 points and budget) with the corner's neighbourhood
+    ρ < ``radius`` left out (report.corner_distance)."""
+    from lutbake.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
+    from lutbake.sample import Lut
+
+    lut = Lut.load(path)
+    space, observer = lut.meta["space"], lut.meta["observer"]
+    pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, POINTS, 0)
+    de = score("lut", lut.sample(pts.stack), pts, space, observer).de00
+    found = search_max(lut.sample, lut, pts, de, proxy_truth(lut), SEARCH_BUDGET, 0,
+                       exclude=lambda stack: corner_distance(stack) < radius)
+    return {k: v for k, v in found.items() if k != "local_maxima"}
+
+
+def corner_map(paths, out_png, n: int = 64):
+    """ΔE00 of each dielectric LUT near the corner, over log cos θ1 and log D at η3 = η1, κ3 = 0 (a soap
+    film in air: the slice through the corner), with the contours ρ = 0.1 and 0.2."""
+    from matplotlib.figure import Figure
+
+    from lutbake.colorimetry import delta_e00
+    from lutbake.points import FilmPoints
+    from lutbake.reference import reference_colour
+    from lutbake.report import corner_distance
+    from lutbake.sample import Lut
+
+    cos_t, opd = np.meshgrid(np.logspace(-4, 0, n), np.logspace(-1, np.log10(3000.0), n))
+    fig = Figure(figsize=(4.8 * len(paths), 4.4), layout="constrained")
+    axes = fig.subplots(1, len(paths), squeeze=False)[0]
+    for a, path in zip(axes, paths):
+        lut = Lut.load(path)
+        stack = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(),
+                                 eta3=lut.eta1, kappa3=0.0)
+        de = delta_e00(lut.sample(stack), reference_colour(stack).values).reshape(n, n)
+        im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=10)
+        contours = a.contour(cos_t, opd, corner_distance(stack).reshape(n, n), levels=CORNER_RADII, colors="cyan",
+                             linewidths=1)
+        a.clabel(contours, fmt=lambda r: f"ρ = {r:g}", fontsize=8)
+        a.contour(cos_t, opd, de, levels=[1.0], colors="white", linewidths=0.8, linestyles="--")
+        a.set_xscale("log")
+        a.set_yscale("log")
+        a.set_xlabel("cos θ1")
+        a.set_title(f"{path.stem}: η3 = η1, κ3 = 0\nmax on this map {de.max():.1f}", fontsize=10)
+    axes[0].set_ylabel("D = 2·η2·d (nm)")
+    fig.colorbar(im, ax=list(axes), label="ΔE00 (clipped at 10; dashed: ΔE00 = 1)")
+    fig.savefig(out_png, dpi=90)
 
 
 def base_ranges() -> dict:
@@ -89,7 +143,54 @@ def _row(name, r):
             f"{r['de00_p99']:.2f} | {r['de00_max']:.2f} | {r['rgb_abs_max']:.1e} |")
 
 
-GOAL = {"de00_max": 1.0, "de00_p99": 0.3, "exr_bytes": 8 << 20}   # issue 13's target per default LUT
+GOAL = {"de00_max": 1.0, "de00_p99": 0.3, "exr_bytes": 8 << 20}   # issues 13 and 24's target per default LUT
+
+
+def _where(w) -> str:
+    return f"{w['cos_theta']:.3g}, {w['opd_nm']:.3g}, {w['eta3']:.4g}, {w['kappa3']:.3g}"
+
+
+def corner_section(reports) -> list:
+    """Where the maximum sits, and why the dielectric LUTs' is the corner's."""
+    dielectric = [n for n in reports if not n.endswith("-metal")]
+    outside = {r: max(reports[n]["outside_corner"][r]["de00_max"] for n in dielectric) for r in CORNER_RADII}
+    metal = {n: max([reports[n]["lut_error"]["de00_max"]] + [a["de00_max"] for a in reports[n]["again"]])
+             for n in reports if n.endswith("-metal")}
+    within = [n for n, v in metal.items() if v <= GOAL["de00_max"]]
+    over = {n: v for n, v in metal.items() if v > GOAL["de00_max"]}
+    metal_text = (f"their searched max over the whole domain is ≤ {max(metal[n] for n in within):.2f} at every seed for "
+                  + ", ".join(within) + "".join(
+                      f"; {n}'s is {v:.2f}, at {_where(reports[n]['lut_error']['worst_case'])} (cos θ1, D, η3, κ3): "
+                      "a film between a near-total reflection and a low-loss metal near grazing, whose resonances are "
+                      "sharp in D and κ3 alike, and the image's height (D × κ3 nodes) may not pass 4096 texels"
+                      for n, v in over.items()))
+    return [
+        "", "## Where the maximum sits", "",
+        "![ΔE00 near the corner of each dielectric LUT](accuracy/corner.png)", "",
+        "*ΔE00 of each dielectric LUT at η3 = η1, κ3 = 0 (a film in air: the slice through the corner), over",
+        "log cos θ1 and log D; dashed: ΔE00 = 1; cyan: ρ = " + " and ".join(f"{r:g}" for r in CORNER_RADII)
+        + " (`python docs/make_accuracy.py`).*", "",
+        "The dielectric LUTs reach the corner cos θ1 → 0, D → 0, η3 → η1, κ3 → 0, where the truth has no limit:",
+        "with Y1 = η1 cos θ1 and Y2, Y3 the film's and the base's admittances, the Airy reflectance tends to",
+        "|2(Y1 − Y3) + iφY2|² / |2(Y1 + Y3) − iφY2|² per polarization (φ the film's phase), a function of",
+        "their ratios only. Every neighbourhood of the corner holds every value — R = 0 with no film over a base",
+        "that matches the ambient, R = 1 at grazing — so every interpolated table, whatever its grid, is wrong",
+        "there by up to ΔE00 100, and the search finds it. (So does the exact runtime mode's: its series in",
+        "q = r21·r23·e^{iφ} converges slowly as |q| → 1 there; see its row in each dielectric LUT's table below",
+        "and where: `docs/accuracy/NAME/summary.json`.) ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2),",
+        "`lutbake.report.corner_distance`, measures the distance to the corner; the ratios vary across a grid",
+        "cell wherever ρ is comparable to the cell's size in them. The default dielectric LUTs take D on a √",
+        "spacing and κ3 on a ¼-power one, which bring their nodes towards the corner, and cubic reads are",
+        "clamped to the texels they read (no negative read where every texel is ≥ 0). Outside ρ < "
+        + f"{CORNER_RADII[-1]:g} — for a film over air: grazing beyond ~78°, D below ~60 nm, η3 within ~2 % of",
+        f"η1 and κ3 below ~0.02 together — their searched max is {outside[CORNER_RADII[-1]]:.2f}; outside ρ < "
+        f"{CORNER_RADII[0]:g} it is {outside[CORNER_RADII[0]]:.2f}. The metal LUTs do not reach the corner (κ3 ≥ 1.5):",
+        metal_text + ".",
+        "",
+        "Removing the corner needs what a separable grid cannot give: node coordinates for D and κ3 that follow",
+        "cos θ1, as η3's admittance spacings do, or the corner's limit form subtracted in the include and",
+        "only the smooth remainder stored. Neither is in format v4.",
+    ]
 
 
 def render(reports, sweep, bases):
@@ -140,34 +241,40 @@ def render(reports, sweep, bases):
         "Named materials are also what scene atlases serve exactly, wavelength by wavelength",
         "(`lutbake bake --scene`, [scene.md](scene.md)); the generic LUTs take one constant η3 + iκ3.",
         "",
-        f"Target per default LUT (issue 13): max ΔE00 ≤ {GOAL['de00_max']:g} and p99 ≤ {GOAL['de00_p99']:g}"
-        f" in ≤ {GOAL['exr_bytes'] >> 20} MiB of EXR.",
+        f"Target per default LUT (issues 13 and 24): searched max ΔE00 ≤ {GOAL['de00_max']:g} over the whole domain"
+        f" and p99 ≤ {GOAL['de00_p99']:g} in ≤ {GOAL['exr_bytes'] >> 20} MiB of EXR. `max` is searched, not the",
+        "largest of the held-out points ([reports.md](reports.md)): from the held-out points, the domain's corners",
+        "and edges, the places where the content is singular and a scatter near the worst of them, climbing",
+        "by compass steps; each seed's report searches with its own seed.",
         "",
-        "| LUT | shape | EXR MiB | p99 | max | target met | p99 / max at seeds 1 and 2 |",
-        "|---|---|---|---|---|---|---|",
+        "| LUT | shape | EXR MiB | p99 | searched max | where: cos θ1, D (nm), η3, κ3 | max at ρ ≥ "
+        + " / ".join(f"{r:g}" for r in CORNER_RADII) + " | target met | p99 / searched max at seeds 1 and 2 |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for name, rep in reports.items():
-        e = rep["lut_error"]
-        met = e["de00_max"] <= GOAL["de00_max"] and e["de00_p99"] <= GOAL["de00_p99"] and rep["exr_bytes"] <= GOAL["exr_bytes"]
+        e, w = rep["lut_error"], rep["lut_error"]["worst_case"]
+        largest = max([e["de00_max"]] + [a["de00_max"] for a in rep["again"]])
+        met = largest <= GOAL["de00_max"] and e["de00_p99"] <= GOAL["de00_p99"] and rep["exr_bytes"] <= GOAL["exr_bytes"]
         shape = " × ".join(f"{a['count']}{'' if a['spacing'] == 'uniform' else ' ' + a['spacing']}" for a in rep["axes"])
         again = ", ".join(f"{a['de00_p99']:.2f} / {a['de00_max']:.2f}" for a in rep["again"])
+        outside = (" / ".join(f"{rep['outside_corner'][r]['de00_max']:.2f}" for r in CORNER_RADII)
+                   if not name.endswith("-metal") else "— (ρ ≥ 1: κ3 ≥ 1.5)")
+        verdict = "yes" if met else ("no: the corner" if rep["outside_corner"][CORNER_RADII[-1]]["de00_max"]
+                                      <= GOAL["de00_max"] < largest else "no")
         lines.append(f"| {name} | {shape} | {rep['exr_bytes'] / (1 << 20):.2f} | {e['de00_p99']:.2f} | "
-                     f"{e['de00_max']:.2f} | {'yes' if met else 'no'} | {again} |")
-    over = [f"{name} ({max(a['de00_max'] for a in rep['again']):.2f})" for name, rep in reports.items()
-            if max(a["de00_max"] for a in rep["again"]) > GOAL["de00_max"]]
-    lines += ["", "The last column scores 5,000 other held-out points at each of seeds 1 and 2. "
-              + (f"There the maximum passes 1 on {', '.join(over)}: the target's maximum holds at seed 0's "
-                 "points but is not met everywhere."
-                 if over else "The target holds there too.")]
+                     f"{e['de00_max']:.2f} | {_where(w)} | {outside} | {verdict} | {again} |")
+    lines += ["", "The last column scores 5,000 other held-out points at each of seeds 1 and 2, each report searching",
+              "with its own seed. Target met means all three searched maxima are within 1."]
+    lines += corner_section(reports)
     lines += ["", "## The default LUTs (`lutbake bake --out luts`)", ""]
     for name, rep in reports.items():
         lines += [f"### {name}", "", "| method | mean | p50 | p95 | p99 | max | max abs ΔRGB |", "|---|---|---|---|---|---|---|",
                   _row("LUT (reference sampler)", rep["lut_error"])]
         lines += [_row(a["name"], a) for a in rep["approximations"]]
-        w = rep["worst_points"][0]
-        lines += ["", f"Worst LUT point: ΔE00 {w['de00']:.2f} at cos θ {w['cos_theta']:.4f}, D {w['opd_nm']:.0f} nm, "
-                  f"η3 {w['eta3']:.3f}, κ3 {w['kappa3']:.3f} ({w['kind']}). "
-                  f"[Report]({'accuracy/' + name + '/report.html'})", ""]
+        w = rep["lut_error"]["worst_case"]
+        lines += ["", f"Searched max: ΔE00 {w['de00_max']:.2f} at cos θ1, D, η3, κ3 = {_where(w)} ({w['found_by']}; "
+                  f"the held-out points' largest: {w['held_out_max']:.2f}). "
+                  f"[Report]({'accuracy/' + name + '/report.html'}), its ΔE00 maps through the searched max.", ""]
     lines += ["## Error against cost (η2 = 1.5, default domain)", "",
               "![p99 ΔE00 against bake time and bytes](accuracy/sweep/pareto.png)", "",
               "| variant | shape | p99 ΔE00 | bake (s) | bytes | ns/eval (numpy) |", "|---|---|---|---|---|---|"]

@@ -12,6 +12,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 from make_accuracy import bake_default_luts  # noqa: E402
+from make_scene_examples import bake_example  # noqa: E402
 LUT_CALL = "lutbake_sample(lut, {c}, cos_theta, 2.0 * {c}.eta2 * thickness_nm, {eta3}, {kappa3})"
 ATLAS_CALL = "lutbake_atlas_sample(lut, {c}, cos_theta, thickness_nm)"
 # (label, file without suffix, GLSL call, thickness range in nm)
@@ -32,6 +33,8 @@ SPHERES = [
 
 def main():
     bake_default_luts()
+    for scene in ("soap-bubble", "tempered-steel"):
+        bake_example(scene)
     spheres = [{"label": label, "exr": f"/{stem}.exr", "include": f"/{stem}.glsl", "sample": call,
                 "thickness": list(thickness)} for label, stem, call, thickness in SPHERES]
     out = ROOT / "docs" / "img" / "hero.png"

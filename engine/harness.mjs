@@ -1,7 +1,10 @@
 // Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
 // Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
+//        node engine/harness.mjs cost SPEC.json RESULT.json        (bench/bench_runtime_cost.py: shader wall times)
+//        node engine/harness.mjs dropin-cost SPEC.json RESULT.json (bench/bench_runtime_cost.py: the drop-in's)
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
 //        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/test_exact_engine.py)
+//        node engine/harness.mjs gltf SPEC.json RESULT.json               (tests/test_gltf_engine.py)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
@@ -12,7 +15,8 @@ import { chromium } from 'playwright-core';
 
 const ROOT = resolve(fileURLToPath(new URL('..', import.meta.url)));
 const CHROMIUM = process.env.LUTBAKE_CHROMIUM || '/usr/bin/chromium';
-const TYPES = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json' };
+const TYPES = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json',
+                '.gltf': 'model/gltf+json', '.png': 'image/png' };
 
 function serve() {
   const server = createServer((req, res) => {
@@ -27,7 +31,7 @@ function serve() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok(server)));
 }
 
-async function withPage(fn) {
+async function withPage(fn, pagePath = '/engine/page.html') {
   if (!existsSync(CHROMIUM)) throw new Error(`${CHROMIUM} not found: install Debian's chromium (apt-get install chromium)`);
   const server = await serve();
   const profile = mkdtempSync(join(tmpdir(), 'lutbake-chromium-'));
@@ -44,7 +48,7 @@ async function withPage(fn) {
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));
     page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.error(m.text()); });
-    await page.goto(`http://127.0.0.1:${server.address().port}/engine/page.html`);
+    await page.goto(`http://127.0.0.1:${server.address().port}${pagePath}`);
     await page.waitForFunction(() => window.lutbakeReady === true || null, null, { timeout: 30000 })
       .catch(() => { throw new Error(`page did not load: ${errors.join('; ')}`); });
     return await fn(page, errors);
@@ -62,16 +66,21 @@ function writeAtomic(path, data) {
   renameSync(tmp, path);
 }
 
+// Commands that hand a JSON spec to one page function and write its JSON result: [function, page].
+const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
+                gltf: ['lutbakeGltf', '/engine/gltf-page.html'] };
+
 const [command, input, output] = process.argv.slice(2);
-if (command === 'evaluate') {
-  const jobs = JSON.parse(readFileSync(input, 'utf8'));
+if (command in CALLS) {
+  const spec = JSON.parse(readFileSync(input, 'utf8'));
+  const [fn, pagePath] = CALLS[command];
   const result = await withPage(async (page, errors) => {
     try {
-      return await page.evaluate((j) => window.lutbakeEvaluate(j), jobs);
+      return await page.evaluate(([name, s]) => window[name](s), [fn, spec]);
     } catch (e) {
       throw new Error(`${e.message}\n${errors.join('\n')}`);
     }
-  });
+  }, pagePath);
   writeAtomic(output, JSON.stringify(result));
 } else if (command === 'view') {
   const spheres = JSON.parse(readFileSync(input, 'utf8'));
@@ -98,6 +107,6 @@ if (command === 'evaluate') {
   });
   writeAtomic(output, JSON.stringify(result));
 } else {
-  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png');
+  console.error('usage: node engine/harness.mjs evaluate|cost|dropin-cost SPEC.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png | gltf SPEC.json RESULT.json');
   process.exit(2);
 }

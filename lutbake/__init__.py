@@ -2,7 +2,9 @@
 
 Data flow, one module per stage: points/plan (spec, validate) → spectral,
 reference (ground truth) / integrate (kernel or numpy) → lutfile (EXR,
-sidecar, shader includes) → sample (reference sampler) → report.
+sidecar, shader includes) → sample (reference sampler) → report. Scenes:
+a source (scene_toml, gltf_scene) → scene (the model) → scene_plan (jobs)
+→ scene_jobs (slices, refine) → atlas (packing) → scene_bake (the file set).
 
 The public API is the names in ``__all__`` (docs/api.md). They load on first
 use, so ``import lutbake`` (and the command line's ``--help``) stays fast;
@@ -25,9 +27,10 @@ _API = {
     "Atlas": "sample",
     "report_lut": "report",
     "write_report": "report",
-    "load_scene": "scene",
-    "plan_scene": "scene",
-    "bake_scene": "atlas",
+    "load_scene": "scene_toml",
+    "load_gltf_scene": "gltf_scene",
+    "plan_scene": "scene_plan",
+    "bake_scene": "scene_bake",
     "run_checks": "check",
 }
 

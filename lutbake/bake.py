@@ -35,7 +35,7 @@ from .points import FilmPoints
 from .reference import reference_colour
 from .spectral import STENCIL_NODES
 
-__all__ = ["BakeResult", "bake", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
+__all__ = ["BakeResult", "bake", "bake_set", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
            "spectral_error"]
 
 _PROBES = 48
@@ -106,19 +106,21 @@ def default_specs(precision: str = "half") -> dict:
     Domains (docs/accuracy.md): ``lutbake-eta2-X`` covers η3 1–3, κ3 0–2 (glass, water, oxides,
     weak absorbers); ``lutbake-eta2-X-metal`` covers η3 0.02–4, κ3 1.5–9, where Au, Ag, Cu, Al, Fe,
     Ti and Cr fall over 400–700 nm. Splitting the base there lets each grid follow its own hard
-    corner. cos θ is warped in √ (Fresnel terms change fastest near grazing); read cubic.
-    Dielectric: η3 on the sqrt-admittance spacing (nodes crowd towards η3 = η1 at grazing, where a
-    film between two near-total reflections rings), κ3 in √, D uniform. Metals: D, η3 and κ3 in √
-    (thin films and the low-loss corner, where the film's resonances are sharpest). Counts from
-    measured error at 5,000 held-out points against the ground truth (docs/accuracy.md), under
-    8 MiB of EXR per LUT in half precision.
+    corner. cos θ is warped in √ (Fresnel terms change fastest near grazing); read cubic (clamped).
+    D is in √ and κ3 in ¼ power in both: nodes crowd towards thin films and low loss. Dielectric: η3 on
+    the sqrt-admittance spacing (nodes crowd towards η3 = η1 at grazing, where a film between two
+    near-total reflections rings): together they bring the nodes towards the corner cos θ1, D,
+    η3 − η1, κ3 → 0, where the truth has no limit and no grid is right (docs/accuracy.md). Metals: η3
+    in √ (the low-loss corner, where the film's resonances are sharpest). Counts from the searched
+    maximum and the p99 at 5,000 held-out points against the ground truth (docs/accuracy.md), under
+    8 MiB of EXR per LUT in half precision and 4096 texels a side (D × κ3 nodes ≤ 4096 rows).
 
     Examples
     --------
     >>> import lutbake
     >>> specs = lutbake.default_specs()
     >>> list(specs)[:2], specs["lutbake-eta2-1.33"].shape, specs["lutbake-eta2-1.33-metal"].axes[2].lo
-    (['lutbake-eta2-1.33', 'lutbake-eta2-1.33-metal'], (44, 144, 20, 18), 0.02)
+    (['lutbake-eta2-1.33', 'lutbake-eta2-1.33-metal'], (44, 128, 22, 20), 0.02)
     """
     specs = {}
     for eta2 in _DIELECTRIC_COUNTS:
@@ -129,19 +131,21 @@ def default_specs(precision: str = "half") -> dict:
     return specs
 
 
-# Node counts per film, cos θ × D × η3 × κ3
-_DIELECTRIC_COUNTS = {1.33: (44, 144, 20, 18), 1.5: (36, 144, 20, 18), 2.0: (36, 144, 20, 18)}
-_METAL_COUNTS = {1.33: (32, 192, 18, 21), 1.5: (32, 192, 18, 21), 2.0: (32, 192, 18, 21)}
+# Node counts per film, cos θ × D × η3 × κ3: thinner films (η2 1.33) need more cos θ nodes at normal
+# incidence, where a thick film's phase turns with cos θ1 as 1/η2²; η2 2.0 over metals needs D and κ3
+# at the low-loss corner near grazing (docs/accuracy.md).
+_DIELECTRIC_COUNTS = {1.33: (44, 128, 22, 20), 1.5: (36, 136, 24, 22), 2.0: (36, 136, 24, 22)}
+_METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (28, 160, 16, 25)}
 
 
 def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
-    return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd),
-            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance"), Axis("kappa3", 0.0, 2.0, n_kappa3, "sqrt"))
+    return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
+            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance"), Axis("kappa3", 0.0, 2.0, n_kappa3, "root4"))
 
 
 def _metal_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
     return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
-            Axis("eta3", 0.02, 4.0, n_eta3, "sqrt"), Axis("kappa3", 1.5, 9.0, n_kappa3, "sqrt"))
+            Axis("eta3", 0.02, 4.0, n_eta3, "sqrt"), Axis("kappa3", 1.5, 9.0, n_kappa3, "root4"))
 
 
 def _probe_points(spec: BakeSpec) -> FilmPoints:
@@ -246,7 +250,8 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     backend : str
         'auto' (OpenCL, else numpy with a warning), 'opencl' or 'numpy'.
     on_band : callable, optional
-        ``on_band(rows_done, rows_total)`` after each band of image rows.
+        ``on_band(rows_done, rows_total)`` after each band of image rows (and with 0 rows first, before
+        the spectral rule's error is measured).
     chunk_cells : int, optional
         Texels per kernel launch (memory bound); default from the plan.
     integrator : str
@@ -271,10 +276,39 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     ['oxide.exr', 'oxide.glsl', 'oxide.hlsl', 'oxide.json']
     """
     out_path = Path(out_path)
-    spec.check_budget(memory_limit_gib, backend, integrator)
-    _check_writable(out_path)
-    with open_set(out_path.parent, out_path.name) as files:
-        return write_lut(spec, out_path, files, backend, on_band, chunk_cells, integrator, device, memory_limit_gib)
+    job = (out_path, spec, {"on_band": on_band, "chunk_cells": chunk_cells})
+    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device)[0]
+
+
+def bake_set(jobs, set_name: str, backend: str = "auto", memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+             integrator: str = "series", device=None) -> list:
+    """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
+    committed together or, when any bake fails or is interrupted, none is (fileset.py).
+
+    Parameters
+    ----------
+    jobs : list of (out_path, BakeSpec, dict)
+        The EXR to write, its spec, and ``on_band``/``chunk_cells`` for it (see ``bake``); one folder.
+    set_name : str
+        The set's name in its commit journal (``.SET_NAME.commit``).
+    backend, memory_limit_gib, integrator, device
+        As for ``bake``; every spec's budget and output path are checked before any work.
+
+    Returns
+    -------
+    list of BakeResult
+        In the order of ``jobs``.
+    """
+    folders = {Path(path).parent for path, _, _ in jobs}
+    if len(folders) != 1:
+        raise ValueError(f"a file set lives in one folder; these LUTs go to {len(folders)}")
+    for path, spec, _ in jobs:
+        spec.check_budget(memory_limit_gib, backend, integrator)
+        _check_writable(Path(path))
+    with open_set(folders.pop(), set_name) as files:
+        return [write_lut(spec, Path(path), files, backend, integrator=integrator, device=device,
+                          memory_limit_gib=memory_limit_gib, **options)
+                for path, spec, options in jobs]
 
 
 def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
@@ -284,6 +318,8 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     the memory budget is checked again with the runtime's resident memory as measured."""
     start = time.perf_counter()
     path = integrator
+    if on_band:
+        on_band(0, spec.image_size[1])
     integrator = make_backend(backend, spec.compute, integrator, device)
     runtime = resident_bytes()
     spec.check_budget(memory_limit_gib, integrator.name, path, runtime)

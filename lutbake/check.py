@@ -26,6 +26,10 @@ __all__ = ["CheckResult", "run_checks"]
 SPECTRAL_TOLERANCE = 1e-5   # the ladder's design target (spectral.RuleLadder)
 IDENTITY_TOLERANCE = 1e-9
 FLOAT32_TOLERANCE = 2e-5
+CAPPED_TOLERANCE = 1e-4     # past the node cap: the measured error a bake accepts without a warning
+INCOHERENT_TOLERANCE = 2e-5  # D = 100 µm against the incoherent limit: measured 7.2e-6 (fringes 2 nm apart)
+# Every tolerance is below 2e-4 in RGB (0.2 ΔE00 on mid grey): an answer that far off fails every case
+# (tests/test_stability.py builds one and checks that it does).
 
 
 @dataclass
@@ -135,7 +139,7 @@ def _thick_films(paths):
     limit = _incoherent_limit(1.0, 1.5, 1.0, 0.0, 0.8)
     truth, _ = paths.truth(1.0, 1.5, 0.8, 100000.0, 1.0, 0.0)
     out.append(CheckResult(g, "D = 100 µm tends to the incoherent limit (ground truth)", float(truth[0, 1]),
-                           float(limit), float(np.max(np.abs(truth - limit))), 2e-3,
+                           float(limit), float(np.max(np.abs(truth - limit))), INCOHERENT_TOLERANCE,
                            "fringes 2 nm apart average out under the CMFs"))
     return out
 
@@ -198,7 +202,9 @@ def _float32(paths):
 def _truncation(paths):
     """The ladder's cap is the spectral integral's truncation: below it the
     error target holds; beyond it the estimate the bake records must bound
-    the actual error."""
+    the actual error where it says something, and the error must stay below
+    the level a bake accepts for its capped texels where it does not (the
+    a-priori bound reaches 1 far past the cap: it holds for any answer)."""
     g = "truncation"
     spec = _spec(2.0)
     out = []
@@ -209,8 +215,9 @@ def _truncation(paths):
         estimate = float(spec.truncation_estimate(*params)[0])
         result = _vs_truth(paths, g, label, stack, f"{spec.ladder.counts[level]} nodes")
         if estimate > 0:
-            result.tolerance = estimate
-            result.note += f"; the bound the bake records: {estimate:.1e}"
+            result.tolerance = min(estimate, CAPPED_TOLERANCE)
+            result.note += (f"; the bound the bake records: {estimate:.1e}"
+                            + ("" if estimate <= CAPPED_TOLERANCE else f", held to {CAPPED_TOLERANCE:g} instead"))
         out.append(result)
     return out
 

@@ -6,18 +6,21 @@ stderr naming the value and what is allowed; nothing written).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
 
-from .signals import interrupted_at_start_up, raise_interrupt, set_handler
+from .signals import STOP_SIGNALS, exit_status, interrupted_at_start_up, message, raise_interrupted, set_handler
 
-set_handler(signal.SIGINT, interrupted_at_start_up)  # until main() runs
+for _signum in STOP_SIGNALS:
+    set_handler(_signum, interrupted_at_start_up)  # until main() runs
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 
+from .errors import OpenCLUnavailable  # noqa: E402
 from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES  # noqa: E402
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
@@ -36,23 +39,23 @@ def main(argv=None):
     The context is driven directly rather than through ``cli.main``, which maps a
     closed pipe to exit 1; a reader that stops early is not a failure here (exit 0).
     """
-    set_handler(signal.SIGINT, signal.default_int_handler)
-    set_handler(signal.SIGTERM, raise_interrupt)  # unwind like Ctrl-C: half-written sets are discarded
+    for signum in STOP_SIGNALS:  # unwind like Ctrl-C: half-written sets are discarded (signals.py)
+        set_handler(signum, raise_interrupted)
     args = sys.argv[1:] if argv is None else list(argv)
     try:
         with cli.make_context("lutbake", args) as ctx:
             rv = cli.invoke(ctx)
-        sys.stdout.flush()
+        _flush(sys.stdout)
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
-    except (click.exceptions.Abort, KeyboardInterrupt):
+    except (click.exceptions.Abort, KeyboardInterrupt) as exc:
         # Files were cleaned up as the exception unwound. Leave without interpreter finalization:
         # an interrupt that landed inside a library's import can make Python re-raise SIGINT at exit
         # (seen: killed by SIGINT instead of exit 130 when Ctrl-C hit matplotlib's first start-up).
-        click.echo("\nlutbake: interrupted", err=True)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(130)
+        click.echo("\n" + message(getattr(exc, "signum", signal.SIGINT)), err=True)
+        _flush(sys.stdout)
+        _flush(sys.stderr)
+        os._exit(exit_status(exc))
     except click.exceptions.NoArgsIsHelpError as exc:  # bare `lutbake`: the help, not an error line
         click.echo(exc.ctx.get_help())
         sys.exit(0)
@@ -67,7 +70,16 @@ def main(argv=None):
     except (ValueError, OSError) as exc:
         BadInput(_in_flags(exc)).show()
         sys.exit(EXIT_BAD_INPUT)
+    except OpenCLUnavailable as exc:  # --backend opencl (or --fast with it) where no device runs the kernel
+        BadInput(f"OpenCL cannot run the kernel here ({exc}): use --backend auto or numpy").show()
+        sys.exit(EXIT_BAD_INPUT)
     sys.exit(rv or 0)
+
+
+def _flush(stream) -> None:
+    """Flush ``stream`` unless it is closed (`lutbake inspect X >&-`: Python then sets it to None)."""
+    if stream is not None:
+        stream.flush()
 
 
 # The library's parameter names (errors.ParameterError) as this command line spells them.
@@ -75,7 +87,7 @@ FLAG_OF_PARAMETER = {
     "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta1": "--eta1", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
     "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
     "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
-    "tolerance": "--tolerance", "max_terms": "--max-terms",
+    "tolerance": "--tolerance", "max_terms": "--max-terms", "blender": "--blender", "exact": "--exact",
 }
 
 
@@ -89,7 +101,7 @@ def _in_flags(exc: Exception) -> str:
 def _quiet_broken_pipe():
     """The reader went away (`lutbake inspect X | head -1`): not an error. Point stdout at
     /dev/null so the interpreter's final flush does not fail again."""
-    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
 
 
 def _print_version(ctx, param, value):
@@ -125,9 +137,14 @@ def progress_meter(label, quiet, force_progress):
     """The Meter for a command's progress flags (conflicting flags are refused)."""
     from .progress import meter
 
+    return meter(label, show_progress(quiet, force_progress))
+
+
+def show_progress(quiet, force_progress):
+    """progress.meter's ``show`` for the flags: False, True, or None (on a terminal only)."""
     if quiet and force_progress:
         raise BadInput("--quiet and --progress contradict each other: give one")
-    return meter(label, False if quiet else (True if force_progress else None))
+    return False if quiet else (True if force_progress else None)
 
 
 def point_options(f, named=True):
@@ -170,24 +187,34 @@ def _refuse_conflicts(flags, conflicts):
             raise BadInput(f"--{a.replace('_', '-')} cannot be combined with --{b}: {why}")
 
 
-def build_points(points_csv, **flags):
+def build_points(points_csv, defaults=None, **flags):
+    """FilmPoints from the point flags and --points CSV; ``defaults`` (a LUT's or material's film) fill
+    what neither gives."""
     from .points import FilmPoints
 
     _refuse_conflicts(flags, _POINT_CONFLICTS)
     given = {k: v for k, v in flags.items() if v is not None}
     if points_csv:
-        return FilmPoints.from_csv(_read_points(points_csv), **given)
-    return FilmPoints.build(**given)
+        with _open_points(points_csv) as stream:
+            return FilmPoints.from_csv(stream, defaults, **given)
+    return FilmPoints.build(**{**(defaults or {}), **given})
 
 
-def _read_points(points_csv) -> str:
+@contextlib.contextmanager
+def _open_points(points_csv):
+    """The --points CSV as a binary stream (stdin for '-'), read line by line by points.read_csv_columns."""
     if points_csv == "-":
-        return sys.stdin.read()
+        if sys.stdin is None:
+            raise BadInput("--points -: stdin is closed: pipe a CSV in or give a file")
+        yield sys.stdin.buffer
+        return
     try:
-        return Path(points_csv).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        why = getattr(exc, "strerror", None) or "not UTF-8 text"
-        raise BadInput(f"--points {points_csv!r} cannot be read ({why}): give a CSV file or '-' for stdin") from None
+        stream = open(points_csv, "rb")
+    except OSError as exc:
+        raise BadInput(f"--points {points_csv!r} cannot be read ({exc.strerror}): give a CSV file or '-' for "
+                       "stdin") from None
+    with stream:
+        yield stream
 
 
 def echo_json(doc):
@@ -357,10 +384,20 @@ def _default_axis(axis, eta1: float):
     return axis
 
 
+def scene_source_options(f):
+    """--gltf and --metal-mapping: a glTF asset as the scene's source (docs/gltf.md)."""
+    f = click.option("--metal-mapping", default=None, metavar="fitted|threejs|FILE.json",
+                     help="With --gltf: how a metal's base colour becomes η3 + iκ3 (default fitted; a JSON file "
+                          "names a lutbake material per glTF material).")(f)
+    return click.option("--gltf", type=click.Path(dir_okay=False), default=None,
+                        help="glTF asset (.gltf/.glb): bake what its KHR_materials_iridescence materials need.")(f)
+
+
 @cli.command("bake")
 @domain_options
 @click.option("--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML): bake what it needs into --out DIR.")
-@click.option("--force", is_flag=True, help="With --scene: recompute every slice and LUT.")
+@scene_source_options
+@click.option("--force", is_flag=True, help="With --scene or --gltf: recompute every slice and LUT.")
 @click.option("--out", "out", type=click.Path(), default=None,
               help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).")
 @click.option("--film", "named_film", hidden=True)
@@ -370,8 +407,8 @@ def _default_axis(axis, eta1: float):
 @click.option("--max-memory-gib", type=click.FloatRange(0.5, 4096), default=8.0, show_default=True,
               help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).")
 def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, precision, interpolation, compute,
-             method, samples_per_cycle, backend, scene, force, out, named_film, named_base, quiet, force_progress, as_json,
-             max_memory_gib):
+             method, samples_per_cycle, backend, scene, gltf, metal_mapping, force, out, named_film, named_base, quiet,
+             force_progress, as_json, max_memory_gib):
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
     Without --eta2, bakes the default LUT set into a folder. Named materials
@@ -384,13 +421,17 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         raise BadInput(f"bake has no {flag}: a LUT bakes constant indices (--eta2, --eta3 A:B:N); named materials "
                        f"are baked through a scene manifest: lutbake bake --scene FILE.toml --out DIR (docs/scene.md)")
     axis_flags = {"--eta2": eta2, "--cos-theta": cos_theta, "--opd": opd_nm, "--eta3": eta3, "--kappa3": kappa3}
-    if scene:
+    if scene or gltf:
         given = [f for f, v in axis_flags.items() if v is not None]
         if given:
-            raise BadInput(f"{given[0]} cannot be combined with --scene: the scene manifest sets films and axes")
-        return _bake_scene(scene, out, force, backend, as_json, progress_meter("bake scene", quiet, force_progress))
+            flag = "--scene" if scene else "--gltf"
+            raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
+        return _bake_scene(load_scene_source(scene, gltf, metal_mapping), out, force, backend, as_json,
+                           progress_meter("bake scene", quiet, force_progress))
     if force:
-        raise BadInput("--force applies to --scene bakes only (a LUT bake always recomputes)")
+        raise BadInput("--force applies to --scene and --gltf bakes only (a LUT bake always recomputes)")
+    if metal_mapping is not None:
+        raise BadInput("--metal-mapping applies to --gltf only")
     flags = dict(eta2=eta2, eta1=eta1, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3,
                  space=space, observer=observer, precision=precision, interpolation=interpolation,
                  compute=compute, method=method, samples_per_cycle=samples_per_cycle)
@@ -408,13 +449,13 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
                 for name, spec in default_specs(precision or "half").items()]
         for _, spec in jobs:
             spec.check_budget(max_memory_gib)
-        _make_folder(folder)
+        _make_folder(folder)   # then bake_set checks every member's path before any work
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
         jobs = [(Path(out), domain_spec(**flags))]
-    results = [_bake_one(path, spec, backend, progress_meter(f"baking {path.name}", quiet, force_progress),
-                         max_memory_gib) for path, spec in jobs]
+    set_name = "lutbake-default-set" if eta2 is None else jobs[0][0].name
+    results = _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib)
     summary = [_bake_summary(r) for r in results]
     if as_json:
         echo_json({"luts": summary})
@@ -431,18 +472,33 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
         click.echo(f"default LUT set in {jobs[0][0].parent}/")
 
 
-def _bake_scene(scene_path, out, force, backend, as_json, meter):
-    from .atlas import bake_scene, check_scene_outputs
-    from .scene import load_scene
+def load_scene_source(scene_path, gltf, metal_mapping):
+    """The scene model from exactly one source, a scene file (TOML) or a glTF asset; the glTF
+    mapping's warnings go to stderr, one line each."""
+    if bool(scene_path) == bool(gltf):
+        raise BadInput("give exactly one of --scene FILE.toml or --gltf ASSET.gltf|.glb")
+    if scene_path:
+        if metal_mapping is not None:
+            raise BadInput("--metal-mapping applies to --gltf only")
+        from .scene_toml import load_scene
+
+        return load_scene(scene_path)
+    from .gltf_scene import load_gltf_scene
+
+    scene = load_gltf_scene(gltf, metal_mapping or "fitted")
+    for line in scene.source["asset_warnings"] + [w for r in scene.source["materials"] for w in r["warnings"]]:
+        click.echo(f"lutbake: warning: {scene.file_name}: {line}", err=True)
+    return scene
+
+
+def _bake_scene(scene, out, force, backend, as_json, meter):
+    from .scene_bake import bake_scene
 
     if out is None:
-        raise BadInput("--out DIR is required with --scene")
+        raise BadInput("--out DIR is required with --scene or --gltf")
     if Path(out).suffix.lower() == ".exr":
         raise BadInput(f"--out {out!r}: a scene bakes into a folder")
-    scene = load_scene(scene_path)
-    check_scene_outputs(Path(out), scene)
-    _make_folder(Path(out))
-    result = bake_scene(scene, out, force, backend, meter)
+    result = bake_scene(scene, out, force, backend, meter)  # checks every output before it makes the folder
     meter.close("up to date" if result.up_to_date else "done")
     doc = {"out": str(result.out_dir), "up_to_date": result.up_to_date, "computed": result.computed,
            "reused": result.reused, "written": [str(p) for p in result.written], "seconds": result.seconds,
@@ -450,9 +506,9 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
     if as_json:
         echo_json(doc)
     elif result.up_to_date:
-        click.echo(f"{scene_path}: up to date in {out}/ (nothing written)")
+        click.echo(f"{scene.path}: up to date in {out}/ (nothing written)")
     else:
-        click.echo(f"{scene_path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+        click.echo(f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
                    f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
     if result.unmet:
         reached = ", ".join(f"{name} p99 ΔE00 {p99:.3f}" for name, p99 in result.unmet.items())
@@ -463,32 +519,41 @@ def _bake_scene(scene_path, out, force, backend, as_json, meter):
 
 
 @cli.command("plan")
-@click.option("--scene", "scene_path", type=click.Path(dir_okay=False), required=True,
+@click.option("--scene", "scene_path", type=click.Path(dir_okay=False), default=None,
               help="Scene manifest (TOML) to plan.")
+@scene_source_options
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
-def plan_cmd(scene_path, as_json):
-    """What `bake --scene` would bake: slices, axes, counts, bytes, and time (bakes nothing).
+def plan_cmd(scene_path, gltf, metal_mapping, as_json):
+    """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
     rate measured now, here; the grids themselves go through the bake's integrator.
     """
     from .progress import format_seconds
-    from .scene import load_scene, plan_scene, truth_rate
+    from .scene_plan import plan_scene, truth_rate
 
-    plan = plan_scene(load_scene(scene_path))
+    scene = load_scene_source(scene_path, gltf, metal_mapping)
+    plan = plan_scene(scene)
     rate = truth_rate(plan)
     doc = plan.describe(rate)
     doc["seconds_per_truth_point"] = rate
+    if gltf:
+        from .gltf_scene import material_rows
+
+        doc["gltf_materials"] = material_rows(scene, plan)
     if as_json:
         echo_json(doc)
         return
     s = doc["settings"]
-    click.echo(f"{scene_path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
+    click.echo(f"{scene.path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
                f"target p99 ΔE00 ≤ {s['max_de']:g}")
     for job in doc["jobs"]:
         shape = " × ".join(str(c) for c in job["counts"])
         click.echo(f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
                    f"{job['bytes_start']} bytes, ~{format_seconds(job['truth_seconds_estimate'])} of ground truth")
+    for row in doc.get("gltf_materials", []):
+        served = row["slice"] or row["lut"] or f"nothing: {row['why_not']}"
+        click.echo(f"  glTF material {row['gltf_index']} {row['name']!r}: {served}")
     total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
     click.echo(f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
                f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes")
@@ -506,24 +571,30 @@ def _make_folder(folder: Path):
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early
 
 
-def _bake_one(path, spec, backend, meter, max_memory_gib):
-    """Bake one LUT, band by band; ``meter`` shows rows done and the ETA from the measured rate."""
-    from .bake import bake
+def _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib):
+    """Bake (path, spec) jobs as one file set (all committed or none), band by band; a progress line per
+    LUT shows rows done and the ETA from the measured rate."""
+    from .bake import bake_set
+    from .progress import meter as make_meter
 
-    width, height = spec.image_size
-    rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
-    done = 0
+    show = show_progress(quiet, force_progress)
 
-    def on_band(rows, total):
-        nonlocal done
-        done += rows
-        meter(done, total, "rows")
+    def options(path, spec):
+        width, height = spec.image_size
+        rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
+        meter, done = None, 0
 
-    meter(0, height, "measuring the spectral rule's error at probe cells")
-    result = bake(spec, path, backend, on_band=on_band, chunk_cells=rows_per_band * width,
-                  memory_limit_gib=max_memory_gib)
-    meter.close()
-    return result
+        def on_band(rows, total):  # called with 0 rows when this LUT's bake starts: its clock starts then
+            nonlocal meter, done
+            meter = meter or make_meter(f"baking {path.name}", show)
+            done += rows
+            meter(done, total, "rows" if done else "measuring the spectral rule's error at probe cells")
+            if done == total:
+                meter.close()
+
+        return {"on_band": on_band, "chunk_cells": rows_per_band * width}
+
+    return bake_set([(path, spec, options(path, spec)) for path, spec in jobs], set_name, backend, max_memory_gib)
 
 
 def _bake_summary(result):
@@ -562,6 +633,66 @@ def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_js
     click.echo(f"wrote {out} ({table['texels']} texels, step {table['step_nm']:g} nm to {table['x_max_nm']:g} nm, "
                f"{precision}; interpolation ≤ {meta['error']['interpolation_bound']:.1e}, "
                f"storage ≤ {meta['error']['storage_max']:.1e}) with .json, .glsl, .hlsl")
+
+
+@cli.command("runtime-table")
+@colour_options
+@click.option("--out", "out", type=click.Path(), required=True, help="FILE.exr (with FILE.json, .glsl, .hlsl).")
+@click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
+def runtime_table_cmd(space, observer, out, as_json):
+    """Write the runtime table and its includes: any film, any base, 6 bilinear reads per pixel.
+
+    Shaders call lutbake_iridescence(table, cos θ, d, η1, η2, η3, κ3) or lutbake_iridescence_rgb(…, η3
+    and κ3 per channel): the film's linear RGB Fresnel term (docs/engines.md).
+    """
+    from .runtime import write_runtime_table
+
+    meta = write_runtime_table(out, observer, space)
+    if as_json:
+        echo_json(meta)
+        return
+    table = meta["table"]
+    click.echo(f"wrote {out} ({table['width']}×{table['height']} RGBA half texels, {table['slices']} slices of "
+               f"{table['nodes']}² to X {table['x_max_nm']:g} nm) with .json, .glsl, .hlsl")
+
+
+@cli.command("blender")
+@click.argument("manifest", type=click.Path(dir_okay=False), required=False)
+@click.option("--out", "out", type=click.Path(), required=True, help="LIB.blend: the node groups and materials.")
+@click.option("--exact", type=click.Path(dir_okay=False), default=None,
+              help="An exact-table EXR: add material 'lutbake exact' (OSL, Cycles), any film and base.")
+@click.option("--blender", default=None, help="A Blender executable, or a Python with bpy "
+              "(default: $LUTBAKE_BLENDER, then blender on PATH).")
+@click.option("--link", is_flag=True, help="Reference the EXRs by relative path instead of packing them.")
+@click.option("--verify", is_flag=True, help="Render every material in Cycles at probe angles; exit 1 if "
+              "any differs from `lutbake sample` (the exact mode: its float64 evaluation) by more than 1e-3.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
+def blender_cmd(manifest, out, exact, blender, link, verify, as_json):
+    """Node groups that render a scene bake in Blender (Cycles and EEVEE): docs/blender.md."""
+    from .blender import BlenderError, verify_exact, verify_library, write_library
+
+    try:
+        doc = write_library(manifest, out, blender, pack=not link, exact=exact)
+        checks = {"verify": lambda: verify_library(manifest, out, doc["blender"]) if manifest else None,
+                  "verify_exact": lambda: verify_exact(out, exact, doc["blender"]) if exact else None}
+        doc.update({key: check() for key, check in checks.items()} if verify else {})
+    except BlenderError as exc:
+        click.echo(f"lutbake: error: {exc}", err=True)
+        return EXIT_GATE
+    verified = [doc[k] for k in ("verify", "verify_exact") if doc.get(k)]
+    if as_json:
+        echo_json(doc)
+    else:
+        if doc["groups"]:
+            click.echo(f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "
+                       f"working colour space {doc['working_space']} (a file that appends them must use it too)")
+        if doc["exact_material"]:
+            click.echo(f"wrote {out}: material {doc['exact_material']!r} (OSL: Cycles with Open Shading Language on) "
+                       f"reading {exact}")
+        for v in verified:
+            click.echo(f"{v['engine']} at {v['points']} probes: max |ΔRGB| {v['max_abs_rgb']:.1e} against lutbake "
+                       f"({'within' if v['ok'] else 'ABOVE'} {v['tolerance']:g})")
+    return EXIT_GATE if not all(v["ok"] for v in verified) else 0
 
 
 @cli.command("inspect")
@@ -652,10 +783,8 @@ def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, *
     if filter_bits is not None and interpolation == "cubic":
         raise BadInput(f"--filter-bits {filter_bits} applies to linear reads; {lut!r} is read cubic "
                        f"(texel reads without filtering): add --interpolation linear")
-    for name, value in (("eta1", table.eta1), ("eta2", table.eta2)):
-        if flags.get(name) is None:  # the LUT's film unless given (Lut.sample refuses another)
-            flags[name] = value
-    points = build_points(points_csv, **flags)
+    # the LUT's film unless given (Lut.sample refuses another)
+    points = build_points(points_csv, {"eta1": table.eta1, "eta2": table.eta2}, **flags)
     rgb = table.sample(points, filter_bits, interpolation)
     inside = table.in_domain(points)
     opd = points.opd_nm
@@ -698,7 +827,7 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
     if given:
         raise BadInput(f"--{given[0].replace('_nm', '')} is not allowed with a scene atlas: the material "
                        f"{material!r} fixes it; give --thickness and --angle/--cos-theta")
-    points = build_points(points_csv, **{**flags, **atlas.film_stack(material)})
+    points = build_points(points_csv, atlas.film_stack(material), **flags)
     rgb = atlas.sample(material, points, filter_bits)
     inside = atlas.in_domain(material, points)
     rows = [{"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
@@ -718,22 +847,31 @@ def _sample_atlas(path, atlas, material, points_csv, filter_bits, as_json, flags
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), help="Folder for report.html, PNGs, summary.json.")
 @click.option("--max-de", type=float, default=None, help="Gate: exit 1 when p99 ΔE00 exceeds this.")
 @click.option("--no-approximations", is_flag=True, help="Skip the engine-approximation rows.")
+@click.option("--search-budget", type=click.IntRange(100, 10_000_000), default=None,
+              help="Evaluations of each row's worst-case search (its max is searched over the whole domain); "
+                   "default 20000 for a LUT, 2000 per slice of a scene atlas (searched against the ground truth).")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON document.")
 @progress_options
-def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json, quiet, force_progress):
-    """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points."""
-    from .report import gate, report_lut, write_report
+def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_budget, as_json, quiet, force_progress):
+    """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points, max searched."""
+    from .report import REPORT_FILES, SEARCH_BUDGET, SLICE_SEARCH_BUDGET, gate, report_lut, write_report
     from .sample import Atlas, load_table
 
     if max_de is not None and not max_de > 0:
         raise BadInput(f"--max-de {max_de!r} is not allowed: must be a number > 0")
+    if out_dir:
+        refuse_overwriting_inputs({"LUT": lut}, [Path(out_dir) / name for name in REPORT_FILES])
+    if Path(lut).suffix.lower() == ".json":  # a glTF bake's manifest: one receipt per glTF material
+        return _gltf_receipts(lut, n_points, seed, out_dir, as_json)
     table = load_table(lut)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
     if isinstance(table, Atlas):
-        summary = gate(_atlas_summary(table, lut, n_points, seed, out_dir), max_de)
+        summary = gate(_atlas_summary(table, lut, n_points, seed, out_dir, search_budget or SLICE_SEARCH_BUDGET),
+                       max_de)
         rows = summary["slices"]
     else:
-        rep = report_lut(lut, n_points, seed, approximations=not no_approximations, progress=meter)
+        rep = report_lut(lut, n_points, seed, approximations=not no_approximations, progress=meter,
+                         search_budget=search_budget or SEARCH_BUDGET)
         summary = (write_report(rep, out_dir, max_de=max_de, progress=meter) if out_dir
                    else gate(rep.summary(), max_de))
         rows = summary["approximations"]
@@ -744,9 +882,16 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
         echo_json(summary)
     else:
         _print_error_rows([summary["lut_error"]] + rows, summary)
-        for w in summary.get("worst_points", [])[:1]:
-            click.echo(f"worst: ΔE00 {w['de00']:.3f} at cos_theta={w['cos_theta']:.4f} opd_nm={w['opd_nm']:.1f} "
-                       f"eta3={w['eta3']:.3f} kappa3={w['kappa3']:.3f} ({w['kind']})")
+        if summary.get("runtime_paths"):
+            from .runtime.costs import cost_table_text
+
+            click.echo(cost_table_text(summary["runtime_paths"]))
+        worst = summary["lut_error"]["worst_case"]
+        where = " ".join(f"{k}={worst[k]:.5g}" for k in ("cos_theta", "opd_nm", "thickness_nm", "eta3", "kappa3")
+                         if k in worst)
+        click.echo(f"max is searched over the whole domain ({worst['budget']} evaluations a row); the largest: "
+                   f"ΔE00 {worst['de00_max']:.3f} at {where} ({worst['found_by']}; the held-out points' largest "
+                   f"{worst['held_out_max']:.3f})")
         if out_dir:
             click.echo(f"report in {out_dir}/{'summary.json' if isinstance(table, Atlas) else 'report.html'}")
         if max_de is not None:
@@ -755,17 +900,53 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, as_json,
     return EXIT_GATE if gate_failed else 0
 
 
-def _atlas_summary(atlas, path, n_points, seed, out_dir) -> dict:
+def _gltf_receipts(manifest, n_points, seed, out_dir, as_json):
+    """`report OUT/ASSET.json`: the receipts of a glTF bake (receipt.py), as JSON and HTML in --out."""
+    from .receipt import gltf_receipts, write_receipts
+
+    receipts = gltf_receipts(manifest, min(n_points, 1000), seed)
+    if out_dir:
+        write_receipts(receipts, out_dir)
+    if as_json:
+        echo_json(receipts)
+        return 0
+    for r in receipts["materials"]:
+        costs = "; ".join(f"{part}: baked p99 {p['de00']['baked']['de00_p99']:.2f}, three.js p99 "
+                          f"{p['de00']['threejs']['de00_p99']:.2f}" for part, p in r["parts"].items())
+        click.echo(f"material {r['gltf_index']} {r['name']!r}: {costs or r['why_not']}")
+    if out_dir:
+        click.echo(f"receipts in {out_dir}/receipts.html and receipts.json")
+    return 0
+
+
+def _atlas_summary(atlas, path, n_points, seed, out_dir, search_budget) -> dict:
     """Per-slice ΔE00 of a scene atlas as stored; summary.json in out_dir when given."""
     from .lutfile import write_text_atomic
-    from .report import report_atlas
+    from .report import REPORT_FILES, report_atlas
     from .strictjson import dumps
 
-    summary = report_atlas(atlas, path, n_points, seed)
+    summary = report_atlas(atlas, path, n_points, seed, search_budget)
     if out_dir:
         Path(out_dir).mkdir(parents=True, exist_ok=True)
-        write_text_atomic(Path(out_dir) / "summary.json", dumps(summary) + "\n")
+        write_text_atomic(Path(out_dir) / REPORT_FILES[0], dumps(summary) + "\n")
     return summary
+
+
+def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+    """Exit 2 when a file a command would write is one of its inputs (``inputs``: what to call it → path),
+    the same file by any path or hard link, before anything is written."""
+    for what, path in inputs.items():
+        for out in outputs:
+            if _same_file(Path(path), Path(out)):
+                raise BadInput(f"{what} {str(path)!r} would be overwritten by the output {str(out)!r}: write "
+                               "the output elsewhere")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare where they would be
+        return a.resolve() == b.resolve()
 
 
 def _print_error_rows(rows, summary):
@@ -777,27 +958,36 @@ def _print_error_rows(rows, summary):
                    f"{r['de00_p99']:8.3f}{r['de00_max']:8.3f}{r['rgb_abs_max']:11.2e}")
 
 
-def held_out_options(f):
-    """--points/--seed of sweep and tune: uniform held-out points over the domain."""
-    f = click.option("--seed", type=int, default=0, show_default=True, help="Seed of the held-out points.")(f)
-    return click.option("--points", "n_points", type=click.IntRange(10, 1_000_000), default=600, show_default=True,
-                        help="Held-out points, uniform over the domain (no cell centres: the variants' grids "
-                             "differ), so p99 reads lower than `report`'s on the same LUT.")(f)
+def search_budget_option(default: int):
+    """--search-budget of sweep and tune: evaluations of each searched max (report.search_max)."""
+    return click.option("--search-budget", type=click.IntRange(100, 10_000_000), default=default, show_default=True,
+                        help="Evaluations of each searched max (over the whole domain).")
+
+
+def held_out_options(default_points: int, help_text: str):
+    """--points/--seed of sweep and tune."""
+    def options(f):
+        f = click.option("--seed", type=int, default=0, show_default=True, help="Seed of the held-out points.")(f)
+        return click.option("--points", "n_points", type=click.IntRange(10, 1_000_000), default=default_points,
+                            show_default=True, help=help_text)(f)
+    return options
 
 
 @cli.command("sweep")
 @domain_options
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), required=True,
               help="Folder for sweep.json and pareto.png.")
-@held_out_options
+@held_out_options(600, "Held-out points, uniform over the domain (no cell centres: the variants' grids differ), "
+                       "so p99 reads lower than `report`'s on the same LUT.")
+@search_budget_option(5000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rows as one JSON document.")
 @progress_options
-def sweep_cmd(out_dir, n_points, seed, as_json, quiet, force_progress, backend, **flags):
+def sweep_cmd(out_dir, n_points, seed, search_budget, as_json, quiet, force_progress, backend, **flags):
     """Error against bake time and bytes over LUT variants of one domain, plus engine approximations."""
     from .sweep import sweep
 
     meter = progress_meter("sweep", quiet, force_progress)
-    doc = sweep(domain_spec(**flags), out_dir, n_points, seed, backend, progress=meter)
+    doc = sweep(domain_spec(**flags), out_dir, n_points, seed, backend, progress=meter, search_budget=search_budget)
     meter.close()
     if as_json:
         echo_json(doc)
@@ -813,11 +1003,13 @@ def sweep_cmd(out_dir, n_points, seed, as_json, quiet, force_progress, backend, 
 
 @cli.command("tune")
 @domain_options
-@click.option("--max-de", type=float, required=True, help="Target p99 ΔE00.")
-@held_out_options
+@click.option("--max-de", type=float, required=True, help="Target p99 ΔE00, as `report --max-de` gates it.")
+@held_out_options(1000, "Held-out points per trial, as `report` scores them: half uniform, half at centres of "
+                        "the trial grid's cells.")
+@search_budget_option(20000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rounds and result as one JSON document.")
 @progress_options
-def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **flags):
+def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progress, backend, **flags):
     """Smallest per-axis counts whose p99 ΔE00 meets --max-de (exit 1 if not reached).
 
     Each accepted round is printed as it happens (with --json: one document at the end).
@@ -831,12 +1023,16 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
     def print_round(trial):
         r = trial.row()
         meter.clear()
-        click.echo(f"  {r['shape']:>16}  p99 ΔE00 {r['de00_p99']:.3f}  bake {r['bake_seconds']:.2f} s  {r['bytes']} bytes")
+        click.echo(f"  {r['shape']:>16}  p99 ΔE00 {r['de00_p99']:.3f}  bound {r['de00_p99_bound']:.3f}  "
+                   f"bake {r['bake_seconds']:.2f} s  {r['bytes']} bytes")
 
     if not as_json:
-        click.echo(f"p99 ΔE00 at {n_points} uniform held-out points, round by round (bytes: the texture as stored):")
+        click.echo(f"p99 ΔE00 at {n_points} held-out points (half at each trial grid's cell centres) and the bound "
+                   f"the target holds (the 99.73th percentile: a fresh report's p99 stays below it at 99 % of "
+                   f"seeds), round by round (bytes: the texture as stored):")
     spec = domain_spec(**flags)
-    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round)
+    result = tune(spec, max_de, n_points, seed, backend, progress=meter, on_round=None if as_json else print_round,
+                  search_budget=search_budget)
     meter.close()
     doc = tune_document(spec, result)
     if as_json:
@@ -847,7 +1043,8 @@ def tune_cmd(max_de, n_points, seed, as_json, quiet, force_progress, backend, **
                         for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
         state = "met" if result.met else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} --interpolation {doc['interpolation']} "
-                   f"(p99 {best['de00_p99']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
+                   f"(p99 {best['de00_p99']:.3f}, bound {best['de00_p99_bound']:.3f}, searched max "
+                   f"{best['de00_max']:.3f}, bake {best['bake_seconds']:.2f} s, {best['bytes']} bytes)")
     return 0 if result.met else EXIT_GATE
 
 

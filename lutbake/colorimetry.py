@@ -48,11 +48,19 @@ WAVELENGTH_MAX_NM = 830.0
 
 
 def _colour():
-    """colour-science, imported only to fill the cache: it pulls in matplotlib (~2 s in all)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        import colour
+    """colour-science, imported only to fill the cache: it pulls in matplotlib (~2 s in all), which logs
+    two warnings when the user's cache home cannot be written (it then uses a temporary folder)."""
+    import logging
 
+    quiet = logging.getLogger("matplotlib")
+    level = quiet.level
+    quiet.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import colour
+    finally:
+        quiet.setLevel(level)
     return colour
 
 

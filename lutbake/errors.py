@@ -8,7 +8,7 @@ CLI never re-words a message.
 
 import re
 
-__all__ = ["ParameterError"]
+__all__ = ["ParameterError", "OpenCLUnavailable"]
 
 _FIELD = re.compile(r"\{(\w+)\}")
 
@@ -30,3 +30,7 @@ class ParameterError(ValueError):
         """The message with each ``{parameter}`` shown as ``names`` gives it (default: its own name)."""
         return _FIELD.sub(lambda m: str(self.values[m[1]]) if m[1] in self.values else names.get(m[1], m[1]),
                           self.template)
+
+
+class OpenCLUnavailable(RuntimeError):
+    """No usable OpenCL platform or device (lutbake/integrate.py raises it; the CLI reports it in one line)."""

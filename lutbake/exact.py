@@ -38,10 +38,11 @@ from .fileset import open_set
 from .fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
 from .colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 from .lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
+from .names import shader_comment
 
 __all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
            "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
-           "exact_includes", "RGB_WAVELENGTHS_NM", "METALS", "base_rgb"]
+           "exact_includes", "include_fields", "RGB_WAVELENGTHS_NM", "METALS", "base_rgb"]
 
 TABLE_STEP_NM = 2.0        # linear interpolation error of Ŵ ≤ 3.3e-6 at this step (measured; bound in the header)
 TABLE_TEXELS = 32768       # x from 0 to 65,534 nm: 64 terms of the thickest KHR film at normal incidence
@@ -209,15 +210,20 @@ def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
     return exact_mode(stack, space, observer).values
 
 
+def include_fields(meta: dict, table_name: str) -> dict:
+    """The template fields of a Ŵ table's shader sources (exact.*.in): its constants and defaults."""
+    table, tail = meta["table"], meta["tail"]
+    return {"table_name": shader_comment(table_name), "content_hash": meta["content_hash"], "space": meta["space"],
+            "observer": meta["observer"], "step": repr(table["step_nm"]), "width": table["width"],
+            "rows": table["rows_per_part"], "texels": table["texels"], "x_max": repr(table["x_max_nm"]),
+            "nu0": repr(table["nu0_per_nm"]), "mass": repr(tail["mass"]), "edge": repr(tail["edge"]),
+            "variation": repr(tail["variation"]), "tolerance": repr(meta["include"]["tolerance"]),
+            "max_terms": meta["include"]["max_terms"]}
+
+
 def exact_includes(meta: dict, table_name: str) -> dict:
     """GLSL and HLSL include texts for a Ŵ table, keyed by file suffix."""
-    table, tail = meta["table"], meta["tail"]
-    fields = {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
-              "observer": meta["observer"], "step": repr(table["step_nm"]), "width": table["width"],
-              "rows": table["rows_per_part"], "texels": table["texels"], "x_max": repr(table["x_max_nm"]),
-              "nu0": repr(table["nu0_per_nm"]), "mass": repr(tail["mass"]), "edge": repr(tail["edge"]),
-              "variation": repr(tail["variation"]), "tolerance": repr(meta["include"]["tolerance"]),
-              "max_terms": meta["include"]["max_terms"]}
+    fields = include_fields(meta, table_name)
     return {suffix: shader_template(f"exact.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 
 

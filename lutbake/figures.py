@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ from .progress import no_progress
 from .reference import reference_colour
 from .sample import Lut
 
-__all__ = ["delta_e_maps", "swatch_strips", "pareto_plot", "display_srgb"]
+__all__ = ["MapPanel", "delta_e_map_panels", "delta_e_maps", "swatch_strips", "pareto_plot", "display_srgb"]
 
 
 def _figure(figsize):
@@ -45,7 +46,8 @@ def _truth(lut, stack: FilmPoints):
 
 
 def _worst_slices(rep, count: int = 3) -> list:
-    """(η3, κ3) of the worst held-out points, distinct, worst first: where the LUT is most wrong."""
+    """(η3, κ3) of the worst points (the searched maximum first, then held-out and searched ones),
+    distinct, worst first: where the LUT is most wrong."""
     out = []
     for w in rep.worst:
         key = (w["eta3"], w["kappa3"])
@@ -57,33 +59,60 @@ def _worst_slices(rep, count: int = 3) -> list:
 def _domain_title(lut: Lut, n_points: int) -> str:
     ax = {a.name: a for a in lut.axes}
     ranges = ", ".join(f"{name} [{a.lo:g}, {a.hi:g}]" for name, a in ax.items())
-    return f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst of {n_points} held-out points"
+    return f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst points (searched, and of {n_points} held out)"
 
 
-def delta_e_maps(rep, out_png: Path, n: int = 48, progress=no_progress) -> Path:
-    """ΔE00 of the LUT against the ground truth over (cos θ, D), at the (η3, κ3) of the report's
-    worst points (off the η3/κ3 nodes, where interpolation error peaks), on one colour scale."""
+@dataclass
+class MapPanel:
+    """ΔE00 of a LUT against the ground truth on an n × n (cos θ, D) grid at one (η3, κ3)."""
+
+    eta3: float
+    kappa3: float
+    stack: FilmPoints = field(repr=False)
+    truth: np.ndarray = field(repr=False)
+    de00: np.ndarray = field(repr=False)   # (n, n): rows along D, columns along cos θ
+
+
+def delta_e_map_panels(rep, n: int = 48, progress=no_progress) -> list:
+    """The maps' data: ΔE00 over (cos θ, D) at cell centres of an n × n grid in node coordinates, at the
+    (η3, κ3) of the report's worst points (the searched maximum's first)."""
     lut = Lut.load(rep.path)
     ax = {a.name: a for a in lut.axes}
     cos_t, opd = np.meshgrid(ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n),
                              ax["opd_nm"].from_unit((np.arange(n) + 0.5) / n))
-    maps, slices = [], _worst_slices(rep)
+    panels, slices = [], _worst_slices(rep)
     for i, (eta3, kappa3) in enumerate(slices):
         progress(i, len(slices), f"figure: ΔE00 map at η3 {eta3:.3f}, κ3 {kappa3:.3f} ({n * n} truth points)")
         stack = _stack(lut, cos_t.ravel(), opd.ravel(), eta3, kappa3)
-        de = delta_e00(lut.sample(stack), _truth(lut, stack),
-                       lut.meta["observer"], lut.meta["space"]).reshape(n, n)
-        maps.append((eta3, kappa3, de))
-    vmax = max(1.0, max(float(de.max()) for _, _, de in maps))
-    fig = _figure((4.6 * len(maps), 4.4))
-    axes = fig.subplots(1, len(maps), squeeze=False)
-    for a, (eta3, kappa3, de) in zip(axes[0], maps):
-        im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=vmax)
-        a.set_title(f"η3 {eta3:.3f}, κ3 {kappa3:.3f}\np99 {np.percentile(de, 99):.2f}, max {de.max():.2f}", fontsize=11)
+        truth = _truth(lut, stack)
+        de = delta_e00(lut.sample(stack), truth, lut.meta["observer"], lut.meta["space"]).reshape(n, n)
+        panels.append(MapPanel(eta3, kappa3, stack, truth, de))
+    return panels
+
+
+def delta_e_maps(rep, panels: list, out_png: Path) -> Path:
+    """Draw ``panels`` on one colour scale, each titled with its own p99 and max, the searched maximum
+    marked (×) where its panel holds it; the title states the searched max, as the table and JSON do."""
+    lut = Lut.load(rep.path)
+    worst = rep.lut.summary()["worst_case"]
+    vmax = max(1.0, max(float(p.de00.max()) for p in panels))
+    fig = _figure((4.6 * len(panels), 4.6))
+    axes = fig.subplots(1, len(panels), squeeze=False)
+    n = panels[0].de00.shape[0]
+    for a, p in zip(axes[0], panels):
+        cos_t, opd = p.stack.cos_theta.reshape(n, n), p.stack.opd_nm.reshape(n, n)
+        im = a.pcolormesh(cos_t, opd, p.de00, shading="auto", cmap="magma", vmin=0, vmax=vmax)
+        if (p.eta3, p.kappa3) == (worst["eta3"], worst["kappa3"]):
+            a.plot(worst["cos_theta"], worst["opd_nm"], "x", color="cyan", ms=12, mew=2.5, label="searched max")
+            a.legend(fontsize=8, loc="upper right")
+        a.set_title(f"η3 {p.eta3:.4f}, κ3 {p.kappa3:.4f}\nthis map: p99 {np.percentile(p.de00, 99):.2f}, "
+                    f"max {p.de00.max():.2f}", fontsize=10)
         a.set_xlabel("cos θ", fontsize=11)
     axes[0][0].set_ylabel("D = 2·η2·d (nm)", fontsize=11)
     fig.colorbar(im, ax=axes[0].tolist(), label="ΔE00 (one scale for all panels)")
-    fig.suptitle(_domain_title(lut, len(rep.points)), fontsize=11)
+    fig.suptitle(f"{_domain_title(lut, len(rep.points))}\nsearched max ΔE00 {worst['de00_max']:.2f} at cos θ "
+                 f"{worst['cos_theta']:.4g}, D {worst['opd_nm']:.4g} nm, η3 {worst['eta3']:.4f}, κ3 "
+                 f"{worst['kappa3']:.4g}", fontsize=10)
     fig.savefig(out_png, dpi=90)
     return Path(out_png)
 

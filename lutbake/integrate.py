@@ -27,19 +27,19 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import OpenCLUnavailable
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
 from .optics import film_reflectance, normal_admittance
 from .plan import SERIES_CHUNK
 from .points import FilmPoints
 from .reference import subset
+from .usercache import pyopencl_caches_where_writable
+
+pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "opencl_devices", "find_device",
            "device_key", "device_label", "self_check_error"]
-
-
-class OpenCLUnavailable(RuntimeError):
-    """No usable OpenCL platform or device."""
 
 
 class NumpyBackend:
@@ -161,8 +161,12 @@ def _candidate_devices(selector=None):
     if selector:
         return [find_device(selector)]
     if os.environ.get("PYOPENCL_CTX"):
-        with _intel_cpu_runtime_visible():
-            return [cl.create_some_context(interactive=False).devices[0]]
+        try:
+            with _intel_cpu_runtime_visible():
+                return [cl.create_some_context(interactive=False).devices[0]]
+        except (cl.Error, RuntimeError, ValueError) as exc:  # pyopencl's words for a selector it cannot match
+            raise ValueError(f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} names no OpenCL device ({exc}): "
+                             "unset it, or give a platform:device index such as 0:0") from None
     return opencl_devices()
 
 
@@ -209,9 +213,24 @@ def _build(device, compute: str):
     ctx = cl.Context([device])
     source = "\n".join(resources.files("lutbake").joinpath(name).read_text() for name in KERNEL_SOURCES)
     options = (["-DLUTBAKE_FP64"] if compute == "float64" else []) + _kernel_defines()
-    with warnings.catch_warnings():
+    # pyopencl caches binaries in $XDG_CACHE_HOME; where that fails (a file there, a read-only folder) it
+    # reads PYOPENCL_CACHE_FAILURE_FATAL with os.environ[...] and raises KeyError when it is unset. Empty
+    # means "not fatal": it warns (silenced here) and builds without the cache.
+    with warnings.catch_warnings(), _environment(PYOPENCL_CACHE_FAILURE_FATAL=""):
         warnings.simplefilter("ignore")
         return ctx, cl.Program(ctx, source).build(options=options)
+
+
+@contextlib.contextmanager
+def _environment(**defaults):
+    """Environment variables set to ``defaults`` where unset, for the block only."""
+    added = [name for name in defaults if name not in os.environ]
+    os.environ.update({name: defaults[name] for name in added})
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
 
 
 # Self-check stacks: stiff corners where runtimes have disagreed (grazing incidence over a

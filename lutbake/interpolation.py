@@ -5,19 +5,31 @@ shader includes (shaders/lutbake.*.in) both follow it, on the same texels:
 
 - ``linear``: multilinear in each axis's own coordinate, 4 bilinear fetches.
 - ``cubic``: Catmull-Rom in each axis's own coordinate, 4 taps per axis, so
-  4⁴ = 256 texel reads (no hardware filtering, so no 8-bit weight rounding).
-  Its error falls as h⁴ where linear's falls as h², which is what buys the
-  default LUTs their accuracy at the same bytes (docs/accuracy.md).
+  4⁴ = 256 texel reads (no hardware filtering, so no 8-bit weight rounding),
+  the sum clamped per channel to the range of those 256 texels. Its error falls
+  as h⁴ where linear's falls as h², which is what buys the default LUTs their
+  accuracy at the same bytes (docs/accuracy.md). The clamp is the standard
+  remedy for Catmull-Rom's overshoot (its outer weights are negative): where the
+  content turns within a cell, e.g. from R = 1 at cos θ1 = 0 to R = 0 one node
+  later over a base that matches the ambient, the unclamped sum left the
+  texels' range (−0.074 where every texel is ≥ 0); the clamped one never does,
+  so a read is never negative where the texels are not. The range is that of
+  every texel read, whatever its weight: it then changes only where the taps do
+  (between cells), not where a weight reaches 0 (at every node: a range over
+  the non-zero weights jumped by 2e-4 between f = N − 1 and N − 1 − 1e-5, which
+  float32 on a GPU and float64 here round apart).
 
 At the ends of an axis the missing tap is a ghost node folded onto real nodes:
 the mirror image f(−s) = f(s) at the low end of a √- or ¼-power-spaced axis
 that starts at 0 (the content is a function of the value v = s² or s⁴, hence
 even in s), and
 quadratic extrapolation f(−1) = 3f(0) − 3f(1) + f(2) elsewhere. Both keep
-the rule exact for quadratics in the node coordinate, and with fewer than
+the rule exact for quadratics in the node coordinate (where the clamp does not
+act: between texels that bracket them), and with fewer than
 4 taps' worth of nodes the same folding still applies (an axis of 2 nodes
-reads linearly). This module is the one Python statement of the weights;
-the includes write the same lines and the tests hold them to ``Lut.sample``.
+reads linearly). This module is the one Python statement of the weights
+(``Lut._cubic`` sums and clamps); the includes write the same lines and the
+tests hold them to ``Lut.sample``.
 """
 
 from __future__ import annotations

@@ -17,10 +17,12 @@ the same inputs give the same bytes.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import io
 import json
 import os
 import string
+import struct
 import sys
 import warnings
 from importlib import resources
@@ -29,24 +31,25 @@ from pathlib import Path
 import numpy as np
 
 from . import fileset
+from .documents import load_json
 from .fileset import temporary_for
+from .headers import check_metadata, check_structure, exr_header
 from .interpolation import mirrors_low_end
-from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS
-from .layout import TileLayout
+from .names import ADMITTANCE_SPACINGS, shader_comment
+from .names import shader_identifier as shader_ident
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
-           "pack_atlas", "write_atlas", "atlas_includes", "write_text_atomic", "atomic_path", "shader_includes",
+           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes",
            "shader_ident", "shader_template", "flat_attributes", "MAX_TEXTURE_SIZE"]
 
 FORMAT = "lutbake-lut"
-ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (pack_atlas, write_atlas)
+ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py, write_atlas)
 EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
 # LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
 # "sqrt-admittance" spacing (docs/lut-format.md); older LUTs (no such axis) still read.
 FORMAT_VERSION = 4
 EXACT_FORMAT_VERSION = 1
 _READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
-_ADMITTANCE_SINCE = dict(zip(ADMITTANCE_SPACINGS, (2, 4)))   # η3 spacing → first format version with it
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -139,82 +142,72 @@ def exr_stream(path: Path, width: int, height: int, meta: dict, precision: str =
         yield rows
 
 
-def pack_atlas(slices) -> dict:
-    """A scene atlas's layout: slices (each (rows, columns, 3)) stacked vertically, left-aligned, each a
-    rect [x0, y0, width, height] of texels that sampling stays inside; the image zero elsewhere."""
-    if not slices:
-        return {"width": 0, "height": 0, "rects": [], "image": None}
-    width, height = max(v.shape[1] for v in slices), sum(v.shape[0] for v in slices)
-    image = np.zeros((height, width, 3))
-    rects, y = [], 0
-    for v in slices:
-        image[y:y + v.shape[0], :v.shape[1]] = v
-        rects.append([0, y, v.shape[1], v.shape[0]])
-        y += v.shape[0]
-    return {"width": width, "height": height, "rects": rects, "image": image}
-
-
 def write_atlas(path: Path, atlas: dict, meta: dict, precision: str) -> None:
-    """Write a packed atlas (``pack_atlas``) with its header (format ATLAS_FORMAT, read by ``read_lut``)."""
+    """Write a packed atlas (atlas.pack_atlas) with its header (format ATLAS_FORMAT, read by ``read_lut``)."""
     with exr_rows(path, atlas["width"], atlas["height"], meta, precision) as exr:
         exr.write_rows(atlas["image"])
 
 
 def read_lut(path, formats=(FORMAT,)):
     """(metadata dict, image array (height, width, 3) as stored) of a lutbake EXR whose format is
-    one of ``formats`` (a version this reader knows), validated against the schema of docs/lut-format.md;
-    ValueError names the file and the field."""
+    one of ``formats`` (a version this reader knows), validated against the schema of docs/lut-format.md
+    before its pixels are read (lutbake/headers.py); ValueError names the file and the field."""
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"LUT {str(path)!r} does not exist")
-    if fileset.journal_path(path.parent, path.name).exists():
-        raise ValueError(f"{str(path)!r} is mid-commit (a bake was interrupted or is running): bake it again")
-    meta_text, image = _read_exr(path)
+    if not path.is_file():   # also refuses FIFOs and devices, which could block a read forever
+        raise ValueError(f"LUT {str(path)!r} does not exist or is not a file")
+    journal = fileset.pending_commit(path)
+    if journal is not None:
+        raise ValueError(f"{str(path)!r} is mid-commit ({journal.name}: a bake was interrupted or is running): "
+                         "bake it again")
     try:
-        meta = json.loads(meta_text)
-    except ValueError:
-        raise ValueError(f"{str(path)!r}: lutbake.metadata is not JSON") from None
-    if (not isinstance(meta, dict) or meta.get("format") not in formats
-            or meta.get("format_version") not in _READABLE_VERSIONS[meta["format"]]):
+        structure = check_structure(exr_header(path))
+    except (OSError, ValueError, struct.error) as exc:
+        raise ValueError(f"{str(path)!r} is not a lutbake EXR: {exc}") from None
+    meta = load_json(structure["metadata"], f"{str(path)!r}: lutbake.metadata")
+    if (not isinstance(meta, dict) or not isinstance(meta.get("format"), str) or meta["format"] not in formats
+            or not _integer(meta.get("format_version"))
+            or meta["format_version"] not in _READABLE_VERSIONS[meta["format"]]):
         known = " or ".join(f"{f} v{'/'.join(map(str, _READABLE_VERSIONS[f]))}" for f in formats)
         raise ValueError(f"{str(path)!r} is not a {known} file")
     try:
-        {FORMAT: _check_meta, ATLAS_FORMAT: _check_atlas_meta, EXACT_FORMAT: _check_exact_meta}[meta["format"]](
-            meta, image)
-    except (KeyError, TypeError, ValueError) as exc:
-        field = exc.args[0] if exc.args else "?"
-        raise ValueError(f"{str(path)!r}: metadata field {field} is missing or invalid") from None
+        check_metadata(meta, structure)
+    except ValueError as exc:
+        raise ValueError(f"{str(path)!r}: metadata field {exc} is missing or invalid") from None
+    image = _read_pixels(path, structure)
+    if not np.isfinite(image).all():
+        raise ValueError(f"{str(path)!r}: image holds non-finite texels (NaN or Inf): bake it again")
     return meta, image
 
 
-def _read_exr(path: Path):
-    """(lutbake.metadata text, RGB image) of an EXR; OpenEXR's own messages are silenced."""
+def _read_pixels(path: Path, structure: dict) -> np.ndarray:
+    """The RGB image of an EXR whose header passed ``check_structure``; OpenEXR's own messages are silenced."""
     import OpenEXR
 
     try:
         with _silenced_c_output(), OpenEXR.File(str(path)) as exr:
-            header, channels = exr.header(), exr.channels()
-            if "lutbake.metadata" not in header:
-                raise LookupError("lutbake.metadata")
-            meta_text = header["lutbake.metadata"]
+            channels = exr.channels()
             if "RGB" in channels:
                 image = np.array(channels["RGB"].pixels)
             else:
                 image = np.stack([np.array(channels[c].pixels) for c in "RGB"], axis=-1)
-    except LookupError:
-        raise ValueError(f"{str(path)!r} is an EXR without lutbake metadata or RGB channels") from None
     except Exception:  # OpenEXR raises several types for damaged files; all mean the same here
         raise ValueError(f"{str(path)!r} is not a readable EXR (damaged or truncated)") from None
-    return meta_text, image
+    if image.shape != (structure["height"], structure["width"], 3) or image.dtype.kind != "f":
+        raise ValueError(f"{str(path)!r} is not a readable EXR (pixels do not match its header)")
+    return image
 
 
 @contextlib.contextmanager
 def _silenced_c_output():
-    """Send file descriptors 1 and 2 and sys.stdout/stderr nowhere (OpenEXR prints warnings)."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    null = os.open(os.devnull, os.O_WRONLY)
+    """Send file descriptors 1 and 2 and sys.stdout/stderr nowhere (OpenEXR prints warnings). A descriptor
+    that was closed (`lutbake inspect X >&-`) is closed again afterwards."""
+    for stream in (sys.stdout, sys.stderr):
+        if stream is not None:
+            stream.flush()
+    saved = [_dup_or_none(1), _dup_or_none(2)]
+    opened = os.open(os.devnull, os.O_WRONLY)  # the lowest free descriptor: 1 or 2 if closed
+    null = fcntl.fcntl(opened, fcntl.F_DUPFD, 3)
+    os.close(opened)
     try:
         os.dup2(null, 1)
         os.dup2(null, 2)
@@ -222,10 +215,20 @@ def _silenced_c_output():
             yield  # the bindings also print through Python's sys.stdout
     finally:
         _libc_fflush()  # C++ streams buffered while redirected must drain into /dev/null
-        os.dup2(saved[0], 1)
-        os.dup2(saved[1], 2)
-        for fd in (*saved, null):
-            os.close(fd)
+        for fd, old in ((1, saved[0]), (2, saved[1])):
+            if old is None:
+                os.close(fd)
+            else:
+                os.dup2(old, fd)
+                os.close(old)
+        os.close(null)
+
+
+def _dup_or_none(fd: int):
+    try:
+        return fcntl.fcntl(fd, fcntl.F_DUPFD, 3)
+    except OSError:  # closed
+        return None
 
 
 def _libc_fflush() -> None:
@@ -234,83 +237,8 @@ def _libc_fflush() -> None:
     ctypes.CDLL(None).fflush(None)
 
 
-_AXES = ("cos_theta", "opd_nm", "eta3", "kappa3")
-_STRINGS = ("lutbake_version", "content_hash", "observer", "illuminant", "space", "precision", "compute")
-
-
-def _check_meta(meta: dict, image: np.ndarray) -> None:
-    """Raise KeyError/TypeError/ValueError with the field name when ``meta`` breaks the schema."""
-    for key in _STRINGS:
-        _require(isinstance(meta[key], str), key)
-    axes = meta["axes"]
-    _require(isinstance(axes, list) and [a["name"] for a in axes] == list(_AXES), "axes")
-    for i, a in enumerate(axes):
-        lo, hi = _finite(a["min"], f"axes[{i}].min"), _finite(a["max"], f"axes[{i}].max")
-        _require(hi > lo, f"axes[{i}].max")
-        _require(_integer(a["count"]) and 2 <= a["count"] <= 1 << 24, f"axes[{i}].count")
-        _require(a["spacing"] in ("uniform", "sqrt") and (a["spacing"] == "uniform" or lo >= 0)
-                 or a["spacing"] == "root4" and lo >= 0 and meta["format_version"] >= 3
-                 or a["spacing"] in _ADMITTANCE_SINCE and a["name"] == "eta3"
-                 and meta["format_version"] >= _ADMITTANCE_SINCE[a["spacing"]]
-                 and lo >= meta["constants"]["eta1"], f"axes[{i}].spacing")
-    _require(meta["format_version"] < 3 or meta["interpolation"] in INTERPOLATIONS, "interpolation")
-    packing, expected = meta["packing"], TileLayout(*(a["count"] for a in axes)).packing()
-    for key in ("width", "height", "tile_width", "tile_height"):
-        _require(packing[key] == expected[key], f"packing.{key}")
-    _require(image.shape == (packing["height"], packing["width"], 3), "packing (image size)")
-    for key in ("eta1", "eta2"):
-        _require(_finite(meta["constants"][key], f"constants.{key}") > 0, f"constants.{key}")
-    spectral = meta["spectral"]
-    _require(isinstance(spectral["counts"], list) and len(spectral["counts"]) > 0, "spectral.counts")
-    _finite(spectral["error_rgb_max"], "spectral.error_rgb_max")
-    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
-
-
-def _check_atlas_meta(meta: dict, image: np.ndarray) -> None:
-    """The atlas schema (docs/lut-format.md): slices whose rects lie in the image, named materials,
-    a finite thickness range and ambient index."""
-    _require(_finite(meta["eta1"], "eta1") > 0, "eta1")
-    height, width, _ = image.shape
-    _require(isinstance(meta["slices"], list) and len(meta["slices"]) > 0, "slices")
-    for i, s in enumerate(meta["slices"]):
-        x0, y0, w, h = s["rect"]
-        _require(all(_integer(v) for v in (x0, y0, w, h)) and x0 >= 0 and y0 >= 0 and w >= 2 and h >= 1
-                 and x0 + w <= width and y0 + h <= height, f"slices[{i}].rect")
-        _require(isinstance(s["materials"], list) and all(isinstance(m, str) and m for m in s["materials"]),
-                 f"slices[{i}].materials")
-        th = s["axes"]["thickness_nm"]
-        _require(_finite(th["max"], f"slices[{i}].axes.thickness_nm.max")
-                 >= _finite(th["min"], f"slices[{i}].axes.thickness_nm.min"), f"slices[{i}].axes.thickness_nm")
-    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
-
-
-def _check_exact_meta(meta: dict, image: np.ndarray) -> None:
-    """The exact table's schema (docs/lut-format.md): its layout matches the image, finite bounds."""
-    table = meta["table"]
-    _require(_finite(table["step_nm"], "table.step_nm") > 0, "table.step_nm")
-    _require(_integer(table["width"]) and _integer(table["rows_per_part"]) and _integer(table["texels"])
-             and table["texels"] == table["width"] * table["rows_per_part"] >= 2, "table.texels")
-    _require(image.shape == (2 * table["rows_per_part"], table["width"], 3), "table (image size)")
-    _finite(table["nu0_per_nm"], "table.nu0_per_nm")
-    for key in ("mass", "edge", "variation"):
-        _require(_finite(meta["tail"][key], f"tail.{key}") >= 0, f"tail.{key}")
-    _require(0 < _finite(meta["include"]["tolerance"], "include.tolerance") < 1, "include.tolerance")
-    _require(_integer(meta["include"]["max_terms"]) and meta["include"]["max_terms"] >= 1, "include.max_terms")
-    _require(bool(np.isfinite(image).all()), "image (non-finite texels)")
-
-
-def _require(ok: bool, field: str) -> None:
-    if not ok:
-        raise ValueError(field)
-
-
 def _integer(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _finite(value, field: str) -> float:
-    _require(isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value), field)
-    return float(value)
 
 
 def shader_includes(meta: dict, lut_name: str) -> dict:
@@ -318,7 +246,7 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
     axes = meta["axes"]
     warn_texture_size(meta["packing"]["width"], meta["packing"]["height"], lut_name)
     fields = {
-        "lut_name": lut_name,
+        "lut_name": shader_comment(lut_name),
         "ident": shader_ident(Path(lut_name).stem),
         "content_hash": meta["content_hash"],
         "eta1": repr(meta["constants"]["eta1"]),
@@ -332,53 +260,15 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "sqrt": ", ".join("1.0" if a["spacing"] in ("sqrt", "sqrt-admittance") else "0.0" for a in axes),
         "root4": ", ".join("1.0" if a["spacing"] == "root4" else "0.0" for a in axes),
         "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"]) else "0.0" for a in axes),
-        "admittance": "1.0" if axes[2]["spacing"] in _ADMITTANCE_SINCE else "0.0",
+        "admittance": "1.0" if axes[2]["spacing"] in ADMITTANCE_SPACINGS else "0.0",
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }
     return {suffix: shader_template(f"lutbake.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 
 
-_ATLAS_LINES = {
-    "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
-             "// {name}: 4D LUT {file} (sample it with {stem}.glsl)"),
-    "hlsl": ("static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
-             "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)"),
-}
-
-
-def atlas_includes(manifest: dict, atlas: dict) -> dict:
-    """GLSL and HLSL include texts for a scene (its manifest and ``pack_atlas`` layout), keyed by suffix."""
-    return {lang: _atlas_include(manifest, atlas, lang) for lang in _ATLAS_LINES}
-
-
-def _atlas_include(manifest: dict, atlas: dict, lang: str) -> str:
-    """The scene's atlas sampler and one LutbakeSlice constant per slice material (a comment per 4D LUT)."""
-    slice_line, lut_line = _ATLAS_LINES[lang]
-    scene = Path(manifest["scene"]).stem
-    size = ", ".join(str(float(v)) for v in (atlas["width"], atlas["height"]))
-    lines = []
-    for name, e in manifest["materials"].items():
-        if e["kind"] == "slice":
-            th = e["axes"]["thickness_nm"]
-            lines.append(slice_line.format(ident=shader_ident(f"{scene}_{name}"), size=size,
-                                           rect=", ".join(str(float(v)) for v in e["rect"]),
-                                           thick=f"{float(th['min'])}, {float(th['max'])}"))
-        else:
-            lines.append(lut_line.format(name=name, file=e["file"], stem=Path(e["file"]).stem))
-    return shader_template(f"atlas.{lang}.in").substitute(
-        scene=manifest["scene"], scene_hash=manifest["scene_hash"][:16], atlas=f"{scene}.exr",
-        materials="\n".join(lines))
-
-
 def shader_template(name: str) -> string.Template:
     return string.Template(resources.files("lutbake").joinpath(f"shaders/{name}").read_text())
-
-
-def shader_ident(name: str) -> str:
-    """A shader constant name for a LUT or material: LUTBAKE_ + its name in upper case, _ for the rest."""
-    ident = "".join(c if c.isalnum() else "_" for c in name).upper()
-    return ident if ident.startswith("LUTBAKE_") else f"LUTBAKE_{ident}"
 
 
 def warn_texture_size(width: int, height: int, name: str) -> None:

@@ -10,8 +10,10 @@ which check nothing: their coordinates come from a validated spec or LUT.
 
 from __future__ import annotations
 
+import array
 import csv
 import io
+import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,7 +22,8 @@ from .materials import material
 from .errors import ParameterError
 from .optics import opd_from_thickness, thickness_from_opd
 
-__all__ = ["FilmPoints", "check_value", "dielectric_film", "CSV_COLUMNS"]
+__all__ = ["FilmPoints", "check_value", "inside_domain", "read_csv_columns", "MAX_CSV_POINTS",
+           "MAX_CSV_LINE_BYTES", "dielectric_film", "CSV_COLUMNS"]
 
 # The per-point fields (the rest name materials).
 _COLUMNS = ("eta1", "eta2", "eta3", "kappa3", "cos_theta", "thickness_nm")
@@ -59,6 +62,12 @@ def check_value(name: str, values) -> np.ndarray:
     if bad.any():
         raise ValueError(f"{name} = {float(arr[bad][0])!r} is not allowed: must be {allowed}")
     return arr
+
+
+def inside_domain(name: str, value: float) -> bool:
+    """Whether ``value`` is finite and inside the domain of ``name`` (the table above)."""
+    test, _ = _DOMAIN[name]
+    return bool(np.isfinite(value) and test(value))
 
 
 @dataclass(kw_only=True)
@@ -189,29 +198,96 @@ class FilmPoints:
                    film=film_mat, base=base_mat)
 
     @classmethod
-    def from_csv(cls, text: str, **defaults) -> "FilmPoints":
-        """Parse CSV text whose header names columns from CSV_COLUMNS."""
-        rows = list(csv.reader(io.StringIO(text)))
-        rows = [r for r in rows if r and any(c.strip() for c in r)]
-        if len(rows) < 2:
-            raise ValueError("points CSV needs a header row and at least one data row")
-        header = [h.strip() for h in rows[0]]
-        repeated = [h for i, h in enumerate(header) if h in header[:i]]
+    def from_csv(cls, source, defaults=None, **given) -> "FilmPoints":
+        """Stacks from a points CSV whose header names columns from CSV_COLUMNS: ``source`` is its text or a
+        binary file object, read line by line within the bounds of ``read_csv_columns``. ``given`` values
+        (flags) fill columns the CSV lacks and may not repeat one; ``defaults`` (a LUT's film) fill what
+        neither gives. A column that a named film or base would override is refused, not dropped."""
+        columns = read_csv_columns(source)
+        repeated = [name for name in columns if name in given]
         if repeated:
-            raise ValueError(f"points CSV column {repeated[0]!r} appears twice: each column once")
-        unknown = [h for h in header if h not in CSV_COLUMNS]
-        if unknown:
-            raise ValueError(f"points CSV column {unknown[0]!r} is unknown: allowed {', '.join(CSV_COLUMNS)}")
-        columns = {h: [] for h in header}
-        for line, row in enumerate(rows[1:], start=2):
+            raise ParameterError("points CSV column {column} and {%s} both give it: give one" % repeated[0],
+                                 column=repeated[0])
+        values = {**(defaults or {}), **given, **columns}
+        for named, replaced in (("film", ("eta2",)), ("base", ("eta3", "kappa3"))):
+            clash = [name for name in replaced if name in columns]
+            if values.get(named) and clash:
+                raise ValueError(f"points CSV column {clash[0]} conflicts with the {named} {values[named]!r}, whose "
+                                 "index it would replace: drop the column or the material")
+        return cls.build(**values)
+
+
+# A points CSV is read line by line: a row of 8 numbers is under 200 bytes, so a longer line (a 200 kB field,
+# /dev/zero) is refused as soon as it is seen, and a CSV of more points than ``eval`` can hold as rows in
+# memory (~1 kB each with its output) is refused at the first point past the bound.
+MAX_CSV_LINE_BYTES = 4096
+MAX_CSV_POINTS = 1_000_000
+
+
+def read_csv_columns(source) -> dict:
+    """Column name → float64 array of a points CSV (``source``: its text or a binary file object).
+    Blank lines are skipped; ValueError (one line, naming the line) for anything else that is not
+    a header of known, distinct columns over rows of as many numbers, within the bounds above."""
+    if isinstance(source, str):
+        source = io.BytesIO(source.encode("utf-8"))
+    reader = csv.reader(_bounded_lines(source))
+    header, columns = None, {}
+    try:
+        for row in reader:
+            if not any(cell.strip() for cell in row):
+                continue
+            if header is None:
+                header = _csv_header(row)
+                columns = {name: array.array("d") for name in header}
+                continue
+            if len(columns[header[0]]) == MAX_CSV_POINTS:
+                raise ValueError(f"points CSV has more than {MAX_CSV_POINTS:,} points: split it")
             if len(row) != len(header):
-                raise ValueError(f"points CSV line {line} has {len(row)} fields, expected {len(header)}")
-            for h, cell in zip(header, row):
-                try:
-                    columns[h].append(float(cell))
-                except ValueError:
-                    raise ValueError(f"points CSV line {line}: {h} = {cell.strip()!r} is not a number") from None
-        return cls.build(**{**defaults, **{k: np.array(v) for k, v in columns.items()}})
+                raise ValueError(f"points CSV line {reader.line_num} has {len(row)} fields, expected {len(header)}")
+            for name, cell in zip(header, row):
+                columns[name].append(_csv_number(cell, name, reader.line_num))
+    except csv.Error as exc:
+        raise ValueError(f"points CSV line {reader.line_num}: {exc}") from None
+    if header is None or not len(columns[header[0]]):
+        raise ValueError("points CSV needs a header row and at least one data row")
+    return {name: np.frombuffer(values, dtype=np.float64).copy() for name, values in columns.items()}
+
+
+def _bounded_lines(stream):
+    """The lines of a binary ``stream`` as text, each refused past MAX_CSV_LINE_BYTES, a NUL or bad UTF-8."""
+    for number in itertools.count(1):
+        line = stream.readline(MAX_CSV_LINE_BYTES + 1)
+        if not line:
+            return
+        if len(line) > MAX_CSV_LINE_BYTES:
+            raise ValueError(f"points CSV line {number} is over {MAX_CSV_LINE_BYTES:,} bytes: not a CSV of numbers")
+        if b"\0" in line:
+            raise ValueError(f"points CSV line {number} holds a NUL byte: not a text file")
+        try:
+            yield line.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ValueError(f"points CSV line {number} is not UTF-8 text") from None
+
+
+def _csv_header(row) -> list:
+    header = [h.strip() for h in row]
+    seen = set()
+    for name in header:
+        if name in seen:
+            raise ValueError(f"points CSV column {name!r} appears twice: each column once")
+        seen.add(name)
+    unknown = [h for h in header if h not in CSV_COLUMNS]
+    if unknown:
+        raise ValueError(f"points CSV column {unknown[0]!r} is unknown: allowed {', '.join(CSV_COLUMNS)}")
+    return header
+
+
+def _csv_number(cell: str, name: str, line: int) -> float:
+    try:
+        return float(cell)
+    except ValueError:
+        shown = cell.strip() if len(cell.strip()) <= 40 else cell.strip()[:40] + "…"
+        raise ValueError(f"points CSV line {line}: {name} = {shown!r} is not a number") from None
 
 
 def dielectric_film(name: str):

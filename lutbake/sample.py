@@ -4,7 +4,8 @@ It reads only the EXR (metadata from its header) and follows the shader
 includes step by step: each axis value → its warp (η3's "admittance" warp at
 the point's own cos θ1) → a continuous node coordinate clamped to [0, N − 1];
 then the header's interpolation rule (lutbake/interpolation.py). Cubic: 4
-Catmull-Rom taps per axis, 256 texels read exactly. Linear: (cos θ, D) through
+Catmull-Rom taps per axis, 256 texels read exactly, the sum clamped to the
+range of those texels. Linear: (cos θ, D) through
 hardware bilinear filtering inside a tile (texel centres, clamp-to-edge
 addressing), the four tiles around (η3, κ3) blended with manual lerps. An atlas slice is one
 bilinear fetch inside its material's rect. ``filter_bits`` quantizes the
@@ -34,8 +35,8 @@ class Lut:
     """A 4D LUT as an engine samples it: the reference for what a shader include must return.
 
     ``sample`` interpolates in each axis's own coordinate (√cos θ, D, η3's spacing, √κ3) by the
-    header's rule: Catmull-Rom ('cubic', 256 texel reads) or the GPU's bilinear fetches ('linear',
-    4 per sample); docs/lut-format.md#interpolation.
+    header's rule: clamped Catmull-Rom ('cubic', 256 texel reads) or the GPU's bilinear fetches
+    ('linear', 4 per sample); docs/lut-format.md#interpolation.
 
     Attributes
     ----------
@@ -76,7 +77,8 @@ class Lut:
     def in_memory(cls, spec, image) -> "Lut":
         """The LUT of ``spec`` whose texels are ``image`` (as stored), without a file: what tune scores."""
         return cls({"axes": [a.describe() for a in spec.axes], "interpolation": spec.interpolation,
-                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}}, image)
+                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}, "space": spec.space,
+                    "observer": spec.observer}, image)
 
     @property
     def axes(self) -> list:
@@ -140,17 +142,21 @@ class Lut:
         return _lerp(lower, upper, t_k)
 
     def _cubic(self, f):
-        """Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile by tile."""
+        """Clamped Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile
+        by tile, then clamped per channel to the range of the texels read."""
         axes = self.axes
         layout = TileLayout(*(a.count for a in axes))
         taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo)) for fi, a in zip(f, axes)]
         nodes = [[np.clip(first + k, 0, a.count - 1) for k in range(4)] for (first, _), a in zip(taps, axes)]
         out = np.zeros(f[0].shape + (3,))
+        low, high = np.full_like(out, np.inf), np.full_like(out, -np.inf)
         for k in itertools.product(range(4), repeat=4):
-            weight = np.prod([w[..., j] for (_, w), j in zip(taps, k)], axis=0)
+            weight = np.prod([w[..., j] for (_, w), j in zip(taps, k)], axis=0)[..., None]
             x, y = layout.texel(*(n[j] for n, j in zip(nodes, k)))
-            out += weight[..., None] * self.image[y, x].astype(np.float64)
-        return out
+            texel = self.image[y, x].astype(np.float64)
+            out += weight * texel
+            low, high = np.minimum(low, texel), np.maximum(high, texel)
+        return np.clip(out, low, high)
 
 
 @dataclass

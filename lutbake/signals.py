@@ -1,24 +1,56 @@
 """Signal handling for the command line (installed by cli.py only; the library changes no handlers).
 
-Ctrl-C while modules load prints one line and exits 130 without a traceback;
-once the CLI runs, SIGINT and SIGTERM unwind as KeyboardInterrupt, so open
-file sets are discarded (fileset.py) and the CLI exits 130.
+SIGINT (Ctrl-C) and SIGTERM stop a command with exit status 128 + the signal's number (130, 143) and
+one line on stderr, never a traceback. While modules load, the process leaves at once (nothing is
+written yet). Once the CLI runs, the first signal unwinds the stack as ``Interrupted`` (a
+KeyboardInterrupt), so open file sets discard their temporaries (fileset.py); signals that follow are
+ignored, so that clean-up runs to its end. A commit that has written its journal finishes before a
+signal is handled (fileset.py blocks them for the renames).
 """
 
 import os
 import signal
 import sys
 
+__all__ = ["Interrupted", "STOP_SIGNALS", "exit_status", "interrupted_at_start_up", "raise_interrupted",
+           "set_handler"]
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
+
+
+class Interrupted(KeyboardInterrupt):
+    """The command was stopped by ``signum`` (SIGINT or SIGTERM)."""
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(f"signal {signum}")
+        self.signum = signum
+
+
+def exit_status(exc: BaseException) -> int:
+    """128 + the signal that stopped the command (130 for Ctrl-C, 143 for SIGTERM)."""
+    return 128 + getattr(exc, "signum", signal.SIGINT)
+
+
+def message(signum: int) -> str:
+    """The one line printed when ``signum`` stops the command."""
+    return f"lutbake: {_WORDS.get(signum, 'interrupted')}"
+
 
 def interrupted_at_start_up(signum, frame):
-    """Ctrl-C while modules load: one line and exit 130, no traceback (the CLI's main() takes over)."""
-    sys.stderr.write("lutbake: interrupted\n")
-    os._exit(130)
+    """A stop signal while modules load: one line and exit 128 + signum, no traceback (main() takes over)."""
+    try:
+        sys.stderr.write(message(signum) + "\n")
+    except (AttributeError, OSError):  # stderr closed: the exit status still says it
+        pass
+    os._exit(128 + signum)
 
 
-def raise_interrupt(signum, frame):
-    """Unwind like Ctrl-C (the CLI's SIGTERM handler)."""
-    raise KeyboardInterrupt(f"signal {signum}")
+def raise_interrupted(signum, frame):
+    """Unwind like Ctrl-C, once: later stop signals are ignored so discarding temporaries is not cut short."""
+    for other in STOP_SIGNALS:
+        set_handler(other, signal.SIG_IGN)
+    raise Interrupted(signum)
 
 
 def set_handler(signum, handler):

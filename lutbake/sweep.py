@@ -4,6 +4,8 @@ Every variant is baked (timed), its file measured in bytes, and scored at the
 same held-out points (uniform over the domain) as the approximations engines
 run today, so the rows are comparable: p99 ΔE00 against bake seconds and
 bytes for LUTs, against nanoseconds per evaluation for the approximations.
+Each row's max is searched (report.search_max, ``search_budget`` evaluations
+a row, fewer than `report`'s: a sweep has ~30 rows).
 """
 
 from __future__ import annotations
@@ -19,10 +21,12 @@ from .errors import ParameterError
 from .plan import Axis, BakeSpec
 from .progress import no_progress
 from .refine import POINT_KIND, uniform_points
-from .report import score
+from .report import proxy_truth, score, search_max
 from .sample import Lut
 
-__all__ = ["sweep", "variants"]
+__all__ = ["sweep", "variants", "SWEEP_SEARCH_BUDGET"]
+
+SWEEP_SEARCH_BUDGET = 5000   # evaluations of each row's worst-case search
 
 
 def _scaled(spec: BakeSpec, factors) -> BakeSpec:
@@ -53,7 +57,14 @@ def variants(spec: BakeSpec) -> dict:
     return out
 
 
-def _measure(name, spec, folder, pts, backend) -> list:
+def _scored(name, read, lut, pts, spec, proxy, budget, seconds=float("nan")) -> dict:
+    """ErrorRow of ``read`` at ``pts``, its max searched."""
+    stats = score(name, read(pts.stack), pts, spec.space, spec.observer, seconds)
+    stats.worst_case = search_max(read, lut, pts, stats.de00, proxy, budget)
+    return stats.summary()
+
+
+def _measure(name, spec, folder, pts, backend, proxy, budget) -> list:
     """The variant's row by its interpolation rule; a cubic LUT also gets a row for linear reads of the
     same file (same bytes and bake time: what the 4-fetch rule gives up)."""
     path = Path(folder) / f"{spec.content_hash[:16]}.exr"
@@ -65,26 +76,31 @@ def _measure(name, spec, folder, pts, backend) -> list:
     common = {"kind": "lut", "shape": shape, "precision": spec.precision, "compute": spec.compute,
               "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
     reads = [spec.interpolation] + (["linear"] if spec.interpolation == "cubic" else [])
-    return [{**score(name if rule == spec.interpolation else f"{name} linear reads",
-                     lut.sample(pts.stack, None, rule), pts, spec.space, spec.observer).summary(),
+    return [{**_scored(name if rule == spec.interpolation else f"{name} linear reads",
+                       lambda stack, rule=rule: lut.sample(stack, None, rule), lut, pts, spec, proxy, budget),
              **common, "interpolation": rule} for rule in reads]
 
 
-def _approximation_rows(spec, pts):
+def _approximation_rows(spec, pts, proxy, budget):
+    """The approximations' rows, their max searched over the domain of ``spec`` (in its grid's node
+    coordinates: the search's steps and edge starts follow its cells)."""
+    lut = Lut.in_memory(spec, None)
     rows = []
     for name, fn in APPROXIMATIONS.items():
         start = time.perf_counter()
-        rgb = fn(pts.stack, spec.space, spec.observer)
+        fn(pts.stack, spec.space, spec.observer)
         seconds = (time.perf_counter() - start) / len(pts)
-        rows.append({**score(name, rgb, pts, spec.space, spec.observer, seconds).summary(), "kind": "approximation"})
+        rows.append({**_scored(name, lambda stack, fn=fn: fn(stack, spec.space, spec.observer), lut, pts, spec,
+                               proxy, budget, seconds), "kind": "approximation"})
     return rows
 
 
 def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto",
-          progress=no_progress) -> dict:
+          progress=no_progress, search_budget: int = SWEEP_SEARCH_BUDGET) -> dict:
     """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
 
-    ``progress(done, total, note)`` is called before each step (truth, each variant, plot)."""
+    ``progress(done, total, note)`` is called before each step (truth, each variant, plot); each row's
+    max is searched with ``search_budget`` evaluations."""
     from .figures import pareto_plot
     from .lutfile import write_text_atomic
     from .strictjson import dumps
@@ -98,15 +114,16 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
     total = len(grid) + 2
     progress(0, total, f"ground truth at {n_points} uniform points")
     pts = uniform_points(spec, n_points, seed)
+    proxy = proxy_truth(Lut.in_memory(spec, None), backend)   # one stand-in truth for every row's search
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
             progress(i, total, f"variant {name} ({'×'.join(str(a.count) for a in v.axes)})")
-            rows += _measure(name, v, tmp, pts, backend)
+            rows += _measure(name, v, tmp, pts, backend, proxy, search_budget)
     progress(total - 1, total, "approximations and Pareto plot")
-    rows += _approximation_rows(spec, pts)
-    doc = {"domain": spec.describe(), "points": n_points, "point_kind": POINT_KIND, "seed": seed, "rows": rows,
-           "figure": "pareto.png"}
+    rows += _approximation_rows(spec, pts, proxy, search_budget)
+    doc = {"domain": spec.describe(), "points": n_points, "point_kind": POINT_KIND, "seed": seed,
+           "search_budget": search_budget, "rows": rows, "figure": "pareto.png"}
     out.mkdir(parents=True, exist_ok=True)
     pareto_plot(doc, out / "pareto.png")
     write_text_atomic(out / "sweep.json", dumps(doc) + "\n")

@@ -92,7 +92,7 @@ def pytest_generate_tests(metafunc):
 # Modules that take the most CPU (bench/bench_suite.py), the longest first: pytest-xdist hands modules to
 # its workers in collection order (pyproject: --no-loadscope-reorder), so the long ones start early and
 # the short ones fill the end of the run on both workers, instead of one worker finishing a long module alone.
-LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_scene.py", "test_report.py", "test_cli_honest.py",
+LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_blender.py", "test_scene.py", "test_report.py", "test_cli_honest.py",
                  "test_bake.py", "test_api.py", "test_default_luts.py", "test_engine.py", "test_stability.py",
                  "test_spectral.py")
 
@@ -114,7 +114,7 @@ def pytest_collection_modifyitems(items):
 
 
 def _device_of(report):
-    return dict(report.user_properties).get("kernel_device")
+    return dict(getattr(report, "user_properties", ())).get("kernel_device")   # collection reports have none
 
 
 def pytest_terminal_summary(terminalreporter):

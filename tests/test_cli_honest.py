@@ -54,9 +54,9 @@ def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
         ["materials"],
         ["plan", "--scene", str(ROOT / "examples" / "soap-bubble.toml")],
         ["bake", "--eta2", "1.33", *TINY_AXES, "--out", str(tmp_path / "b.exr")],
-        ["report", str(tiny_lut), "--points", "20", "--max-de", "1"],
-        ["sweep", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--out", str(tmp_path / "sweep")],
-        ["tune", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--max-de", "50"],
+        ["report", str(tiny_lut), "--points", "20", "--max-de", "1", "--search-budget", "200"],
+        ["sweep", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--out", str(tmp_path / "sweep"), "--search-budget", "200"],
+        ["tune", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--max-de", "50", "--search-budget", "200"],
     ]   # and `check`: tests/test_stability.py parses the one run of it the suite makes
     for args in commands:
         out = run(*args, "--json")

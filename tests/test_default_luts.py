@@ -1,6 +1,6 @@
 """The default LUT set (`lutbake bake --out luts`, baked into luts/ by conftest.default_luts) stays within
-its byte budget, passes the README's gate and issue 13's p99 target (docs/accuracy.md has the 5,000-point
-figures and the max)."""
+its byte budget, passes the README's gate and issue 13's p99 target, and its searched max is where
+docs/accuracy.md says (which has the 5,000-point figures)."""
 
 import json
 import subprocess
@@ -13,7 +13,10 @@ from conftest import DEFAULT_LUTS as LUTS, default_luts
 from lutbake.bake import default_specs
 from lutbake.materials import material
 from lutbake.points import FilmPoints
+from lutbake.report import (SEARCH_BUDGET, corner_distance, held_out_points, lut_stacks, proxy_truth, score,
+                            search_max, singular_places)
 from lutbake.sample import Lut
+from lutbake.worstcase import SearchAxis, find_worst
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -34,9 +37,16 @@ def test_default_lut_images_fit_4096_texels_a_side():
         assert max(spec.image_size) <= 4096, (name, spec.image_size)
 
 
+# Searched max over the whole domain of each metal LUT (docs/accuracy.md): within 1, but η2 2.0's, whose
+# low-loss corner near grazing needs more D × κ3 nodes than 4096 texel rows hold (measured 1.08–1.42).
+METAL_MAX = {"lutbake-eta2-1.33-metal": 1.0, "lutbake-eta2-1.50-metal": 1.0, "lutbake-eta2-2.00-metal": 1.5}
+
+
 @pytest.mark.parametrize("name", sorted(default_specs()))
 def test_default_lut_passes_the_readme_gate(name):
-    """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points."""
+    """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points;
+    its searched max is within the metal LUTs' bounds, and a dielectric LUT's sits at the corner where the
+    truth has no limit (ρ < 0.2; outside it: the next test)."""
     out = subprocess.run([sys.executable, "-m", "lutbake.cli", "report", str(LUTS / f"{name}.exr"), "--max-de", "1.0",
                           "--no-approximations", "--json"], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr or out.stdout[-2000:]
@@ -45,6 +55,26 @@ def test_default_lut_passes_the_readme_gate(name):
     assert summary["point_kinds"] == {"cell-centre": 500, "uniform": 500}
     # issue 13's p99 target, read cubic as the header says (linear reads of the same files score ~0.7)
     assert summary["interpolation"] == "cubic" and summary["lut_error"]["de00_p99"] <= 0.3
+    worst = summary["lut_error"]["worst_case"]
+    if name in METAL_MAX:
+        assert worst["de00_max"] <= METAL_MAX[name]
+    else:
+        at = FilmPoints.build(eta2=default_specs()[name].eta2, cos_theta=worst["cos_theta"], opd_nm=worst["opd_nm"],
+                              eta3=worst["eta3"], kappa3=worst["kappa3"])
+        assert worst["de00_max"] > 10 and corner_distance(at)[0] < 0.2
+
+
+@pytest.mark.parametrize("name", [n for n in sorted(default_specs()) if not n.endswith("-metal")])
+def test_dielectric_lut_max_is_within_1_outside_the_corner(name):
+    """Outside the corner's neighbourhood ρ < 0.2 (report.corner_distance: for a film over air, beyond ~78°
+    with D below ~60 nm, η3 within ~2 % of η1 and κ3 below ~0.02 together) the searched max is ≤ 1
+    (measured 0.44–0.79 at seeds 0–2); the corner itself errs by up to ΔE00 100 in any grid."""
+    lut = Lut.load(LUTS / f"{name}.exr")
+    pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", 1000, 3)
+    de = score("lut", lut.sample(pts.stack), pts, "rec709", "cie1931").de00
+    found = search_max(lut.sample, lut, pts, de, proxy_truth(lut), SEARCH_BUDGET, 3,
+                       exclude=lambda stack: corner_distance(stack) < 0.2)
+    assert found["de00_max"] <= 1.0, found
 
 
 # Issue 13's list of common metals, and common dielectric bases (water, fused silica, titania, glass-like)
@@ -80,3 +110,21 @@ def test_no_default_texel_takes_the_direct_path_and_inspect_says_how_each_was_in
                           text=True).stdout
     assert (f"Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ {mix['series_bound_rgb_max']:.1e}), "
             f"poles' closed form at {mix['closed_form_texels']}") in text and "past the node cap" not in text
+
+
+@pytest.mark.parametrize("name", sorted(default_specs()))
+def test_no_read_goes_negative_where_the_truth_does_not(name):
+    """Searched over the whole domain (worstcase.find_worst from the corners, edges and singular places):
+    where a channel of the truth is ≥ 0 the cubic read's stays ≥ −1e-3 (measured ≥ −1.9e-4; before the
+    clamp, −0.074 at cos θ 0.001, D 0 over η3 = η1). Texels themselves go negative where the colour is out
+    of the working space's gamut, so the clamp alone does not settle it."""
+    lut = Lut.load(LUTS / f"{name}.exr")
+    proxy = proxy_truth(lut)
+
+    def below_zero(unit):
+        stack = lut_stacks(lut.axes, lut.eta1, lut.eta2, unit)
+        return np.max(np.where(proxy(stack) >= 0.0, -lut.sample(stack), -np.inf), axis=1)
+
+    axes = tuple(SearchAxis(a.name, cells=a.count - 1) for a in lut.axes)
+    worst = find_worst(below_zero, axes, singular=singular_places(lut.axes, lut.eta1), budget=10000)
+    assert worst.value <= 1e-3, (worst.value, worst.where_named)

@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 
 from lutbake.fileset import sha256_file
+from lutbake.headers import exr_header
 from lutbake.lutfile import read_lut
+from test_engine import ROOT, require_engine
 
 TINY = ["--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2", "--backend", "numpy",
         "--quiet"]
@@ -86,8 +88,29 @@ def lut_sets(tmp_path_factory):
     return hashes
 
 
+def _hash_of(path: Path) -> str:
+    """The set a member says it belongs to, read independently of lutbake's readers: the EXR header's
+    lutbake.content_hash attribute, or the hash on an include's second line."""
+    if path.suffix == ".exr":
+        return exr_header(path)["attributes"]["lutbake.content_hash"][1].decode()
+    return path.read_text().splitlines()[1].split()[3].rstrip(";")
+
+
+def _engine_accepts(folder: Path, pairs) -> list:
+    """engine/check-set.mjs (the shipped three.js loaders' check) on (EXR, include) pairs: True where it
+    loads the pair, False where it refuses it."""
+    require_engine()
+    args = [str(folder / name) for pair in pairs for name in pair]
+    out = subprocess.run(["node", str(ROOT / "engine" / "check-set.mjs"), *args], capture_output=True, text=True,
+                         timeout=120)
+    return [json.loads(line)["ok"] for line in out.stdout.splitlines()]
+
+
 @pytest.mark.parametrize("stop", range(STOPS_LUT))
 def test_lut_bake_killed_in_each_commit_window_leaves_one_whole_set(stop, tmp_path, lut_sets):
+    """kill -9 before the journal and between each rename after it (members renamed in the order exr,
+    json, glsl, hlsl): lutbake's readers refuse the set while its journal is there; an engine's loader,
+    which knows nothing of journals, refuses exactly the EXR + include pairs of two different bakes."""
     assert _run("bake", "--eta2", "1.5", *TINY, "--out", "x.exr", cwd=tmp_path)[0] == 0
     _kill_at(_start("bake", "--eta2", "1.33", *TINY, "--out", "x.exr", cwd=tmp_path, stop=True), stop)
     journaled = (tmp_path / ".x.exr.commit").exists()
@@ -95,6 +118,10 @@ def test_lut_bake_killed_in_each_commit_window_leaves_one_whole_set(stop, tmp_pa
     if journaled:  # readers refuse a set that is mid-commit
         rc, _, err = _run("inspect", "x.exr", cwd=tmp_path)
         assert rc == 2 and "mid-commit" in err and len(err.strip().splitlines()) == 1
+    pairs = [("x.exr", "x.glsl"), ("x.exr", "x.hlsl")]
+    same = [_hash_of(tmp_path / exr) == _hash_of(tmp_path / include) for exr, include in pairs]
+    assert _engine_accepts(tmp_path, pairs) == same
+    assert same == {0: [True, True], 1: [True, True], 2: [False, False], 3: [False, False], 4: [True, False]}[stop]
     # The next writer of the folder (another LUT here) completes the commit and drops dead temporaries.
     assert _run("bake", "--eta2", "2.0", *TINY, "--out", "other.exr", cwd=tmp_path)[0] == 0
     for p in tmp_path.glob("other.*"):

@@ -425,9 +425,9 @@ def test_peak_memory_estimate_covers_the_measured_peaks():
 
 def test_scene_target_not_met_at_the_cap_exits_1_with_what_was_reached(tmp_path, capfd, monkeypatch):
     """A target no slice within the cap can meet: the set is written, exit 1, the reached p99 named."""
-    import lutbake.atlas
+    import lutbake.scene_jobs
 
-    monkeypatch.setattr(lutbake.atlas, "MAX_SLICE_COUNT", 8)  # a small cap keeps the case fast
+    monkeypatch.setattr(lutbake.scene_jobs, "MAX_SLICE_COUNT", 8)  # a small cap keeps the case fast
     (tmp_path / "s.toml").write_text("[scene]\nmax_de = 0.01\n" + _mat("soap", thickness="[100, 600]"))
     _, _, err = run_case(["bake", "--scene", "s.toml", "--out", "T"], tmp_path, capfd, monkeypatch, {1})
     manifest = json.loads((tmp_path / "T" / "s.json").read_text())

@@ -1,8 +1,9 @@
 """The cubic rule (lutbake/interpolation.py) against an independent statement of it: pad the 4D grid
 with its ghost nodes explicitly (mirror at the low end of a √ axis from 0, quadratic extrapolation
-elsewhere), then apply the textbook Catmull-Rom formula to the padded grid. Also the properties
-the rule is chosen for: it returns node values at nodes, reproduces quadratics in the node
-coordinate exactly, and beats linear reads of the same texels on a real LUT."""
+elsewhere), apply the textbook Catmull-Rom formula to the padded grid, and clamp to the range of the
+4⁴ real nodes the read takes. Also the properties the rule is chosen for: it returns node values at
+nodes, reproduces quadratics in the node coordinate exactly, never overshoots the texels it reads, and
+beats linear reads of the same texels on a real LUT."""
 
 import itertools
 
@@ -68,6 +69,19 @@ def _catmull_rom(padded, f):
     return total
 
 
+def _stencil_range(grid, f):
+    """Per channel (min, max) of the 4 × 4 × 4 × 4 real nodes a read takes (docs/lut-format.md): per axis
+    nodes lower − 1 … lower + 2, moved inside the grid at its ends (0 … 3 in the first cell, N − 4 … N − 1
+    in the last)."""
+    cut = []
+    for fi, n in zip(f, grid.shape[:4]):
+        lower = min(int(np.floor(fi)), n - 2)
+        first = min(max(lower - 1, 0), n - 4)
+        cut.append(slice(first, first + 4))
+    block = grid[tuple(cut)].reshape(-1, 3)
+    return block.min(axis=0), block.max(axis=0)
+
+
 @pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
                                       ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt")])
 def test_cubic_reads_match_the_padded_textbook_rule(spacings):
@@ -87,10 +101,50 @@ def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     values = [a.from_unit(f[:, i] / (a.count - 1), snell2) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
     padded = _padded(grid, mirror)
-    want = np.array([_catmull_rom(padded, p) for p in f])
+    unclamped = np.array([_catmull_rom(padded, p) for p in f])
+    want = np.array([np.clip(u, *_stencil_range(grid, p)) for u, p in zip(unclamped, f)])
     assert np.abs(got - want).max() < 1e-10
-    # The control: the linear rule is another function of the same texels.
+    # The control: the linear rule is another function of the same texels (the clamp acts: below).
     assert np.abs(lut.sample(_stack(values), interpolation="linear") - want).max() > 0.1
+
+
+def test_cubic_reads_are_continuous_where_a_weight_reaches_zero():
+    """At the last node (t = 1) three taps of an axis weigh 0; 1e-6 inside they weigh ~1e-6. The read must
+    not jump there (a clamp to the non-zero weights' texels jumped by the other axes' overshoot: 2e-4 on a
+    default metal LUT, where a GPU's float32 node coordinate lands 1e-5 short of the node)."""
+    axes = _axes(SHAPE, ("uniform",) * 4)
+    rng = np.random.default_rng(11)
+    grid = rng.normal(size=SHAPE + (3,))
+    lut = _lut(grid, axes)
+    f = rng.uniform(0, 1, (200, 4)) * (np.array(SHAPE) - 1)
+    on = f.copy()
+    on[:, 0] = SHAPE[0] - 1
+    near = on.copy()
+    near[:, 0] -= 1e-6
+    reads = [lut.sample(_stack([a.from_unit(g[:, i] / (a.count - 1)) for i, a in enumerate(axes)])) for g in (on, near)]
+    assert np.abs(reads[0] - reads[1]).max() < 1e-4
+
+
+def test_cubic_reads_stay_within_the_texels_they_read_where_catmull_rom_overshoots():
+    """A step (1 at cos θ node 0, 0 beyond; R at grazing over a base matching the ambient): plain
+    Catmull-Rom dips to −0.074 in the second cell (the issue's read at cos θ 0.001, D 0); clamped reads
+    stay in [0, 1] and equal the unclamped sum wherever it lies inside."""
+    axes = _axes(SHAPE, ("uniform",) * 4)
+    grid = np.zeros(SHAPE + (3,))
+    grid[0] = 1.0
+    lut = _lut(grid, axes)
+    f0 = np.linspace(0.0, 3.0, 301)
+    rng = np.random.default_rng(9)
+    f = np.column_stack([f0, *(rng.uniform(0, n - 1, f0.size) for n in SHAPE[1:])])
+    values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
+    got = lut.sample(_stack(values))
+    unclamped = np.array([_catmull_rom(_padded(grid, [False] * 4), p) for p in f])
+    assert unclamped.min() < -0.07   # the overshoot being fixed
+    assert got.min() >= 0.0 and got.max() <= 1.0
+    inside = np.all((unclamped >= 0) & (unclamped <= 1), axis=1)
+    assert np.abs(got - unclamped)[inside].max() < 1e-12
+    clamped = np.array([np.clip(u, *_stencil_range(grid, p)) for u, p in zip(unclamped, f)])
+    assert np.abs(got - clamped).max() < 1e-12
 
 
 def test_cubic_reads_return_nodes_and_reproduce_quadratics():

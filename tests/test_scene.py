@@ -8,14 +8,16 @@ import textwrap
 import numpy as np
 import pytest
 
-from lutbake.atlas import _held_out, bake_scene
+from lutbake.scene_bake import bake_scene
+from lutbake.scene_jobs import held_out
 from lutbake.refine import Trial, refine
 from lutbake.sample import load_table
 from lutbake.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.colorimetry import delta_e00
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
-from lutbake.scene import load_scene, plan_scene
+from lutbake.scene_plan import plan_scene
+from lutbake.scene_toml import load_scene
 
 
 def write(tmp_path, text, name="scene.toml"):
@@ -232,7 +234,7 @@ def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
         """))
     bake_scene(scene, tmp_path / "out")
     entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["steel"]
-    pts, truth = _held_out(plan_scene(scene).jobs[0])
+    pts, truth = held_out(plan_scene(scene).jobs[0])
     stored = load_table(tmp_path / "out" / "scene.exr").sample("steel", pts)
     assert entry["de00_p99"] == float(np.percentile(delta_e00(stored, truth), 99))
     float64 = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from lutbake.atlas import bake_scene
+from lutbake.scene_bake import bake_scene
 from lutbake.bake import bake
 from lutbake.lutfile import warn_texture_size
 from lutbake.plan import Axis, BakeSpec
-from lutbake.scene import load_scene
+from lutbake.scene_toml import load_scene
 
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 GLSLANG = PREFIX / "bin" / "glslang"

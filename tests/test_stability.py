@@ -1,5 +1,6 @@
 """Stiff and extreme inputs: `lutbake check`, and a fuzz of the kernel path."""
 
+import hashlib
 import json
 import shutil
 import subprocess
@@ -48,6 +49,68 @@ def test_check_exits_1_on_a_failure(monkeypatch):
     monkeypatch.setattr(check, "run_checks", lambda backend="auto", progress=None: [failing])
     result = CliRunner().invoke(cli, ["check"], standalone_mode=False)
     assert result.return_value == 1 and "FAIL planted failure" in result.output
+
+
+WRONG_BY = 2e-4   # in RGB: 0.2 ΔE00 on mid grey
+
+
+def _columns(stack):
+    return (stack.eta1, stack.eta2, stack.cos_theta, stack.opd_nm, stack.eta3, stack.kappa3)
+
+
+def _wrong_by(salt: str, columns):
+    """A wrong fast answer's offset: WRONG_BY to 2·WRONG_BY, different at every stack (a hash of its
+    parameters and ``salt``), so that it breaks continuity too."""
+    rows = np.broadcast_arrays(*(np.atleast_1d(np.asarray(c, float)) for c in columns))
+    digest = [hashlib.sha256(salt.encode() + np.array(r).tobytes()).digest() for r in zip(*rows)]
+    return WRONG_BY * (1.0 + np.array([int.from_bytes(d[:4], "little") / 2**32 for d in digest]))[:, None]
+
+
+class _WrongFastPath:
+    """The numpy fast path, off by ``_wrong_by``; its float32 build by WRONG_BY more."""
+
+    name = "numpy"
+
+    def evaluate(self, spec, stack):
+        from lutbake.integrate import NumpyBackend
+
+        extra = WRONG_BY if spec.compute == "float32" else 0.0
+        return NumpyBackend().evaluate(spec, stack) + _wrong_by("fast", _columns(stack)) + extra
+
+
+def test_every_check_fails_an_answer_0_2_delta_e_off(monkeypatch):
+    """Each case's tolerance means something: with the fast path off by 2e-4–4e-4 in RGB (its float32 build
+    by 2e-4 more), the Fourier series off by 2e-4 and claiming the evanescent film, and the ground truth
+    off by −2e-4, every case fails. (The far-past-the-cap case held its error to its recorded a-priori
+    bound, 1.0, and passed any answer.)"""
+    real_series, real_truth = check.series_colour, check.reference_colour
+
+    def wrong_series(stack, tolerance):
+        res = real_series(stack, tolerance=tolerance)
+        return type(res)(**{**vars(res), "values": res.values + WRONG_BY, "terms": res.terms + 2})
+
+    def wrong_truth(stack, *args, **kwargs):
+        res = real_truth(stack, *args, **kwargs)
+        return type(res)(**{**vars(res), "values": res.values - WRONG_BY})
+
+    monkeypatch.setattr(check, "series_colour", wrong_series)
+    monkeypatch.setattr(check, "reference_colour", wrong_truth)
+    results = check.run_checks(_WrongFastPath())
+    assert len(results) > 30
+    assert [r.name for r in results if r.passed] == []
+    assert max(r.tolerance for r in results) < WRONG_BY
+
+
+def test_the_incoherent_limit_case_fails_the_single_pass_formula():
+    """The D = 100 µm case holds the ground truth to R12 + (1 − R12)²R23 / (1 − R12 R23) within 2e-5
+    (measured 7.2e-6); dropping the multiple reflections (the denominator) is off by more."""
+    truth = check.reference_colour(check._stack(1.0, 1.5, 0.8, 100000.0, 1.0, 0.0)).values
+    top = FilmPoints(eta1=1.0, eta2=1.5, eta3=1.5, kappa3=0.0, cos_theta=0.8, thickness_nm=0.0)
+    bottom = FilmPoints(eta1=1.5, eta2=1.5, eta3=1.0, kappa3=0.0, cos_theta=np.sqrt(1 - 0.36 / 2.25), thickness_nm=0.0)
+    r12, r23 = film_reflectance(top, 550.0), film_reflectance(bottom, 550.0)
+    single_pass = 0.5 * sum(a + (1 - a) ** 2 * b for a, b in zip(r12[:2], r23[:2]))
+    assert np.max(np.abs(truth - check._incoherent_limit(1.0, 1.5, 1.0, 0.0, 0.8))) <= check.INCOHERENT_TOLERANCE
+    assert np.max(np.abs(truth - single_pass)) > check.INCOHERENT_TOLERANCE
 
 
 def _extreme_inputs(rng, n):

@@ -1,0 +1,309 @@
+"""Blender from lutbake: write a scene bake's node-group library, and check it renders what lutbake samples.
+
+Blender runs as a separate program: a Blender executable (run with ``--background --python``) or a
+Python interpreter with the ``bpy`` module (PyPI's bpy 5.0.1 needs Python 3.11 and numpy < 2, which
+lutbake's own dependencies exclude, so it lives in an environment of its own). Inside it run two
+scripts of this package that import nothing of lutbake: ``blender_nodes.py`` (the node groups and
+materials, and the exact runtime mode as an OSL script filled in from shaders/exact.osl.in) and
+``blender_probe.py`` (renders probe planes). This module finds Blender, checks the inputs before it
+starts, commits the .blend atomically, and compares renders with ``lutbake sample`` and with the exact
+mode's float64 evaluation (docs/blender.md).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .blender_nodes import BLENDER_SPACES, EXACT_MATERIAL, SceneReads, SliceRead, read_manifest
+from .colorimetry import delta_e00
+from .errors import ParameterError
+from .exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, include_fields, read_exact_table
+from .lutfile import atomic_path, shader_template
+from .materials import material
+from .points import FilmPoints
+from .reference import reference_rgb
+from .sample import Atlas, Lut
+
+__all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
+           "verify_library", "verify_exact", "exact_osl", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
+
+BLENDER_ENV = "LUTBAKE_BLENDER"
+RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
+_SCRIPTS = Path(__file__).parent
+_INSTALL = ("a Blender executable on PATH, or --blender PATH (a Blender executable, or a Python 3.11 with the "
+            "bpy module: python3.11 -m venv .venv-blender && .venv-blender/bin/pip install bpy==5.0.1), or "
+            f"${BLENDER_ENV}")
+
+
+class BlenderError(RuntimeError):
+    """Blender ran and failed (not bad input): the last line of its error output."""
+
+
+def find_blender(explicit=None) -> str:
+    """The Blender to run: ``explicit``, else $LUTBAKE_BLENDER, else ``blender`` on PATH; ParameterError
+    (one line, what to install) when there is none."""
+    chosen = explicit or os.environ.get(BLENDER_ENV) or shutil.which("blender")
+    if not chosen:
+        raise ParameterError("no Blender found: need {what}", what=_INSTALL)
+    path = shutil.which(chosen)
+    if path is None:
+        raise ParameterError("{blender} {chosen} is not an executable file: need {what}", chosen=repr(chosen),
+                             what=_INSTALL)
+    return path
+
+
+def _command(blender: str, script: str, args: list) -> list:
+    """A Python with bpy runs the script itself; a Blender executable runs it headless on an empty file."""
+    if Path(blender).name.startswith("python"):
+        return [blender, str(_SCRIPTS / script), *args]
+    return [blender, "--background", "--factory-startup", "--python-exit-code", "1",
+            "--python", str(_SCRIPTS / script), "--", *args]
+
+
+def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> float:
+    """Run a script in Blender; its wall seconds. BlenderError with Blender's last error line on failure."""
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(_command(blender, script, args), capture_output=True, text=True, timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        raise BlenderError(f"{script} did not finish in {timeout_s:g} s") from None
+    if done.returncode == 2:   # the script's own one-line input error
+        raise ParameterError("{detail}", detail=done.stderr.strip().splitlines()[-1].removeprefix("lutbake: error: "))
+    if done.returncode != 0:
+        lines = [line for line in (done.stderr + done.stdout).splitlines() if line.strip()]
+        raise BlenderError(f"Blender ({blender}) failed running {script} (exit {done.returncode}): "
+                           f"{lines[-1] if lines else 'no output'}")
+    return time.perf_counter() - start
+
+
+def write_library(manifest, out, blender=None, pack: bool = True, exact=None) -> dict:
+    """Write ``out`` (.blend): one node group and one material per material of the scene bake whose
+    manifest is ``manifest`` (blender_nodes.py), and with ``exact`` (an `exact-table` EXR) the exact
+    mode's OSL material; committed atomically (nothing is written on failure).
+
+    Parameters
+    ----------
+    manifest : str or os.PathLike or None
+        SCENE.json of a scene bake (its atlas and 4D LUTs beside it); None with ``exact`` only.
+    out : str or os.PathLike
+        The .blend to write.
+    blender : str, optional
+        A Blender executable or a Python with bpy (default: ``find_blender()``).
+    pack : bool
+        Pack the EXRs into the .blend (default) rather than reference them by relative path.
+    exact : str or os.PathLike, optional
+        An exact-mode table (`lutbake exact-table`): the OSL script reads it at its absolute path.
+
+    Returns
+    -------
+    dict
+        ``library`` (the path), ``groups`` (material → node group name), ``working_space`` (Blender's name
+        of the bake's space: the library file's, and the one a file that appends the groups must use),
+        ``exact_material``, ``blender``, ``seconds``.
+    """
+    if manifest is None and exact is None:
+        raise ParameterError("nothing to write: give a scene manifest, {exact}, or both")
+    scene = read_manifest(manifest) if manifest is not None else None
+    osl = exact_osl(exact) if exact is not None else None
+    out = Path(out)
+    if out.suffix != ".blend":
+        raise ParameterError("{out_path} {out} must end in .blend", out=repr(str(out)))
+    if out.is_dir():
+        raise ParameterError("{out_path} {out} is a folder, expected a file or nothing", out=repr(str(out)))
+    exe = find_blender(blender)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    args = [str(Path(manifest).absolute())] if manifest is not None else []
+    with atomic_path(out) as tmp, tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
+        blend = tmp.with_name(tmp.name + ".blend")   # Blender saves only to a name ending in .blend
+        if osl is not None:
+            (Path(folder) / "lutbake_exact.osl").write_text(osl)
+            args += ["--osl", str(Path(folder) / "lutbake_exact.osl")]
+        try:
+            seconds = _run(exe, "blender_nodes.py", [*args, "--out", str(blend.absolute()), *([] if pack else ["--link"])])
+            os.replace(blend, tmp)
+        finally:
+            blend.unlink(missing_ok=True)
+    groups = {r.material: scene.group_name(r.material) for r in scene.reads} if scene else {}
+    return {"library": str(out), "groups": groups, "working_space": BLENDER_SPACES[scene.space] if scene else None,
+            "exact_material": EXACT_MATERIAL if osl else None, "blender": exe, "seconds": seconds}
+
+
+def exact_osl(table) -> str:
+    """The exact mode's OSL script (shaders/exact.osl.in) for the `exact-table` EXR ``table``, whose
+    absolute path it reads."""
+    path = Path(table).absolute()
+    meta = read_exact_table(path).meta
+    return shader_template("exact.osl.in").substitute({**include_fields(meta, path.name), "table_path": str(path)})
+
+
+def render_probes(job: dict, blender=None) -> dict:
+    """Render ``job``'s probe planes in Blender (blender_probe.py: the job's format is there)."""
+    exe = find_blender(blender)
+    with tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
+        job_path, result_path = Path(folder) / "job.json", Path(folder) / "result.json"
+        job_path.write_text(json.dumps(job))
+        seconds = _run(exe, "blender_probe.py", [str(job_path), str(result_path)])
+        result = json.loads(result_path.read_text())
+    return {**result, "seconds": seconds}
+
+
+# --- verify: a library's renders against lutbake sample --------------------------------------------
+
+@dataclass
+class Probes:
+    """Probe points of one material (arrays of equal length) and what ``lutbake sample`` returns there."""
+
+    material: str
+    cos_theta: np.ndarray
+    thickness_nm: np.ndarray
+    eta3: np.ndarray | None
+    kappa3: np.ndarray | None
+    expected: np.ndarray | None   # None where only the points are needed
+
+
+def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
+    """``n`` points of one material: cos θ from grazing (0.03) to normal incidence (both included),
+    thickness over the baked range and a little past both ends (reads clamp there); for a 4D LUT, η3 and
+    κ3 over the LUT's ranges and past them. Expected values: the atlas sampler, or the LUT's linear
+    rule (what the node groups compute: docs/blender.md)."""
+    rng = np.random.default_rng(seed)
+    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03 ** 0.5, 1.0, n - 2) ** 2])
+    lo, hi = read.thickness_nm
+    pad = 0.05 * (hi - lo)
+    thickness = np.concatenate([[max(lo - pad, 0.0), hi + pad], rng.uniform(lo, hi, n - 2)]) if hi > lo else np.full(n, lo)
+    table_path = scene.folder / read.image
+    if isinstance(read, SliceRead):
+        atlas = Atlas.load(table_path)
+        pts = FilmPoints.build(**atlas.film_stack(read.material), cos_theta=cos_theta, thickness_nm=thickness)
+        return Probes(read.material, cos_theta, thickness, None, None, atlas.sample(read.material, pts))
+    lut = Lut.load(table_path)
+    e, k = read.axes[2:]
+    eta3 = rng.uniform(e["min"] - 0.05 * (e["max"] - e["min"]), e["max"] + 0.05 * (e["max"] - e["min"]), n)
+    kappa3 = rng.uniform(k["min"], k["max"] + 0.05 * (k["max"] - k["min"]), n)
+    pts = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, thickness_nm=thickness,
+                           eta3=eta3, kappa3=kappa3)
+    return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
+
+
+def lutbake_probes(scene: SceneReads, library, probes: list, closure: str = "glossy", first: int = 0) -> tuple:
+    """(job materials, job probes) rendering ``probes`` (one ``Probes`` per material of ``scene``) with the
+    library's materials; probe material indices start at ``first``."""
+    materials = [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": scene.group_name(p.material),
+                  "closure": closure} for p in probes]
+    return materials, [_probe(first + i, p, j) for i, p in enumerate(probes) for j in range(len(p.cos_theta))]
+
+
+def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple:
+    """(job materials, job probes) rendering ``points`` with Blender's own thin film: a Principled BSDF
+    (film over a dielectric base of index η3) or a Metallic BSDF's Physical Conductor (per-channel n, k)
+    over an absorbing one. Blender's film and base indices are constants: a named film is taken at
+    549 nm, a named base at 611/549/464 nm (exact.base_rgb, the dominant wavelengths of the Rec.709
+    primaries, as exact.base_rgb; the principled base at 549 nm). Probe material indices start at ``first``."""
+    n = len(points)
+    eta2 = (np.full(n, float(points.film.index(RGB_WAVELENGTHS_NM[1])[0])) if points.film is not None
+            else np.broadcast_to(points.eta2, n))
+    if points.base is not None:
+        eta_rgb, kappa_rgb = (np.broadcast_to(v, (n, 3)) for v in points.base.index(np.array(RGB_WAVELENGTHS_NM)))
+    else:
+        eta_rgb, kappa_rgb = (np.repeat(np.broadcast_to(v, n)[:, None], 3, axis=1) for v in (points.eta3, points.kappa3))
+    cos_theta, thickness = np.broadcast_to(points.cos_theta, n), np.broadcast_to(points.thickness_nm, n)
+    probes = [{"material": first + int((kappa_rgb[i] > 0).any()), "cos_theta": float(cos_theta[i]),
+               "thickness_nm": float(thickness[i]), "eta2": float(eta2[i]), "eta3": float(eta_rgb[i, 1]),
+               "eta3_rgb": eta_rgb[i].tolist(), "kappa3_rgb": kappa_rgb[i].tolist()} for i in range(n)]
+    return [{"kind": "principled"}, {"kind": "conductor"}], probes
+
+
+def verify_library(manifest, library, blender=None, engine: str = "CYCLES", closure: str = "glossy",
+                   n_points: int = 24) -> dict:
+    """Render every material of ``library`` (written by ``write_library`` for ``manifest``) at
+    ``n_points`` probes in ``engine`` and compare with ``lutbake sample``.
+
+    ``closure`` 'glossy' renders the shipped material (Glossy BSDF); 'emission' feeds the group into an
+    Emission shader instead, which isolates the group from the engine's closure storage (EEVEE keeps
+    closure colours in a ~10-bit G-buffer). Blender clamps a closure's negative colour components to 0
+    (Cycles' Emission excepted), so the render is held to max(sample, 0). Returns per material and overall max |ΔRGB| (overall also in
+    half-float ulps of the expected value: EEVEE renders into half floats), how many
+    points had a negative component, the largest spread inside a probe, whether all are within
+    RENDER_TOLERANCE, and the render's seconds.
+    """
+    scene = read_manifest(manifest)
+    probes = [probe_points(scene, read, n_points, seed) for seed, read in enumerate(scene.reads)]
+    materials, job_probes = lutbake_probes(scene, library, probes, closure)
+    result = render_probes({"engine": engine, "materials": materials, "probes": job_probes}, blender)
+    rgb = np.asarray(result["rgb"]).reshape(len(probes), n_points, 3)
+    expected = np.array([p.expected for p in probes])
+    if closure == "glossy" or engine != "CYCLES":
+        # Blender clamps a closure's negative (out-of-gamut) components to 0; Cycles' Emission passes them
+        expected = np.maximum(expected, 0.0)
+    errors = np.abs(rgb - expected)
+    by_material = {p.material: float(errors[i].max()) for i, p in enumerate(probes)}
+    worst = float(errors.max())
+    clamped = sum(int((p.expected < 0).any(axis=-1).sum()) for p in probes)
+    return {"engine": engine, "closure": closure, "blender": result["blender"], "points": n_points * len(probes),
+            "max_abs_rgb": worst, "max_half_ulps": float((errors / _half_ulp(expected)).max()),
+            "by_material": by_material, "negative_points": clamped,
+            "spread_max": float(max(result["spread"])),
+            "tolerance": RENDER_TOLERANCE, "ok": worst <= RENDER_TOLERANCE,
+            "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
+
+
+def verify_exact(library, table, blender=None, n_points: int = 48, seed: int = 0) -> dict:
+    """Render ``library``'s exact material (``write_library(..., exact=table)``) in Cycles with OSL at
+    ``n_points`` probes (cos θ 0.03–1, d 0–1000 nm, films η2 1.2, 1.6, 2.4; dielectric bases η3 1–2.5 and
+    the metals Au, Ag, Cu, Al, Fe, Cr per channel) and compare with ``exact.exact_colour``, the float64
+    evaluation of the same series on the same table, and at the dielectric probes ΔE00 against the ground
+    truth (both held at 0 where negative, as Glossy BSDF clamps)."""
+    rng = np.random.default_rng(seed)
+    films = (1.2, 1.6, 2.4)
+    eta2 = np.repeat(films, -(-n_points // len(films)))[:n_points]
+    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03 ** 0.5, 1.0, n_points - 2) ** 2])
+    thickness = np.concatenate([[0.0, 1000.0], rng.uniform(0.0, 1000.0, n_points - 2)])
+    metals = [np.array(material(name).index(np.array(RGB_WAVELENGTHS_NM))) for name in METALS]   # (2, 3) each
+    eta3, kappa3 = np.empty((n_points, 3)), np.empty((n_points, 3))
+    for j in range(n_points):
+        if j % 2:
+            eta3[j], kappa3[j] = metals[(j // 2) % len(metals)]
+        else:
+            eta3[j], kappa3[j] = rng.uniform(1.0, 2.5), 0.0
+    exact = read_exact_table(table)
+    expected = np.empty((n_points, 3))
+    for film in films:
+        at = eta2 == film
+        expected[at] = exact_colour(exact, cos_theta[at], thickness[at], 1.0, film, eta3[at], kappa3[at]).values
+    probes = [{"cos_theta": float(cos_theta[j]), "thickness_nm": float(thickness[j]), "eta2": float(eta2[j]),
+               "eta3_rgb": eta3[j].tolist(), "kappa3_rgb": kappa3[j].tolist()} for j in range(n_points)]
+    job = {"engine": "CYCLES", "osl": True, "probes": probes,
+           "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": EXACT_MATERIAL}]}
+    result = render_probes(job, blender)
+    rgb = np.asarray(result["rgb"])
+    errors = np.abs(rgb - np.maximum(expected, 0.0))
+    dielectric = kappa3[:, 0] == 0   # one index for all wavelengths: the ground truth applies as it is
+    truth = reference_rgb(FilmPoints.build(eta2=eta2[dielectric], cos_theta=cos_theta[dielectric],
+                                           thickness_nm=thickness[dielectric], eta3=eta3[dielectric, 0]))
+    return {"engine": "CYCLES (OSL)", "blender": result["blender"], "points": n_points,
+            "max_abs_rgb": float(errors.max()), "spread_max": float(max(result["spread"])),
+            "de00_max_dielectric_vs_truth": float(delta_e00(rgb[dielectric], np.maximum(truth, 0.0)).max()),
+            "tolerance": RENDER_TOLERANCE, "ok": bool(errors.max() <= RENDER_TOLERANCE),
+            "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
+
+
+def _half_ulp(values):
+    """The spacing of half floats at ``values`` (normal range; 2⁻²⁴ below it)."""
+    exponent = np.floor(np.log2(np.maximum(np.abs(values), 2.0 ** -14)))
+    return 2.0 ** (exponent - 10)
+
+
+def _probe(material_index: int, p: Probes, j: int) -> dict:
+    probe = {"material": material_index, "cos_theta": float(p.cos_theta[j]), "thickness_nm": float(p.thickness_nm[j])}
+    if p.eta3 is not None:
+        probe.update(eta3=float(p.eta3[j]), kappa3=float(p.kappa3[j]))
+    return probe
