@@ -87,7 +87,7 @@ FLAG_OF_PARAMETER = {
     "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta1": "--eta1", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
     "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
     "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
-    "tolerance": "--tolerance", "max_terms": "--max-terms", "blender": "--blender", "exact": "--exact",
+    "device": "--device", "tolerance": "--tolerance", "max_terms": "--max-terms", "blender": "--blender", "exact": "--exact",
 }
 
 
@@ -449,13 +449,14 @@ def bake_cmd(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, preci
                 for name, spec in default_specs(precision or "half").items()]
         for _, spec in jobs:
             spec.check_budget(max_memory_gib)
-        _make_folder(folder)   # then bake_set checks every member's path before any work
+        target = _folder_for(folder)   # then bake_set checks every member's path before any work
     else:
         if out is None:
             raise BadInput("--out FILE.exr is required with --eta2")
-        jobs = [(Path(out), domain_spec(**flags))]
+        jobs, target = [(Path(out), domain_spec(**flags))], contextlib.nullcontext()
     set_name = "lutbake-default-set" if eta2 is None else jobs[0][0].name
-    results = _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib)
+    with target:
+        results = _bake_jobs(jobs, set_name, backend, quiet, force_progress, max_memory_gib)
     summary = [_bake_summary(r) for r in results]
     if as_json:
         echo_json({"luts": summary})
@@ -566,6 +567,21 @@ def _make_folder(folder: Path):
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise BadInput(f"--out folder {str(folder)!r} cannot be created: {exc.strerror}") from None
+
+
+@contextlib.contextmanager
+def _folder_for(folder: Path):
+    """The --out folder, made if missing, and removed again if it is still empty when the block fails
+    (a device that cannot run, an interrupt): a failed bake leaves nothing behind."""
+    made = not folder.exists()
+    _make_folder(folder)
+    try:
+        yield
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
 
 
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import OpenCLUnavailable
+from .errors import OpenCLUnavailable, ParameterError
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
 from .optics import film_reflectance, normal_admittance
@@ -38,8 +38,8 @@ from .usercache import pyopencl_caches_where_writable
 
 pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
 
-__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "opencl_devices", "find_device",
-           "device_key", "device_label", "self_check_error"]
+__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
+           "find_device", "device_key", "device_label", "self_check_error"]
 
 
 class NumpyBackend:
@@ -778,15 +778,26 @@ class OpenCLBackend:
         return out.astype(np.float64).sum(axis=0)
 
 
+class DeviceCannotRun(ParameterError, OpenCLUnavailable):
+    """The OpenCL device named by ``device`` (or $LUTBAKE_DEVICE) does not build the kernel or fails its
+    self-check: bad input (the CLI's exit 2), not a reason to fall back to numpy."""
+
+
 def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):
     """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
     ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device``
-    the OpenCL device (``find_device``)."""
+    the OpenCL device (``find_device``). A device named here or by $LUTBAKE_DEVICE that cannot run
+    raises DeviceCannotRun, even under 'auto': only the default device falls back."""
     if name == "numpy":
         return NumpyBackend()
+    chosen = device or os.environ.get("LUTBAKE_DEVICE")
     try:
         return OpenCLBackend(compute, integrator, device)
     except (OpenCLUnavailable, ImportError) as exc:
+        if chosen:   # a device the user named is not swapped for another path behind their back
+            raise DeviceCannotRun("{device} {selector} cannot run the kernel ({reason}): name another "
+                                  "(`lutbake devices` lists them) or omit it", selector=repr(chosen),
+                                  reason=exc) from None
         if name == "opencl":
             raise
         warnings.warn(f"OpenCL unavailable ({exc}); baking with the numpy path, which is much slower",

@@ -94,6 +94,49 @@ def test_bake_names_its_device_in_stdout_json_and_sidecar(tmp_path):
     assert json.loads((tmp_path / "b.json").read_text())["baked_on"]["device"] == label
 
 
+def _bake_in_process(argv, capfd, monkeypatch):
+    """(exit status, stderr) of the CLI run in this process, $LUTBAKE_DEVICE unset before it (--device sets it)."""
+    from lutbake import cli
+
+    monkeypatch.delenv("LUTBAKE_DEVICE", raising=False)
+    try:
+        cli.main(argv)
+        status = 0
+    except SystemExit as exc:
+        status = exc.code
+    return status, capfd.readouterr().err
+
+
+@pytest.mark.parametrize("default_set", [False, True], ids=["one-lut", "default-set"])
+def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_back(tmp_path, capfd, monkeypatch,
+                                                                                    default_set):
+    """Issue 27: `--device N` whose kernel does not build is one line, exit 2, nothing written (not a silent
+    numpy bake); without --device the same failure falls back to numpy, saying so. Every device is made to
+    fail its build here, so the test runs alike where PoCL builds (Zen 3) and where it cannot (Zen 5)."""
+    index, device = _building_devices()[-1]
+    monkeypatch.setattr(integrate, "_device_kernels",
+                        lambda d, compute: integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build"))
+    grid = ["--eta2", "1.4", "--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2"]
+    out = tmp_path / "out"
+    target = ["--out", str(out)] if default_set else [*grid, "--out", str(out / "a.exr")]
+    if not default_set:
+        out.mkdir()
+    with monkeypatch.context() as patch:   # a regression fails here at once rather than bake for minutes
+        patch.setattr(integrate, "NumpyBackend", lambda: pytest.fail("a named device fell back to numpy"))
+        status, err = _bake_in_process(["bake", "--quiet", *target, "--device", str(index)], capfd, monkeypatch)
+    assert status == 2 and len(err.strip().splitlines()) == 1, err
+    assert err.startswith(f"lutbake: error: --device '{index}' cannot run the kernel ("), err
+    assert "no build" in err and "numpy" not in err
+    assert not out.exists() if default_set else not any(out.iterdir())
+    with pytest.raises(integrate.DeviceCannotRun):   # the library alike, and catchable as OpenCLUnavailable
+        integrate.backend("auto", device=integrate.device_key(device))
+    if not default_set:
+        with pytest.warns(RuntimeWarning, match="baking with the numpy path"):
+            status, err = _bake_in_process(["bake", "--quiet", *target], capfd, monkeypatch)
+        assert status == 0, err
+        assert json.loads((out / "a.json").read_text())["baked_on"]["backend"] == "numpy"
+
+
 def test_unknown_device_is_refused_with_one_line():
     out = _cli("bake", "--eta2", "1.4", "--out", "never.exr", "--device", "no-such-runtime")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
