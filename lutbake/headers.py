@@ -205,6 +205,14 @@ def _integrator(integrator: dict) -> None:
         _integer(_at(integrator, key, "integrator"), f"integrator.{key}", 0)
     for key in _INTEGRATOR_NUMBERS:
         _number(_at(integrator, key, "integrator"), f"integrator.{key}", low=0.0)
+    if "closed_form_texels" in integrator:   # since the poles' closed form (docs/spectral.md)
+        _integer(integrator["closed_form_texels"], "integrator.closed_form_texels", 0)
+        _number(_at(integrator, "closed_form_bound_rgb_max", "integrator"), "integrator.closed_form_bound_rgb_max",
+                low=0.0)
+        closed = _dict(integrator, "closed_form", "integrator")
+        for key in ("near_ellipse_rho", "bound_ellipse_rho", "cauchy_table_bound", "chebyshev_degree",
+                    "max_near_poles"):
+            _number(_at(closed, key, "integrator.closed_form"), f"integrator.closed_form.{key}", low=0.0)
 
 
 def _check_atlas(meta: dict, shape: dict) -> None:

@@ -231,7 +231,8 @@ def _retyped(value):
 
 # Keys older files go without (format versions before the truncation measurement, the Fourier-series
 # integrator or the interpolation key; an atlas slice's id): removing one may leave a valid header.
-_OPTIONAL = {"integrator", "interpolation", "capped_texels", "truncation_bound_rgb", "capped_error_rgb_max", "id"}
+_OPTIONAL = {"integrator", "interpolation", "capped_texels", "truncation_bound_rgb", "capped_error_rgb_max", "id",
+             "closed_form_texels"}
 FORMATS = (lutfile.FORMAT, lutfile.ATLAS_FORMAT, lutfile.EXACT_FORMAT)
 
 
