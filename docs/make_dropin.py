@@ -1,13 +1,14 @@
 """The three.js iridescence drop-in side by side (docs/img/dropin.png, the table in docs/engines.md).
 
 MeshPhysicalMaterial spheres with KHR_materials_iridescence parameters, their film Fresnel term by three.js's
-built-in evalIridescence, by lutbake's exact mode and by a shipped lutbake LUT (engine/lutbake-iridescence.js),
+built-in evalIridescence, by lutbake's runtime table (the drop-in's default), its exact mode and a shipped
+lutbake LUT (engine/lutbake-iridescence.js),
 read back per pixel with the parameters each pixel used, against the ground truth at those parameters
 (constant indices: the dielectric's ior, the metal's n, k at 611/549/464 nm per channel) and, for metals,
 against the dispersive metal (its n, k at every wavelength): what the per-channel mapping costs.
 
 Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium; it writes the exact
-table into engine/exact/ first)
+table into engine/exact/ and the runtime table into luts/ first, as `lutbake exact-table` and `lutbake runtime-table` do)
 """
 
 import functools
@@ -40,6 +41,8 @@ MATERIALS = [
     ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
 SWATCH_COS = np.linspace(1.0, 0.05, 16)
+MODES = ("three", "runtime", "exact", "lut", "lut-linear")   # lut-linear: the LUT by the drop-in's lutRule 'linear'
+RUNTIME = ROOT / "luts" / "runtime" / "lutbake-runtime.exr"   # beside, not among, the default LUTs
 
 
 def _base(base):
@@ -73,7 +76,8 @@ def spec() -> dict:
     materials, swatches = [], []
     for label, eta2, thickness, base, lut in MATERIALS:
         m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
-             "exact": "/engine/exact/lutbake-exact", "ior": base if isinstance(base, float) else 1.5}
+             "exact": "/engine/exact/lutbake-exact", "runtime": f"/{RUNTIME.relative_to(ROOT).with_suffix('')}",
+             "ior": base if isinstance(base, float) else 1.5}
         if not isinstance(base, float):
             n, k = base_rgb(base)
             m["metal"] = {"eta": n.tolist(), "kappa": k.tolist(),
@@ -93,9 +97,20 @@ def write_exact_table() -> Path:
     return EXACT_TABLE
 
 
+@functools.lru_cache(maxsize=1)
+def write_runtime_table() -> Path:
+    """luts/runtime/lutbake-runtime.{exr,json,glsl,hlsl} as `lutbake runtime-table` writes them here, once
+    per process (generated, not committed: like the exact table, its texels may round differently elsewhere)."""
+    RUNTIME.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(RUNTIME.relative_to(ROOT))],
+                   cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
+    return RUNTIME
+
+
 def run(image: Path) -> dict:
     """Render in headless Chromium; {(material, mode): (fresnel (n, 3), parameters (n, 3))}."""
     write_exact_table()
+    write_runtime_table()
     with tempfile.TemporaryDirectory() as tmp:
         job, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         job.write_text(json.dumps(spec()))
@@ -120,7 +135,7 @@ def errors(cells: dict, dispersive: bool = True) -> list:
         cos, thickness = params[:, 0], params[:, 1]
         ref = truth(cos, thickness, eta2, base)
         disp = None if isinstance(base, float) or not dispersive else dispersive_truth(cos, thickness, eta2, base)
-        for mode in ("three", "exact", "lut"):
+        for mode in MODES:
             rgb, p = cells[(label, mode)]
             assert np.allclose(p, params, atol=1e-6), "modes rendered different pixels"
             de = delta_e00(rgb, ref)

@@ -1,5 +1,7 @@
 // Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
 // Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
+//        node engine/harness.mjs cost SPEC.json RESULT.json        (bench/bench_runtime_cost.py: shader wall times)
+//        node engine/harness.mjs dropin-cost SPEC.json RESULT.json (bench/bench_runtime_cost.py: the drop-in's)
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
 //        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/test_exact_engine.py)
 //        node engine/harness.mjs gltf SPEC.json RESULT.json               (tests/test_gltf_engine.py)
@@ -64,16 +66,21 @@ function writeAtomic(path, data) {
   renameSync(tmp, path);
 }
 
+// Commands that hand a JSON spec to one page function and write its JSON result: [function, page].
+const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
+                gltf: ['lutbakeGltf', '/engine/gltf-page.html'] };
+
 const [command, input, output] = process.argv.slice(2);
-if (command === 'evaluate') {
-  const jobs = JSON.parse(readFileSync(input, 'utf8'));
+if (command in CALLS) {
+  const spec = JSON.parse(readFileSync(input, 'utf8'));
+  const [fn, pagePath] = CALLS[command];
   const result = await withPage(async (page, errors) => {
     try {
-      return await page.evaluate((j) => window.lutbakeEvaluate(j), jobs);
+      return await page.evaluate(([name, s]) => window[name](s), [fn, spec]);
     } catch (e) {
       throw new Error(`${e.message}\n${errors.join('\n')}`);
     }
-  });
+  }, pagePath);
   writeAtomic(output, JSON.stringify(result));
 } else if (command === 'view') {
   const spheres = JSON.parse(readFileSync(input, 'utf8'));
@@ -99,17 +106,7 @@ if (command === 'evaluate') {
     }
   });
   writeAtomic(output, JSON.stringify(result));
-} else if (command === 'gltf') {
-  const spec = JSON.parse(readFileSync(input, 'utf8'));
-  const result = await withPage(async (page, errors) => {
-    try {
-      return await page.evaluate((s) => window.lutbakeGltf(s), spec);
-    } catch (e) {
-      throw new Error(`${e.message}\n${errors.join('\n')}`);
-    }
-  }, '/engine/gltf-page.html');
-  writeAtomic(output, JSON.stringify(result));
 } else {
-  console.error('usage: node engine/harness.mjs evaluate JOBS.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png | gltf SPEC.json RESULT.json');
+  console.error('usage: node engine/harness.mjs evaluate|cost|dropin-cost SPEC.json RESULT.json | view SPHERES.json IMAGE.png | dropin SPEC.json RESULT.json IMAGE.png | gltf SPEC.json RESULT.json');
   process.exit(2);
 }

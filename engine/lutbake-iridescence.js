@@ -1,15 +1,18 @@
 // lutbake iridescence for three.js: a drop-in replacement of MeshPhysicalMaterial's thin-film Fresnel term
-// (three's evalIridescence, KHR_materials_iridescence) by lutbake's exact series or a baked lutbake LUT.
+// (three's evalIridescence, KHR_materials_iridescence) by lutbake's runtime table (the default: any film
+// index, 6 bilinear reads), its exact series, or a baked lutbake LUT.
 // The glTF parameters keep their meaning: iridescence, iridescenceIOR (the film's index) and
 // iridescenceThicknessMinimum/Maximum and iridescenceThicknessMap (the film's thickness in nm). The base under the film:
 // the material's `ior` for dielectrics; for metals (metalness 1) the per-channel n, k you pass as
-// `metal` (`lutbake exact-table` users: lutbake's named metals at 611/549/464 nm, docs/engines.md).
+// `metal` (lutbake's named metals at 611/549/464 nm: exact.base_rgb, docs/engines.md). Each branch runs only
+// where it is needed: the dielectric one where metalness < 1, the metallic one where metalness > 0.
 //
-//   import { loadLutbakeExact, lutbakeIridescence } from './lutbake-iridescence.js';
-//   const exact = await loadLutbakeExact('engine/exact/lutbake-exact');   // .exr + .glsl of `lutbake exact-table`
-//   lutbakeIridescence(material, { exact });                                // dielectric base: material.ior
-//   lutbakeIridescence(material, { exact, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
-//   lutbakeIridescence(material, { lut: await loadLutbakeLut('luts/lutbake-eta2-1.33') });
+//   import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-iridescence.js';
+//   const runtime = await loadLutbakeRuntime('luts/lutbake-runtime');       // .exr + .glsl of `lutbake runtime-table`
+//   lutbakeIridescence(material, { runtime });                              // dielectric base: material.ior
+//   lutbakeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
+//   lutbakeIridescence(material, { exact: await loadLutbakeExact('engine/exact/lutbake-exact') });
+//   lutbakeIridescence(material, { lut: await loadLutbakeLut('luts/lutbake-eta2-1.33'), lutRule: 'linear' });
 //
 // `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour;
 // 'parameters' writes (cos theta, thickness nm, iridescenceIOR) the pixel used. Set it also with mode 'three'
@@ -53,6 +56,11 @@ async function loadChecked(stem, loader) {
   return { table: texture, include };
 }
 
+// The runtime table with EXRLoader's defaults (RGBA half float, linear filtering) and its include.
+export async function loadLutbakeRuntime(stem) {
+  return loadChecked(stem, new EXRLoader());
+}
+
 // The exact mode's table as float32 texels read with texelFetch (no filtering, so no float-linear extension).
 export async function loadLutbakeExact(stem) {
   const exact = await loadChecked(stem, new EXRLoader().setDataType(THREE.FloatType));
@@ -66,29 +74,45 @@ export async function loadLutbakeLut(stem) {
   return { ...lut, ident: lut.include.match(/const LutbakeLut (\w+) =/)[1] };
 }
 
-// GLSL for the film's Fresnel term at (dotNVi, material): three's iridescenceIOR and thickness, base from
-// material.ior (dielectric) or the lutbakeMetal* uniforms (metallic), one line per base.
-function fresnelTerms(mode, lut) {
+// GLSL for the film's Fresnel term at (dotNVi, material), one expression per base: three's iridescenceIOR and
+// thickness, the base from material.ior (dielectric) or the lutbakeMetal* uniforms (metallic, per channel).
+function fresnelTerms(mode, source, lutRule) {
+  const film = 'dotNVi, material.iridescenceThickness, 1.0, material.iridescenceIOR';
+  if (mode === 'runtime') {
+    return [`lutbake_iridescence(lutbakeTable, ${film}, material.ior, 0.0)`,
+            `lutbake_iridescence_rgb(lutbakeTable, ${film}, lutbakeMetalEta, lutbakeMetalKappa)`];
+  }
   if (mode === 'exact') {
-    return [
-      'lutbake_exact(lutbakeTable, dotNVi, material.iridescenceThickness, 1.0, material.iridescenceIOR, material.ior, 0.0)',
-      'lutbake_exact_rgb(lutbakeTable, dotNVi, material.iridescenceThickness, 1.0, material.iridescenceIOR, lutbakeMetalEta, lutbakeMetalKappa)',
-    ];
+    return [`lutbake_exact(lutbakeTable, ${film}, material.ior, 0.0)`,
+            `lutbake_exact_rgb(lutbakeTable, ${film}, lutbakeMetalEta, lutbakeMetalKappa)`];
   }
   // A LUT holds one film index: iridescenceIOR must equal its eta2 (checked on the host).
-  const at = (eta, kappa) => `lutbake_sample(lutbakeTable, ${lut.ident}, dotNVi, 2.0 * ${lut.ident}.eta2 * material.iridescenceThickness, ${eta}, ${kappa})`;
+  const sample = lutRule === 'linear' ? 'lutbake_sample_linear' : 'lutbake_sample';
+  const at = (eta, kappa) => `${sample}(lutbakeTable, ${source.ident}, dotNVi, 2.0 * ${source.ident}.eta2 * material.iridescenceThickness, ${eta}, ${kappa})`;
   return [
     at('material.ior', '0.0'),
     `vec3(${at('lutbakeMetalEta.r', 'lutbakeMetalKappa.r')}.r, ${at('lutbakeMetalEta.g', 'lutbakeMetalKappa.g')}.g, ${at('lutbakeMetalEta.b', 'lutbakeMetalKappa.b')}.b)`,
   ];
 }
 
+// three's two evalIridescence calls, each replaced by its lutbake term where its weight is non-zero.
+const DIELECTRIC_CALL = /vec3 iridescenceFresnelDielectric = evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.specularColor \);/;
+const METALLIC_CALL = /vec3 iridescenceFresnelMetallic = evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.diffuseColor \);/;
+
 const OUTPUTS = { fresnel: 'vec4(material.iridescenceFresnel, 1.0)',
                   parameters: 'vec4(dotNVi, material.iridescenceThickness, material.iridescenceIOR, 1.0)' };
 
-export function lutbakeIridescence(material, { exact = null, lut = null, mode = exact ? 'exact' : lut ? 'lut' : 'three',
-                                               metal = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] }, output = null } = {}) {
-  const source = mode === 'exact' ? exact : lut;
+const MODES = ['runtime', 'exact', 'lut', 'three'];
+
+export function lutbakeIridescence(material, { runtime = null, exact = null, lut = null,
+                                               mode = runtime ? 'runtime' : exact ? 'exact' : lut ? 'lut' : 'three',
+                                               lutRule = null, metal = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] },
+                                               output = null } = {}) {
+  if (!MODES.includes(mode)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${MODES.join(', ')}`);
+  if (lutRule !== null && !['cubic', 'linear'].includes(lutRule)) {
+    throw new Error(`lutbakeIridescence: lutRule '${lutRule}' is not 'cubic' or 'linear'`);
+  }
+  const source = { runtime, exact, lut, three: null }[mode];
   if (mode !== 'three' && !source) throw new Error(`lutbakeIridescence: mode '${mode}' needs its table`);
   if (mode === 'lut') {
     const eta2 = Number(source.include.match(/film eta2 = ([0-9.]+)/)[1]);
@@ -99,13 +123,15 @@ export function lutbakeIridescence(material, { exact = null, lut = null, mode = 
   material.onBeforeCompile = (shader) => {
     let fragment = shader.fragmentShader;
     if (mode !== 'three') {
-      const [dielectric, metallic] = fresnelTerms(mode, source);
+      const [dielectric, metallic] = fresnelTerms(mode, source, lutRule);
       shader.uniforms.lutbakeTable = { value: source.table };
       shader.uniforms.lutbakeMetalEta = { value: new THREE.Vector3(...metal.eta) };
       shader.uniforms.lutbakeMetalKappa = { value: new THREE.Vector3(...metal.kappa) };
       const begin = THREE.ShaderChunk.lights_fragment_begin
-        .replace(/evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.specularColor \)/, dielectric)
-        .replace(/evalIridescence\( 1\.0, material\.iridescenceIOR, dotNVi, material\.iridescenceThickness, material\.diffuseColor \)/, metallic);
+        .replace(DIELECTRIC_CALL, `vec3 iridescenceFresnelDielectric = vec3(0.0);
+		if (material.metalness < 1.0) iridescenceFresnelDielectric = ${dielectric};`)
+        .replace(METALLIC_CALL, `vec3 iridescenceFresnelMetallic = vec3(0.0);
+		if (material.metalness > 0.0) iridescenceFresnelMetallic = ${metallic};`);
       if (begin.includes('evalIridescence')) throw new Error('lutbakeIridescence: three.js changed lights_fragment_begin');
       fragment = fragment
         .replace('#include <iridescence_fragment>', `#include <iridescence_fragment>
@@ -120,7 +146,7 @@ ${source.include}`)
     shader.fragmentShader = fragment;
   };
   // Programs are cached by this key: materials patched differently must not share one.
-  material.customProgramCacheKey = () => `lutbake:${mode}:${output}:${source ? source.include.length : 0}`;
+  material.customProgramCacheKey = () => `lutbake:${mode}:${lutRule}:${output}:${source ? source.include.length : 0}`;
   material.needsUpdate = true;
   return material;
 }

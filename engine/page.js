@@ -164,11 +164,11 @@ window.lutbakeView = async (spheres, { size = 256 } = {}) => {
   return labels;
 };
 
-// --- drop-in comparison: MeshPhysicalMaterial's iridescence by three.js, lutbake exact and a lutbake LUT ---
+// --- drop-in comparison: MeshPhysicalMaterial's iridescence by three.js and by lutbake's runtime table, exact mode and a LUT ---
 // For each material and mode a sphere is rendered (orthographic, size² pixels) with the film's Fresnel term as
 // output, read back as float, together with the parameters each pixel used; a 2D canvas shows the terms
 // (sRGB-encoded) in a grid, one row per mode and a row of ground-truth swatches the caller computed.
-const DROPIN_MODES = ['three', 'exact', 'lut'];
+const DROPIN_MODES = ['three', 'runtime', 'exact', 'lut', 'lut-linear'];   // lut-linear: a LUT by lutRule 'linear'
 
 async function renderOutput(material, size, output) {
   const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
@@ -201,8 +201,9 @@ function physicalMaterial(m) {
 function encode(v) { return 255 * Math.min(1, Math.max(0, v <= 0.0031308 ? 12.92 * v : 1.055 * v ** (1 / 2.4) - 0.055)); }
 
 window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) => {
-  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut } = await import('./lutbake-iridescence.js');
+  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
   const exact = await loadLutbakeExact(materials[0].exact);
+  const runtime = await loadLutbakeRuntime(materials[0].runtime);
   const canvas = document.createElement('canvas');
   const label = 90;
   canvas.width = label + size * materials.length;
@@ -213,14 +214,15 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
   ctx.fillRect(0, 0, canvas.width, canvas.height);
   ctx.fillStyle = '#ddd';
   ctx.font = '12px sans-serif';
-  ['three.js', 'lutbake exact', 'lutbake LUT', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
+  ['three.js', 'lutbake runtime', 'lutbake exact', 'lutbake LUT', 'LUT, linear reads', 'ground truth'].forEach((t, i) => ctx.fillText(t, 4, 24 + size * i + size / 2));
   const cells = [];
   for (const [j, m] of materials.entries()) {
     ctx.fillStyle = '#ddd';
     ctx.fillText(m.label, label + size * j + 4, 16);
     const lut = await loadLutbakeLut(m.lut);
     for (const [i, mode] of DROPIN_MODES.entries()) {
-      const options = { mode, exact, lut, metal: m.metal || undefined };
+      const options = { mode: mode === 'lut-linear' ? 'lut' : mode, lutRule: mode === 'lut-linear' ? 'linear' : null,
+                        runtime, exact, lut, metal: m.metal || undefined };
       const fresnel = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'fresnel' }), size, 'fresnel');
       const params = await renderOutput(lutbakeIridescence(physicalMaterial(m), { ...options, output: 'parameters' }), size, 'parameters');
       const image = ctx.createImageData(size, size);
@@ -245,4 +247,93 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
     });
   }
   return { three: THREE.REVISION, cells };
+};
+
+// --- cost: wall time of shaders against each other in one page (bench/bench_runtime_cost.py) ---------------
+// Every entry is a scene drawn into the same size² float target; entries are interleaved: each round draws
+// every entry `draws` times (the order rotates per round) and waits for the GPU (a one-pixel read), so a slow
+// stretch of a shared machine hits all of them alike. Returns the wall per draw of every entry and round;
+// round 0 (compilation, first upload) is dropped.
+function timeInterleaved(entries, { size, rounds, draws }) {
+  const target = new THREE.WebGLRenderTarget(size, size, { type: THREE.FloatType, depthBuffer: true });
+  const pixel = new Float32Array(4);
+  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
+  renderer.setRenderTarget(target);
+  for (let round = 0; round <= rounds; round++) {
+    for (let k = 0; k < entries.length; k++) {
+      const { name, scene, camera } = entries[(k + round) % entries.length];
+      renderer.readRenderTargetPixels(target, 0, 0, 1, 1, pixel);
+      const start = performance.now();
+      for (let d = 0; d < draws; d++) renderer.render(scene, camera);
+      renderer.readRenderTargetPixels(target, 0, 0, 1, 1, pixel);
+      if (round > 0) times[name].push((performance.now() - start) / draws);
+    }
+    if (shaderErrors.length) throw new Error(`shader does not compile: ${shaderErrors.join('\n')}`);
+  }
+  renderer.setRenderTarget(null);
+  target.dispose();
+  return times;
+}
+
+// Fragment-shader jobs: one evaluation per pixel of a full-screen pass, parameters from `params` (GLSL of
+// gl_FragCoord shared by all jobs, so every job sees the same pixels). `textures`: name -> {exr, float}.
+window.lutbakeCost = async ({ textures = {}, params, jobs, size = 512, rounds = 9, draws = 3 }) => {
+  const loaded = {};
+  for (const [name, t] of Object.entries(textures)) loaded[name] = await loadLut(t.exr, t.float);
+  const camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0, 1);
+  const entries = [];
+  for (const job of jobs) {
+    const material = lutbakeMaterial({
+      textures: loaded,
+      includes: [...(await Promise.all((job.includes || []).map(loadText))), job.source || ''],
+      vertexShader: FULLSCREEN_VS,
+      body: `layout(location = 0) out highp vec4 colour;
+      void main() {
+        ${params}
+        colour = vec4(${job.call}, 1.0);
+      }`,
+    });
+    const scene = new THREE.Scene();
+    const quad = new THREE.Mesh(new THREE.PlaneGeometry(2, 2), material);
+    quad.frustumCulled = false;
+    scene.add(quad);
+    entries.push({ name: job.name, scene, camera, material });
+  }
+  const times = timeInterleaved(entries, { size, rounds, draws });
+  entries.forEach((e) => e.material.dispose());
+  Object.values(loaded).forEach((t) => t.dispose());
+  return { renderer: rendererName(), three: THREE.REVISION, size, times };
+};
+
+// The GPU (or CPU rasterizer) behind WebGL and the browser, for the record of a timing.
+function rendererName() {
+  const gl = renderer.getContext();
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
+  return `${name}; ${navigator.userAgent.match(/Chrom\S+/)?.[0] ?? navigator.userAgent}`;
+}
+
+// The drop-in on lit MeshPhysicalMaterial spheres filling the view: per material, three.js without
+// iridescence (the baseline), with its own iridescence, and the drop-in's modes.
+window.lutbakeDropinCost = async ({ materials, modes, size = 512, rounds = 9, draws = 3 }) => {
+  const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
+  const sources = { runtime: await loadLutbakeRuntime(materials[0].runtime), exact: await loadLutbakeExact(materials[0].exact) };
+  const camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.1, 10);
+  camera.position.set(0, 0, 3);
+  const entries = [];
+  for (const m of materials) {
+    const lut = await loadLutbakeLut(m.lut);
+    for (const mode of ['none', 'three', ...modes]) {
+      const material = physicalMaterial({ ...m, iridescenceIOR: m.iridescenceIOR });
+      if (mode === 'none') material.iridescence = 0;
+      else if (mode !== 'three') lutbakeIridescence(material, { mode, ...sources, lut, lutRule: m.lutRule, metal: m.metal || undefined });
+      const scene = new THREE.Scene();
+      scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 128, 64), material));
+      scene.add(new THREE.DirectionalLight(0xffffff, 1.0));
+      entries.push({ name: `${m.label}|${mode}`, scene, camera, material });
+    }
+  }
+  const times = timeInterleaved(entries, { size, rounds, draws });
+  entries.forEach((e) => e.material.dispose());
+  return { three: THREE.REVISION, size, times };
 };

@@ -12,14 +12,17 @@ supplemental shader), evaluated at OPD m·D·cos θ2 with phase m·φ.
   fed κ3 unconverted; that is a usage error, not the method's). Its XYZ
   (white E) is taken to the working space through a Bradford adaptation,
   the fair best case (the paper's CIE RGB(E) matrix is no rendering space).
-* ``khr_iridescence_rgb``: KHR_materials_iridescence as three.js implements
-  it: Schlick at both interfaces, base index recovered from F0 (extinction
-  lost), 0/π phases, orders 0–2, XYZ straight through the Rec.709 matrix
-  (no white adaptation) and negative values clamped, as shipped.
+* ``khr_iridescence_rgb``: KHR_materials_iridescence as three.js r187 runs
+  it: Schlick at both interfaces (three's exp2 fit of (1 − cos)^5), base
+  index recovered from F0 (extinction lost), 0/π phases, orders 0–2, XYZ
+  straight through the Rec.709 matrix (no white adaptation) and negative
+  values clamped, as shipped (tests/test_runtime_engine.py: three.js's own
+  evalIridescence returns it).
 
-* ``exact_mode_rgb`` (exact.py): not an approximation but lutbake's own
-  runtime mode, the exact Fourier series summed per pixel from a 1D table;
-  reported beside them so a LUT's error and cost can be weighed against it.
+* ``exact_mode_rgb`` (exact.py) and ``runtime_rgb`` (runtime/model.py): not
+  approximations but lutbake's own runtime paths, the exact Fourier series
+  summed per pixel from a 1D table, and the six-read runtime table; reported
+  beside them so a LUT's error and cost can be weighed against them.
 
 Each takes a film stack of constant indices (points.FilmPoints, fields broadcast);
 outputs (…, 3) linear RGB in ``space``.
@@ -31,6 +34,7 @@ import numpy as np
 
 from .colorimetry import colorimetry
 from .exact import exact_mode_rgb
+from .runtime.model import runtime_rgb
 
 __all__ = ["belcour_barla_rgb", "khr_iridescence_rgb", "APPROXIMATIONS"]
 
@@ -134,7 +138,9 @@ def belcour_barla_rgb(stack, space="rec709", observer="cie1931"):
 
 
 def _schlick(f0, cos):
-    return f0 + (1 - f0) * (1 - cos) ** 5
+    """three.js's F_Schlick (r187): the exp2 fit of (1 − cos)^5 (Epic, SIGGRAPH 2013), not the power itself."""
+    fresnel = np.exp2((-5.55473 * cos - 6.98316) * cos)
+    return f0 * (1 - fresnel) + fresnel
 
 
 def khr_iridescence_rgb(stack, space="rec709", observer="cie1931"):
@@ -170,4 +176,5 @@ APPROXIMATIONS = {
     "belcour-barla-2017": belcour_barla_rgb,
     "khr-iridescence-threejs": khr_iridescence_rgb,
     "lutbake-exact-mode": exact_mode_rgb,
+    "lutbake-runtime": runtime_rgb,
 }

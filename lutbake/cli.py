@@ -636,6 +636,27 @@ def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_js
                f"storage ≤ {meta['error']['storage_max']:.1e}) with .json, .glsl, .hlsl")
 
 
+@cli.command("runtime-table")
+@colour_options
+@click.option("--out", "out", type=click.Path(), required=True, help="FILE.exr (with FILE.json, .glsl, .hlsl).")
+@click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
+def runtime_table_cmd(space, observer, out, as_json):
+    """Write the runtime table and its includes: any film, any base, 6 bilinear reads per pixel.
+
+    Shaders call lutbake_iridescence(table, cos θ, d, η1, η2, η3, κ3) or lutbake_iridescence_rgb(…, η3
+    and κ3 per channel): the film's linear RGB Fresnel term (docs/engines.md).
+    """
+    from .runtime import write_runtime_table
+
+    meta = write_runtime_table(out, observer, space)
+    if as_json:
+        echo_json(meta)
+        return
+    table = meta["table"]
+    click.echo(f"wrote {out} ({table['width']}×{table['height']} RGBA half texels, {table['slices']} slices of "
+               f"{table['nodes']}² to X {table['x_max_nm']:g} nm) with .json, .glsl, .hlsl")
+
+
 @cli.command("blender")
 @click.argument("manifest", type=click.Path(dir_okay=False), required=False)
 @click.option("--out", "out", type=click.Path(), required=True, help="LIB.blend: the node groups and materials.")
@@ -860,6 +881,10 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_b
         echo_json(summary)
     else:
         _print_error_rows([summary["lut_error"]] + rows, summary)
+        if summary.get("runtime_paths"):
+            from .runtime.costs import cost_table_text
+
+            click.echo(cost_table_text(summary["runtime_paths"]))
         worst = summary["lut_error"]["worst_case"]
         where = " ".join(f"{k}={worst[k]:.5g}" for k in ("cos_theta", "opd_nm", "thickness_nm", "eta3", "kappa3")
                          if k in worst)

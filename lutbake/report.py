@@ -33,6 +33,7 @@ from .colorimetry import delta_e00
 from .points import FilmPoints
 from .progress import no_progress
 from .reference import reference_colour
+from .runtime.costs import cost_rows, cost_table_html
 from .sample import Atlas, Lut
 from .worstcase import SearchAxis, find_worst
 
@@ -232,13 +233,16 @@ class LutReport:
 
     def summary(self) -> dict:
         kinds, counts = np.unique(self.points.kind, return_counts=True)
-        return {"lut": self.path, "content_hash": self.meta["content_hash"], "points": len(self.points),
+        out = {"lut": self.path, "content_hash": self.meta["content_hash"], "points": len(self.points),
                 "point_kinds": {str(k): int(c) for k, c in zip(kinds, counts)},
                 "eta2": self.meta["constants"]["eta2"], "axes": self.meta["axes"],
                 "space": self.meta["space"], "observer": self.meta["observer"],
                 "interpolation": self.meta.get("interpolation", "linear"),
                 "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
                 "exact_mode_terms": self.exact_mode_terms, "worst_points": self.worst}
+        if self.approximations:   # every runtime path's error beside its cost (runtime/costs.py)
+            out["runtime_paths"] = cost_rows(out, self.meta["packing"]["width"] * self.meta["packing"]["height"])
+        return out
 
 
 def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True,
@@ -284,7 +288,7 @@ def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool =
     >>> len(rep.points), error["de00_max"] >= error["worst_case"]["held_out_max"] >= error["de00_p99"]
     (100, True)
     >>> [a.name for a in rep.approximations]
-    ['belcour-barla-2017', 'khr-iridescence-threejs', 'lutbake-exact-mode', 'lut-linear-reads']
+    ['belcour-barla-2017', 'khr-iridescence-threejs', 'lutbake-exact-mode', 'lutbake-runtime', 'lut-linear-reads']
     """
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
@@ -525,7 +529,8 @@ def _html(summary: dict, figures) -> str:
             f"the ground truth). The LUT's: {searched['de00_max']:.3f} at cos θ {searched['cos_theta']:.4g}, "
             f"D {searched['opd_nm']:.4g} nm, η3 {searched['eta3']:.5g}, κ3 {searched['kappa3']:.4g} "
             f"({html.escape(searched['found_by'])}); the held-out points' largest is {searched['held_out_max']:.3f}.</p>"
-            f"<table>{head}{body}</table><h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
+            f"<table>{head}{body}</table>{cost_table_html(summary.get('runtime_paths'))}"
+            f"<h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
             f"<th>η3</th><th>κ3</th><th>kind</th><th>ΔE00</th></tr>{worst}</table>{figs}</body></html>\n")
 
 

@@ -205,6 +205,20 @@ class TestDropIn:
             worst, n = rows[(label, "exact")]
             assert n >= 500 and worst <= 0.1, (label, worst)
 
+    def test_the_drop_in_runtime_table_matches_the_ground_truth(self, dropin):
+        """The drop-in's default path (the runtime table, any iridescenceIOR) on the same spheres."""
+        _, rows = dropin
+        for label, *_ in make_dropin.MATERIALS:
+            worst, n = rows[(label, "runtime")]
+            assert n >= 500 and worst <= 0.3, (label, worst)
+
+    def test_the_drop_in_reads_a_lut_linearly_when_asked(self, dropin):
+        """lutRule 'linear' (4 bilinear fetches) changes what the drop-in returns and stays within ΔE00 1."""
+        _, rows = dropin
+        for label, *_ in make_dropin.MATERIALS:
+            linear, cubic = rows[(label, "lut-linear")][0], rows[(label, "lut")][0]
+            assert linear != cubic and linear <= 1.0, (label, linear, cubic)
+
     def test_the_drop_in_check_can_fail(self, dropin):
         """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
         _, rows = dropin

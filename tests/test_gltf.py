@@ -15,7 +15,7 @@ from lutbake.gltf_scene import load_gltf_scene, material_rows
 from lutbake.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
 from lutbake.points import FilmPoints
 from lutbake.reference import reference_colour
-from lutbake.sample import Atlas, Lut
+from lutbake.sample import Atlas
 from lutbake.scene_bake import bake_scene
 from lutbake.scene_plan import plan_scene
 

@@ -4,7 +4,6 @@ bake, 10^5 materials, the optical-path limit, truncated and malformed glTF/GLB. 
 test_hostile's (run_case): exit 0/1/2, no traceback, one line and nothing written on exit 2."""
 
 import json
-import os
 import signal
 import struct
 import subprocess

@@ -92,7 +92,9 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
     assert out.returncode == 1, out.stderr   # the gate fails, the report is written
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     rows = {a["name"]: a for a in summary["approximations"]}
-    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode", "lut-linear-reads"}
+    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode", "lutbake-runtime",
+                         "lut-linear-reads"}
+    assert [r["name"] for r in summary["runtime_paths"]] == ["lut", *rows]   # each row's error beside its cost
     # the LUT is read cubic (its header's rule); linear reads of the same texels err more
     assert summary["interpolation"] == "cubic"
     assert summary["lut_error"]["de00_p99"] < rows["lut-linear-reads"]["de00_p99"]
@@ -106,7 +108,7 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
         assert (tmp_path / "r" / fig).stat().st_size > 1000 and fig in html
     # the table, the JSON and the terminal state one max: the searched one (the maps' agreement: below)
     lut_row = summary["lut_error"]
-    assert f"<td>lut</td>" + "".join(f"<td>{lut_row[k]:.3f}</td>" for k in
+    assert "<td>lut</td>" + "".join(f"<td>{lut_row[k]:.3f}</td>" for k in
                                      ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max")) in html
     assert f"{lut_row['de00_max']:.3f} at cos θ" in html and f"ΔE00 {lut_row['de00_max']:.3f} at" in out.stdout
     assert lut_row["de00_max"] == lut_row["worst_case"]["de00_max"] >= lut_row["worst_case"]["held_out_max"]
@@ -237,12 +239,15 @@ def test_belcour_barla_fails_on_dispersive_metal_bases():
 
 
 def test_khr_hand_computed_value_on_bare_glass():
-    """η2 = η1 (film fades out), glass base, normal incidence, by hand: R12 = 0, R23 = 0.04,
-    C0 = 0.04/(1 − 1e-5), first order +2·0.96·√1e-5·(M709 · S(0)), second negligible."""
+    """η2 = η1 (film fades out), glass base, normal incidence, by hand with three.js's Schlick (its exp2 fit:
+    f = 2^(−5.55473 − 6.98316) at cos 1, not 0): R12 = f, R23 = 0.04 + 0.96 f, R123 clamped to 1e-5,
+    C0 = R12 + Rs, orders ±2 (Rs − T121) R123^(m/2) (M709 · S(0)) (phase π per order)."""
     m709 = np.array([[3.2404542, -1.5371385, -0.4985314], [-0.9692660, 1.8760108, 0.0415560],
                      [0.0556434, -0.2040259, 1.0572252]])
     s0 = eval_sensitivity(0.0, 0.0)
-    expected = 0.04 / (1 - 1e-5) + 2 * 0.96 * math.sqrt(1e-5) * (m709 @ s0) - 2 * 0.96 * 1e-5 * (m709 @ s0)
+    f = 2.0 ** (-5.55473 - 6.98316)
+    rs = (1 - f) ** 2 * (0.04 + 0.96 * f) / (1 - 1e-5)
+    expected = f + rs - 2 * (rs - (1 - f)) * math.sqrt(1e-5) * (m709 @ s0) + 2 * (rs - (1 - f)) * 1e-5 * (m709 @ s0)
     assert np.allclose(khr_iridescence_rgb(_stack(1.0, 1.5, 0.0, 1.0, 0.0)), expected, atol=1e-6)
     assert np.allclose(m709 @ np.ones(3), [1.2048, 0.9484, 0.9088], atol=1e-4)  # its white cast
 
@@ -265,7 +270,7 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     spec = BakeSpec(eta2=1.33, axes=axes)
     doc = sweep(spec, tmp_path / "s", n_points=120, seed=0, search_budget=300)
     kinds = [r["kind"] for r in doc["rows"]]
-    assert kinds.count("lut") >= 8 and kinds.count("approximation") == 3  # two approximations, the exact mode
+    assert kinds.count("lut") >= 8 and kinds.count("approximation") == 4  # two approximations, the exact mode, runtime
     assert (tmp_path / "s" / "pareto.png").stat().st_size > 1000
     res = {r["name"]: r for r in doc["rows"]}
     assert res["res×2"]["de00_p99"] < res["res×0.5"]["de00_p99"]
