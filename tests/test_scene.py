@@ -131,6 +131,9 @@ def _cli(*args):
     ("[scene]\nspace = 'srgb'\n[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = 1.0\n", ":2: scene.space = 'srgb'"),
     ("[materials.a]\nfilm = \"butanol\"\nthickness_nm = 10\nbase = { eta3 = [1, 2] }\n", ":2: materials.a: a named (dispersive) film"),
     ("[materials.a\nfilm = 1.5\n", "invalid TOML"),
+    ("[materials.a]\nfilm = nan\nthickness_nm = 10\nbase = 1.0\n", ":2: materials.a.film: eta2 = nan is not allowed"),
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 1e400]\nbase = 1.0\n",
+     ":3: materials.a.thickness_nm: thickness_nm = inf is not allowed"),
 ])
 def test_invalid_scenes_exit_2_naming_file_line_and_field(tmp_path, text, message):
     path = write(tmp_path, text)
