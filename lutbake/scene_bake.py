@@ -219,7 +219,8 @@ class _JobRun:
 
 def _lut_entry(job, record: dict) -> dict:
     return {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": record["counts"],
-            **{k: record[k] for k in ERROR_KEYS}, "sample": "lutbake_sample (docs/lut-format.md)"}
+            **{k: record[k] for k in ERROR_KEYS}, **{k: record[k] for k in ("path_scoring",) if k in record},
+            "sample": "lutbake_sample (docs/lut-format.md)"}
 
 
 def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:

@@ -33,7 +33,8 @@ MAX_SLICE_COUNT = 256  # per slice axis: 256 × 256 texels, 384 KiB in half
 # along a base path, this many of each kind). The bound held at them is what a 1,000-point `report` needs.
 SCORED_POINTS = {"slice": 1000, "lut": 1000}
 # What a job is refined to: part of its content hash, so a cache entry refined by another rule is recomputed.
-SCORING = "report p99 at 99 % of seeds: bound_level of report's population"
+SCORING = ("report p99 at 99 % of seeds: bound_level of report's population; along a base path the "
+           "single-base bound and the per-channel p99")
 _VISIBLE_NM = np.linspace(360.0, 830.0, 95)
 # truth_rate samples at most this many jobs: a plan of 10^5 materials is timed in a fraction of a second.
 _RATE_JOBS = 8

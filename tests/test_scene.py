@@ -11,7 +11,7 @@ import pytest
 from lutbake.scene_bake import bake_scene
 from lutbake.integrate import backend
 from lutbake.scene_jobs import uniform_points
-from lutbake.refine import Trial, mixture_percentile, refine
+from lutbake.refine import Trial, bound_level, mixture_percentile, refine
 from lutbake.sample import load_table
 from lutbake.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.colorimetry import delta_e00
@@ -270,6 +270,15 @@ def _synthetic(error_per_axis):
         return Trial(counts, p99, int(np.prod(counts)), 0.0), f"grid {counts}"
 
     return measure, seen
+
+
+def test_mixture_percentile_weighs_each_sample_equally_and_the_bound_level_is_report_s():
+    """Two samples of 3 and 6 values: the equal-weight mixture is the 3 repeated twice beside the 6, whose
+    inverted-CDF percentile numpy gives; 1,000 report points put the bound at the 99.73rd percentile."""
+    a, b = np.array([5.0, 1.0, 3.0]), np.array([0.5, 2.0, 4.0, 6.0, 2.5, 7.0])
+    for q in (10.0, 50.0, 90.0, 99.0, 99.73):
+        assert mixture_percentile([a, b], q) == np.percentile(np.concatenate([a, a, b]), q, method="inverted_cdf")
+    assert bound_level(1000) == pytest.approx(99.7319, abs=1e-4) and bound_level(10 ** 9) == pytest.approx(99.0, abs=1e-3)
 
 
 def test_refine_grows_the_axis_that_pays_most_per_byte_then_trims():
