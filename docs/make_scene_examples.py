@@ -23,7 +23,7 @@ def main():
              "as stored (half) at 1,000 uniform points and every cell centre; \"bound\" is its 99.73rd percentile, held to",
              "the target so that `lutbake report` meets it at any seed; \"max\" is searched (docs/scene.md#targets-hold-at-any-seed);",
              "\"constant index\" is what a LUT baked with the named materials' 550 nm indices would show at the uniform",
-             "points. docs/scenes/ is baked by the script, not kept in
+             "points. docs/scenes/ is baked by the script, not kept in",
              "the repository (its last bits may differ between machines: design-notes.md#determinism).", ""]
     for scene in sorted((ROOT / "examples").glob("*.toml")):
         out = bake_example(scene.stem, force=True)
