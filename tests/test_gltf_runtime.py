@@ -135,3 +135,33 @@ def test_the_check_can_fail(run):
     from lutbake.colorimetry import delta_e00
 
     assert np.percentile(delta_e00(score["rows"][:, 10:13], wrong), 99) > 10 * CONTRACT_P99
+
+
+ROUTE_ERRORS = """
+import * as THREE from 'three';
+import { lutbakeGltfMaterial, LutbakeGLTFPlugin } from './lutbake-gltf.js';
+const record = { gltf_index: 3, name: 'Lens', film: 1.7, parts: { dielectric: { base: [1.5, 0], material: 'm3-Lens-dielectric' } } };
+const bake = { manifest: { materials: {} }, stem: 'x', atlas: null, atlasInclude: '', luts: {}, records: [record] };
+const out = {};
+try { lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake); } catch (e) { out.unbaked = e.message; }
+out.routes = lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake, { runtime: { table: null, include: '' } }).userData.lutbake;
+for (const serve of ['runtime', 'atlas']) {
+  try { new LutbakeGLTFPlugin({}, bake, { serve }); } catch (e) { out[serve] = e.message; }
+}
+console.log(JSON.stringify(out));
+"""
+
+
+def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
+    """In node, no browser: a part the bake does not cover, with no runtime table, throws naming the glTF
+    material; given one, the part's route is 'runtime'; a serve the plugin does not know, or 'runtime'
+    without the table, is refused naming the value."""
+    require_engine()
+    proc = subprocess.run(["node", "--input-type=module"], input=ROUTE_ERRORS, capture_output=True, text=True,
+                          cwd=ROOT / "engine", timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["unbaked"] == "glTF material 3 'Lens': its dielectric part is not baked; pass { runtime } (loadLutbakeRuntime)"
+    assert out["routes"] == {"gltfIndex": 3, "name": "Lens", "parts": {"dielectric": "runtime"}}
+    assert out["runtime"] == "LutbakeGLTFPlugin: serve 'runtime' needs { runtime } (loadLutbakeRuntime)"
+    assert out["atlas"] == "LutbakeGLTFPlugin: serve 'atlas' is not 'bake' or 'runtime'"
