@@ -10,7 +10,8 @@ seeded choice among those the sphere covers) both film terms are scored against 
 the parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
 ΔE00 p99 and the largest over those pixels, per material and pooled. Bytes on the GPU: every texture as
 EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and SPIR-V arithmetic per pixel: lutbake report's
-table (lutbake/runtime/costs.py).
+table (lutbake/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
+curve the plugin reads for texture-driven metals (curve_worst), which the pixels sample only in part.
 """
 
 import argparse
@@ -40,6 +41,7 @@ PIXELS = 150           # scored per material: the ground truth costs ~3 ms a poi
 SIZE, STRIDE = 64, 3   # rendered square, and every STRIDE-th pixel returned
 SERVES = ("bake", "runtime")
 GPU_TEXEL_BYTES = 8    # EXRLoader's default upload: RGBA half
+CURVE_BUDGET = 2000    # evaluations of the search along the metal mapping's curve (curve_worst)
 
 
 def bake_stand_ins(folder: Path, names=ASSETS) -> dict:
@@ -131,6 +133,36 @@ def score(result: dict, bakes: dict, seed: int = 7) -> dict:
     return out
 
 
+def curve_worst(budget: int, seed: int = 0):
+    """The runtime table along the fitted metal mapping's whole curve, as the plugin reads it for a
+    texture-driven metal: worstcase.find_worst over (cos θ, d 0–1500 nm, η2 1–3, F0 0–0.99), the base
+    (η3, κ3) interpolated in the 65-node F0 table the manifest carries, one F0 for all channels (each
+    channel is the film over its own base). runtime.model is what three.js returns to 1e-4
+    (tests/test_runtime_engine.py). The curve's white end leaves the table's searched metal box (η3 < 0.05
+    above F0 0.97) and its dark end the metal box for the dielectric one (κ3 < 1.5)."""
+    from lutbake.gltf_scene import METAL_TABLE_NODES
+    from lutbake.metals import F0_MAX, conductor
+    from lutbake.runtime import read_runtime_table, runtime_colour
+    from lutbake.worstcase import SearchAxis, find_worst
+
+    table = read_runtime_table(write_runtime_table())
+    nodes = np.linspace(0.0, F0_MAX["fitted"], METAL_TABLE_NODES)
+    eta_nodes, kappa_nodes, _ = conductor(nodes, "fitted")
+
+    def error(unit):
+        cos, d, eta2 = (np.float32(c).astype(float) for c in (unit[:, 0], 1500.0 * unit[:, 1], 1.0 + 2.0 * unit[:, 2]))
+        f0 = F0_MAX["fitted"] * unit[:, 3]
+        eta3, kappa3 = np.interp(f0, nodes, eta_nodes), np.interp(f0, nodes, kappa_nodes)
+        de = delta_e00(runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3), truth(cos, d, eta2, eta3, kappa3))
+        return np.where(np.isfinite(de), de, np.inf)
+
+    axes = (SearchAxis("cos_theta", cells=16), SearchAxis("thickness_nm", cells=32), SearchAxis("eta2", cells=16),
+            SearchAxis("f0", cells=METAL_TABLE_NODES - 1))
+    return find_worst(error, axes, singular={"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0},
+                                             "film = ambient": {"eta2": 0.0}, "black": {"f0": 0.0}},
+                      budget=budget, seed=seed)
+
+
 def gpu_bytes(bake: dict) -> int:
     """Bytes of every texture the bake binds (atlas, 4D LUTs) as EXRLoader uploads them."""
     files = {entry["file"] for entry in bake["manifest"]["materials"].values()}
@@ -169,7 +201,8 @@ def main():
     try:
         bakes = bake_stand_ins(folder)
         result = render(both_serves(bakes))
-        doc = {"renderer": result["renderer"], "three": result["three"], **summary(bakes, score(result, bakes))}
+        doc = {"renderer": result["renderer"], "three": result["three"], **summary(bakes, score(result, bakes)),
+               "metal_curve_worst": curve_worst(CURVE_BUDGET).describe()}
     finally:
         subprocess.run(["rm", "-rf", str(folder)], check=False)
     args.json.write_text(json.dumps(doc, indent=1) + "\n")
@@ -178,7 +211,7 @@ def main():
         print(f"| {r['asset']} | {r['gltf_index']} {r['name']} | {r['film']} | "
               f"{', '.join(f'{p} ({k})' for p, k in r['parts'].items())} | "
               f"{r['bake_p99']:.2f} / {r['bake_max']:.2f} | {r['runtime_p99']:.3f} / {r['runtime_max']:.3f} |")
-    print(json.dumps({k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average")}, indent=1))
+    print(json.dumps({k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "metal_curve_worst", "load_average")}, indent=1))
 
 
 if __name__ == "__main__":
