@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 
 from test_engine import ROOT, require_engine
-from test_gltf_engine import FRESH_POINT_MARGIN
 from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -102,7 +101,7 @@ def test_the_baked_path_in_the_same_run_holds_the_scenes_target(run):
     pooled = {serve: np.concatenate([s[serve] for m in run["scores"].values() for s in m.values()])
               for serve in bench.SERVES}
     target = max(b["manifest"]["settings"]["max_de"] for b in run["bakes"].values())
-    assert np.percentile(pooled["bake"], 99) <= FRESH_POINT_MARGIN * target
+    assert np.percentile(pooled["bake"], 99) <= target   # bakes hold report's p99 at any seed: no allowance
     assert np.percentile(pooled["runtime"], 99) < np.percentile(pooled["bake"], 99)
 
 
