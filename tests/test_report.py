@@ -288,9 +288,10 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
 
 
 def test_atlas_slices_report_their_searched_max():
-    """A scene atlas (the tempered-steel example, baked here: docs/scenes is not committed): each slice's max
-    is searched over its (√cos θ, thickness) grid against the ground truth; the atlas row's max is the
-    largest slice's."""
+    """A scene atlas (the tempered-steel example, baked here): each slice's max is searched over its
+    (√cos θ, thickness) grid against the ground truth; the atlas row's max is the largest slice's."""
+    import sys
+
     from lutbake.report import report_atlas
     from lutbake.sample import Atlas
 
