@@ -156,8 +156,13 @@ def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.nd
 
 
 def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
-    """The runtime include's float32 arithmetic (runtime.model), per-channel bases."""
-    return runtime_colour(table, cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)
+    """The runtime include's float32 arithmetic (runtime.model): lutbake_iridescence_rgb, and at a grey base
+    (equal channels) lutbake_iridescence with its one index, which the OSL script must equal there."""
+    out = runtime_colour(table, cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)
+    grey = (eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)
+    out[grey] = runtime_colour(table, cos_theta[grey], thickness_nm[grey], 1.0, eta2[grey], eta3[grey, 0],
+                               kappa3[grey, 0])
+    return out
 
 
 # Per OSL kind: the table reader, the template fields of its shader sources, and what the script computes

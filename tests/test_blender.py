@@ -26,7 +26,6 @@ from lutbake.blender import (blender_thin_film_probes, find_blender, lutbake_pro
 from lutbake.blender_nodes import LutRead, SliceRead, evaluate, read_manifest
 from lutbake.colorimetry import delta_e00
 from lutbake.plan import Axis, BakeSpec
-from lutbake.runtime import runtime_colour, stored_table
 from lutbake.sample import Atlas, Lut
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -262,7 +261,8 @@ def test_osl_material_in_cycles(tmp_path, kind):
     runtime table (any film and base) as an OSL Script node; in Cycles with OSL at 48 probes (films η2 1.2,
     1.6, 2.4; cos θ 0.03–1; d 0–1000 nm; dielectric bases and six metals per channel) it returns its numpy
     twin (exact.exact_colour, float64; runtime.model, the include's float32 arithmetic on the stored half
-    table) to 1e-5, and the ground truth within the material's bound."""
+    table: lutbake_iridescence_rgb, at the grey dielectric bases lutbake_iridescence) to 1e-5, and the
+    ground truth within the material's bound."""
     blender = blender_python()
     command, flag, truth_key, truth_bound = OSL_MATERIALS[kind]
     table, library = tmp_path / f"{kind}.exr", tmp_path / f"{kind}.blend"
@@ -276,16 +276,3 @@ def test_osl_material_in_cycles(tmp_path, kind):
     assert result["spread_max"] == 0.0
     assert result["max_abs_rgb"] <= 1e-5, result
     assert result[truth_key] <= truth_bound, result
-
-
-def test_runtime_model_one_index_is_equal_channels():
-    """The runtime OSL material has per-channel bases only: with equal channels the include's float32
-    model returns what lutbake_iridescence (one index) returns, bit for bit."""
-    rng = np.random.default_rng(5)
-    n = 64
-    cos_theta, d, eta2 = rng.uniform(0, 1, n), rng.uniform(0, 1500, n), rng.uniform(1, 3, n)
-    eta3, kappa3 = rng.uniform(0.05, 3, n), rng.uniform(0, 9, n)
-    one = runtime_colour(stored_table(), cos_theta, d, 1.0, eta2, eta3, kappa3)
-    per_channel = runtime_colour(stored_table(), cos_theta, d, 1.0, eta2, np.repeat(eta3[:, None], 3, 1),
-                                 np.repeat(kappa3[:, None], 3, 1))
-    assert np.array_equal(one, per_channel)
