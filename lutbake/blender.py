@@ -39,7 +39,8 @@ from .runtime.model import runtime_colour
 from .sample import Atlas, Lut
 
 __all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
-           "verify_library", "verify_osl", "osl_script", "osl_probe_points", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
+           "verify_library", "verify_osl", "osl_script", "osl_probe_points", "probe_points", "lutbake_probes",
+           "blender_thin_film_probes"]
 
 BLENDER_ENV = "LUTBAKE_BLENDER"
 RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
@@ -169,8 +170,6 @@ def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.
 # at probes with η1 = 1 and η3, κ3 (n, 3) per channel.
 _OSL_KINDS = {"exact": (read_exact_table, exact_fields, _exact_expected),
               "runtime": (read_runtime_table, runtime_fields, _runtime_expected)}
-
-
 _OSL_PARAMETER = {"exact": "exact", "runtime": "runtime_table"}   # write_library's parameter of each kind
 
 
