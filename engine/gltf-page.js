@@ -1,11 +1,12 @@
-// The engine side of tests/test_gltf_engine.py: three.js's GLTFLoader loads a glTF asset with lutbake's
-// plugin (engine/lutbake-gltf.js) and renders each mesh alone into a float target, three times: the film
-// term the material computes (material.iridescenceFresnel), the parameters it used (cos theta, thickness,
-// metalness, iridescence) and its base colour. The test recomputes the term with `lutbake sample`'s
-// sampler from those parameters.
+// The engine side of tests/test_gltf_engine.py and tests/test_gltf_runtime.py: three.js's GLTFLoader loads a
+// glTF asset with lutbake's plugin (engine/lutbake-gltf.js) and renders each mesh alone into a float target:
+// the film term the material computes (material.iridescenceFresnel), the parameters it used (cos theta,
+// thickness, metalness, iridescence) and its base colour, then the film term again for each further way of
+// serving the materials (`serves`: 'bake', 'runtime'). The tests recompute the term from those parameters.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { loadLutbakeBake, LutbakeGLTFPlugin } from './lutbake-gltf.js';
+import { loadLutbakeBake, loadLutbakePlan, LutbakeGLTFPlugin } from './lutbake-gltf.js';
+import { loadLutbakeRuntime } from './lutbake-iridescence.js';
 
 const renderer = new THREE.WebGLRenderer({ antialias: false });
 document.body.appendChild(renderer.domElement);
@@ -33,42 +34,54 @@ function renderMesh(mesh, size) {
   return pixels;
 }
 
-// {glTF material index: pixels} of every mesh whose material the plugin patched, under `output`.
-async function renders(gltfUrl, bake, output, size) {
-  const loader = new GLTFLoader().register((parser) => new LutbakeGLTFPlugin(parser, bake, { output }));
+// {glTF material index: pixels} of every mesh whose material the plugin patched, under `options` (the
+// plugin's), and what served each material (plugin.served).
+async function renders(gltfUrl, bake, options, size) {
+  let plugin = null;
+  const loader = new GLTFLoader().register((parser) => (plugin = new LutbakeGLTFPlugin(parser, bake, options)));
   const gltf = await loader.loadAsync(gltfUrl);
   const meshes = [];
   gltf.scene.traverse((o) => { if (o.isMesh) meshes.push(o); });
-  const out = {};
+  const pixels = {};
   for (const mesh of meshes) {
     const index = gltf.parser.associations.get(mesh.material).materials;
-    if (mesh.material.customProgramCacheKey().startsWith('lutbake-gltf:')) out[index] = renderMesh(mesh, size);
+    if (mesh.material.customProgramCacheKey().startsWith('lutbake-gltf:')) pixels[index] = renderMesh(mesh, size);
   }
-  return out;
+  return { pixels, served: Object.fromEntries(plugin.served) };
 }
 
-async function run({ gltf, manifest, size = 96, stride = 3 }) {
-  const bake = await loadLutbakeBake(manifest);
-  const [fresnel, params, colour] = await Promise.all(['fresnel', 'parameters', 'basecolor']
-    .map((output) => renders(gltf, bake, output, size)));
+// Per material, at every `stride`-th covered pixel: [film term (3), cos theta, thickness, metalness,
+// iridescence, base colour (3), then the film term of each further serve (3 each)]. `manifest` (a bake) or
+// `plan` (`lutbake plan --gltf --json`: no bake) gives the mapping; `runtime` the runtime table's stem.
+async function run({ gltf, manifest = null, plan = null, runtime = null, serves = ['bake'], size = 96, stride = 3 }) {
+  const bake = manifest ? await loadLutbakeBake(manifest) : await loadLutbakePlan(plan);
+  const table = runtime ? await loadLutbakeRuntime(runtime) : null;
+  const passes = [['fresnel', serves[0]], ['parameters', serves[0]], ['basecolor', serves[0]],
+                  ...serves.slice(1).map((serve) => ['fresnel', serve])];
+  const rendered = await Promise.all(passes.map(([output, serve]) => renders(gltf, bake, { output, serve, runtime: table }, size)));
+  const [fresnel, params, colour, ...others] = rendered.map((r) => r.pixels);
   const materials = {};
   for (const index of Object.keys(fresnel)) {
     const samples = [];
     for (let k = 0; k < size * size; k += stride) {
       const p = 4 * k;
       if (fresnel[index][p + 3] === 0 || params[index][p + 3] <= 0) continue;  // background, or no film there
-      samples.push([...fresnel[index].subarray(p, p + 3), ...params[index].subarray(p, p + 4), ...colour[index].subarray(p, p + 3)]);
+      samples.push([...fresnel[index].subarray(p, p + 3), ...params[index].subarray(p, p + 4), ...colour[index].subarray(p, p + 3),
+                    ...others.flatMap((o) => [...o[index].subarray(p, p + 3)])]);
     }
     materials[index] = samples;
   }
-  return materials;
+  const served = Object.fromEntries(serves.map((serve, i) => [serve, rendered[i === 0 ? 0 : i + 2].served]));
+  return { materials, served };
 }
 
 // `specs`: one {gltf, manifest} per asset (URLs); one result per spec, {glTF material index: samples}.
+// `served`: per spec, {serve: {glTF material index: {gltfIndex, name, parts: {part: route}}}}.
 window.lutbakeGltf = async (specs) => {
-  const out = [];
-  for (const spec of specs) out.push(await run(spec));
+  const runs = [];
+  for (const spec of specs) runs.push(await run(spec));
   const gl = renderer.getContext();
-  return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, results: out };
+  return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, results: runs.map((r) => r.materials),
+           served: runs.map((r) => r.served) };
 };
 window.lutbakeReady = true;

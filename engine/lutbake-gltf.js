@@ -14,6 +14,17 @@
 // Materials loaded later (KHR_materials_variants: parser.getDependency('material', i)) go through the
 // plugin too. `output` (tests): 'fresnel' writes material.iridescenceFresnel, 'parameters' (cos theta,
 // thickness nm, metalness, iridescence), 'basecolor' the base colour the metal part was mapped from.
+//
+// The runtime table (`lutbake runtime-table`, loadLutbakeRuntime) serves any film and base with no bake: pass
+// it as `{ runtime }` and each part the file set does not cover (its slice or LUT absent from the manifest,
+// or the manifest's entry `kind: "runtime"`: handed to the runtime path) is evaluated from it at the part's
+// mapped base; `{ runtime, serve: 'runtime' }` serves every part so. With no bake at all, the mapping comes
+// from `lutbake plan --gltf ASSET --json` (loadLutbakePlan). What served each part is material.userData.lutbake
+// and plugin.served (glTF material index -> {gltfIndex, name, parts: {dielectric|metal: 'slice'|'lut'|'runtime'}}).
+//
+//   const runtime = await loadLutbakeRuntime('luts/runtime/lutbake-runtime');
+//   const plan = await loadLutbakePlan('Lamp.plan.json');        // lutbake plan --gltf Lamp.gltf --json > Lamp.plan.json
+//   loader.register((parser) => new LutbakeGLTFPlugin(parser, plan, { runtime }));
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { loadLutbakeLut } from './lutbake-iridescence.js';
@@ -30,7 +41,8 @@ export async function loadLutbakeBake(manifestUrl) {
   const folder = manifestUrl.slice(0, manifestUrl.lastIndexOf('/') + 1);
   const manifest = JSON.parse(await loadText(manifestUrl));
   if (!manifest.source || manifest.source.kind !== 'gltf') throw new Error(`${manifestUrl}: not a lutbake glTF bake`);
-  const bake = { manifest, stem: manifest.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', luts: {} };
+  const bake = { manifest, stem: manifest.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', luts: {},
+                 records: manifest.source.materials };
   for (const entry of Object.values(manifest.materials)) {
     if (entry.kind === 'slice' && !bake.atlas) {
       bake.atlas = await new EXRLoader().loadAsync(folder + entry.file);
@@ -40,6 +52,15 @@ export async function loadLutbakeBake(manifestUrl) {
     }
   }
   return bake;
+}
+
+// `lutbake plan --gltf ASSET --json`: each material's mapping (film, thickness, bases) and no baked file, so
+// the plugin serves every part from the runtime table.
+export async function loadLutbakePlan(planUrl) {
+  const plan = JSON.parse(await loadText(planUrl));
+  if (!Array.isArray(plan.gltf_materials)) throw new Error(`${planUrl}: not a lutbake plan of a glTF asset (plan --gltf --json)`);
+  return { manifest: { materials: {} }, stem: plan.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', luts: {},
+           records: plan.gltf_materials.map((r) => ({ ...r, parts: r.bases || {} })) };
 }
 
 // The constant lutbake's atlas include defines for a material of the scene (lutfile.shader_ident).
@@ -54,29 +75,54 @@ const OUTPUTS = {
   basecolor: 'vec4(material.diffuseColor, 1.0)',
 };
 
-// GLSL for one part's film term at (dotNVi, material.iridescenceThickness), with the declarations it needs.
-function partTerm(bake, part) {
-  const atlas = (name) => `lutbake_atlas_sample(lutbakeAtlas, ${sliceIdent(bake.stem, name)}, dotNVi, material.iridescenceThickness)`;
-  if (part.material) return { call: atlas(part.material), lut: null };
-  const entry = bake.manifest.materials[part.channels[0]];
-  if (entry.kind === 'slice') {
-    return { call: `vec3(${part.channels.map((name, c) => `${atlas(name)}.${'rgb'[c]}`).join(', ')})`, lut: null };
-  }
-  return { call: 'lutbakeTexturedMetal(material.diffuseColor, dotNVi, material.iridescenceThickness)',
-           lut: bake.luts[entry.file], table: part.table };
+// What serves one part of a material: its slice(s) or 4D LUT from the bake, or the runtime table where the
+// bake does not cover it, where its manifest entry hands it to the runtime path, or where `serve` says so
+// (a named metal stays baked: its spectral index has no per-channel (eta3, kappa3) for the runtime path).
+function partRoute(bake, part, serve) {
+  const entries = (part.material ? [part.material] : part.channels).map((name) => bake.manifest.materials[name]);
+  const baked = entries.every((entry) => entry && entry.kind !== 'runtime');
+  if (part.mapping === 'named') return baked ? entries[0].kind : null;
+  return serve === 'runtime' || !baked ? 'runtime' : entries[0].kind;
 }
 
-// The 4D LUT of a texture-driven metal, read per channel at the mapping table's (eta3, kappa3) for that
-// channel's base colour: the table's F0 nodes are uniform from 0 to its last.
-function texturedMetalGlsl(lut, nodes) {
+const glslFloat = (x) => (Number.isInteger(x) ? x.toFixed(1) : String(x));
+const glslVec3 = (v) => `vec3(${v.map(glslFloat).join(', ')})`;
+
+// GLSL for one part's film term at (dotNVi, material.iridescenceThickness), by its route.
+function partTerm(bake, record, part, route) {
+  const at = 'dotNVi, material.iridescenceThickness';
+  if (route === 'runtime') {
+    const film = `lutbakeRuntime, ${at}, 1.0, ${glslFloat(record.film)}`;
+    if (part.base) return { call: `lutbake_iridescence(${film}, ${glslFloat(part.base[0])}, ${glslFloat(part.base[1])})` };
+    if (part.table) {
+      return { call: `lutbakeRuntimeMetal(${film}, material.diffuseColor)`, table: part.table };
+    }
+    return { call: `lutbake_iridescence_rgb(${film}, ${glslVec3(part.eta3)}, ${glslVec3(part.kappa3)})` };
+  }
+  const atlas = (name) => `lutbake_atlas_sample(lutbakeAtlas, ${sliceIdent(bake.stem, name)}, ${at})`;
+  if (part.material) return { call: atlas(part.material) };
+  const entry = bake.manifest.materials[part.channels[0]];
+  if (entry.kind === 'slice') {
+    return { call: `vec3(${part.channels.map((name, c) => `${atlas(name)}.${'rgb'[c]}`).join(', ')})` };
+  }
+  return { call: `lutbakeTexturedMetal(material.diffuseColor, ${at})`, lut: bake.luts[entry.file], table: part.table };
+}
+
+// A texture-driven metal's base per texel and channel: the mapping's F0 -> (eta3, kappa3) table, whose F0
+// nodes are uniform from 0 to its last.
+function conductorGlsl(nodes) {
   return `uniform highp vec2 lutbakeMetalTable[${nodes}];
 uniform highp float lutbakeMetalF0Max;
 highp vec2 lutbakeConductor(highp float f0) {
   highp float x = clamp(f0 / lutbakeMetalF0Max, 0.0, 1.0) * ${(nodes - 1).toFixed(1)};
   int i = min(int(x), ${nodes - 2});
   return mix(lutbakeMetalTable[i], lutbakeMetalTable[i + 1], x - float(i));
+}`;
 }
-highp vec3 lutbakeTexturedMetal(highp vec3 f0, highp float cosTheta, highp float thickness) {
+
+// The 4D LUT of a texture-driven metal, read per channel at that channel's base.
+function texturedMetalGlsl(lut) {
+  return `highp vec3 lutbakeTexturedMetal(highp vec3 f0, highp float cosTheta, highp float thickness) {
   highp float opd = 2.0 * ${lut.ident}.eta2 * thickness;
   highp vec2 r = lutbakeConductor(f0.r), g = lutbakeConductor(f0.g), b = lutbakeConductor(f0.b);
   return vec3(lutbake_sample(lutbakeLut, ${lut.ident}, cosTheta, opd, r.x, r.y).r,
@@ -85,11 +131,27 @@ highp vec3 lutbakeTexturedMetal(highp vec3 f0, highp float cosTheta, highp float
 }`;
 }
 
-// Patch a MeshPhysicalMaterial loaded from glTF material `record.gltf_index` (its manifest record).
-export function lutbakeGltfMaterial(material, record, bake, output = null) {
-  const terms = {};
-  for (const [name, part] of Object.entries(record.parts)) terms[name] = partTerm(bake, part);
-  const metal = terms.metal && terms.metal.lut ? terms.metal : null;
+// The runtime table at a texture-driven metal's per-channel base: one read set for all three channels.
+const RUNTIME_METAL_GLSL = `highp vec3 lutbakeRuntimeMetal(highp sampler2D table, highp float cosTheta, highp float thickness,
+                                highp float eta1, highp float eta2, highp vec3 f0) {
+  highp vec2 r = lutbakeConductor(f0.r), g = lutbakeConductor(f0.g), b = lutbakeConductor(f0.b);
+  return lutbake_iridescence_rgb(table, cosTheta, thickness, eta1, eta2, vec3(r.x, g.x, b.x), vec3(r.y, g.y, b.y));
+}`;
+
+// Patch a MeshPhysicalMaterial loaded from glTF material `record.gltf_index` (its manifest or plan record):
+// each part by its route (partRoute), recorded in material.userData.lutbake.
+export function lutbakeGltfMaterial(material, record, bake, { output = null, runtime = null, serve = 'bake' } = {}) {
+  const terms = {}, routes = {};
+  for (const [name, part] of Object.entries(record.parts)) {
+    routes[name] = partRoute(bake, part, serve);
+    if (routes[name] === null) throw new Error(`glTF material ${record.gltf_index} '${record.name}': its named metal is not in the bake`);
+    if (routes[name] === 'runtime' && !runtime) {
+      throw new Error(`glTF material ${record.gltf_index} '${record.name}': its ${name} part is not baked; pass { runtime } (loadLutbakeRuntime)`);
+    }
+    terms[name] = partTerm(bake, record, part, routes[name]);
+  }
+  const lutTerm = Object.values(terms).find((term) => term.lut);
+  const table = Object.values(terms).find((term) => term.table);
   material.onBeforeCompile = (shader) => {
     let begin = THREE.ShaderChunk.lights_fragment_begin;
     const calls = { dielectric: 'material.specularColor', metal: 'material.diffuseColor' };
@@ -100,21 +162,29 @@ export function lutbakeGltfMaterial(material, record, bake, output = null) {
     }
     const declarations = ['uniform highp sampler2D lutbakeAtlas;', 'uniform highp sampler2D lutbakeLut;', bake.atlasInclude];
     shader.uniforms.lutbakeAtlas = { value: bake.atlas };
-    shader.uniforms.lutbakeLut = { value: metal ? metal.lut.table : null };
-    if (metal) {
-      const { f0, eta3, kappa3 } = metal.table;
+    shader.uniforms.lutbakeLut = { value: lutTerm ? lutTerm.lut.table : null };
+    if (runtime) {
+      declarations.push('uniform highp sampler2D lutbakeRuntime;', runtime.include);
+      shader.uniforms.lutbakeRuntime = { value: runtime.table };
+    }
+    if (table) {
+      const { f0, eta3, kappa3 } = table.table;
       shader.uniforms.lutbakeMetalTable = { value: f0.map((_, i) => new THREE.Vector2(eta3[i], kappa3[i])) };
       shader.uniforms.lutbakeMetalF0Max = { value: f0[f0.length - 1] };
-      declarations.push(metal.lut.include, texturedMetalGlsl(metal.lut, f0.length));
+      declarations.push(conductorGlsl(f0.length));
     }
+    if (lutTerm) declarations.push(lutTerm.lut.include, texturedMetalGlsl(lutTerm.lut));
+    if (table && !lutTerm) declarations.push(RUNTIME_METAL_GLSL);
     let fragment = shader.fragmentShader
       .replace('#include <iridescence_fragment>', `#include <iridescence_fragment>\n${declarations.join('\n')}`)
       .replace('#include <lights_fragment_begin>', begin);
     if (output) fragment = fragment.replace('#include <dithering_fragment>', `#include <dithering_fragment>\n  gl_FragColor = ${OUTPUTS[output]};`);
     shader.fragmentShader = fragment;
   };
-  // Programs are cached by this key: each glTF material's patch is its own program.
-  material.customProgramCacheKey = () => `lutbake-gltf:${bake.stem}:${record.gltf_index}:${output}`;
+  // Programs are cached by this key: each glTF material's patch, by its routes, is its own program.
+  const routeKey = Object.entries(routes).map((r) => r.join('=')).join(',');
+  material.customProgramCacheKey = () => `lutbake-gltf:${bake.stem}:${record.gltf_index}:${routeKey}:${output}`;
+  material.userData.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
   material.needsUpdate = true;
   return material;
 }
@@ -124,21 +194,24 @@ export function lutbakeGltfMaterial(material, record, bake, output = null) {
 // material GLTFLoader cloned (it clones for derivative tangents, vertex colours, flat shading, and a clone
 // does not keep onBeforeCompile).
 export class LutbakeGLTFPlugin {
-  constructor(parser, bake, { output = null } = {}) {
+  constructor(parser, bake, { output = null, runtime = null, serve = 'bake' } = {}) {
+    if (!['bake', 'runtime'].includes(serve)) throw new Error(`LutbakeGLTFPlugin: serve '${serve}' is not 'bake' or 'runtime'`);
+    if (serve === 'runtime' && !runtime) throw new Error("LutbakeGLTFPlugin: serve 'runtime' needs { runtime } (loadLutbakeRuntime)");
     this.name = 'lutbake_iridescence';
     this.parser = parser;
     this.bake = bake;
-    this.output = output;
+    this.options = { output, runtime, serve };
     this.patched = new WeakSet();
-    this.records = new Map(bake.manifest.source.materials
-      .filter((r) => Object.keys(r.parts).length > 0).map((r) => [r.gltf_index, r]));
+    this.served = new Map();
+    this.records = new Map(bake.records.filter((r) => Object.keys(r.parts).length > 0).map((r) => [r.gltf_index, r]));
   }
 
   patch(material, index) {
     const record = this.records.get(index);
     if (record && !this.patched.has(material)) {
-      lutbakeGltfMaterial(material, record, this.bake, this.output);
+      lutbakeGltfMaterial(material, record, this.bake, this.options);
       this.patched.add(material);
+      this.served.set(index, material.userData.lutbake);
     }
     return material;
   }

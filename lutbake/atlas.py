@@ -15,7 +15,10 @@ import numpy as np
 from .lutfile import ATLAS_FORMAT, shader_ident, shader_template
 from .names import shader_comment
 
-__all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_includes"]
+__all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_includes", "ERROR_KEYS"]
+
+# What a job's record says about its error, copied into each of its materials' manifest entries.
+ERROR_KEYS = ("de00_p99", "de00_p99_bound", "target_met", "de00_max", "worst_case")
 
 _ATLAS_LINES = {
     "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
@@ -61,12 +64,13 @@ def atlas_header(scene, scene_hash: str, jobs, rects) -> dict:
 
 def slice_entry(job, record: dict, rect, atlas: dict, exr_name: str) -> dict:
     """A slice material's manifest entry: where its rect is (texels and uv), its axes, film, base and
-    the p99 ΔE00 its ``record`` (scene_jobs.refine_slice) reached."""
+    what its ``record`` (scene_jobs.refine_slice) reached: p99 ΔE00, the bound held to the target, the
+    searched max and where."""
     x0, y0, w, h = rect
     entry = {k: v for k, v in slice_header(job, rect).items() if k not in ("id", "materials")}
     return {"kind": "slice", "job": job.id, "file": exr_name, **entry,
             "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
-            "de00_p99": record["de00_p99"], "constant_index_de00_p99": record["constant_index_de00_p99"],
+            **{k: record[k] for k in ERROR_KEYS}, "constant_index_de00_p99": record["constant_index_de00_p99"],
             "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
 
 

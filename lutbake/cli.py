@@ -511,7 +511,8 @@ def _bake_scene(scene, out, force, backend, as_json, meter):
         click.echo(f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
                    f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s")
     if result.unmet:
-        reached = ", ".join(f"{name} p99 ΔE00 {p99:.3f}" for name, p99 in result.unmet.items())
+        reached = ", ".join(f"{name} p99 ΔE00 {r['de00_p99']:.3f} (bound {r['de00_p99_bound']:.3f})"
+                            for name, r in result.unmet.items())
         click.echo(f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
                    "(written; see docs/scene.md)", err=True)
         return EXIT_GATE

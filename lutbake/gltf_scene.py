@@ -300,8 +300,10 @@ class _Parts:
         box = ((float(eta.min()), float(eta.max())), (float(kappa.min()), float(kappa.max())))
         if box[0][0] == box[0][1] and box[1][0] == box[1][1]:  # a black texture range: one constant base
             box = (box[0][0], box[1][0])
-        name = self._add("metal", box, "pbrMetallicRoughness.baseColorTexture",
-                         None if isinstance(box[0], float) else (tuple(eta), tuple(kappa)))
+        # The curve's nodes and how far along it each channel's F0 reaches (the scoring of its 4D job).
+        path = None if isinstance(box[0], float) else (tuple(eta), tuple(kappa),
+                                                       tuple(min(f, F0_MAX[mapping]) / top for f in f0_factor))
+        name = self._add("metal", box, "pbrMetallicRoughness.baseColorTexture", path)
         return {"mapping": mapping, "texture": True, "f0_max": [min(f, F0_MAX[mapping]) for f in f0_factor],
                 "channels": [name] * 3,
                 "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()}}

@@ -31,8 +31,8 @@ import numpy as np
 
 from .progress import no_progress
 
-__all__ = ["Trial", "Refinement", "refine", "tune", "uniform_points", "p99_bound", "TUNE_START_COUNTS",
-           "POINT_KIND", "REPORT_POINTS"]
+__all__ = ["Trial", "Refinement", "refine", "tune", "uniform_points", "p99_bound", "bound_level",
+           "mixture_percentile", "TUNE_START_COUNTS", "POINT_KIND", "REPORT_POINTS"]
 
 TUNE_START_COUNTS = (8, 16, 4, 4)
 POINT_KIND = "uniform"  # sweep scores uniform points only (its variants' grids differ); `report` and tune add cell centres
@@ -40,12 +40,27 @@ REPORT_POINTS = 1000    # `report`'s default held-out points: what a target must
 _SEEDS_Z = 2.326        # one-sided 99 % normal quantile: a target holds at 99 % of a report's seeds
 
 
-def p99_bound(de00, report_points: int = REPORT_POINTS) -> float:
-    """The percentile of ``de00`` below which a fresh ``report_points``-point report's p99 stays at 99 %
-    of seeds: 100·(0.99 + 2.326·√(0.99·0.01 / report_points)), 99.73 for 1,000 points. The p99 of n points
+def bound_level(report_points: int = REPORT_POINTS) -> float:
+    """The percentile (0–100) below which a fresh ``report_points``-point report's p99 stays at 99 % of
+    seeds: 100·(0.99 + 2.326·√(0.99·0.01 / report_points)), 99.73 for 1,000 points. The p99 of n points
     is their ⌈0.99 n⌉-th smallest, whose probability level scatters by √(0.99·0.01/n) about 0.99."""
-    level = min(0.99 + _SEEDS_Z * np.sqrt(0.99 * 0.01 / report_points), 1.0)
-    return float(np.percentile(de00, 100.0 * level))
+    return 100.0 * min(0.99 + _SEEDS_Z * np.sqrt(0.99 * 0.01 / report_points), 1.0)
+
+
+def p99_bound(de00, report_points: int = REPORT_POINTS) -> float:
+    """``de00``'s percentile at ``bound_level``: what a target is held to, so that it holds at any seed."""
+    return float(np.percentile(de00, bound_level(report_points)))
+
+
+def mixture_percentile(samples, percent: float) -> float:
+    """The ``percent``-th percentile of the equal-weight mixture of ``samples`` (1-D arrays; each value
+    of sample k weighs 1/(K·n_k)): the population a `report` draws from when it takes as many points of
+    each kind. The smallest value at which the mixture's distribution reaches ``percent``."""
+    values = np.concatenate(samples)
+    weights = np.concatenate([np.full(len(s), 1.0 / (len(samples) * len(s))) for s in samples])
+    order = np.argsort(values, kind="stable")
+    reached = np.searchsorted(np.cumsum(weights[order]), percent / 100.0 * (1.0 - 1e-12))
+    return float(values[order][min(reached, len(values) - 1)])
 
 
 @dataclass(frozen=True)
@@ -151,35 +166,38 @@ def uniform_points(spec, n_points: int, seed: int):
                            centre_fraction=0.0)
 
 
-def lut_measure(spec, n_points: int, seed: int, integrator, truth, points=None):
-    """``measure`` for 4D grids over ``spec``'s domain: baked in memory, rounded to the stored precision,
-    sampled as a GPU would at `report`'s points for that grid (half uniform, the same for every trial;
-    half at centres of its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``.
-    Given ``points`` (HeldOutPoints where an engine reads the LUT, e.g. along a base curve), every trial is
-    scored at those alone: cell centres off that set are never read."""
+def trial_lut(spec, counts, integrator) -> tuple:
+    """``spec``'s domain at per-axis ``counts``, baked in memory by the bake's integrator and rounded to the
+    stored precision: (the Lut as a GPU samples it, texture bytes, integration seconds)."""
     from .integrate import bake_rows_all
-    from .report import held_out_points, score
     from .sample import Lut
 
-    stored = np.float16 if spec.precision == "half" else np.float32
-    n_centre = 0 if points is not None else n_points // 2
-    uniform = points if points is not None else held_out_points(
-        spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points - n_centre, seed,
-        centre_fraction=0.0, truth=truth)
+    grid = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, counts)))
+    start = time.perf_counter()
+    image = bake_rows_all(integrator, grid).astype(np.float16 if spec.precision == "half" else np.float32)
+    return Lut.in_memory(grid, image), image.nbytes, time.perf_counter() - start
+
+
+def lut_measure(spec, n_points: int, seed: int, integrator, truth):
+    """``measure`` for 4D grids over ``spec``'s domain: baked in memory (``trial_lut``), sampled as a GPU
+    would at `report`'s points for that grid (half uniform, the same for every trial; half at centres of
+    its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``."""
+    from .report import held_out_points, score
+
+    n_centre = n_points // 2
+    uniform = held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points - n_centre,
+                              seed, centre_fraction=0.0, truth=truth)
 
     def measure(counts, label):
-        grid = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, counts)))
-        start = time.perf_counter()
-        image = bake_rows_all(integrator, grid).astype(stored)
-        seconds = time.perf_counter() - start
-        lut = Lut.in_memory(grid, image)
-        sets = [uniform] + ([held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre,
-                                             seed, centre_fraction=1.0, truth=truth)] if n_centre else [])
-        de = np.concatenate([score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00 for p in sets])
+        lut, nbytes, seconds = trial_lut(spec, counts, integrator)
+        centres = held_out_points(lut.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre, seed,
+                                  centre_fraction=1.0, truth=truth)
+        de = np.concatenate([score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00
+                             for p in (uniform, centres)])
         stats = {"de00_mean": float(de.mean()), "de00_p50": float(np.percentile(de, 50)),
                  "de00_p95": float(np.percentile(de, 95)), "de00_p99": float(np.percentile(de, 99)),
                  "de00_max_held_out": float(de.max())}
-        return Trial(tuple(counts), stats["de00_p99"], image.nbytes, seconds, stats, p99_bound(de)), image
+        return Trial(tuple(counts), stats["de00_p99"], nbytes, seconds, stats, p99_bound(de)), lut.image
 
     return measure
 

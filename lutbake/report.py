@@ -39,11 +39,11 @@ from .worstcase import SearchAxis, find_worst
 
 __all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport", "report_lut",
            "write_report", "report_atlas", "REPORT_FILES", "search_max", "proxy_truth", "lut_stacks",
-           "singular_places", "corner_distance", "SEARCH_BUDGET"]
+           "singular_places", "corner_distance", "search_slice", "search_stacks", "SEARCH_BUDGET", "RESCORED"]
 
 SEARCH_BUDGET = 20000   # evaluations of each row's worst-case search (`report`)
 SLICE_SEARCH_BUDGET = 2000   # a scene atlas slice's: 2D, scored against the ground truth itself
-_RESCORED = 10          # distinct local maxima of a search scored against the ground truth
+RESCORED = 10          # distinct local maxima of a search scored against the ground truth
 
 
 @dataclass
@@ -145,7 +145,7 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
     given = np.column_stack(lut.node_coords(pts.stack)) / (np.array([a.count for a in axes]) - 1.0)
     worst = find_worst(error, tuple(SearchAxis(a.name, cells=a.count - 1) for a in axes), points=given,
                        errors=de00, singular=singular_places(axes, lut.eta1), budget=budget, seed=seed)
-    found = worst.candidates[:_RESCORED]
+    found = worst.candidates[:RESCORED]
     how = [c.how().replace("given point", start_label, 1) for c in found]
     stack = lut_stacks(axes, lut.eta1, lut.eta2, np.array([c.where for c in found]))
     truth = reference_colour(stack, observer, space).values
@@ -367,7 +367,7 @@ def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0,
         de = np.nan_to_num(delta_e00(rgb, truth, observer, space), nan=np.inf)
         all_de.append(de)
         stats = ErrorStats(", ".join(s["materials"]), de, float(np.max(np.abs(rgb - truth))))
-        stats.worst_case = _search_slice(atlas, s, cos_t, thickness, de, search_budget, seed)
+        stats.worst_case = search_slice(atlas, s, cos_t, thickness, de, search_budget, seed)
         slices.append({"materials": s["materials"], "rect": s["rect"], **_untimed(stats)})
     total = ErrorStats("atlas", np.concatenate(all_de), max(r["rgb_abs_max"] for r in slices))
     total.worst_case = max((r["worst_case"] for r in slices), key=lambda w: w["de00_max"])
@@ -375,11 +375,9 @@ def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0,
             "space": space, "observer": observer, "lut_error": _untimed(total), "slices": slices}
 
 
-def _search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, seed: int) -> dict:
-    """A slice's searched max: from its held-out points, the corners and edges of its (√cos θ, thickness)
-    grid and grazing incidence, measured against the ground truth (a slice's named materials have no
-    faster stand-in)."""
-    space, observer = atlas.meta["space"], atlas.meta["observer"]
+def search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, seed: int, proxy=None) -> dict:
+    """A slice's searched max (``search_stacks``) over its (√cos θ, thickness) grid, from its held-out points
+    (``de00`` their ΔE00), the grid's corners and edges and grazing incidence (and d → 0 where it reaches)."""
     material, (_, _, w, h) = s["materials"][0], s["rect"]
     lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
 
@@ -387,19 +385,43 @@ def _search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, se
         return FilmPoints.build(cos_theta=unit[:, 0] ** 2, thickness_nm=lo + (hi - lo) * unit[:, 1],
                                 **atlas.film_stack(material))
 
-    def error(unit):
-        stack = stack_at(unit)
-        return delta_e00(atlas.sample(material, stack), reference_colour(stack, observer, space).values,
-                         observer, space)
-
     given = np.column_stack([np.sqrt(cos_t), (thickness - lo) / (hi - lo) if hi > lo else 0.0 * cos_t])
     places = {"cos θ → 0": {"cos_theta": 0.0}} | ({"d → 0": {"thickness_nm": 0.0}} if lo == 0.0 else {})
     axes = (SearchAxis("cos_theta", cells=w - 1), SearchAxis("thickness_nm", cells=max(h - 1, 1)))
+    found = search_stacks(stack_at, lambda stack: atlas.sample(material, stack), axes, given, de00, places, budget,
+                          seed, atlas.meta["space"], atlas.meta["observer"], proxy)
+    at = found.pop("at")
+    return {"de00_max": found.pop("de00_max"), "cos_theta": float(at.cos_theta[0]),
+            "thickness_nm": float(at.thickness_nm[0]), **found}
+
+
+def search_stacks(stack_at, read, axes, given, de00, places, budget: int, seed: int, space: str, observer: str,
+                  proxy=None) -> dict:
+    """The searched max of ΔE00 between ``read(stack)`` and the ground truth over the unit box of ``axes``
+    (``stack_at(unit) -> FilmPoints``): from the ``given`` points (unit coordinates, ``de00`` their ΔE00),
+    the box's corners and edges and the singular ``places`` (worstcase.find_worst), climbed against the
+    ground truth; or, given ``proxy`` (``stack -> RGB``, e.g. the bake's own integrator), climbed against it
+    and its distinct local maxima and worst given point then scored against the ground truth, the largest
+    of which is the max (``held_out_max`` that point's). Returns ``de00_max``, ``at`` (the stack there),
+    ``found_by``, ``held_out_max``, ``evaluations``, ``budget``."""
+    def ground_truth(stack):
+        return reference_colour(stack, observer, space).values
+
+    def error(unit, truth=proxy or ground_truth):
+        stack = stack_at(unit)
+        return delta_e00(read(stack), truth(stack), observer, space)
+
     worst = find_worst(error, axes, points=given, errors=de00, singular=places, budget=budget, seed=seed)
-    at = stack_at(worst.where[None])
-    return {"de00_max": worst.value, "cos_theta": float(at.cos_theta[0]), "thickness_nm": float(at.thickness_nm[0]),
-            "found_by": worst.best.how().replace("given point", "held-out point", 1),
-            "held_out_max": float(de00.max()), "evaluations": worst.evaluations, "budget": budget}
+    found = worst.candidates[:RESCORED if proxy else 1]
+    where = [c.where for c in found]
+    how = [c.how().replace("given point", "held-out point", 1) for c in found]
+    if proxy:   # the worst given point too, so that the max is never below the points it started from
+        where, how = where + [given[int(np.argmax(de00))]], how + ["held-out point"]
+    scored = error(np.array(where), ground_truth) if proxy else np.array([worst.value])
+    best = int(np.argmax(scored))
+    return {"de00_max": float(scored[best]), "at": stack_at(np.asarray(where[best])[None]), "found_by": how[best],
+            "held_out_max": float(scored[-1] if proxy else np.max(de00)), "evaluations": worst.evaluations,
+            "budget": budget}
 
 
 def _untimed(stats: ErrorStats) -> dict:

@@ -30,15 +30,16 @@ class SceneMaterial:
     """One material: film (η2 or a name), thickness (lo, hi) in nm (lo == hi: fixed), base ((η3, κ3),
     a name, or ((η3 lo, hi), (κ3 lo, hi)) ranges), and ``origin``: field → where its value came from
     ('scene.toml:4: materials.a.thickness_nm'); not part of what the material's pixels depend on. A ranged
-    base may give ``base_path``, (η3 nodes, κ3 nodes) of the curve the engine reads the ranges along (a
-    texture-driven glTF metal's mapping): its 4D LUT is then scored there, not over the whole box."""
+    base may give ``base_path``, (η3 nodes, κ3 nodes, per-channel reach) of the curve the engine reads the
+    ranges along (a texture-driven glTF metal's mapping; channel c reaches the fraction reach[c] of the
+    curve from its first node): its 4D LUT is then scored there, not over the whole box."""
 
     name: str
     film: object
     thickness_nm: tuple
     base: object
     origin: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
-    base_path: tuple | None = None  # ranged bases only: the (η3, κ3) nodes the engine reads along, if not all
+    base_path: tuple | None = None  # ranged bases only: (η3 nodes, κ3 nodes, channel reach) the engine reads
 
 
     @property
@@ -49,7 +50,8 @@ class SceneMaterial:
         """Everything the material's pixels depend on (materials equal here share a slice)."""
         key = {"film": self.film, "thickness_nm": list(self.thickness_nm), "base": json.loads(json.dumps(self.base))}
         if self.base_path is not None:
-            key["base_path"] = [list(map(float, nodes)) for nodes in self.base_path]
+            key["base_path"] = dict(zip(("eta3", "kappa3", "channel_reach"),
+                                        ([float(v) for v in nodes] for nodes in self.base_path)))
         return key
 
     def where(self, key: str) -> str:

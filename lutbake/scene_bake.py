@@ -15,11 +15,10 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .atlas import atlas_header, atlas_includes, pack_atlas, slice_entry
+from .atlas import ERROR_KEYS, atlas_header, atlas_includes, pack_atlas, slice_entry
 from .bake import lut_members
 from .documents import load_json, read_text
 from .errors import ParameterError
@@ -28,7 +27,8 @@ from .lutfile import warn_texture_size, write_atlas
 from .progress import no_progress
 from .scene import Scene
 from .scene_cache import SceneCache
-from .scene_jobs import Device, held_out, refine_slice, tuned_lut
+from .integrate import backend as make_backend
+from .scene_jobs import refine_slice, tuned_lut
 from .scene_plan import ScenePlan, plan_scene
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
@@ -46,7 +46,7 @@ class SceneResult:
     reused: list
     up_to_date: bool
     seconds: float
-    unmet: dict = field(default_factory=dict)  # material -> p99 ΔE00 reached, where above the target
+    unmet: dict = field(default_factory=dict)  # material -> {de00_p99, de00_p99_bound}, where not met
     device: str | None = None  # the integrator's device, when a job was computed
 
 
@@ -141,10 +141,9 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
                                *([] if scene.source is None else [scene.source]))
     outputs = scene_outputs(out, scene, plan)
     with open_set(out, f"scene-{scene.stem}") as files:
-        manifest = None if force else _current_manifest(outputs["manifest"], scene_hash, outputs)
-        if manifest is not None:
-            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start,
-                               _unmet(manifest["materials"], scene.max_de))
+        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
+        if unmet is not None:
+            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
         run = _JobRun(plan, SceneCache(out), force, backend, progress)
         entries, slices = run.all(out, files)
         atlas = pack_atlas([values for _, values, _ in slices])
@@ -164,7 +163,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
         written = sorted(files.members)
     return SceneResult(out, written, run.computed, run.reused, False, time.perf_counter() - start,
-                       _unmet(manifest["materials"], scene.max_de), run.device)
+                       _unmet(manifest["materials"]), run.device)
 
 
 class _JobRun:
@@ -172,39 +171,36 @@ class _JobRun:
 
     def __init__(self, plan: ScenePlan, cache: SceneCache, force: bool, backend: str, progress):
         self.plan, self.cache, self.force, self.backend, self.progress = plan, cache, force, backend, progress
-        self.computed, self.reused, self.device = [], [], None
+        self.computed, self.reused, self.integrator = [], [], None
+
+    @property
+    def device(self) -> str | None:
+        """The integrator's device, when a job was computed (it is made only then)."""
+        return None if self.integrator is None else self.integrator.device
+
+    def _integrator(self):
+        if self.integrator is None:
+            self.integrator = make_backend(self.backend)
+        return self.integrator
 
     def all(self, out: Path, files) -> tuple:
         """(manifest entries of the 4D jobs' materials, [(job, values, record)] of the slices)."""
-        slice_jobs = [job for job in self.plan.jobs if job.kind == "slice"]
-        cached = {job.id: None if self.force else self.cache.slice(job) for job in slice_jobs}
         entries, slices = {}, []
-        # Two workers: the device's start-up and the slices' held-out ground truths (numpy, which
-        # releases the GIL) run side by side, and the truths go on while the first slices refine. On an
-        # interrupt (SIGINT/SIGTERM unwind as KeyboardInterrupt) the queued truths are cancelled, not awaited.
-        pool = ThreadPoolExecutor(max_workers=2)
-        try:
-            integrator = Device(pool, self.backend)
-            if any(v is None for v in cached.values()):
-                integrator.start()
-            truths = {job.id: pool.submit(held_out, job) for job in slice_jobs if cached[job.id] is None}
-            for done, job in enumerate(self.plan.jobs):
-                self.progress(done, len(self.plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
-                if job.kind == "slice":
-                    slices.append((job, *self._slice(job, cached[job.id], integrator, truths)))
-                else:
-                    record = self._lut(job, out, files)
-                    entries.update({name: _lut_entry(job, record) for name in job.materials})
-            self.device = integrator().device if self.computed else None
-        finally:
-            pool.shutdown(wait=False, cancel_futures=True)
+        for done, job in enumerate(self.plan.jobs):
+            self.progress(done, len(self.plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
+            if job.kind == "slice":
+                slices.append((job, *self._slice(job)))
+            else:
+                record = self._lut(job, out, files)
+                entries.update({name: _lut_entry(job, record) for name in job.materials})
         return entries, slices
 
-    def _slice(self, job, cached, integrator, truths) -> tuple:
+    def _slice(self, job) -> tuple:
+        cached = None if self.force else self.cache.slice(job)
         if cached is not None:
             self.reused.append(job.id)
             return cached
-        values, record = refine_slice(job, integrator(), truths[job.id].result())
+        values, record = refine_slice(job, self._integrator())
         self.computed.append(job.id)
         return values, self.cache.store_slice(job, values, record)
 
@@ -215,7 +211,7 @@ class _JobRun:
         if record is not None:
             self.reused.append(job.id)
             return record
-        record = tuned_lut(job, path, self.backend, files)
+        record = tuned_lut(job, path, self.backend, files, self._integrator())
         self.cache.store_lut(job, record)
         self.computed.append(job.id)
         return record
@@ -223,7 +219,8 @@ class _JobRun:
 
 def _lut_entry(job, record: dict) -> dict:
     return {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": record["counts"],
-            "de00_p99": record["de00_p99"], "sample": "lutbake_sample (docs/lut-format.md)"}
+            **{k: record[k] for k in ERROR_KEYS}, **{k: record[k] for k in ("path_scoring",) if k in record},
+            "sample": "lutbake_sample (docs/lut-format.md)"}
 
 
 def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:
@@ -245,9 +242,9 @@ def _sealed(manifest: dict) -> dict:
     return {**manifest, "manifest_hash": _manifest_hash(manifest)}
 
 
-def _current_manifest(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | None:
-    """The manifest when the set is up to date: unedited (its own hash holds), this scene's, and
-    every member it lists exists with the recorded hash; else None."""
+def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | None:
+    """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
+    it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
     try:
         manifest = load_json(read_text(manifest_path, "manifest", _MAX_MANIFEST_BYTES), str(manifest_path))
         files = manifest["files"]
@@ -255,11 +252,12 @@ def _current_manifest(manifest_path: Path, scene_hash: str, outputs: dict) -> di
                 or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
-        return manifest if fresh and isinstance(manifest["materials"], dict) else None
+        return _unmet(manifest["materials"]) if fresh else None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
 
-def _unmet(entries: dict, max_de: float) -> dict:
-    """Materials whose p99 ΔE00 stayed above the target at the resolution cap."""
-    return {name: e["de00_p99"] for name, e in entries.items() if e["de00_p99"] > max_de}
+def _unmet(entries: dict) -> dict:
+    """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
+    return {name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
+            for name, e in entries.items() if not e["target_met"]}

@@ -2,7 +2,7 @@
 hash, so a re-bake recomputes only the jobs that changed (docs/scene.md, Incremental).
 
 Nothing in it is trusted: a slice's entry is ``JOB.npy`` (its float64 values) and ``JOB.json`` (its
-record: counts, p99 reached, the .npy's SHA-256). The record is read with bounded size and nesting
+record: counts, p99 and bound reached, the searched max, the .npy's SHA-256). The record is read with bounded size and nesting
 (documents.py); the .npy's header is read first and its shape, dtype and size checked against the
 record's counts before any array is allocated; the bytes must hash to the recorded SHA-256 (a
 zeroed or foreign .npy of the right shape is not reused) and be finite. A 4D job's record holds its
@@ -77,10 +77,13 @@ class SceneCache:
 
 
 def _record(path: Path) -> dict:
-    """A cache record with integer counts, a finite p99 and a SHA-256; raises otherwise."""
+    """A cache record with integer counts, finite errors (p99, its bound, the searched max), whether the
+    target was met, where the max is, and a SHA-256; raises otherwise."""
     info = load_json(read_text(path, "cache record", MAX_RECORD_BYTES), str(path))
     info["counts"] = [int(c) for c in info["counts"]]
-    if not np.isfinite(float(info["de00_p99"])) or not isinstance(info["sha256"], str):
+    errors = (float(info[k]) for k in ("de00_p99", "de00_p99_bound", "de00_max"))
+    if (not all(np.isfinite(e) for e in errors) or not isinstance(info["target_met"], bool)
+            or not isinstance(info["worst_case"], dict) or not isinstance(info["sha256"], str)):
         raise ValueError("cache record")
     return info
 

@@ -21,23 +21,20 @@ from .materials import material
 from .plan import Axis, BakeSpec
 from .points import MAX_OPD_NM, FilmPoints
 from .refine import TUNE_START_COUNTS
+from .report import RESCORED
 from .scene import Scene, SceneMaterial
 from .slices import SliceStack
 
-__all__ = ["SceneJob", "ScenePlan", "plan_scene", "truth_rate", "MAX_SLICE_COUNT", "HELD_OUT_POINTS",
-           "TRUTH_TOLERANCE"]
+__all__ = ["SceneJob", "ScenePlan", "plan_scene", "truth_rate", "MAX_SLICE_COUNT", "SCORED_POINTS", "SCORING"]
 
 MAX_SLICE_COUNT = 256  # per slice axis: 256 × 256 texels, 384 KiB in half
-# Held-out ground-truth points a job is scored at: the bulk of a scene bake's time (the grids
-# themselves go through the bake's integrator). A 4D job's final bake adds its ≤ 112 probes. A 4D job
-# read along a base path (a texture-driven glTF metal) takes twice a LUT's: at 300, refine's trimming fitted
-# the points' own p99 (0.90) while 1,500 fresh points along the path gave 1.24; at 600, 0.94 and 0.84.
-HELD_OUT_POINTS = {"slice": 160, "lut": 300, "lut along a base path": 600}
-_LUT_PROBES = 112
-# Held-out truth converged to |ΔRGB| ≤ 1e-5: ~300× below the colour step of the finest target a scene
-# may set (ΔE00 0.01 is ~3e-3 in RGB at its most sensitive). Tighter costs seconds at near-grazing
-# points (Airy dips narrower than the 1 nm panels), where 1e-7 needs 2048 nodes per nm.
-TRUTH_TOLERANCE = 1e-5
+# Points a job's trials are scored at (scene_jobs.py), colour by the bake's integrator: a slice's uniform
+# points (beside every centre of its cells), a 4D job's `report` points (half uniform, half cell centres;
+# along a base path, this many of each kind). The bound held at them is what a 1,000-point `report` needs.
+SCORED_POINTS = {"slice": 1000, "lut": 1000}
+# What a job is refined to: part of its content hash, so a cache entry refined by another rule is recomputed.
+SCORING = ("report p99 at 99 % of seeds: bound_level of report's population; along a base path the "
+           "single-base bound and the per-channel p99")
 _VISIBLE_NM = np.linspace(360.0, 830.0, 95)
 # truth_rate samples at most this many jobs: a plan of 10^5 materials is timed in a fraction of a second.
 _RATE_JOBS = 8
@@ -55,7 +52,7 @@ class SceneJob:
 
     @cached_property
     def hash(self) -> str:
-        return self.scene.hash_of(self.kind, self.key)
+        return self.scene.hash_of(self.kind, self.key, SCORING)
 
     @property
     def id(self) -> str:
@@ -192,9 +189,10 @@ def _check_optical_path(job: SceneJob, m: SceneMaterial) -> None:
 
 
 def _truth_points(job: SceneJob) -> int:
-    if job.kind == "slice":
-        return HELD_OUT_POINTS["slice"]
-    return HELD_OUT_POINTS["lut along a base path" if "base_path" in job.key else "lut"] + _LUT_PROBES
+    """Ground-truth points a job's bake evaluates (reference.py): the searched max's local maxima and worst
+    scored point (report.search_stacks), and a 4D job tuned over its domain also its report points."""
+    rescored = RESCORED + 1
+    return rescored if job.kind == "slice" or "base_path" in job.key else SCORED_POINTS["lut"] + RESCORED
 
 
 def truth_rate(plan: ScenePlan, points: int = 16) -> float:
@@ -212,7 +210,7 @@ def truth_rate(plan: ScenePlan, points: int = 16) -> float:
             (e_lo, e_hi), (k_lo, k_hi) = job.key["base"]
             pts = FilmPoints.build(eta1=job.scene.eta1, eta2=float(job.key["film"]), cos_theta=cos_t,
                                    thickness_nm=d, eta3=rng.uniform(e_lo, e_hi, n), kappa3=rng.uniform(k_lo, k_hi, n))
-        reference_colour(pts, job.scene.observer, job.scene.space, tolerance=TRUTH_TOLERANCE)
+        reference_colour(pts, job.scene.observer, job.scene.space)
 
     jobs = plan.jobs[::max(1, -(-len(plan.jobs) // _RATE_JOBS))]  # spread over the plan
     for job in jobs:

@@ -37,7 +37,7 @@ from .points import MAX_INDEX, MAX_OPD_NM, FilmPoints
 from .reference import spectral_reflectance, subset
 from .spectral import WAVENUMBER_SPAN_PER_NM, rule_ladder
 
-__all__ = ["SliceStack", "slice_grid", "integrate_slice"]
+__all__ = ["SliceStack", "slice_grid", "integrate_slice", "slice_colour"]
 
 # Wavelengths at which a dispersive stack's fringe count and finesse are screened for its rule level.
 _SCREEN_NM = np.linspace(360.0, 830.0, 48)
@@ -70,26 +70,42 @@ class SliceStack:
         return FilmPoints.build(eta1=self.eta1, cos_theta=cos_theta, thickness_nm=thickness_nm, **film, **base)
 
 
-def slice_grid(counts, thickness_nm) -> tuple:
-    """(cos θ axis, thickness values in nm) of a slice with ``counts`` = (n_cos, n_thickness)."""
+def slice_grid(counts, thickness_nm, centres: bool = False) -> tuple:
+    """(cos θ values, thickness values in nm) of a slice with ``counts`` = (n_cos, n_thickness): its nodes,
+    uniform in √cos θ over [0, 1] and in thickness over ``thickness_nm`` (one row at the lower end when
+    n_thickness is 1), or with ``centres`` the centres of its cells in those coordinates (where bilinear
+    interpolation errs most: the points `report` scores beside uniform ones)."""
     lo, hi = thickness_nm
     n_cos, n_d = counts
-    thickness = np.array([float(lo)]) if n_d == 1 else np.linspace(lo, hi, n_d)
-    return Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), thickness
+    if centres:
+        u, v = (np.arange(n_cos - 1) + 0.5) / (n_cos - 1), (np.arange(n_d - 1) + 0.5) / max(n_d - 1, 1)
+    else:
+        u, v = np.linspace(0.0, 1.0, n_cos), np.linspace(0.0, 1.0, n_d)
+    return u ** 2, (lo + (hi - lo) * v) if n_d > 1 else np.array([float(lo)])
 
 
-def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observer: str, space: str) -> np.ndarray:
-    """RGB (n_thickness, n_cos, 3) in float64 on the slice grid (see the module docstring for the path)."""
-    cos_axis, thickness = slice_grid(counts, thickness_nm)
+def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observer: str, space: str,
+                    centres: bool = False) -> np.ndarray:
+    """RGB (n_thickness, n_cos, 3) in float64 on the slice grid, or with ``centres`` at its cells'
+    centres (max(n_thickness − 1, 1), n_cos − 1, 3) (``slice_grid``; the module docstring gives the path)."""
+    cos_t, thickness = slice_grid(counts, thickness_nm, centres)
     if not stack.dispersive:
-        return _kernel_tile(stack, cos_axis, thickness, integrator, observer, space)
+        return _kernel_tile(stack, cos_t, thickness, integrator, observer, space)
+    grid_cos, grid_d = (g.ravel() for g in np.meshgrid(cos_t, thickness))
+    rgb = slice_colour(stack, stack.points(grid_cos, grid_d), thickness_nm, integrator, observer, space)
+    return rgb.reshape(thickness.size, cos_t.size, 3)
+
+
+def slice_colour(stack: SliceStack, points: FilmPoints, thickness_nm, integrator, observer: str,
+                 space: str) -> np.ndarray:
+    """RGB (P, 3) of ``stack`` at any ``points`` of its slice (thickness within ``thickness_nm``) by the
+    direct quadrature, each point at its fringe level and at least the slice's material floor: what a
+    slice's interpolation error is scored against (≤ DISPERSIVE_TOLERANCE from the ground truth, tests)."""
     key = (tuple(thickness_nm), observer, space)
     if key not in stack.material_levels:
-        stack.material_levels[key] = _material_level(stack, thickness_nm, integrator, stack.ladder(observer, space))
-    cos_t, d = (g.ravel() for g in np.meshgrid(cos_axis.values(), thickness))
-    rgb = _direct_per_wavelength(stack, stack.points(cos_t, d), stack.material_levels[key], integrator, observer,
-                                 space)
-    return rgb.reshape(thickness.size, cos_axis.count, 3)
+        stack.material_levels[key] = (_material_level(stack, thickness_nm, integrator, stack.ladder(observer, space))
+                                      if stack.dispersive else 0)
+    return _direct_per_wavelength(stack, points, stack.material_levels[key], integrator, observer, space)
 
 
 def _pinned_axis(name: str, value: float, top: float, partner: float | None = None) -> tuple:
@@ -104,24 +120,29 @@ def _pinned_axis(name: str, value: float, top: float, partner: float | None = No
     return Axis(name, value - step, value, 2), 1
 
 
-def _kernel_tile(stack, cos_axis, thickness, integrator, observer, space) -> np.ndarray:
+def _grid_axis(name: str, values, top: float, spacing: str = "uniform") -> tuple:
+    """(Axis whose nodes are ``values`` — uniform in ``spacing``'s coordinate —, the slice of them): a
+    single value is pinned (``_pinned_axis``) and its node alone is taken."""
+    if values.size == 1:
+        axis, i = _pinned_axis(name, float(values[0]), top)
+        return axis, slice(i, i + 1)
+    return Axis(name, float(values[0]), float(values[-1]), values.size, spacing), slice(None)
+
+
+def _kernel_tile(stack, cos_t, thickness, integrator, observer, space) -> np.ndarray:
     eta2 = float(stack.film)
-    opd = 2.0 * eta2 * thickness
     # The η3 tile baked beside the slice's is a base matching the film (r23 = 0 at κ3 = 0): a one-term series.
     eta3_axis, i_eta3 = _pinned_axis("eta3", float(stack.base[0]), MAX_INDEX, partner=eta2)
     kappa3_axis, i_kappa3 = _pinned_axis("kappa3", float(stack.base[1]), np.inf)
-    if opd.size == 1:
-        opd_axis, rows = _pinned_axis("opd_nm", float(opd[0]), MAX_OPD_NM)
-        rows = slice(rows, rows + 1)
-    else:
-        opd_axis, rows = Axis("opd_nm", float(opd[0]), float(opd[-1]), opd.size), slice(None)
+    cos_axis, columns = _grid_axis("cos_theta", cos_t, 1.0, "sqrt")
+    opd_axis, rows = _grid_axis("opd_nm", 2.0 * eta2 * thickness, MAX_OPD_NM)
     spec = BakeSpec(eta2=eta2, eta1=stack.eta1, axes=(cos_axis, opd_axis, eta3_axis, kappa3_axis),
                     observer=observer, space=space)
     # Only the rows of the base's κ3 node (at most 2 × 256 × 256 cells), then its η3 tile's columns.
     layout = spec.layout
     (x0, y0), (x1, y1) = layout.texel(0, 0, i_eta3, i_kappa3), layout.texel(0, 0, i_eta3 + 1, i_kappa3 + 1)
     band = integrator.bake_rows(spec, y0, y1)
-    return band[rows, x0:x1]
+    return band[rows, x0:x1][:, columns]
 
 
 def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str,

@@ -93,7 +93,7 @@ def pytest_generate_tests(metafunc):
 # its workers in collection order (pyproject: --no-loadscope-reorder), so the long ones start early and
 # the short ones fill the end of the run on both workers, instead of one worker finishing a long module alone.
 LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_blender.py", "test_scene.py", "test_report.py", "test_cli_honest.py",
-                 "test_bake.py", "test_api.py", "test_default_luts.py", "test_engine.py", "test_stability.py",
+                 "test_gltf_runtime.py", "test_bake.py", "test_api.py", "test_default_luts.py", "test_engine.py", "test_stability.py",
                  "test_spectral.py")
 
 

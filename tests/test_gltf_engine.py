@@ -97,22 +97,17 @@ def plugin_run(bakes, tmp_path_factory):
     return {name: (manifest, out, got) for (name, (_, manifest, out)), got in zip(bakes.items(), results)}
 
 
-# The bake meets its target at 160 held-out points per slice (scene_plan.HELD_OUT_POINTS); a p99 taken at
-# other points scatters around it (the generated asset's m1 slice: 0.82 at its own points, 1.00 at 1,500
-# fresh ones), so fresh points are held to the target with this margin.
-FRESH_POINT_MARGIN = 1.1
-
-
 def test_showcase_slices_and_luts_hold_their_materials_ground_truth(bakes):
-    """Every slice (`sample --material`'s name) returns its material's ground truth at 400 fresh points
-    within the scene's target (p99 ΔE00 ≤ max_de, with FRESH_POINT_MARGIN), and every texture-driven
-    metal's 4D LUT does where the engine reads it: along the mapping's F0 → (η3, κ3) table."""
-    rng = np.random.default_rng(23)
+    """Every slice (`sample --material`'s name) returns its material's ground truth at 1,000 fresh points
+    within the scene's target (p99 ΔE00 ≤ max_de, no allowance: the bake holds `report`'s p99 at any seed,
+    scene_jobs.py), and every texture-driven metal's 4D LUT does where the engine reads it: along the
+    mapping's F0 → (η3, κ3) table."""
+    rng = np.random.default_rng(23)   # not a seed the bake scored at
     for name, (_, manifest, out) in bakes.items():
         tables = {r["parts"]["metal"]["channels"][0]: r["parts"]["metal"]["table"]
                   for r in manifest["source"]["materials"] if r["parts"].get("metal", {}).get("texture")}
         for material, entry in manifest["materials"].items():
-            cos_t, u = rng.uniform(0, 1, 400) ** 2, rng.uniform(0, 1, 400)
+            cos_t, u = rng.uniform(0, 1, 1000) ** 2, rng.uniform(0, 1, 1000)
             if entry["kind"] == "slice":
                 atlas = Atlas.load(out / entry["file"])
                 lo, hi = entry["axes"]["thickness_nm"]["min"], entry["axes"]["thickness_nm"]["max"]
@@ -120,14 +115,14 @@ def test_showcase_slices_and_luts_hold_their_materials_ground_truth(bakes):
                 rgb = atlas.sample(material, pts)
             else:
                 lut, table = Lut.load(out / entry["file"]), tables[material]
-                f0 = rng.uniform(0, table["f0"][-1], 400)
+                f0 = rng.uniform(0, table["f0"][-1], 1000)
                 pts = FilmPoints.build(eta2=lut.eta2, cos_theta=cos_t,
                                        opd_nm=lut.axes[1].lo + u * (lut.axes[1].hi - lut.axes[1].lo),
                                        eta3=np.interp(f0, table["f0"], table["eta3"]),
                                        kappa3=np.interp(f0, table["f0"], table["kappa3"]))
                 rgb = lut.sample(pts)
             p99 = np.percentile(delta_e00(rgb, reference_colour(pts).values), 99)
-            assert p99 <= FRESH_POINT_MARGIN * manifest["settings"]["max_de"], (name, material, p99)
+            assert p99 <= manifest["settings"]["max_de"], (name, material, p99)
 
 
 @pytest.mark.parametrize("asset", SHOWCASE + ["CarConcept", "generated"])

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from lutbake.scene_bake import bake_scene
-from lutbake.scene_jobs import held_out
-from lutbake.refine import Trial, refine
+from lutbake.integrate import backend
+from lutbake.scene_jobs import uniform_points
+from lutbake.refine import Trial, bound_level, mixture_percentile, refine
 from lutbake.sample import load_table
 from lutbake.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.colorimetry import delta_e00
@@ -130,6 +131,9 @@ def _cli(*args):
     ("[scene]\nspace = 'srgb'\n[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = 1.0\n", ":2: scene.space = 'srgb'"),
     ("[materials.a]\nfilm = \"butanol\"\nthickness_nm = 10\nbase = { eta3 = [1, 2] }\n", ":2: materials.a: a named (dispersive) film"),
     ("[materials.a\nfilm = 1.5\n", "invalid TOML"),
+    ("[materials.a]\nfilm = nan\nthickness_nm = 10\nbase = 1.0\n", ":2: materials.a.film: eta2 = nan is not allowed"),
+    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 1e400]\nbase = 1.0\n",
+     ":3: materials.a.thickness_nm: thickness_nm = inf is not allowed"),
 ])
 def test_invalid_scenes_exit_2_naming_file_line_and_field(tmp_path, text, message):
     path = write(tmp_path, text)
@@ -179,20 +183,23 @@ def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
     assert bake_scene(scene, tmp_path / "out").up_to_date
 
 
+@pytest.mark.parametrize("centres", [False, True], ids=["nodes", "cell centres"])
 @pytest.mark.parametrize("film, base, thickness_nm, tolerance", [
     (1.33, (1.0, 0.0), (100, 1000), 1e-8),         # constant indices: the kernel's 4D path, series per texel
     (3.0, (1.43, 0.0), (15.1667, 15.1667), 1e-8),  # one thickness row
     (2.9, "Fe", (10, 70), DISPERSIVE_TOLERANCE),   # dispersive base: the kernel's reflectance per node
     ("butanol", "Ag", (100, 600), DISPERSIVE_TOLERANCE),  # dispersive film: numpy per node; silver's kinks
 ])
-def test_slice_integration_matches_the_ground_truth_at_its_texels(film, base, thickness_nm, tolerance):
+def test_slice_integration_matches_the_ground_truth_at_its_texels(film, base, thickness_nm, tolerance, centres):
+    """At the slice's nodes and at its cells' centres (what a slice's trials are scored against)."""
     from lutbake.integrate import backend
 
     stack, counts = SliceStack(1.0, film, base), (24, 1 if thickness_nm[0] == thickness_nm[1] else 12)
-    values = integrate_slice(stack, counts, thickness_nm, backend(), "cie1931", "rec709")
-    cos_axis, d = slice_grid(counts, thickness_nm)
-    cos_t, dd = (g.ravel() for g in np.meshgrid(cos_axis.values(), d))
-    pick = np.random.default_rng(3).choice(cos_t.size, 24, replace=False)
+    values = integrate_slice(stack, counts, thickness_nm, backend(), "cie1931", "rec709", centres=centres)
+    cos_values, d = slice_grid(counts, thickness_nm, centres=centres)
+    assert values.shape == (d.size, cos_values.size, 3)
+    cos_t, dd = (g.ravel() for g in np.meshgrid(cos_values, d))
+    pick = np.random.default_rng(3).choice(cos_t.size, min(24, cos_t.size), replace=False)
     truth = reference_colour(stack.points(cos_t[pick], dd[pick]), tolerance=1e-9).values
     assert np.max(np.abs(values.reshape(-1, 3)[pick] - truth)) <= tolerance
 
@@ -225,7 +232,8 @@ def test_stack_colour_matches_the_numpy_physics_node_by_node(kernel_device, comp
 
 
 def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
-    """The manifest's p99 is what the shipped half texels score at the held-out points."""
+    """The manifest's p99 is what the shipped half texels score at the slice's uniform points and every cell
+    centre (equal weight, as `report` draws them), and it holds at fresh points against the ground truth."""
     scene = load_scene(write(tmp_path, """
         [materials.steel]
         film = 2.9
@@ -234,9 +242,20 @@ def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
         """))
     bake_scene(scene, tmp_path / "out")
     entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["steel"]
-    pts, truth = held_out(plan_scene(scene).jobs[0])
-    stored = load_table(tmp_path / "out" / "scene.exr").sample("steel", pts)
-    assert entry["de00_p99"] == float(np.percentile(delta_e00(stored, truth), 99))
+    job, integrator = plan_scene(scene).jobs[0], backend("auto")
+    stack, stored = job.stack(), load_table(tmp_path / "out" / "scene.exr")
+    pts, truth = uniform_points(job, stack, integrator)
+    counts = [entry["axes"][axis]["count"] for axis in ("cos_theta", "thickness_nm")]
+    cos_c, d_c = (g.ravel() for g in np.meshgrid(*slice_grid(counts, job.thickness_nm, centres=True)))
+    centres = stack.points(cos_c, d_c)
+    de = [delta_e00(stored.sample("steel", p), t) for p, t in
+          ((pts, truth), (centres, reference_colour(centres).values))]
+    assert entry["de00_p99"] == pytest.approx(mixture_percentile(de, 99.0), abs=2e-3)
+    assert entry["target_met"] and entry["de00_p99"] <= entry["de00_p99_bound"] <= scene.max_de
+    rng = np.random.default_rng(2024)   # not a seed the bake scored at
+    fresh = stack.points(rng.uniform(0, 1, 1000) ** 2, rng.uniform(10, 70, 1000))
+    assert np.percentile(delta_e00(stored.sample("steel", fresh), reference_colour(fresh).values), 99) <= scene.max_de
+    assert entry["de00_max"] >= entry["worst_case"]["held_out_max"] >= entry["de00_p99"]
     float64 = np.load(tmp_path / "out" / ".lutbake-cache" / f"{entry['job']}.npy")
     assert not np.array_equal(float64.astype(np.float16).astype(float), float64)  # rounding is real
 
@@ -251,6 +270,15 @@ def _synthetic(error_per_axis):
         return Trial(counts, p99, int(np.prod(counts)), 0.0), f"grid {counts}"
 
     return measure, seen
+
+
+def test_mixture_percentile_weighs_each_sample_equally_and_the_bound_level_is_report_s():
+    """Two samples of 3 and 6 values: the equal-weight mixture is the 3 repeated twice beside the 6, whose
+    inverted-CDF percentile numpy gives; 1,000 report points put the bound at the 99.73rd percentile."""
+    a, b = np.array([5.0, 1.0, 3.0]), np.array([0.5, 2.0, 4.0, 6.0, 2.5, 7.0])
+    for q in (10.0, 50.0, 90.0, 99.0, 99.73):
+        assert mixture_percentile([a, b], q) == np.percentile(np.concatenate([a, a, b]), q, method="inverted_cdf")
+    assert bound_level(1000) == pytest.approx(99.7319, abs=1e-4) and bound_level(10 ** 9) == pytest.approx(99.0, abs=1e-3)
 
 
 def test_refine_grows_the_axis_that_pays_most_per_byte_then_trims():

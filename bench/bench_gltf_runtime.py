@@ -1,0 +1,220 @@
+"""A glTF scene baked or served by the runtime table: error, bytes on the GPU and cost, in one three.js run.
+
+    python bench/bench_gltf_runtime.py [--json bench/gltf-runtime-result.json]
+
+The Khronos showcase assets' materials (../shared/gltf-assets, on generated spheres and gradient textures:
+tests/gltf_assets.stand_in) are baked (`bake --gltf`'s library call, timed), then three.js r187 in headless
+Chromium renders every iridescent material twice through lutbake's GLTFLoader plugin: served by the bake
+(atlas slices, 4D LUTs) and by the runtime table (`serve: 'runtime'`). At PIXELS pixels per material (a
+seeded choice among those the sphere covers) both film terms are scored against the spectral ground truth at
+the parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
+ΔE00 p99 and the largest over those pixels, per material and pooled. Bytes on the GPU: every texture as
+EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and SPIR-V arithmetic per pixel: lutbake report's
+table (lutbake/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
+curve the plugin reads for texture-driven metals (curve_worst), which the pixels sample only in part.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "docs"))
+
+from gltf_assets import SHOWCASE, asset_path, car_concept, stand_in  # noqa: E402
+from make_dropin import write_runtime_table  # noqa: E402
+
+from lutbake.colorimetry import delta_e00  # noqa: E402
+from lutbake.headers import check_structure, exr_header  # noqa: E402
+from lutbake.runtime.accuracy import truth  # noqa: E402
+
+ASSETS = SHOWCASE + ["CarConcept"]
+PIXELS = 150           # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal
+SIZE, STRIDE = 64, 3   # rendered square, and every STRIDE-th pixel returned
+SERVES = ("bake", "runtime")
+GPU_TEXEL_BYTES = 8    # EXRLoader's default upload: RGBA half
+CURVE_BUDGET = 2000    # evaluations of the search along the metal mapping's curve (curve_worst)
+
+
+def bake_stand_ins(folder: Path, names=ASSETS) -> dict:
+    """Each asset's stand-in baked into FOLDER/NAME/out: {asset: {gltf, manifest, out, bake_s}}."""
+    from lutbake.gltf_scene import load_gltf_scene
+    from lutbake.scene_bake import bake_scene
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for name in names:
+        doc = json.loads((car_concept(folder / "car.gltf") if name == "CarConcept" else asset_path(name)).read_text())
+        gltf = stand_in(doc, folder / name, name)
+        start = time.perf_counter()
+        result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
+        if result.unmet:
+            raise RuntimeError(f"{name}: the bake missed its target: {result.unmet}")
+        out[name] = {"gltf": gltf, "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
+                     "out": folder / name / "out", "bake_s": time.perf_counter() - start}
+    return out
+
+
+def url(path: Path) -> str:
+    """A repository file as the harness serves it."""
+    return f"/{path.relative_to(ROOT)}"
+
+
+def runtime_stem() -> str:
+    return url(write_runtime_table().with_suffix(""))
+
+
+def render(specs: list) -> dict:
+    """engine/harness.mjs gltf: one Chromium run over every spec ({gltf, manifest|plan, runtime, serves})."""
+    with tempfile.TemporaryDirectory() as tmp:
+        spec, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
+        spec.write_text(json.dumps(specs))
+        proc = subprocess.run(["node", str(ROOT / "engine" / "harness.mjs"), "gltf", str(spec), str(result)],
+                              capture_output=True, text=True, cwd=ROOT, timeout=600)
+        if proc.returncode:
+            raise RuntimeError(proc.stderr[-4000:])
+        return json.loads(result.read_text())
+
+
+def both_serves(bakes: dict) -> list:
+    """One spec per asset: its bake, and the runtime table for the second serve."""
+    return [{"gltf": url(b["gltf"]), "manifest": url(b["out"] / f"{name}.json"), "runtime": runtime_stem(),
+             "serves": list(SERVES), "size": SIZE, "stride": STRIDE} for name, b in bakes.items()]
+
+
+def part_bases(part: dict, colour: np.ndarray) -> tuple:
+    """(η3, κ3), (n, 3) each, of a part at n pixels' base colours: the dielectric's index, a metal's per
+    channel, or a texture-driven metal's through its F0 table as the plugin reads it (clamped at its ends)."""
+    n = len(colour)
+    if "base" in part:
+        return np.full((n, 3), part["base"][0]), np.full((n, 3), part["base"][1])
+    if "table" in part:
+        table = part["table"]
+        return np.interp(colour, table["f0"], table["eta3"]), np.interp(colour, table["f0"], table["kappa3"])
+    return np.tile(part["eta3"], (n, 1)), np.tile(part["kappa3"], (n, 1))
+
+
+def film_truth(record: dict, rows: np.ndarray, film=None) -> np.ndarray:
+    """The ground truth of the film term at each row's parameters: (1 − m)·dielectric + m·metal, each part
+    integrated only where its weight is non-zero. ``film`` replaces the record's η2 (the check that fails)."""
+    cos, thickness, metalness, colour = rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 7:10]
+    eta2 = record["film"] if film is None else film
+    out = np.zeros((len(rows), 3))
+    for name, part in record["parts"].items():
+        weight = 1.0 - metalness if name == "dielectric" else metalness
+        at = weight > 0
+        eta3, kappa3 = part_bases(part, colour[at])
+        out[at] += weight[at, None] * truth(cos[at], thickness[at], eta2, eta3, kappa3)
+    return out
+
+
+def score(result: dict, bakes: dict, seed: int = 7) -> dict:
+    """{asset: {glTF material index: {serve: ΔE00 (PIXELS,)}, 'rows': the pixels scored}} from one run."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for (name, bake), materials in zip(bakes.items(), result["results"]):
+        records = {r["gltf_index"]: r for r in bake["manifest"]["source"]["materials"]}
+        out[name] = {}
+        for index, samples in materials.items():
+            rows = np.array(samples)
+            rows = rows[np.sort(rng.choice(len(rows), min(PIXELS, len(rows)), replace=False))]
+            reference = film_truth(records[int(index)], rows)
+            out[name][int(index)] = {"rows": rows, "truth": reference,
+                                     **{serve: delta_e00(rows[:, cols], reference)
+                                        for serve, cols in zip(SERVES, (slice(0, 3), slice(10, 13)))}}
+    return out
+
+
+def curve_worst(budget: int, seed: int = 0):
+    """The runtime table along the fitted metal mapping's whole curve, as the plugin reads it for a
+    texture-driven metal: worstcase.find_worst over (cos θ, d 0–1500 nm, η2 1–3, F0 0–0.99), the base
+    (η3, κ3) interpolated in the 65-node F0 table the manifest carries, one F0 for all channels (each
+    channel is the film over its own base). runtime.model is what three.js returns to 1e-4
+    (tests/test_runtime_engine.py). The curve's white end leaves the table's searched metal box (η3 < 0.05
+    above F0 0.97) and its dark end the metal box for the dielectric one (κ3 < 1.5)."""
+    from lutbake.gltf_scene import METAL_TABLE_NODES
+    from lutbake.metals import F0_MAX, conductor
+    from lutbake.runtime import read_runtime_table, runtime_colour
+    from lutbake.worstcase import SearchAxis, find_worst
+
+    table = read_runtime_table(write_runtime_table())
+    nodes = np.linspace(0.0, F0_MAX["fitted"], METAL_TABLE_NODES)
+    eta_nodes, kappa_nodes, _ = conductor(nodes, "fitted")
+
+    def error(unit):
+        cos, d, eta2 = (np.float32(c).astype(float) for c in (unit[:, 0], 1500.0 * unit[:, 1], 1.0 + 2.0 * unit[:, 2]))
+        f0 = F0_MAX["fitted"] * unit[:, 3]
+        eta3, kappa3 = np.interp(f0, nodes, eta_nodes), np.interp(f0, nodes, kappa_nodes)
+        de = delta_e00(runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3), truth(cos, d, eta2, eta3, kappa3))
+        return np.where(np.isfinite(de), de, np.inf)
+
+    axes = (SearchAxis("cos_theta", cells=16), SearchAxis("thickness_nm", cells=32), SearchAxis("eta2", cells=16),
+            SearchAxis("f0", cells=METAL_TABLE_NODES - 1))
+    return find_worst(error, axes, singular={"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0},
+                                             "film = ambient": {"eta2": 0.0}, "black": {"f0": 0.0}},
+                      budget=budget, seed=seed)
+
+
+def gpu_bytes(bake: dict) -> int:
+    """Bytes of every texture the bake binds (atlas, 4D LUTs) as EXRLoader uploads them."""
+    files = {entry["file"] for entry in bake["manifest"]["materials"].values()}
+    shapes = [check_structure(exr_header(bake["out"] / f)) for f in files]
+    return sum(s["width"] * s["height"] * GPU_TEXEL_BYTES for s in shapes)
+
+
+def summary(bakes: dict, scores: dict) -> dict:
+    from lutbake.runtime.costs import path_costs
+
+    costs = path_costs()["paths"]
+    rows = []
+    for name, materials in scores.items():
+        for index, s in materials.items():
+            record = next(r for r in bakes[name]["manifest"]["source"]["materials"] if r["gltf_index"] == index)
+            rows.append({"asset": name, "gltf_index": index, "name": record["name"], "film": record["film"],
+                         "parts": {p: ("texture" if v.get("texture") else "constant") for p, v in record["parts"].items()},
+                         **{f"{serve}_{k}": float(f(s[serve])) for serve in SERVES
+                            for k, f in (("p99", lambda d: np.percentile(d, 99)), ("max", np.max))}})
+    pooled = {serve: np.concatenate([s[serve] for m in scores.values() for s in m.values()]) for serve in SERVES}
+    return {"materials": rows, "pixels_per_material": PIXELS,
+            "pooled": {serve: {"p99": float(np.percentile(d, 99)), "max": float(d.max()), "n": int(d.size)}
+                       for serve, d in pooled.items()},
+            "gpu_bytes": {"bake": {n: gpu_bytes(b) for n, b in bakes.items()},
+                          "runtime": costs["runtime"]["gpu_bytes"]},
+            "bake_s": {n: round(b["bake_s"], 2) for n, b in bakes.items()},
+            "per_pixel": {k: costs[k] for k in ("runtime", "runtime-rgb", "lut-cubic-rgb")},
+            "load_average": os.getloadavg()}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--json", type=Path, default=ROOT / "bench" / "gltf-runtime-result.json")
+    args = parser.parse_args()
+    folder = ROOT / "build" / f"bench-gltf-runtime-{os.getpid()}"
+    try:
+        bakes = bake_stand_ins(folder)
+        result = render(both_serves(bakes))
+        doc = {"renderer": result["renderer"], "three": result["three"], **summary(bakes, score(result, bakes)),
+               "metal_curve_worst": curve_worst(CURVE_BUDGET).describe()}
+    finally:
+        subprocess.run(["rm", "-rf", str(folder)], check=False)
+    args.json.write_text(json.dumps(doc, indent=1) + "\n")
+    print("| asset | glTF material | film | parts | baked p99 / max | runtime p99 / max |\n|---|---|---|---|---|---|")
+    for r in doc["materials"]:
+        print(f"| {r['asset']} | {r['gltf_index']} {r['name']} | {r['film']} | "
+              f"{', '.join(f'{p} ({k})' for p, k in r['parts'].items())} | "
+              f"{r['bake_p99']:.2f} / {r['bake_max']:.2f} | {r['runtime_p99']:.3f} / {r['runtime_max']:.3f} |")
+    worst = {k: v for k, v in doc["metal_curve_worst"].items() if k != "starts"}
+    print(json.dumps({**{k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average")}, "metal_curve_worst": worst},
+                     indent=1))
+
+
+if __name__ == "__main__":
+    main()
