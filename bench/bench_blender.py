@@ -1,6 +1,7 @@
 """Blender: lutbake's node groups and Blender's own thin film against lutbake's ground truth, and the cost.
 
     python bench/bench_blender.py [--blender PATH] [--points 2000] [--json bench/blender-result.json]
+    python bench/bench_blender.py --sections osl --points 300 --json bench/blender-osl-result.json
 
 Every figure in docs/blender.md comes from this script. Blender runs as `lutbake blender` runs it
 (lutbake/blender.py: a Python with bpy, default ./.venv-blender/bin/python, or $LUTBAKE_BLENDER, or a
@@ -23,14 +24,19 @@ colour per plane, compared with lutbake's ground truth (reference.reference_rgb)
    the error of the clamping alone is given too). A 4D LUT's group reads linearly; `lutbake sample`'s
    cubic and linear reads are given beside it.
 4. ``eevee``: does EEVEE use the thin-film inputs? The Principled BSDF at d = 300 nm against d = 0.
-5. ``exact_mode_osl``: `lutbake blender --exact`'s OSL material in Cycles at 96 probes against the
-   float64 evaluation of the same series (blender.verify_exact) and, on dielectric bases, the truth.
+5. ``osl``: the OSL materials of `lutbake blender --exact` and `--runtime-table` (one library) in Cycles:
+   at 96 probes against their numpy twins (blender.verify_osl: the exact series in float64, the runtime
+   include's float32 model) and the truth; at ``--points`` random points of section 2's domain per base
+   kind (dielectric, constant n and k, the named metals per channel) against the ground truth, beside
+   Blender's own thin film at the same points; and the render cost, as in section 6, against the Glossy
+   BSDF rendered with Cycles' OSL on (OSL shades every material more slowly than Cycles' own nodes).
 6. ``cost``: render seconds of one frame (64 probes × 32² px; Cycles 16 samples per pixel, EEVEE 1)
    for a constant-colour Glossy BSDF, lutbake's slice group and 4D LUT group into the same Glossy, and
    the Principled BSDF with its thin film: the median of 3 renders after a first one in the same
    Blender (the first, with EEVEE's shader compilation, is recorded apart), as ratios to the Glossy
-   BSDF in the same run; the exact mode's OSL material against the Glossy BSDF with Cycles' OSL on
-   (OSL shades every material more slowly than Cycles' own nodes). Node counts per group.
+   BSDF in the same run. Node counts per group. Needs section 3's libraries.
+
+``--sections`` runs some of them (default: all); the JSON holds those run.
 
 The machine's 1-minute load average is recorded (timings are taken on a shared machine: compare the
 ratios, not the seconds).
@@ -53,16 +59,18 @@ sys.path.insert(0, str(ROOT / "docs"))
 
 import lutbake  # noqa: E402
 from lutbake.blender import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
-                             verify_exact, write_library)
-from lutbake.blender_nodes import (EXACT_MATERIAL, LutRead, NumpyGraph, bilinear_program, read_manifest,  # noqa: E402
-                                   read_program)
+                             verify_osl, write_library)
+from lutbake.blender_nodes import (EXACT_MATERIAL, RUNTIME_MATERIAL, LutRead, NumpyGraph, bilinear_program,  # noqa: E402
+                                   read_manifest, read_program)
 from lutbake.exact import write_exact_table  # noqa: E402
+from lutbake.runtime import write_runtime_table  # noqa: E402
 from lutbake.colorimetry import delta_e00  # noqa: E402
 from lutbake.sample import Lut  # noqa: E402
 from make_scene_examples import bake_example  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 EXAMPLE_POINTS = 200
+SECTIONS = ("setup", "blender_thin_film", "examples", "eevee", "osl", "cost")
 GRAZING_DEG = 85.0
 
 
@@ -91,7 +99,9 @@ def setup_check(blender, rng) -> dict:
     return {"max_abs_rgb": float(np.abs(blender_film(blender, pts) - lutbake.reference_rgb(pts)).max()), "points": n}
 
 
-def blender_thin_film(blender, rng, n) -> dict:
+def thin_film_cases(rng, n) -> dict:
+    """Section 2's points: θ 0–85°, d 20–1000 nm, film η2 1.2–2.4, over each kind of base (label: the
+    Blender closure that renders its own thin film there); the named metals ``n``/7 each."""
     def common(m):
         return {"eta2": rng.uniform(1.2, 2.4, m), "thickness_nm": rng.uniform(20.0, 1000.0, m),
                 "cos_theta": _angles(rng, m)}
@@ -99,17 +109,26 @@ def blender_thin_film(blender, rng, n) -> dict:
     cases = {"dielectric (Principled, eta3 1.0-2.5)": lutbake.FilmPoints.build(**common(n), eta3=rng.uniform(1.0, 2.5, n)),
              "absorbing (Conductor, n 0.05-4, k 1.5-9)": lutbake.FilmPoints.build(
                  **common(n), eta3=rng.uniform(0.05, 4.0, n), kappa3=rng.uniform(1.5, 9.0, n))}
-    out = {}
-    for label, pts in cases.items():
-        out[label] = stats(delta_e00(blender_film(blender, pts), lutbake.reference_rgb(pts)))
     per_metal = max(n // len(METALS), 10)
-    metal_de = {}
-    for name in METALS:
-        pts = lutbake.FilmPoints.build(**common(per_metal), base=name)
-        metal_de[name] = delta_e00(blender_film(blender, pts), lutbake.reference_rgb(pts))
+    return cases, {name: lutbake.FilmPoints.build(**common(per_metal), base=name) for name in METALS}
+
+
+def thin_film_errors(render_rgb, cases, metals, clamped: bool = False) -> dict:
+    """ΔE00 statistics of ``render_rgb(points)`` against the ground truth at ``thin_film_cases``' points
+    (``clamped``: the truth held at 0 where negative, what a Blender closure can show)."""
+    def de(pts):
+        truth = lutbake.reference_rgb(pts)
+        return delta_e00(render_rgb(pts), np.maximum(truth, 0.0) if clamped else truth)
+
+    out = {label: stats(de(pts)) for label, pts in cases.items()}
+    metal_de = {name: de(pts) for name, pts in metals.items()}
     out["named metals (Conductor, per-channel n, k)"] = {
         **stats(np.concatenate(list(metal_de.values()))), "by_metal": {k: stats(v) for k, v in metal_de.items()}}
     return out
+
+
+def blender_thin_film(blender, rng, n) -> dict:
+    return thin_film_errors(lambda pts: blender_film(blender, pts), *thin_film_cases(rng, n))
 
 
 def _film_points(scene, read, probes) -> lutbake.FilmPoints:
@@ -218,19 +237,63 @@ def node_counts(read, size) -> dict:
     return {"group": group.nodes, "bilinear group": bilinear.nodes}
 
 
-def _exact_probes(folder: Path, points) -> tuple:
-    """The exact mode's OSL material (library exact.blend, written by exact_mode()) at ``points``."""
-    fields = np.broadcast_arrays(points.cos_theta, points.thickness_nm, points.eta2, points.eta3)
-    probes = [{"cos_theta": float(c), "thickness_nm": float(d), "eta2": float(e2), "eta3_rgb": [float(e3)] * 3,
-               "kappa3_rgb": [0.0] * 3} for c, d, e2, e3 in zip(*fields)]
-    return [{"kind": "lutbake", "library": str(folder / "exact.blend"), "material": EXACT_MATERIAL}], probes
+def _osl_probes(library: Path, material: str, points) -> tuple:
+    """(job materials, job probes) rendering ``points`` with ``library``'s OSL material ``material`` (Cycles,
+    OSL on), the base per channel as Blender's own thin film gets it (blender_thin_film_probes)."""
+    _, probes = blender_thin_film_probes(points)
+    return [{"kind": "lutbake", "library": str(library), "material": material}], [{**p, "material": 0} for p in probes]
 
 
-def exact_mode(blender, folder: Path) -> dict:
-    """`lutbake blender --exact`: the OSL material against the float64 series and the ground truth."""
+def osl_materials(blender, rng, n, folder: Path, repeats: int = 3) -> dict:
+    """`lutbake blender --exact --runtime-table`: the OSL materials against their numpy twins, against the
+    truth beside Blender's own thin film, and their render cost."""
     write_exact_table(folder / "exact.exr")
-    write_library(None, folder / "exact.blend", blender, exact=folder / "exact.exr")
-    return verify_exact(folder / "exact.blend", folder / "exact.exr", blender, n_points=96)
+    write_runtime_table(folder / "runtime.exr")
+    library = folder / "osl.blend"
+    write_library(None, library, blender, exact=folder / "exact.exr", runtime_table=folder / "runtime.exr")
+    out = {f"{kind}_vs_numpy": verify_osl(library, kind, folder / f"{kind}.exr", blender, n_points=96)
+           for kind in ("exact", "runtime")}
+    cases, metals = thin_film_cases(rng, n)
+    renderers = {"blender thin film": lambda pts: blender_film(blender, pts)}
+    for label, material in (("lutbake runtime (OSL)", RUNTIME_MATERIAL), ("lutbake exact (OSL)", EXACT_MATERIAL)):
+        renderers[label] = lambda pts, material=material: np.array(
+            render(blender, "CYCLES", *_osl_probes(library, material, pts), osl=True)["rgb"])
+    for key, clamped in (("vs_truth", False), ("vs_truth_clamped", True)):
+        out[key] = {label: thin_film_errors(_once(rgb), cases, metals, clamped) for label, rgb in renderers.items()}
+    out["negative_points"] = {label: int((lutbake.reference_rgb(pts) < 0).any(axis=-1).sum())
+                              for label, pts in {**cases, **metals}.items()}
+    m = 64
+    cos_theta, d, eta2 = _angles(rng, m), rng.uniform(20, 1000, m), rng.uniform(1.2, 2.4, m)
+    glossy = ([{"kind": "glossy", "color": [0.5, 0.4, 0.3]}], [{"cos_theta": float(c)} for c in cos_theta])
+    for base, base_args in (("dielectric", {"eta3": rng.uniform(1.0, 2.5, m)}), ("Cu", {"base": "Cu"})):
+        pts = lutbake.FilmPoints.build(eta2=eta2, thickness_nm=d, cos_theta=cos_theta, **base_args)
+        chosen = {"Glossy BSDF, constant colour": glossy,
+                  "lutbake runtime (OSL)": _osl_probes(library, RUNTIME_MATERIAL, pts),
+                  "lutbake exact (OSL)": _osl_probes(library, EXACT_MATERIAL, pts)}
+        out[f"cost ({base} base)"] = _render_costs(blender, "CYCLES", 16, True, chosen, repeats)
+    return out
+
+
+def _once(render_rgb):
+    """``render_rgb`` rendering each points object once (scored twice: against the truth and clamped)."""
+    done = {}
+
+    def rgb(pts):
+        if id(pts) not in done:
+            done[id(pts)] = render_rgb(pts)
+        return done[id(pts)]
+    return rgb
+
+
+def _render_costs(blender, engine, samples, osl, chosen, repeats) -> dict:
+    """Median render seconds of each candidate after a first render, and its ratio to the Glossy BSDF's."""
+    rows = {}
+    for label, (materials, probes) in chosen.items():
+        result = render(blender, engine, materials, probes, cell_px=32, samples=samples, repeat=repeats + 1, osl=osl)
+        rows[label] = {"first_render_seconds": result["render_seconds"],
+                       "render_seconds": float(np.median(result["repeat_seconds"]))}
+    base = rows["Glossy BSDF, constant colour"]["render_seconds"]
+    return {label: {**row, "ratio_to_glossy": row["render_seconds"] / base} for label, row in rows.items()}
 
 
 def cost(blender, folder: Path, repeats: int = 3) -> dict:
@@ -245,19 +308,8 @@ def cost(blender, folder: Path, repeats: int = 3) -> dict:
         candidates[label] = lutbake_probes(scene, folder / f"{scene.name}.blend", [probes])   # written by examples()
     pts = lutbake.FilmPoints.build(eta2=2.9, thickness_nm=rng.uniform(10, 70, n), cos_theta=cos_theta, eta3=1.5)
     candidates["Principled BSDF, thin film"] = blender_thin_film_probes(pts)
-    exact = {"Glossy BSDF, constant colour": candidates["Glossy BSDF, constant colour"],
-             "lutbake exact (OSL)": _exact_probes(folder, pts)}
-    out = {}
-    for engine, samples, osl, chosen in (("CYCLES", 16, False, candidates), ("BLENDER_EEVEE", 1, False, candidates),
-                                         ("CYCLES", 16, True, exact)):
-        rows = {}
-        for label, (materials, probes) in chosen.items():
-            result = render(blender, engine, materials, probes, cell_px=32, samples=samples, repeat=repeats + 1, osl=osl)
-            rows[label] = {"first_render_seconds": result["render_seconds"],
-                           "render_seconds": float(np.median(result["repeat_seconds"]))}
-        base = rows["Glossy BSDF, constant colour"]["render_seconds"]
-        out[engine + (" (OSL)" if osl else "")] = {label: {**row, "ratio_to_glossy": row["render_seconds"] / base}
-                                                   for label, row in rows.items()}
+    out = {engine: _render_costs(blender, engine, samples, False, candidates, repeats)
+           for engine, samples in (("CYCLES", 16), ("BLENDER_EEVEE", 1))}
     out["nodes"] = {"slice (tempered-steel/steel_werner)": node_counts(steel.reads[-1], (32, 84)),
                     "4D LUT (textured-base/coated_metal)": node_counts(coated.reads[0], (64, 144))}
     out["library_bytes"] = {p.name: p.stat().st_size for p in sorted(folder.glob("*.blend"))}
@@ -270,18 +322,23 @@ def main():
     parser.add_argument("--points", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--sections", nargs="+", choices=SECTIONS, default=list(SECTIONS))
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     doc = {"load_average_1min": os.getloadavg()[0], "machine": platform.processor() or platform.machine()}
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="bench-blender-") as folder:
         folder = Path(folder)
-        doc["setup"] = setup_check(args.blender, rng)
-        doc["blender_thin_film"] = blender_thin_film(args.blender, rng, args.points)
-        doc["examples"] = examples(args.blender, rng, folder)
-        doc["eevee"] = eevee_thin_film(args.blender, rng)
-        doc["exact_mode_osl"] = exact_mode(args.blender, folder)
-        doc["cost"] = cost(args.blender, folder)
+        sections = {"setup": lambda: setup_check(args.blender, rng),
+                    "blender_thin_film": lambda: blender_thin_film(args.blender, rng, args.points),
+                    "examples": lambda: examples(args.blender, rng, folder),
+                    "eevee": lambda: eevee_thin_film(args.blender, rng),
+                    "osl": lambda: osl_materials(args.blender, np.random.default_rng([args.seed, 5]), args.points,
+                                                 folder),   # its own points: the other sections' stay as they were
+                    "cost": lambda: cost(args.blender, folder)}
+        for name in SECTIONS:
+            if name in args.sections:
+                doc[name] = sections[name]()
     doc["blender"] = render_probes({"engine": "CYCLES", "materials": [{"kind": "glossy", "color": [1, 1, 1]}],
                                     "probes": [{"cos_theta": 1.0}]}, args.blender)["blender"]
     doc["load_average_1min_end"] = os.getloadavg()[0]

@@ -4,10 +4,11 @@ Blender runs as a separate program: a Blender executable (run with ``--backgroun
 Python interpreter with the ``bpy`` module (PyPI's bpy 5.0.1 needs Python 3.11 and numpy < 2, which
 lutbake's own dependencies exclude, so it lives in an environment of its own). Inside it run two
 scripts of this package that import nothing of lutbake: ``blender_nodes.py`` (the node groups and
-materials, and the exact runtime mode as an OSL script filled in from shaders/exact.osl.in) and
+materials, and the OSL materials: the exact runtime mode and the runtime table, scripts filled in from
+shaders/exact.osl.in and shaders/runtime.osl.in) and
 ``blender_probe.py`` (renders probe planes). This module finds Blender, checks the inputs before it
-starts, commits the .blend atomically, and compares renders with ``lutbake sample`` and with the exact
-mode's float64 evaluation (docs/blender.md).
+starts, commits the .blend atomically, and compares renders with ``lutbake sample``, with the exact
+mode's float64 evaluation and with the runtime table's float32 model (docs/blender.md).
 """
 
 from __future__ import annotations
@@ -23,18 +24,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .blender_nodes import BLENDER_SPACES, EXACT_MATERIAL, SceneReads, SliceRead, read_manifest
+from .blender_nodes import BLENDER_SPACES, OSL_MATERIALS, SceneReads, SliceRead, read_manifest
 from .colorimetry import delta_e00
 from .errors import ParameterError
-from .exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, include_fields, read_exact_table
+from .exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
+from .exact import include_fields as exact_fields
 from .lutfile import atomic_path, shader_template
 from .materials import material
 from .points import FilmPoints
-from .reference import reference_rgb
+from .runtime.accuracy import truth
+from .runtime.files import include_fields as runtime_fields
+from .runtime.files import read_runtime_table
+from .runtime.model import runtime_colour
 from .sample import Atlas, Lut
 
 __all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
-           "verify_library", "verify_exact", "exact_osl", "probe_points", "lutbake_probes", "blender_thin_film_probes"]
+           "verify_library", "verify_osl", "osl_script", "osl_probe_points", "probe_points", "lutbake_probes",
+           "blender_thin_film_probes"]
 
 BLENDER_ENV = "LUTBAKE_BLENDER"
 RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
@@ -85,15 +91,16 @@ def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> flo
     return time.perf_counter() - start
 
 
-def write_library(manifest, out, blender=None, pack: bool = True, exact=None) -> dict:
+def write_library(manifest, out, blender=None, pack: bool = True, exact=None, runtime_table=None) -> dict:
     """Write ``out`` (.blend): one node group and one material per material of the scene bake whose
-    manifest is ``manifest`` (blender_nodes.py), and with ``exact`` (an `exact-table` EXR) the exact
-    mode's OSL material; committed atomically (nothing is written on failure).
+    manifest is ``manifest`` (blender_nodes.py), with ``exact`` (an `exact-table` EXR) the exact mode's
+    OSL material and with ``runtime_table`` (a `runtime-table` EXR) the runtime table's; committed
+    atomically (nothing is written on failure).
 
     Parameters
     ----------
     manifest : str or os.PathLike or None
-        SCENE.json of a scene bake (its atlas and 4D LUTs beside it); None with ``exact`` only.
+        SCENE.json of a scene bake (its atlas and 4D LUTs beside it); None with an OSL table only.
     out : str or os.PathLike
         The .blend to write.
     blender : str, optional
@@ -102,18 +109,21 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None) ->
         Pack the EXRs into the .blend (default) rather than reference them by relative path.
     exact : str or os.PathLike, optional
         An exact-mode table (`lutbake exact-table`): the OSL script reads it at its absolute path.
+    runtime_table : str or os.PathLike, optional
+        A runtime table (`lutbake runtime-table`), read likewise.
 
     Returns
     -------
     dict
         ``library`` (the path), ``groups`` (material → node group name), ``working_space`` (Blender's name
         of the bake's space: the library file's, and the one a file that appends the groups must use),
-        ``exact_material``, ``blender``, ``seconds``.
+        ``osl_materials`` (kind → OSL material name), ``blender``, ``seconds``.
     """
-    if manifest is None and exact is None:
-        raise ParameterError("nothing to write: give a scene manifest, {exact}, or both")
+    tables = {kind: table for kind, table in (("exact", exact), ("runtime", runtime_table)) if table is not None}
+    if manifest is None and not tables:
+        raise ParameterError("nothing to write: give a scene manifest, {exact}, {runtime_table}, or several")
     scene = read_manifest(manifest) if manifest is not None else None
-    osl = exact_osl(exact) if exact is not None else None
+    scripts = {kind: osl_script(kind, table) for kind, table in tables.items()}
     out = Path(out)
     if out.suffix != ".blend":
         raise ParameterError("{out_path} {out} must end in .blend", out=repr(str(out)))
@@ -124,9 +134,9 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None) ->
     args = [str(Path(manifest).absolute())] if manifest is not None else []
     with atomic_path(out) as tmp, tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
         blend = tmp.with_name(tmp.name + ".blend")   # Blender saves only to a name ending in .blend
-        if osl is not None:
-            (Path(folder) / "lutbake_exact.osl").write_text(osl)
-            args += ["--osl", str(Path(folder) / "lutbake_exact.osl")]
+        for kind, text in scripts.items():
+            (Path(folder) / f"lutbake_{kind}.osl").write_text(text)
+            args += ["--osl", str(Path(folder) / f"lutbake_{kind}.osl")]
         try:
             seconds = _run(exe, "blender_nodes.py", [*args, "--out", str(blend.absolute()), *([] if pack else ["--link"])])
             os.replace(blend, tmp)
@@ -134,15 +144,49 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None) ->
             blend.unlink(missing_ok=True)
     groups = {r.material: scene.group_name(r.material) for r in scene.reads} if scene else {}
     return {"library": str(out), "groups": groups, "working_space": BLENDER_SPACES[scene.space] if scene else None,
-            "exact_material": EXACT_MATERIAL if osl else None, "blender": exe, "seconds": seconds}
+            "osl_materials": {kind: _osl_material(kind) for kind in scripts}, "blender": exe, "seconds": seconds}
 
 
-def exact_osl(table) -> str:
-    """The exact mode's OSL script (shaders/exact.osl.in) for the `exact-table` EXR ``table``, whose
-    absolute path it reads."""
+def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
+    """The exact mode's series in float64 (exact.exact_colour takes one film at a time)."""
+    out = np.empty((len(cos_theta), 3))
+    for film in np.unique(eta2):
+        at = eta2 == film
+        out[at] = exact_colour(table, cos_theta[at], thickness_nm[at], 1.0, film, eta3[at], kappa3[at]).values
+    return out
+
+
+def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
+    """The runtime include's float32 arithmetic (runtime.model): lutbake_iridescence_rgb, and at a grey base
+    (equal channels) lutbake_iridescence with its one index, which the OSL script must equal there."""
+    out = runtime_colour(table, cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)
+    grey = (eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)
+    out[grey] = runtime_colour(table, cos_theta[grey], thickness_nm[grey], 1.0, eta2[grey], eta3[grey, 0],
+                               kappa3[grey, 0])
+    return out
+
+
+# Per OSL kind: the table reader, the template fields of its shader sources, and what the script computes
+# at probes with η1 = 1 and η3, κ3 (n, 3) per channel.
+_OSL_KINDS = {"exact": (read_exact_table, exact_fields, _exact_expected),
+              "runtime": (read_runtime_table, runtime_fields, _runtime_expected)}
+_OSL_PARAMETER = {"exact": "exact", "runtime": "runtime_table"}   # write_library's parameter of each kind
+
+
+def _osl_material(kind: str) -> str:
+    return OSL_MATERIALS[f"lutbake_{kind}"][0]
+
+
+def osl_script(kind: str, table) -> str:
+    """The OSL script (shaders/KIND.osl.in, ``kind`` 'exact' or 'runtime') for the table ``table`` (an
+    `exact-table` or `runtime-table` EXR), whose absolute path it reads; ValueError names a file that is
+    not such a table."""
+    read, fields, _ = _OSL_KINDS[kind]
     path = Path(table).absolute()
-    meta = read_exact_table(path).meta
-    return shader_template("exact.osl.in").substitute({**include_fields(meta, path.name), "table_path": str(path)})
+    if not path.is_file():   # before OpenEXR, which prints its own line about it
+        raise ParameterError(f"{{{_OSL_PARAMETER[kind]}}} {{table}} is not a file", table=repr(str(table)))
+    meta = read(path).meta
+    return shader_template(f"{kind}.osl.in").substitute({**fields(meta, path.name), "table_path": str(path)})
 
 
 def render_probes(job: dict, blender=None) -> dict:
@@ -256,12 +300,10 @@ def verify_library(manifest, library, blender=None, engine: str = "CYCLES", clos
             "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
 
 
-def verify_exact(library, table, blender=None, n_points: int = 48, seed: int = 0) -> dict:
-    """Render ``library``'s exact material (``write_library(..., exact=table)``) in Cycles with OSL at
-    ``n_points`` probes (cos θ 0.03–1, d 0–1000 nm, films η2 1.2, 1.6, 2.4; dielectric bases η3 1–2.5 and
-    the metals Au, Ag, Cu, Al, Fe, Cr per channel) and compare with ``exact.exact_colour``, the float64
-    evaluation of the same series on the same table, and at the dielectric probes ΔE00 against the ground
-    truth (both held at 0 where negative, as Glossy BSDF clamps)."""
+def osl_probe_points(n_points: int, seed: int = 0) -> tuple:
+    """(cos θ, d nm, η2, η3 (n, 3), κ3 (n, 3)) of the OSL materials' probes: cos θ 0.03–1 (both ends), d
+    0–1000 nm (both ends), films η2 1.2, 1.6, 2.4; every other probe a dielectric base η3 1–2.5, the others
+    the metals Au, Ag, Cu, Al, Fe, Cr at their per-channel indices (611/549/464 nm)."""
     rng = np.random.default_rng(seed)
     films = (1.2, 1.6, 2.4)
     eta2 = np.repeat(films, -(-n_points // len(films)))[:n_points]
@@ -274,24 +316,31 @@ def verify_exact(library, table, blender=None, n_points: int = 48, seed: int = 0
             eta3[j], kappa3[j] = metals[(j // 2) % len(metals)]
         else:
             eta3[j], kappa3[j] = rng.uniform(1.0, 2.5), 0.0
-    exact = read_exact_table(table)
-    expected = np.empty((n_points, 3))
-    for film in films:
-        at = eta2 == film
-        expected[at] = exact_colour(exact, cos_theta[at], thickness[at], 1.0, film, eta3[at], kappa3[at]).values
+    return cos_theta, thickness, eta2, eta3, kappa3
+
+
+def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed: int = 0) -> dict:
+    """Render ``library``'s OSL material of ``kind`` ('exact': ``write_library(..., exact=table)``;
+    'runtime': ``runtime_table=table``) in Cycles with OSL at ``osl_probe_points(n_points, seed)`` and
+    compare with what the script computes in numpy (the exact mode: exact.exact_colour, float64; the
+    runtime table: runtime.model's float32 model), and ΔE00 against the ground truth (channel c with the
+    base's c-th index, runtime.accuracy.truth; the dielectric probes alone too). All are held at 0 where
+    negative, as Glossy BSDF clamps."""
+    read, _, expected_colour = _OSL_KINDS[kind]
+    cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
+    expected = np.maximum(expected_colour(read(table), cos_theta, thickness, eta2, eta3, kappa3), 0.0)
     probes = [{"cos_theta": float(cos_theta[j]), "thickness_nm": float(thickness[j]), "eta2": float(eta2[j]),
                "eta3_rgb": eta3[j].tolist(), "kappa3_rgb": kappa3[j].tolist()} for j in range(n_points)]
     job = {"engine": "CYCLES", "osl": True, "probes": probes,
-           "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": EXACT_MATERIAL}]}
+           "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": _osl_material(kind)}]}
     result = render_probes(job, blender)
     rgb = np.asarray(result["rgb"])
-    errors = np.abs(rgb - np.maximum(expected, 0.0))
-    dielectric = kappa3[:, 0] == 0   # one index for all wavelengths: the ground truth applies as it is
-    truth = reference_rgb(FilmPoints.build(eta2=eta2[dielectric], cos_theta=cos_theta[dielectric],
-                                           thickness_nm=thickness[dielectric], eta3=eta3[dielectric, 0]))
-    return {"engine": "CYCLES (OSL)", "blender": result["blender"], "points": n_points,
-            "max_abs_rgb": float(errors.max()), "spread_max": float(max(result["spread"])),
-            "de00_max_dielectric_vs_truth": float(delta_e00(rgb[dielectric], np.maximum(truth, 0.0)).max()),
+    errors = np.abs(rgb - expected)
+    de = delta_e00(rgb, np.maximum(truth(cos_theta, thickness, eta2, eta3, kappa3), 0.0))
+    dielectric = kappa3[:, 0] == 0
+    return {"engine": "CYCLES (OSL)", "material": _osl_material(kind), "blender": result["blender"],
+            "points": n_points, "max_abs_rgb": float(errors.max()), "spread_max": float(max(result["spread"])),
+            "de00_max_vs_truth": float(de.max()), "de00_max_dielectric_vs_truth": float(de[dielectric].max()),
             "tolerance": RENDER_TOLERANCE, "ok": bool(errors.max() <= RENDER_TOLERANCE),
             "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
 

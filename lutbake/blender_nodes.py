@@ -9,9 +9,11 @@ and EEVEE alike (docs/blender.md)::
     python blender_nodes.py SCENE.json --out LIB.blend          # a Python with the bpy module
     lutbake blender SCENE.json --out LIB.blend                  # the same, from lutbake (lutbake/blender.py)
 
-With ``--osl EXACT.osl`` (lutbake writes it for an exact-mode table: `lutbake blender --exact`) the file
-also holds material ``lutbake exact``: the exact runtime mode, any film and base, as an OSL Script node
-(Cycles with Open Shading Language on; shaders/exact.osl.in).
+With ``--osl lutbake_exact.osl`` (lutbake writes it for an exact-mode table: `lutbake blender --exact`) the
+file also holds material ``lutbake exact``: the exact runtime mode, any film and base, as an OSL Script node
+(Cycles with Open Shading Language on; shaders/exact.osl.in); with ``--osl lutbake_runtime.osl``
+(`lutbake blender --runtime-table`), material ``lutbake runtime``: the runtime table's six bilinear reads
+(shaders/runtime.osl.in).
 
 Every read is one *node program* (``slice_program``, ``lut_program``, ``bilinear_program``) written
 against a small graph interface, so one text of the maths both becomes Blender nodes (``NodeGraph``)
@@ -40,9 +42,9 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "EXACT_MATERIAL", "SliceRead", "LutRead", "SceneReads",
-           "read_manifest", "NumpyGraph", "NodeGraph", "slice_program", "lut_program", "bilinear_program",
-           "read_program", "evaluate", "build_library", "build_exact", "main"]
+__all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "EXACT_MATERIAL", "RUNTIME_MATERIAL", "OSL_MATERIALS", "SliceRead",
+           "LutRead", "SceneReads", "read_manifest", "NumpyGraph", "NodeGraph", "slice_program", "lut_program",
+           "bilinear_program", "read_program", "evaluate", "build_library", "build_osl", "main"]
 
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 # lutbake's working spaces (lutbake/names.py) as Blender's colour-management names.
@@ -527,20 +529,32 @@ def build_library(manifest, pack: bool = True) -> dict:
 
 
 EXACT_MATERIAL = f"{GROUP_PREFIX} exact"
+RUNTIME_MATERIAL = f"{GROUP_PREFIX} runtime"
+# The OSL materials, by the script's file name (lutbake writes lutbake_exact.osl, lutbake_runtime.osl):
+# material name and asset description.
+OSL_MATERIALS = {
+    "lutbake_exact": (EXACT_MATERIAL, "Exact thin-film Fresnel term for any film and base (Cycles with Open "
+                                      "Shading Language on): lutbake's exact runtime mode"),
+    "lutbake_runtime": (RUNTIME_MATERIAL, "Thin-film Fresnel term for any film and base from lutbake's runtime "
+                                          "table (Cycles with Open Shading Language on): 24 texel reads, no loop"),
+}
 
 
-def build_exact(osl_path) -> None:
-    """The exact runtime mode as an OSL Script node (Cycles, OSL on) in material EXACT_MATERIAL: the
-    script's text (written by lutbake for one exact table, whose path it holds) is kept in the file."""
+def build_osl(osl_path) -> None:
+    """An OSL Script node (Cycles, OSL on) in the material OSL_MATERIALS names for ``osl_path``'s file name:
+    the script's text (written by lutbake for one table, whose path it holds) is kept in the file."""
     import bpy
 
+    path = Path(osl_path)
+    if path.stem not in OSL_MATERIALS:
+        raise ValueError(f"--osl {str(path)!r}: the file name must be one of "
+                         f"{', '.join(f'{stem}.osl' for stem in OSL_MATERIALS)}")
+    name, description = OSL_MATERIALS[path.stem]
     scene = bpy.context.scene
     scene.render.engine, scene.cycles.shading_system = "CYCLES", True
-    text = bpy.data.texts.new(Path(osl_path).name)
-    text.from_string(Path(osl_path).read_text())
-    material = _material(EXACT_MATERIAL, _incidence_group(), _script_node(text))
-    _mark_asset("Exact thin-film Fresnel term for any film and base (Cycles with Open Shading Language on): "
-                "lutbake's exact runtime mode", material)
+    text = bpy.data.texts.new(path.name)
+    text.from_string(path.read_text())
+    _mark_asset(description, _material(name, _incidence_group(), _script_node(text)))
 
 
 def _mark_asset(description: str, *items):
@@ -560,8 +574,8 @@ def _bundled_modules() -> None:
 
 
 def main(argv=None) -> int:
-    """``blender_nodes.py [SCENE.json] [--osl EXACT.osl] --out LIB.blend [--link]``: a new file holding the
-    scene's groups and materials, and the exact mode's OSL material."""
+    """``blender_nodes.py [SCENE.json] [--osl lutbake_MODE.osl ...] --out LIB.blend [--link]``: a new file
+    holding the scene's groups and materials, and the OSL materials (exact mode, runtime table)."""
     import bpy
 
     if argv is None:
@@ -570,16 +584,17 @@ def main(argv=None) -> int:
     parser.add_argument("manifest", nargs="?", help="SCENE.json of a lutbake scene bake")
     parser.add_argument("--out", required=True, help="the .blend to write")
     parser.add_argument("--link", action="store_true", help="reference the EXRs by path instead of packing them")
-    parser.add_argument("--osl", help="an exact-mode OSL script (lutbake writes it for an exact table)")
+    parser.add_argument("--osl", action="append", default=[],
+                        help="lutbake_exact.osl or lutbake_runtime.osl (lutbake writes them for a table); repeatable")
     args = parser.parse_args(argv)
-    if args.manifest is None and args.osl is None:
+    if args.manifest is None and not args.osl:
         parser.error("give a manifest, --osl, or both")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     _bundled_modules()
     if args.manifest:
         build_library(args.manifest, pack=not args.link)
-    if args.osl:
-        build_exact(args.osl)
+    for osl in args.osl:
+        build_osl(osl)
     bpy.ops.wm.save_as_mainfile(filepath=str(Path(args.out).absolute()), relative_remap=True, compress=False)
     return 0
 

@@ -87,7 +87,8 @@ FLAG_OF_PARAMETER = {
     "cos_theta": "--cos-theta", "opd_nm": "--opd", "eta1": "--eta1", "eta2": "--eta2", "eta3": "--eta3", "kappa3": "--kappa3",
     "film": "--film NAME", "base": "--base NAME", "thickness_nm": "--thickness", "out_path": "--out",
     "out_dir": "--out", "fast": "--fast", "compute": "--compute", "memory_limit_gib": "--max-memory-gib",
-    "device": "--device", "tolerance": "--tolerance", "max_terms": "--max-terms", "blender": "--blender", "exact": "--exact",
+    "device": "--device", "tolerance": "--tolerance", "max_terms": "--max-terms", "blender": "--blender",
+    "exact": "--exact", "runtime_table": "--runtime-table",
 }
 
 
@@ -678,34 +679,38 @@ def runtime_table_cmd(space, observer, out, as_json):
 @click.option("--out", "out", type=click.Path(), required=True, help="LIB.blend: the node groups and materials.")
 @click.option("--exact", type=click.Path(dir_okay=False), default=None,
               help="An exact-table EXR: add material 'lutbake exact' (OSL, Cycles), any film and base.")
+@click.option("--runtime-table", "runtime_table", type=click.Path(dir_okay=False), default=None,
+              help="A runtime-table EXR: add material 'lutbake runtime' (OSL, Cycles), any film and base.")
 @click.option("--blender", default=None, help="A Blender executable, or a Python with bpy "
               "(default: $LUTBAKE_BLENDER, then blender on PATH).")
 @click.option("--link", is_flag=True, help="Reference the EXRs by relative path instead of packing them.")
 @click.option("--verify", is_flag=True, help="Render every material in Cycles at probe angles; exit 1 if "
-              "any differs from `lutbake sample` (the exact mode: its float64 evaluation) by more than 1e-3.")
+              "any differs from `lutbake sample` (the OSL materials: their numpy evaluation) by more than 1e-3.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def blender_cmd(manifest, out, exact, blender, link, verify, as_json):
+def blender_cmd(manifest, out, exact, runtime_table, blender, link, verify, as_json):
     """Node groups that render a scene bake in Blender (Cycles and EEVEE): docs/blender.md."""
-    from .blender import BlenderError, verify_exact, verify_library, write_library
+    from .blender import BlenderError, verify_library, verify_osl, write_library
 
+    tables = {"exact": exact, "runtime": runtime_table}
     try:
-        doc = write_library(manifest, out, blender, pack=not link, exact=exact)
+        doc = write_library(manifest, out, blender, pack=not link, exact=exact, runtime_table=runtime_table)
         checks = {"verify": lambda: verify_library(manifest, out, doc["blender"]) if manifest else None,
-                  "verify_exact": lambda: verify_exact(out, exact, doc["blender"]) if exact else None}
+                  **{f"verify_{kind}": lambda kind=kind: verify_osl(out, kind, tables[kind], doc["blender"])
+                     for kind in doc["osl_materials"]}}
         doc.update({key: check() for key, check in checks.items()} if verify else {})
     except BlenderError as exc:
         click.echo(f"lutbake: error: {exc}", err=True)
         return EXIT_GATE
-    verified = [doc[k] for k in ("verify", "verify_exact") if doc.get(k)]
+    verified = [v for k, v in doc.items() if k.startswith("verify") and v]
     if as_json:
         echo_json(doc)
     else:
         if doc["groups"]:
             click.echo(f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "
                        f"working colour space {doc['working_space']} (a file that appends them must use it too)")
-        if doc["exact_material"]:
-            click.echo(f"wrote {out}: material {doc['exact_material']!r} (OSL: Cycles with Open Shading Language on) "
-                       f"reading {exact}")
+        for kind, name in doc["osl_materials"].items():
+            click.echo(f"wrote {out}: material {name!r} (OSL: Cycles with Open Shading Language on) "
+                       f"reading {tables[kind]}")
         for v in verified:
             click.echo(f"{v['engine']} at {v['points']} probes: max |ΔRGB| {v['max_abs_rgb']:.1e} against lutbake "
                        f"({'within' if v['ok'] else 'ABOVE'} {v['tolerance']:g})")

@@ -49,6 +49,7 @@ TABLE_TEXELS = 32768       # x from 0 to 65,534 nm: 64 terms of the thickest KHR
 TABLE_WIDTH = 2048         # WebGL2 and OpenGL ES 3.0 guarantee textures this wide
 DEFAULT_TOLERANCE = 1e-4   # |ΔRGB| the truncation rule allows
 DEFAULT_MAX_TERMS = 64     # the shader's loop cap (a #define the engine may change)
+BAND_HALF_PER_NM = 0.5 * (1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM)   # ν_half: A's band, |ν − ν0|
 # Per-channel base indices for lutbake_exact_rgb: a named material's n, k at the dominant wavelengths
 # of the Rec.709 primaries (docs/engines.md measures what this costs against the dispersive truth).
 RGB_WAVELENGTHS_NM = (611.0, 549.0, 464.0)
@@ -123,8 +124,7 @@ def _unpack(image: np.ndarray) -> np.ndarray:
 
 def _interpolation_bound(mass: np.ndarray) -> float:
     """A priori sup |lerp − f| of the band-limited f (|ν − ν0| ≤ ν_half): h²/8 · (2πν_half)² · mass."""
-    half = 0.5 * (1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM)
-    return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * half) ** 2 * mass.max())
+    return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * BAND_HALF_PER_NM) ** 2 * mass.max())
 
 
 def table_metadata(observer: str, space: str, precision: str, exact: np.ndarray, stored: np.ndarray,
@@ -218,6 +218,7 @@ def include_fields(meta: dict, table_name: str) -> dict:
             "rows": table["rows_per_part"], "texels": table["texels"], "x_max": repr(table["x_max_nm"]),
             "nu0": repr(table["nu0_per_nm"]), "mass": repr(tail["mass"]), "edge": repr(tail["edge"]),
             "variation": repr(tail["variation"]), "tolerance": repr(meta["include"]["tolerance"]),
+            "band": repr(2.0 * np.pi * BAND_HALF_PER_NM),
             "max_terms": meta["include"]["max_terms"]}
 
 
@@ -277,5 +278,39 @@ def exact_colour(table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, k
         power = power * ratio
         geometric = geometric * np.abs(co.q)
         terms += active
+    capped = (terms == max_terms) & (x > 0)
+    if capped.any():
+        acc = acc + np.where(capped[None, :, None], _resummed_tail(table, x, terms, co, power), 0.0)
     values = 0.5 * (co.c0 * w0 + 2.0 * acc.real).sum(axis=0)
     return ExactResult(values, terms, np.where(x > 0, bound, 0.0))
+
+
+def _resummed_tail(table: ExactTable, x, terms, co: SeriesCoefficients, power) -> np.ndarray:
+    """Re of the terms past the cap, K e^{iθ} z^M Σ_{j≥0} z^j A(x_M + jX) (x_M = (M+1)X, z = q e^{iθ}),
+    in closed form where that is the smaller error: (2, n, 3).
+
+    Near grazing incidence over a base matching the ambient, |q| → 1 and X → 0 together, and the series
+    needs ~1/(1 − |q|) terms. There A (demodulated, band-limited to |ν − ν0| ≤ ν_half) barely moves over
+    the tail's reach, so its quadratic Taylor polynomial at x_M (from the three table nodes nearest x_M)
+    sums against z^j exactly: Σ z^j = 1/ζ, Σ j z^j = z/ζ², Σ j² z^j = z(1 + z)/ζ³, ζ = 1 − z. Its error
+    is ~ mass·ρ³/|ζ| per unit |K|, ρ = 2π ν_half X/|ζ|; dropping the tail errs by up to
+    tail_bound(x_M)/(1 − |q|): the tail is added where the first is smaller (per polarization and channel).
+    ζ = (1 − q) − q(e^{iθ} − 1), the form the include computes without cancellation."""
+    theta = 2.0 * np.pi * NU0_PER_NM * x
+    em1 = (-2.0 * np.sin(0.5 * theta) ** 2 + 1j * np.sin(theta))[None, :, None]   # e^{iθ} − 1
+    z = co.q * (1.0 + em1)
+    zeta = (1.0 - co.q) - co.q * em1
+    x_m = (terms + 1) * x
+    h = table.step_nm
+    node = np.clip(np.floor(x_m / h + 0.5).astype(np.int64), 1, table.samples.shape[1] - 2)
+    below, at, above = (table.samples[:, node + i].T[None] for i in (-1, 0, 1))
+    d1, d2 = (above - below) / (2.0 * h), (above - 2.0 * at + below) / h**2     # A', A'' at the node
+    off = (x_m - h * node)[None, :, None]                                       # x_M − node
+    step = x[None, :, None]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):          # ζ = 0 only where K = 0
+        s0, s1, s2 = 1.0 / zeta, z / zeta**2, z * (1.0 + z) / zeta**3
+        tail = (at + d1 * off + 0.5 * d2 * off**2) * s0 + (d1 + d2 * off) * step * s1 + 0.5 * d2 * step**2 * s2
+        rho = 2.0 * np.pi * BAND_HALF_PER_NM * step / np.abs(zeta)
+        taylor = table.meta["tail"]["mass"] * rho**3 * np.abs(co.k) / np.abs(zeta)
+        dropped = table.tail_bound(x_m)[None, :, None] * np.abs(co.k) / co.one_minus_q
+    return np.where(taylor < dropped, (power * tail).real, 0.0)

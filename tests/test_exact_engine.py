@@ -2,7 +2,8 @@
 shipped include engine/exact/lutbake-exact.glsl, unmodified, on the shipped table at 2,500 points over the
 KHR_materials_iridescence range (d 100–400 nm; η2 1.3 and 1.2, 1.5, 2.0; dielectric bases η3 1.0–2.5 and
 Au, Ag, Al, Cu, Fe, Cr by per-channel n, k) into a float render target. It must match the float64
-evaluation of the same math (exact.exact_colour) to 1e-4 and the ground truth to max ΔE00 ≤ 0.1."""
+evaluation of the same math (exact.exact_colour) to 1e-4 and the ground truth to max ΔE00 ≤ 0.1; and at 400
+points near the dielectric corner, where the include sums the terms past its cap in closed form (≤ 0.3)."""
 
 import json
 import os
@@ -104,6 +105,33 @@ def exact_run(tmp_path_factory):
     return {k: np.array(v["rgb"]) for k, v in got.items()}, expected, truth, terms, name
 
 
+def corner_points(n=400, seed=24):
+    """Near the corner where the series needs ~1/(1 − |q|) terms and the include sums the rest in closed form:
+    cos θ ≤ 0.02, D ≤ 20 nm, η3 ≤ 1.001, κ3 ≤ 0.001 (each cubed from uniform, so the decades near 0 are
+    reached; a quarter on η3 = 1, κ3 = 0 exactly), η2 1.33 or 2.0; rounded to float32."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(0.0, 1.0, (n, 4)) ** 3
+    u[: n // 4, 2:] = 0.0
+    eta2 = np.where(np.arange(n) % 2 == 0, 1.33, 2.0)
+    cos, opd, eta3, kappa3 = 0.02 * u[:, 0], 20.0 * u[:, 1], 1.0 + 1e-3 * u[:, 2], 1e-3 * u[:, 3]
+    return [np.float32(v).astype(float) for v in (cos, opd / (2.0 * eta2), eta2, eta3, kappa3)]
+
+
+@pytest.fixture(scope="module")
+def corner_run(tmp_path_factory):
+    """The scalar include at corner_points in three.js, the float64 evaluation and the ground truth there."""
+    require_engine()
+    make_dropin.write_exact_table()
+    cos, thickness, eta2, eta3, kappa3 = corner_points()
+    points = [[c, d, e, 0.0, n, n, n, 0.0, k, k, k, 0.0] for c, d, e, n, k in zip(cos, thickness, eta2, eta3, kappa3)]
+    job = {"exr": f"/{TABLE.relative_to(ROOT)}", "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
+           "float": True, "points": points, "call": SCALAR_CALL}
+    got = np.array(run_jobs(tmp_path_factory.mktemp("exact-corner"), {"corner": job})["corner"]["rgb"])
+    eta3, kappa3 = np.tile(eta3[:, None], 3), np.tile(kappa3[:, None], 3)
+    expected, terms = float64_exact(read_exact_table(TABLE), cos, thickness, eta2, eta3, kappa3)
+    return got, expected, ground_truth(cos, thickness, eta2, eta3, kappa3), terms
+
+
 def _exact_table(folder: Path, env=None) -> dict:
     """`lutbake exact-table` into ``folder`` (in a process with ``env`` added): suffix -> bytes."""
     folder.mkdir()
@@ -177,6 +205,15 @@ def test_the_engine_matches_the_ground_truth(exact_run):
     got, _, truth, terms, name = exact_run
     assert delta_e00(got["rgb"], truth).max() <= 0.1
     assert terms.max() <= 64
+
+
+def test_the_engine_sums_the_corner_as_the_float64_evaluation(corner_run):
+    """Where the cap binds (the closed-form tail in use), three.js's float32 include returns the float64
+    evaluation's numbers and stays within ΔE00 0.3 of the ground truth (without the tail: up to 100)."""
+    got, expected, truth, terms = corner_run
+    assert (terms == 64).mean() > 0.3
+    assert np.abs(got - expected).max() <= 1e-4
+    assert delta_e00(got, truth).max() <= 0.3
 
 
 def test_the_check_fails_with_the_other_row_order(exact_run):

@@ -29,7 +29,7 @@ from ..lutfile import flat_attributes, shader_template
 from .transform import NODES, SLICES, X_MAX_NM, ZOOM_NM, transform_table
 
 __all__ = ["RUNTIME_FORMAT", "RUNTIME_FORMAT_VERSION", "TILES_PER_ROW", "BAND_ROWS", "RuntimeTable",
-           "stored_table", "write_runtime_table", "read_runtime_table", "runtime_includes"]
+           "stored_table", "write_runtime_table", "read_runtime_table", "include_fields", "runtime_includes"]
 
 RUNTIME_FORMAT = "lutbake-runtime"
 RUNTIME_FORMAT_VERSION = 1
@@ -156,14 +156,19 @@ def read_runtime_table(path) -> RuntimeTable:
     return RuntimeTable(meta, image.astype(np.float32))
 
 
+def include_fields(meta: dict, table_name: str) -> dict:
+    """The template fields of a runtime table's shader sources (runtime.*.in): its constants."""
+    t = meta["table"]
+    return {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
+            "observer": meta["observer"], "nu0": repr(t["nu0_per_nm"]), "x_max": repr(t["x_max_nm"]),
+            "zoom": repr(t["zoom_nm"]), "last_slice": repr(float(t["slices"] - 1)),
+            "half_span": repr(0.5 * (t["nodes"] - 1)), "nodes": repr(float(t["nodes"])),
+            "tiles": repr(float(t["tiles_per_row"])), "band": repr(float(t["band_rows"] * t["nodes"])),
+            "width": repr(float(t["width"])), "height": repr(float(t["height"])),
+            "white": ", ".join(repr(v) for v in t["white"])}
+
+
 def runtime_includes(meta: dict, table_name: str) -> dict:
     """GLSL and HLSL include texts for a runtime table, keyed by file suffix."""
-    t = meta["table"]
-    fields = {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
-              "observer": meta["observer"], "nu0": repr(t["nu0_per_nm"]), "x_max": repr(t["x_max_nm"]),
-              "zoom": repr(t["zoom_nm"]), "last_slice": repr(float(t["slices"] - 1)),
-              "half_span": repr(0.5 * (t["nodes"] - 1)), "nodes": repr(float(t["nodes"])),
-              "tiles": repr(float(t["tiles_per_row"])), "band": repr(float(t["band_rows"] * t["nodes"])),
-              "width": repr(float(t["width"])), "height": repr(float(t["height"])),
-              "white": ", ".join(repr(v) for v in t["white"])}
+    fields = include_fields(meta, table_name)
     return {suffix: shader_template(f"runtime.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
