@@ -164,7 +164,6 @@ def test_kernel_series_equals_the_direct_path_on_every_texel(grid_spec, series_g
 
 def test_kernel_rule_is_the_numpy_rule(grid_spec, kernel_device):
     from lutbake.integrate import OpenCLBackend
-    from lutbake.fourier import series_plan
 
     stats = OpenCLBackend("float64", device=kernel_device).series_plan(grid_spec)
     params = [np.ravel(p) for p in grid_spec.cell_params(0, grid_spec.image_size[1])]
