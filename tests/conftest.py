@@ -97,6 +97,19 @@ LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_blender.py", "
                  "test_spectral.py")
 
 
+@pytest.fixture(autouse=True)
+def _device_choice_restored():
+    """`--device` run in this process sets $LUTBAKE_DEVICE for the rest of the command (cli.py): put it back
+    after each test, so that a later test in the same worker does not inherit a device choice (which
+    outranks PYOPENCL_CTX and the default device)."""
+    saved = os.environ.get("LUTBAKE_DEVICE")
+    yield
+    if saved is None:
+        os.environ.pop("LUTBAKE_DEVICE", None)
+    else:
+        os.environ["LUTBAKE_DEVICE"] = saved
+
+
 def _run_order(item) -> int:
     name = item.path.name
     return LONGEST_FIRST.index(name) if name in LONGEST_FIRST else len(LONGEST_FIRST)
