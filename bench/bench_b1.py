@@ -134,6 +134,15 @@ def not_building() -> dict:
             if isinstance(built := _program(d, "float64"), OpenCLUnavailable)}
 
 
+def write_report(report: dict, json_path) -> None:
+    """Close ``report`` with the load average at the end, print it as JSON and write it to ``json_path`` if given."""
+    report["load_average_end"] = load_average()
+    text = json.dumps(report, indent=2)
+    print(text)
+    if json_path:
+        Path(json_path).write_text(text + "\n")
+
+
 def load_average() -> list:
     return [round(v, 2) for v in os.getloadavg()]
 
@@ -204,11 +213,7 @@ def main() -> None:
                                 "eta2": STIFF["eta2"],
                                 "rgb_abs_max_vs_ground_truth": texel_error(stiff, _spec(STIFF["eta2"], STIFF["axes"]),
                                                                             1 << 30, args.seed)}
-    report["load_average_end"] = load_average()
-    text = json.dumps(report, indent=2)
-    print(text)
-    if args.json:
-        Path(args.json).write_text(text + "\n")
+    write_report(report, args.json)
 
 
 if __name__ == "__main__":

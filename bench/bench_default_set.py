@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_building, numpy_2nm, run_child
+from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_building, numpy_2nm, run_child, write_report
 
 
 def child(what: str, out: str, device: str, rows: int) -> None:
@@ -107,11 +107,7 @@ def main() -> None:
         rows["set_over_numpy_2nm"] = float(np.median([r["process_cells_per_s"] for r in rows["runs"]["set"]])) / set_rate
         rows["b1_over_numpy_2nm"] = (float(np.median([r["process_cells_per_s"] for r in rows["runs"]["b1"]]))
                                      / samples["b1"]["cells_per_s"])
-    report["load_average_end"] = load_average()
-    text = json.dumps(report, indent=2)
-    print(text)
-    if args.json:
-        Path(args.json).write_text(text + "\n")
+    write_report(report, args.json)
 
 
 if __name__ == "__main__":
