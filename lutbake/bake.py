@@ -209,7 +209,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
     return {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION,
+        "format_version": FORMAT_VERSION if spec.has_corner else FORMAT_VERSION - 1,
         "lutbake_version": __version__,
         "content_hash": spec.content_hash,
         "axes": [a.describe() for a in spec.axes],

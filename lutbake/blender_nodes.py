@@ -211,6 +211,9 @@ def _warp(g, value, spacing: str, snell):
 
 def _axis_coordinate(g, value, axis: dict, snell):
     """Node coordinate f = clamp(u, 0, 1)·(N − 1) of ``value`` on ``axis`` (docs/lut-format.md, Axes)."""
+    if "corner" in axis:   # only the default LUTs zoom into the corner; scene and glTF bakes never do
+        raise ValueError(f"axis {axis['name']}: the grazing corner's zoom (LUT format v5) has no node graph; "
+                         "Blender reads scene and glTF bakes")
     lo, hi = _warp(g, float(axis["min"]), axis["spacing"], snell), _warp(g, float(axis["max"]), axis["spacing"], snell)
     span = g.math("SUBTRACT", hi, lo)
     unit = g.clamp01(g.math("DIVIDE", g.math("SUBTRACT", _warp(g, value, axis["spacing"], snell), lo), span))

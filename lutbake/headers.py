@@ -25,7 +25,7 @@ import numpy as np
 
 from .layout import TileLayout
 from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
-from .plan import AXIS_UNITS
+from .plan import AXIS_UNITS, CORNER_AXES
 from .points import inside_domain
 
 __all__ = ["exr_header", "check_structure", "check_metadata", "MAX_ATTRIBUTE_BYTES"]
@@ -175,6 +175,11 @@ def _axis(axis: dict, field: str, version: int, eta1: float) -> None:
     _need(spacing in ("uniform", "sqrt") or spacing == "root4" and version >= 3
           or spacing in _ADMITTANCE_SINCE and name == "eta3" and version >= _ADMITTANCE_SINCE[spacing]
           and lo >= eta1, f"{field}.spacing")
+    if "corner" in axis:   # format v5: the grazing corner's zoom (plan.Axis)
+        corner = _dict(axis, "corner", field)
+        _need(version >= 5 and name in CORNER_AXES and lo == (eta1 if name == "eta3" else 0.0), f"{field}.corner")
+        _integer(_at(corner, "nodes", f"{field}.corner"), f"{field}.corner.nodes", 1, axis["count"] - 2)
+        _number(_at(corner, "scale", f"{field}.corner"), f"{field}.corner.scale", positive=True)
 
 
 def _spectral(spectral: dict) -> None:

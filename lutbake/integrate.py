@@ -51,7 +51,7 @@ class NumpyBackend:
 
     def bake_rows(self, spec, y0, y1):
         stacks = spec.texel_stacks(a.ravel() for a in spec.cell_params(y0, y1))
-        return self.evaluate(spec, stacks).reshape(y1 - y0, -1, 3)
+        return with_grazing_white(spec, y0, self.evaluate(spec, stacks).reshape(y1 - y0, -1, 3))
 
     def begin_rows(self, spec, y0, y1) -> "PendingRows":
         return PendingRows(self.bake_rows(spec, y0, y1))
@@ -348,11 +348,18 @@ class SeriesStats:
                 "series_bound_rgb_max": self.bounds[0], "closed_form_bound_rgb_max": self.bounds[1]}
 
 
+def with_grazing_white(spec, y0: int, rows: np.ndarray) -> np.ndarray:
+    """``rows`` (from image row y0) with the corner zoom's total-reflection texels set to exactly 1
+    (plan.BakeSpec.grazing_white: the limit there, which no finite cos θ1 evaluates)."""
+    rows[spec.grazing_white(y0, y0 + rows.shape[0])] = 1.0
+    return rows
+
+
 class PendingRows:
     """A band being baked: ``result()`` waits for it and returns it (rows, width, 3) in float64."""
 
-    def __init__(self, rows, event=None, keep=()):
-        self._rows, self._event, self._keep = rows, event, keep
+    def __init__(self, rows, event=None, keep=(), finish=lambda rows: rows):
+        self._rows, self._event, self._keep, self._finish = rows, event, keep, finish
 
     def result(self) -> np.ndarray:
         if self._event is not None:
@@ -361,6 +368,7 @@ class PendingRows:
                 if isinstance(item, tuple) and (item[1].wait() or item[0][0]):
                     raise RuntimeError(f"{item[0][0]} texels left for a direct pass the plan did not expect")
             self._event = self._keep = None
+            self._rows = self._finish(self._rows)
         return self._rows.astype(np.float64, copy=False)
 
 
@@ -404,7 +412,7 @@ def _series_chunks(spec, dtype=np.float64):
     evanescent film), then the column's rule constants (_column_rule), then zeros; film (D, cos θ,
     [X, e^{i2πXν0}]).
     """
-    ax = {a.name: a.values() for a in spec.axes}
+    cos_t, opd, kappa3 = (spec.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
     eta3 = spec.eta3_columns()                                   # (η3, cos θ) flattened
     wt = weight_transform(spec.observer, spec.space)
@@ -412,8 +420,8 @@ def _series_chunks(spec, dtype=np.float64):
     for start in range(0, n_columns, _CHUNK):
         flat = np.arange(start, min(start + _CHUNK, n_columns))
         column, i_kappa3 = flat % (n_eta3 * n_cos), flat // (n_eta3 * n_cos)
-        co = series_coefficients(spec.eta1, spec.eta2, ax["cos_theta"][column % n_cos], 0.0, eta3[column],
-                                 ax["kappa3"][i_kappa3])
+        co = series_coefficients(spec.eta1, spec.eta2, cos_t[column % n_cos], 0.0, eta3[column],
+                                 kappa3[i_kappa3, column % n_cos])
         one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
         block = np.zeros((flat.size, _COLUMN), dtype)
         for p in (0, 1):
@@ -421,10 +429,10 @@ def _series_chunks(spec, dtype=np.float64):
                                                   co.q[p].imag, one_minus_q[p]], -1)
         block[:, 12:21] = _column_rule(co, wt.mass.max())
         yield 0, start, block
-    cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"]).clip(0)
+    cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, cos_t).clip(0)
     for start in range(0, n_pairs, _CHUNK):
         flat = np.arange(start, min(start + _CHUNK, n_pairs))
-        x_nm = ax["opd_nm"][flat // n_cos] * cos2[flat % n_cos]
+        x_nm = opd[flat // n_cos, flat % n_cos] * cos2[flat % n_cos]
         turn = np.exp(2j * np.pi * NU0_PER_NM * x_nm)
         yield 1, start, np.stack([x_nm, turn.real, turn.imag], -1).astype(dtype)
 
@@ -507,11 +515,12 @@ class OpenCLBackend:
         rules = [spec.ladder.rule(k) for k in range(len(spec.ladder.counts))]
         nu = np.concatenate([1.0 / r.wavelength_nm for r in rules])
         weights = np.concatenate([r.weights.ravel() for r in rules])
-        ax = {a.name: a.values() for a in spec.axes}
-        cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, ax["cos_theta"])
-        # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0).
-        arrays = [ax["cos_theta"], *_split(cos2, self.dtype), *_split(ax["opd_nm"], self.dtype),
-                  spec.eta3_columns(), ax["kappa3"], *_split(nu, self.dtype), weights]
+        cos_t, opd, kappa3 = (spec.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
+        cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, cos_t)
+        # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0). D and κ3 per
+        # (node, cos θ1 node), row-major: the corner zoom moves them with the incidence.
+        arrays = [cos_t, *_split(cos2, self.dtype), *_split(opd.ravel(), self.dtype),
+                  spec.eta3_columns(), kappa3.ravel(), *_split(nu, self.dtype), weights]
         mf = cl.mem_flags
         buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
                              hostbuf=np.ascontiguousarray(a, self.dtype)) for a in arrays]
@@ -646,7 +655,8 @@ class OpenCLBackend:
             keep += self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
         else:
             keep += self._series_passes(spec, y0, y1, out_buf)
-        return PendingRows(out, cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False), keep)
+        return PendingRows(out, cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False), keep,
+                           lambda rows: with_grazing_white(spec, y0, rows))
 
     def _series_passes(self, spec, y0, y1, out_buf) -> list:
         """Enqueue the series, the closed form at what it leaves and (where the plan expects any) the

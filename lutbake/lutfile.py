@@ -46,10 +46,11 @@ FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (atlas.py, write_atlas)
 EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transform table (exact.py)
 # LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
-# "sqrt-admittance" spacing (docs/lut-format.md); older LUTs (no such axis) still read.
-FORMAT_VERSION = 4
+# "sqrt-admittance" spacing, v5 the grazing corner's zoom on D, η3 and κ3 (docs/lut-format.md; a LUT
+# without one is written as v4); older LUTs (no such axis) still read.
+FORMAT_VERSION = 5
 EXACT_FORMAT_VERSION = 1
-_READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
+_READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4, 5), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -261,6 +262,9 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "root4": ", ".join("1.0" if a["spacing"] == "root4" else "0.0" for a in axes),
         "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"]) else "0.0" for a in axes),
         "admittance": "1.0" if axes[2]["spacing"] in ADMITTANCE_SPACINGS else "0.0",
+        "corner_share": ", ".join(_shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0"
+                                  for a in axes),
+        "corner_scale": ", ".join(_shader_float(a["corner"]["scale"]) if "corner" in a else "1.0" for a in axes),
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }

@@ -38,12 +38,13 @@ from .points import FilmPoints, check_value
 from .optics import normal_admittance, round_trip_amplitude
 from .spectral import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
 
-__all__ = ["Axis", "BakeSpec", "parse_axis", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
+__all__ = ["Axis", "BakeSpec", "parse_axis", "axis_from_header", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
            "COMPUTE_PRECISIONS", "METHODS"]
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
 SPACINGS = ("uniform", "sqrt", "root4", *ADMITTANCE_SPACINGS)
+CORNER_AXES = ("opd_nm", "eta3", "kappa3")
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
 METHODS = ("spectral",)
@@ -54,6 +55,8 @@ MAX_CELLS = 2_000_000_000
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
+_BISECTIONS = 64          # Axis.from_unit with a corner: the base coordinate to 2^-64
+CORNER_COS = 1e-5         # where a corner LUT evaluates its cos θ1 = 0 nodes: the limit along each node's curve
 SCREEN_CHUNK = 1 << 16   # texels capped_texels screens at once
 SERIES_CHUNK = 1 << 16   # columns (or pairs) integrate._series_chunks builds at once
 _MIB = 1 << 20
@@ -99,6 +102,12 @@ class Axis:
         crowding harder, cos θ's towards grazing); 'admittance' (η3 only: uniform in
         √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing);
         'sqrt-admittance' (η3 only: uniform in the square root of that admittance, crowding harder).
+    corner : tuple
+        () or (nodes, scale): the grazing corner's zoom (format v5, D, η3 and κ3 only; docs/lut-format.md#the-grazing-corner).
+        The coordinate becomes (1 − β)·u + β·H(ρ)/H(ρ_max), β = nodes/(count − 1), H(ρ) = √ρ/(1 + √ρ), with
+        ρ the axis's ratio to the incidence: D/(scale·cos θ1), (η3² − η1²)/(scale·(η1 cos θ1)²) or
+        2η1κ3/(scale·(η1 cos θ1)²). Near cos θ1 = 0, D = 0, η3 = η1, κ3 = 0 the colour is a function of
+        these ratios only, so in this coordinate it has a limit there, which a grid can follow.
 
     Examples
     --------
@@ -112,56 +121,110 @@ class Axis:
     hi: float
     count: int
     spacing: str = "uniform"
+    corner: tuple = ()
 
     @property
     def unit(self) -> str:
         return AXIS_UNITS[self.name]
 
-    def values(self, snell2=0.0) -> np.ndarray:
-        """Node values (float64), exact at both ends; ``snell2`` = (η1 sin θ1)² for "admittance"."""
-        u = np.linspace(0.0, 1.0, self.count)
-        v = self.from_unit(u, snell2)
+    def values(self, cos_theta=1.0, eta1=1.0) -> np.ndarray:
+        """Node values (float64), exact at both ends, at the incidence cos θ1 under the ambient η1 where the
+        spacing follows it (a scalar cos θ1 gives (count,); an array of them (count, *their shape))."""
+        u = np.linspace(0.0, 1.0, self.count).reshape((-1,) + (1,) * np.ndim(cos_theta))
+        v = np.array(self.from_unit(u, cos_theta, eta1), float)
         v[0], v[-1] = self.lo, self.hi
         return v
 
-    def _warp(self, v, snell2):
-        """The coordinate in which the nodes are uniform."""
+    def _warp(self, v, inc):
+        """The coordinate in which the nodes are uniform, at the incidence ``inc`` = (η1, (η1 cos θ1)²)."""
         if self.spacing == "sqrt":
             return np.sqrt(np.maximum(v, 0.0))
         if self.spacing == "root4":
             return np.sqrt(np.sqrt(np.maximum(v, 0.0)))
-        if self.spacing == "admittance":
-            return np.sqrt(np.maximum(v * v - snell2, 0.0))
-        if self.spacing == "sqrt-admittance":
-            return np.sqrt(np.sqrt(np.maximum(v * v - snell2, 0.0)))
+        if self.spacing in ADMITTANCE_SPACINGS:   # Y3² = (η3 − η1)(η3 + η1) + (η1 cos θ1)²: no cancellation
+            root = np.sqrt(np.maximum((v - inc[0]) * (v + inc[0]) + inc[1], 0.0))
+            return root if self.spacing == "admittance" else np.sqrt(root)
         return v
 
-    def _unwarp(self, w, snell2):
+    def _unwarp(self, w, inc):
         if self.spacing == "sqrt":
             return w * w
         if self.spacing == "root4":
             return np.square(w * w)
-        if self.spacing == "admittance":
-            return np.sqrt(w * w + snell2)
-        if self.spacing == "sqrt-admittance":
-            return np.sqrt(np.square(w * w) + snell2)
+        if self.spacing in ADMITTANCE_SPACINGS:   # η3 from η3² = Y3² − (η1 cos θ1)² + η1²
+            y2 = w * w if self.spacing == "admittance" else np.square(w * w)
+            return np.sqrt(np.maximum(y2 - inc[1] + inc[0] ** 2, 0.0))
         return w
 
-    def from_unit(self, u, snell2=0.0):
-        """Value at the normalized coordinate u in [0, 1] (at the incidence ``snell2`` for "admittance")."""
-        u, snell2 = np.asarray(u, float), np.asarray(snell2, float)
-        a, b = self._warp(np.float64(self.lo), snell2), self._warp(np.float64(self.hi), snell2)
-        return self._unwarp(a + (b - a) * u, snell2)
+    def _base_unit(self, v, inc):
+        a, b = self._warp(np.float64(self.lo), inc), self._warp(np.float64(self.hi), inc)
+        return (self._warp(v, inc) - a) / (b - a)
 
-    def to_unit(self, v, snell2=0.0):
-        """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped)."""
-        v, snell2 = np.asarray(v, float), np.asarray(snell2, float)
-        a, b = self._warp(np.float64(self.lo), snell2), self._warp(np.float64(self.hi), snell2)
-        return (self._warp(v, snell2) - a) / (b - a)
+    def _base_value(self, u, inc):
+        a, b = self._warp(np.float64(self.lo), inc), self._warp(np.float64(self.hi), inc)
+        return self._unwarp(a + (b - a) * u, inc)
+
+    def _zoom(self, v, cos_theta, inc):
+        """H(ρ)/H(ρ_max) of the corner: 0 at lo, 1 at hi, and 1 at any v > lo when cos θ1 = 0."""
+        if self.name == "opd_nm":
+            a, a_max, b = np.maximum(v, 0.0), np.float64(self.hi), self.corner[1] * cos_theta
+        else:
+            a, a_max, b = self._ratio_numerator(v, inc[0]), self._ratio_numerator(self.hi, inc[0]), self.corner[1] * inc[1]
+        return _ratio_h(a, b) / _ratio_h(a_max, b)
+
+    def _ratio_numerator(self, v, eta1):
+        """η3² − η1² (η3) or 2η1κ3 (κ3), ≥ 0: the base's admittance squared minus (η1 cos θ1)², in size."""
+        v = np.asarray(v, float)
+        if self.name == "eta3":
+            return np.maximum((v - eta1) * (v + eta1), 0.0)
+        return np.maximum(2.0 * eta1 * v, 0.0)
+
+    def from_unit(self, u, cos_theta=1.0, eta1=1.0):
+        """Value at the normalized coordinate u in [0, 1] at the incidence cos θ1 (under the ambient η1):
+        in closed form, or with a corner by bisection on the base coordinate (the zoom is increasing)."""
+        u, cos_theta = np.asarray(u, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
+        inc = (float(eta1), np.square(eta1 * cos_theta))
+        if not self.corner:
+            return self._base_value(u, inc)
+        beta = self.corner[0] / (self.count - 1)
+        lo, hi = np.zeros(np.broadcast(u, cos_theta).shape), np.ones(np.broadcast(u, cos_theta).shape)
+        for _ in range(_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            above = (1.0 - beta) * mid + beta * self._zoom(self._base_value(mid, inc), cos_theta, inc) > u
+            lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
+        return self._base_value(0.5 * (lo + hi), inc)
+
+    def to_unit(self, v, cos_theta=1.0, eta1=1.0):
+        """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped) of the value v."""
+        v, cos_theta = np.asarray(v, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
+        inc = (float(eta1), np.square(eta1 * cos_theta))
+        u = self._base_unit(v, inc)
+        if not self.corner:
+            return u
+        beta = self.corner[0] / (self.count - 1)
+        return (1.0 - beta) * u + beta * self._zoom(v, cos_theta, inc)
 
     def describe(self) -> dict:
-        return {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
-                "count": self.count, "spacing": self.spacing}
+        out = {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
+               "count": self.count, "spacing": self.spacing}
+        if self.corner:
+            out["corner"] = {"nodes": self.corner[0], "scale": self.corner[1]}
+        return out
+
+
+def _ratio_h(a, b):
+    """H = √a/(√a + √b) = √ρ/(1 + √ρ) of ρ = a/b for a, b ≥ 0; 1 where a = b = 0, which happens only at
+    grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the stack."""
+    ra, rb = np.sqrt(a), np.sqrt(b)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(ra + rb > 0, ra / (ra + rb), 1.0)
+
+
+def axis_from_header(record: dict) -> Axis:
+    """The Axis a LUT header's axis record describes (``Axis.describe``'s inverse)."""
+    corner = record.get("corner")
+    return Axis(record["name"], record["min"], record["max"], record["count"], record["spacing"],
+                (corner["nodes"], corner["scale"]) if corner else ())
 
 
 def parse_axis(name: str, text: str) -> Axis:
@@ -198,7 +261,26 @@ def validate_axis(axis: Axis) -> Axis:
                              allowed=", ".join(SPACINGS))
     if axis.spacing in ADMITTANCE_SPACINGS and axis.name != "eta3":
         raise ParameterError(field + f" spacing {axis.spacing!r} is allowed only on {{eta3}}")
+    if axis.corner:
+        _validate_corner(axis, field)
     return axis
+
+
+def _validate_corner(axis: Axis, field: str) -> None:
+    """A corner zoom: on D (from 0), η3 (from η1: checked by BakeSpec) or κ3 (from 0), 1 ≤ nodes ≤ N − 2
+    (the base coordinate keeps a share), a finite scale > 0."""
+    nodes, scale = axis.corner
+    if axis.name not in CORNER_AXES:
+        raise ParameterError(field + " has no grazing corner: a corner zoom is allowed on {allowed}",
+                             allowed=", ".join(CORNER_AXES))
+    if axis.name != "eta3" and axis.lo != 0.0:
+        raise ParameterError(field + " corner zoom needs A = 0, got {lo}", lo=f"{axis.lo:g}")
+    if not (isinstance(nodes, int) and 1 <= nodes <= axis.count - 2):
+        raise ParameterError(field + " corner nodes {nodes} is not allowed: need 1 <= nodes <= N - 2 = {most}",
+                             nodes=repr(nodes), most=axis.count - 2)
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise ParameterError(field + " corner scale {scale} is not allowed: need a finite number > 0",
+                             scale=repr(scale))
 
 
 @dataclass(frozen=True)
@@ -268,6 +350,12 @@ class BakeSpec:
         if eta3.spacing in ADMITTANCE_SPACINGS and eta3.lo < self.eta1:
             raise ParameterError("{eta3} " + eta3.spacing + " spacing needs A >= eta1 ({eta1}), got {lo}",
                                  eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
+        if eta3.corner and eta3.lo != self.eta1:
+            raise ParameterError("{eta3} corner zoom needs A = eta1 ({eta1}), got {lo}",
+                                 eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
+        if self.has_corner and self.axis["cos_theta"].lo != 0.0:
+            raise ParameterError("{cos_theta} range must start at 0 under a corner zoom, got {lo}",
+                                 lo=f"{self.axis['cos_theta'].lo:g}")
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
         if self.cells > MAX_CELLS:
@@ -346,17 +434,68 @@ class BakeSpec:
                                  need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}", limit=f"{limit:g}")
         return b
 
-    def snell2(self, cos_theta):
-        """(η1 sin θ1)², the tangential wavenumber squared that the "admittance" spacing subtracts."""
-        return self.eta1 ** 2 * (1.0 - np.square(cos_theta))
+    @property
+    def has_corner(self) -> bool:
+        """True when an axis zooms into the grazing corner (format v5)."""
+        return any(a.corner for a in self.axes)
+
+    def cos_evaluated(self) -> np.ndarray:
+        """cos θ1 at which each cos θ1 node's texels are evaluated: the node's own value, except that under a
+        corner zoom the node cos θ1 = 0 holds the limit along each node's curve, reached at CORNER_COS (the
+        colour there is a function of the corner's ratios, to O(cos θ1))."""
+        cos_t = self.axis["cos_theta"].values()
+        if self.has_corner:
+            cos_t[cos_t == 0.0] = CORNER_COS
+        return cos_t
+
+    def node_values(self, name: str) -> np.ndarray:
+        """Node values of axis ``name``: cos θ1 (N_cos,) as evaluated; D, η3, κ3 (N, N_cos), one column per
+        cos θ1 node, since the admittance spacings and the corner zoom follow the incidence."""
+        cos_t = self.cos_evaluated()
+        if name == "cos_theta":
+            return cos_t
+        axis = self.axis[name]
+        v = np.array(np.broadcast_to(axis.values(cos_t, self.eta1), (axis.count, cos_t.size)))
+        if axis.corner and self.axis["cos_theta"].lo == 0.0:
+            v[:, 0] = self._grazing_column(axis)
+        return v
+
+    def _grazing_column(self, axis: Axis) -> np.ndarray:
+        """Node values of a corner axis in the cos θ1 = 0 column, evaluated at CORNER_COS: there the zoom is
+        H(ρ)/H(ρ_max) → H(ρ), so node u < β holds the ratio ρ = (h/(1 − h))², h = u/β, set exactly
+        (the bisection would reach it only to O(√CORNER_COS)); nodes u ≥ β hold total reflection
+        (``grazing_white``) and keep the value the bisection gives."""
+        nodes, scale = axis.corner
+        u = np.linspace(0.0, 1.0, axis.count)
+        h = np.minimum(u * (axis.count - 1) / nodes, 1.0)
+        with np.errstate(divide="ignore"):
+            rho = np.square(h / (1.0 - h))
+        e1c2 = np.square(self.eta1 * CORNER_COS)
+        if axis.name == "opd_nm":
+            ratio_value = rho * scale * CORNER_COS
+        elif axis.name == "eta3":
+            ratio_value = np.sqrt(self.eta1 ** 2 + rho * scale * e1c2)
+        else:
+            ratio_value = rho * scale * e1c2 / (2.0 * self.eta1)
+        return np.where(h < 1.0, ratio_value, axis.values(CORNER_COS, self.eta1))
+
+    def grazing_white(self, y0: int, y1: int) -> np.ndarray:
+        """Texels of rows [y0, y1) that hold total reflection, (rows, width) bool: in the cos θ1 = 0 column of a
+        corner zoom, every node at or past the zoom's share on some axis (ρ → ∞ along its curve, so R → 1,
+        as the ground truth has it at cos θ1 = 0). The integrators set them to exactly 1."""
+        width, _ = self.image_size
+        i_cos, i_opd, i_eta3, i_kappa3 = self.layout.nodes(np.arange(width)[None, :], np.arange(y0, y1)[:, None])
+        white = np.zeros((y1 - y0, width), bool)
+        if not self.has_corner:
+            return white
+        for axis, index in zip(self.axes[1:], (i_opd, i_eta3, i_kappa3)):
+            if axis.corner:
+                white |= index >= axis.corner[0]
+        return white & (i_cos == 0) & (self.axis["cos_theta"].lo == 0.0)
 
     def eta3_columns(self) -> np.ndarray:
         """η3 of each image column, in column order (layout.TileLayout: η3 nodes at the column's cos θ1 node)."""
-        cos_t, eta3 = self.axis["cos_theta"].values(), self.axis["eta3"]
-        u = np.linspace(0.0, 1.0, eta3.count)[:, None]
-        v = np.broadcast_to(eta3.from_unit(u, self.snell2(cos_t)[None, :]), (eta3.count, cos_t.size)).copy()
-        v[0], v[-1] = eta3.lo, eta3.hi
-        return v.ravel()
+        return np.ascontiguousarray(self.node_values("eta3")).ravel()
 
     @property
     def layout(self) -> TileLayout:
@@ -386,14 +525,14 @@ class BakeSpec:
         """Levels of every texel in rows [y0, y1), flat: equal to cell_levels on cell_params,
         but |r21·r23| is evaluated once per (x, κ3) and cycles once per (cos θ, D)."""
         width, _ = self.image_size
-        v = {a.name: a.values() for a in self.axes}
+        cos_t, opd, kappa3 = (self.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
         i_cos, i_opd, _, k_index = self.layout.nodes(np.arange(width), np.arange(y0, y1))
         kappa_rows = np.unique(k_index)
         rt = round_trip_amplitude(self.eta1, self.eta2, self.eta3_columns()[None, :],
-                                  v["kappa3"][kappa_rows][:, None], v["cos_theta"][i_cos][None, :])
+                                  kappa3[kappa_rows][:, i_cos], cos_t[i_cos][None, :])
         rt_rows = rt[np.searchsorted(kappa_rows, k_index)]
-        g2 = normal_admittance(self.eta2, 0.0, self.eta1, v["cos_theta"][i_cos]).real
-        cycles = v["opd_nm"][i_opd][:, None] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
+        g2 = normal_admittance(self.eta2, 0.0, self.eta1, cos_t[i_cos]).real
+        cycles = opd[i_opd][:, i_cos] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
         return self.ladder.level(cycles, rt_rows).ravel()
 
     def texel_stacks(self, coords) -> FilmPoints:
@@ -415,20 +554,21 @@ class BakeSpec:
         (image column, κ3) pair is screened at its largest D first; screened and expanded a chunk at a
         time, so memory stays bounded (SCREEN_CHUNK texels) whatever the grid.
         """
-        v = {a.name: a.values() for a in self.axes}
-        width, n_opd, n_kappa3 = self.image_size[0], v["opd_nm"].size, v["kappa3"].size
+        cos_nodes, opd, kappa_nodes = (self.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
+        width, (n_opd, n_kappa3) = self.image_size[0], (opd.shape[0], kappa_nodes.shape[0])
         eta3_columns = self.eta3_columns()
         count, best, worst = 0, 0.0, tuple(np.empty(0) for _ in range(4))
         worst_bound = np.empty(0)
         for start in range(0, width * n_kappa3, SCREEN_CHUNK):
             column = np.arange(start, min(start + SCREEN_CHUNK, width * n_kappa3))   # x major, κ3 minor
-            x, kappa3 = column // n_kappa3, v["kappa3"][column % n_kappa3]
-            cos_t, eta3 = v["cos_theta"][self.layout.nodes(x, 0)[0]], eta3_columns[x]
-            cols = np.flatnonzero(self.truncation_estimate(cos_t, np.full(cos_t.shape, v["opd_nm"][-1]), eta3, kappa3))
+            x = column // n_kappa3
+            i_cos = self.layout.nodes(x, 0)[0]
+            cos_t, eta3, kappa3 = cos_nodes[i_cos], eta3_columns[x], kappa_nodes[column % n_kappa3, i_cos]
+            cols = np.flatnonzero(self.truncation_estimate(cos_t, np.full(cos_t.shape, opd[-1, 0]), eta3, kappa3))
             step = max(1, SCREEN_CHUNK // n_opd)
             for c in range(0, cols.size, step):
                 sub = cols[c:c + step]
-                params = (np.repeat(cos_t[sub], n_opd), np.tile(v["opd_nm"], sub.size),
+                params = (np.repeat(cos_t[sub], n_opd), opd[:, i_cos[sub]].T.ravel(),
                           np.repeat(eta3[sub], n_opd), np.repeat(kappa3[sub], n_opd))
                 bound = self.truncation_estimate(*params)
                 mask = bound > 0
@@ -452,9 +592,9 @@ class BakeSpec:
         width, _ = self.image_size
         i_cos, i_opd, _, i_kappa3 = self.layout.nodes(np.arange(width)[None, :], np.arange(y0, y1)[:, None])
         shape = (y1 - y0, width)
-        v = {a.name: a.values() for a in self.axes}
-        return (np.broadcast_to(v["cos_theta"][i_cos], shape), np.broadcast_to(v["opd_nm"][i_opd], shape),
-                np.broadcast_to(self.eta3_columns(), shape), np.broadcast_to(v["kappa3"][i_kappa3], shape))
+        cos_t, opd, kappa3 = (self.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
+        return (np.broadcast_to(cos_t[i_cos], shape), np.broadcast_to(opd[i_opd, i_cos], shape),
+                np.broadcast_to(self.eta3_columns(), shape), np.broadcast_to(kappa3[i_kappa3, i_cos], shape))
 
     def describe(self) -> dict:
         """The inputs that define the LUT (hashed into ``content_hash``)."""

@@ -78,12 +78,12 @@ def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n
 
 def lut_stacks(axes, eta1: float, eta2: float, unit) -> FilmPoints:
     """Film stacks at unit node coordinates ``unit`` (n, 4) of the axes (each axis's node coordinate
-    over N − 1; η3's "admittance" cells lie along cos θ1, so its value follows the point's cos θ1)."""
+    over N − 1; η3's "admittance" cells and the corner zoom's lie along cos θ1, so the other values follow
+    the point's cos θ1)."""
     unit = np.asarray(unit, float)
     cos_theta = axes[0].from_unit(unit[:, 0])
-    snell2 = eta1 ** 2 * (1.0 - cos_theta ** 2)
-    return FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=axes[1].from_unit(unit[:, 1]),
-                             eta3=axes[2].from_unit(unit[:, 2], snell2), kappa3=axes[3].from_unit(unit[:, 3]))
+    opd, eta3, kappa3 = (a.from_unit(unit[:, k], cos_theta, eta1) for k, a in enumerate(axes[1:], 1))
+    return FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3, kappa3=kappa3)
 
 
 def singular_places(axes, eta1: float) -> dict:
@@ -98,7 +98,7 @@ def singular_places(axes, eta1: float) -> dict:
     if cos_theta.lo == 0.0:
         out["cos θ → 0"] = {"cos_theta": 0.0}
     if eta3.lo <= eta1 <= eta3.hi:   # an admittance spacing starts at η1 (plan.py): u = 0 at any cos θ1
-        out["η3 → η1"] = {"eta3": float(eta3.to_unit(eta1))}
+        out["η3 → η1"] = {"eta3": float(eta3.to_unit(eta1, 1.0, eta1))}
     if kappa3.lo == 0.0:
         out["κ3 → 0"] = {"kappa3": 0.0}
     return out

@@ -24,7 +24,7 @@ import numpy as np
 from .interpolation import cubic_taps, mirrors_low_end
 from .layout import TileLayout
 from .lutfile import ATLAS_FORMAT, FORMAT, read_lut
-from .plan import Axis
+from .plan import axis_from_header
 from .points import FilmPoints
 
 __all__ = ["Lut", "Atlas", "load_table"]
@@ -82,7 +82,7 @@ class Lut:
 
     @property
     def axes(self) -> list:
-        return [Axis(a["name"], a["min"], a["max"], a["count"], a["spacing"]) for a in self.meta["axes"]]
+        return [axis_from_header(a) for a in self.meta["axes"]]
 
     @property
     def eta1(self) -> float:
@@ -108,8 +108,7 @@ class Lut:
     def node_coords(self, stack: FilmPoints) -> list:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
         values = self.coordinates(stack)
-        snell2 = self.eta1 ** 2 * (1.0 - np.square(np.clip(values[0], 0.0, 1.0)))
-        return [np.clip(axis.to_unit(v, snell2), 0.0, 1.0) * (axis.count - 1)
+        return [np.clip(axis.to_unit(v, values[0], self.eta1), 0.0, 1.0) * (axis.count - 1)
                 for axis, v in zip(self.axes, values)]
 
     @property

@@ -22,8 +22,14 @@ SHAPE = (6, 7, 5, 4)
 
 
 def _axes(shape, spacings):
+    """Axes of ``shape``; a spacing 'X+corner' zooms into the grazing corner (1 node, scale 50; η3 then
+    starts at η1 = 1, as the zoom needs)."""
     names, spans = ("cos_theta", "opd_nm", "eta3", "kappa3"), ((0.0, 1.0), (0.0, 900.0), (1.2, 2.4), (0.0, 3.0))
-    return tuple(Axis(n, lo, hi, c, s) for n, (lo, hi), c, s in zip(names, spans, shape, spacings))
+    out = []
+    for n, (lo, hi), c, s in zip(names, spans, shape, spacings):
+        spacing, _, corner = s.partition("+")
+        out.append(Axis(n, 1.0 if corner and n == "eta3" else lo, hi, c, spacing, (1, 50.0) if corner else ()))
+    return tuple(out)
 
 
 def _lut(grid, axes):
@@ -83,22 +89,25 @@ def _stencil_range(grid, f):
 
 
 @pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
-                                      ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt")])
+                                      ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt"),
+                                      ("sqrt", "sqrt+corner", "sqrt-admittance+corner", "root4+corner")])
 def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     """Mirrored ghosts exactly where an axis is √- or ¼-power-spaced from 0 (cos θ, κ3 here; D's √
     axis from 0 too; η3's starts at 1.2, so it extrapolates; its admittance nodes follow each point's
-    own cos θ)."""
+    own cos θ, as do the corner zoom's nodes of D, η3 and κ3)."""
     rng = np.random.default_rng(3)
     axes = _axes(SHAPE, spacings)
-    mirror = [s in ("sqrt", "root4") and a.lo == 0.0 for s, a in zip(spacings, axes)]
+    mirror = [a.spacing in ("sqrt", "root4") and a.lo == 0.0 for a in axes]
     grid = rng.normal(size=SHAPE + (3,))
     lut = _lut(grid, axes)
     f = rng.uniform(0, 1, (300, 4)) * (np.array(SHAPE) - 1)
     f[:40] = np.round(f[:40])                      # nodes, ends included
     f[40:80, 0] = rng.uniform(0, 1, 40)            # first and last cells of every axis
     f[80:120, 1] = SHAPE[1] - 1 - rng.uniform(0, 1, 40)
-    snell2 = 1.0 - axes[0].from_unit(f[:, 0] / (axes[0].count - 1)) ** 2   # (η1 sin θ1)², η1 = 1
-    values = [a.from_unit(f[:, i] / (a.count - 1), snell2) for i, a in enumerate(axes)]
+    if any(a.corner for a in axes):   # at cos θ1 = 0 the zoom is a step (no value has a node coordinate below
+        f[:, 0] = np.maximum(f[:, 0], 0.2)   # it), and near it η3 − η1 ∝ cos² θ1 outruns float64's η3 (f ≥ 0.2)
+    cos_theta = axes[0].from_unit(f[:, 0] / (axes[0].count - 1))
+    values = [a.from_unit(f[:, i] / (a.count - 1), cos_theta) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
     padded = _padded(grid, mirror)
     unclamped = np.array([_catmull_rom(padded, p) for p in f])

@@ -219,9 +219,9 @@ inline void direct_rgb(const Texel *t, __global const REAL *nu_h, __global const
 __kernel void bake_texels_direct(
     __global const REAL *cos_axis,                            // N_cos
     __global const REAL *cos2_hi, __global const REAL *cos2_lo, // ±|cos θ2| per cos node
-    __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd
+    __global const REAL *opd_hi, __global const REAL *opd_lo,   // N_opd × N_cos: D per (node, cos θ1 node)
     __global const REAL *eta3_column,                         // η3 per image column (width)
-    __global const REAL *kappa3_axis,
+    __global const REAL *kappa3_nodes,                        // N_kappa3 × N_cos
     __global const REAL *nu_hi, __global const REAL *nu_lo,     // all ladder rules' nodes (1/nm)
     __global const REAL *weights,                             // per rule: 3 × count, row-major
     __global const int *texels, __global const int *levels,
@@ -235,8 +235,9 @@ __kernel void bake_texels_direct(
     const int x = index % width, y = row0 + index / width;
     const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
-    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[i_opd],
-                                opd_lo[i_opd], eta3_column[x], kappa3_axis[i_kappa3], eta1, eta2);
+    const int opd_at = i_opd * n_cos + i_cos;
+    const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[opd_at],
+                                opd_lo[opd_at], eta3_column[x], kappa3_nodes[i_kappa3 * n_cos + i_cos], eta1, eta2);
 
     // Ladder rule k has n_min·2^k nodes, stored after those of rules 0 … k−1.
     const int n_nodes = n_min << levels[gid];
