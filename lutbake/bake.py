@@ -106,21 +106,21 @@ def default_specs(precision: str = "half") -> dict:
     Domains (docs/accuracy.md): ``lutbake-eta2-X`` covers η3 1–3, κ3 0–2 (glass, water, oxides,
     weak absorbers); ``lutbake-eta2-X-metal`` covers η3 0.02–4, κ3 1.5–9, where Au, Ag, Cu, Al, Fe,
     Ti and Cr fall over 400–700 nm. Splitting the base there lets each grid follow its own hard
-    corner. cos θ is warped in √ (Fresnel terms change fastest near grazing); read cubic (clamped).
-    D is in √ and κ3 in ¼ power in both: nodes crowd towards thin films and low loss. Dielectric: η3 on
-    the sqrt-admittance spacing (nodes crowd towards η3 = η1 at grazing, where a film between two
-    near-total reflections rings): together they bring the nodes towards the corner cos θ1, D,
-    η3 − η1, κ3 → 0, where the truth has no limit and no grid is right (docs/accuracy.md). Metals: η3
-    in √ (the low-loss corner, where the film's resonances are sharpest). Counts from the searched
-    maximum and the p99 at 5,000 held-out points against the ground truth (docs/accuracy.md), under
-    8 MiB of EXR per LUT in half precision and 4096 texels a side (D × κ3 nodes ≤ 4096 rows).
+    corner; both are read cubic (clamped). Metals: cos θ, D and η3 in √, κ3 in ¼ power (the low-loss
+    corner near grazing, where the film's resonances are sharpest). Dielectric: the grazing corner
+    cos θ1, D, η3 − η1, κ3 → 0, where the colour is a function of ratios to cos θ1 only, is zoomed into
+    (format v5, docs/lut-format.md#the-grazing-corner): D, η3 and κ3 mix their own spacings (√,
+    sqrt-admittance, √) with those ratios, and cos θ1 is uniform in (cos θ1 + cos θ1^¼)/2. Counts from
+    the searched maximum and the p99 at 5,000 held-out points against the ground truth
+    (docs/accuracy.md), under 8 MiB of EXR per LUT in half precision and 4096 texels a side (D × κ3
+    nodes ≤ 4096 rows).
 
     Examples
     --------
     >>> import lutbake
     >>> specs = lutbake.default_specs()
     >>> list(specs)[:2], specs["lutbake-eta2-1.33"].shape, specs["lutbake-eta2-1.33-metal"].axes[2].lo
-    (['lutbake-eta2-1.33', 'lutbake-eta2-1.33-metal'], (44, 128, 22, 20), 0.02)
+    (['lutbake-eta2-1.33', 'lutbake-eta2-1.33-metal'], (46, 104, 24, 24), 0.02)
     """
     specs = {}
     for eta2 in _DIELECTRIC_COUNTS:
@@ -134,13 +134,20 @@ def default_specs(precision: str = "half") -> dict:
 # Node counts per film, cos θ × D × η3 × κ3: thinner films (η2 1.33) need more cos θ nodes at normal
 # incidence, where a thick film's phase turns with cos θ1 as 1/η2²; η2 2.0 over metals needs D and κ3
 # at the low-loss corner near grazing (docs/accuracy.md).
-_DIELECTRIC_COUNTS = {1.33: (44, 128, 22, 20), 1.5: (36, 136, 24, 22), 2.0: (36, 136, 24, 22)}
-_METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (28, 160, 16, 25)}
+_DIELECTRIC_COUNTS = {1.33: (46, 104, 24, 24), 1.5: (36, 120, 24, 24), 2.0: (36, 120, 24, 24)}
+_METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (38, 146, 22, 28)}
+# The dielectric LUTs' grazing corner zoom (docs/lut-format.md#the-grazing-corner): nodes and scale per
+# axis. Their ratio parts resolve the corner's colour, whose darkest valleys (a thin film's and a weak
+# absorber's reflections cancelling) set the counts; κ3's zoom also serves weak absorbers at any angle,
+# so its own spacing is √ rather than ¼ power (docs/accuracy.md).
+_CORNER = {"opd_nm": (24, 100.0), "eta3": (8, 1.0), "kappa3": (14, 0.3)}
 
 
 def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
-    return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
-            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance"), Axis("kappa3", 0.0, 2.0, n_kappa3, "root4"))
+    return (Axis("cos_theta", 0.0, 1.0, n_cos, "uniform-root4"),
+            Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt", _CORNER["opd_nm"]),
+            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance", _CORNER["eta3"]),
+            Axis("kappa3", 0.0, 2.0, n_kappa3, "sqrt", _CORNER["kappa3"]))
 
 
 def _metal_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
@@ -205,11 +212,18 @@ def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
             **series}
 
 
+def _format_version(spec: BakeSpec) -> int:
+    """5 for what only v5 readers know (the corner zoom, the uniform-root4 spacing), else 4: LUTs without them
+    stay readable by v4 readers, byte for byte as before."""
+    v5 = spec.has_corner or any(a.spacing == "uniform-root4" for a in spec.axes)
+    return FORMAT_VERSION if v5 else FORMAT_VERSION - 1
+
+
 def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
     return {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION if spec.has_corner else FORMAT_VERSION - 1,
+        "format_version": _format_version(spec),
         "lutbake_version": __version__,
         "content_hash": spec.content_hash,
         "axes": [a.describe() for a in spec.axes],

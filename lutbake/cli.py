@@ -306,11 +306,13 @@ CAPPED_WARNING = 1e-4  # |ΔRGB| measured at texels past the spectral node cap
 
 
 def axis_option(flag, name):
-    return click.option(flag, name, metavar="A:B:N[:SPACING]",
+    return click.option(flag, name, metavar="A:B:N[:SPACING[:NODES:SCALE]]",
                         help=f"{name} axis: N nodes from A to B, uniform, or uniform in sqrt ('sqrt') or in the "
-                             "4th root ('root4'), or (eta3 only) 'admittance': uniform in sqrt(eta3^2 - (eta1 sin "
-                             "theta1)^2), or 'sqrt-admittance': uniform in its square root. Omitted: that axis "
-                             "of the default set's first LUT, lutbake-eta2-1.33 (dielectric bases).")
+                             "4th root ('root4') or in (value + 4th root)/2 ('uniform-root4'), or (eta3 only) "
+                             "'admittance': uniform in sqrt(eta3^2 - (eta1 sin theta1)^2), or 'sqrt-admittance': "
+                             "uniform in its square root. NODES:SCALE (opd, eta3, kappa3): the grazing corner's zoom "
+                             "(docs/lut-format.md). Omitted: that axis of the default set's first LUT, "
+                             "lutbake-eta2-1.33 (dielectric bases).")
 
 
 def _use_device(ctx, param, selector):
@@ -371,6 +373,8 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
     template = next(iter(default_specs().values())).axes
     axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
+    if not _corner_fits(axes, eta1):   # the default axes' corner zoom needs the corner in the domain
+        axes = tuple(a if given[a.name] else replace(a, corner=()) for a in axes)
     extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
     return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
                     precision=precision or default_precision, interpolation=interpolation, compute=compute,
@@ -379,10 +383,18 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
 
 def _default_axis(axis, eta1: float):
     """A default axis as is, except η3's admittance spacing under an ambient above its low end (where
-    that spacing is undefined): uniform there."""
+    that spacing is undefined): uniform there, without the corner zoom (which starts at η3 = η1)."""
     if axis.spacing in ADMITTANCE_SPACINGS and axis.lo < eta1:
-        return replace(axis, spacing="uniform")
+        return replace(axis, spacing="uniform", corner=())
     return axis
+
+
+def _corner_fits(axes, eta1: float) -> bool:
+    """Whether the domain holds the grazing corner the zoom needs: cos θ1 and D from 0; η3 from η1 (where it
+    zooms) and κ3 from 0."""
+    cos_theta, opd, eta3, kappa3 = axes
+    return (cos_theta.lo == 0.0 and opd.lo == 0.0 and kappa3.lo == 0.0
+            and (not eta3.corner or eta3.lo == eta1))
 
 
 def scene_source_options(f):
@@ -1060,8 +1072,10 @@ def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progre
     if as_json:
         echo_json(doc)
     else:
+        from .plan import axis_from_header
+
         best = doc["result"]
-        axes = " ".join(f"--{n} {a['min']:g}:{a['max']:g}:{a['count']}{'' if a['spacing'] == 'uniform' else ':' + a['spacing']}"
+        axes = " ".join(f"--{n} {axis_from_header(a).flag()}"
                         for n, a in zip(("cos-theta", "opd", "eta3", "kappa3"), doc["axes"]))
         state = "met" if result.met else "NOT met"
         click.echo(f"target p99 ΔE00 ≤ {max_de:g} {state}: {axes} --interpolation {doc['interpolation']} "

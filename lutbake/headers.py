@@ -173,6 +173,7 @@ def _axis(axis: dict, field: str, version: int, eta1: float) -> None:
     _integer(_at(axis, "count", field), f"{field}.count", 2, 1 << 24)
     spacing = _at(axis, "spacing", field)
     _need(spacing in ("uniform", "sqrt") or spacing == "root4" and version >= 3
+          or spacing == "uniform-root4" and version >= 5
           or spacing in _ADMITTANCE_SINCE and name == "eta3" and version >= _ADMITTANCE_SINCE[spacing]
           and lo >= eta1, f"{field}.spacing")
     if "corner" in axis:   # format v5: the grazing corner's zoom (plan.Axis)

@@ -41,9 +41,11 @@ __all__ = ["cubic_taps", "mirrors_low_end"]
 _EVEN_SPACINGS = ("sqrt", "root4")   # value = lo + c·s² or lo + c·s⁴: even in the node coordinate s
 
 
-def mirrors_low_end(spacing: str, lo: float) -> bool:
-    """Whether an axis's ghost node below node 0 is the mirror of node 1 (else extrapolated)."""
-    return spacing in _EVEN_SPACINGS and lo == 0.0
+def mirrors_low_end(spacing: str, lo: float, zoomed: bool = False) -> bool:
+    """Whether an axis's ghost node below node 0 is the mirror of node 1 (else extrapolated). In a LUT that
+    zooms into the grazing corner (``zoomed``) no axis mirrors: at a fixed node coordinate the values move
+    as √cos θ1 there, so the content is not even in √ of any axis's value."""
+    return spacing in _EVEN_SPACINGS and lo == 0.0 and not zoomed
 
 
 def cubic_taps(f, count: int, mirror_low: bool):

@@ -36,6 +36,7 @@ from .fileset import temporary_for
 from .headers import check_metadata, check_structure, exr_header
 from .interpolation import mirrors_low_end
 from .names import ADMITTANCE_SPACINGS, shader_comment
+from .plan import ROOT4_WEIGHT
 from .names import shader_identifier as shader_ident
 
 __all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
@@ -259,8 +260,10 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] in ("sqrt", "sqrt-admittance") else "0.0" for a in axes),
-        "root4": ", ".join("1.0" if a["spacing"] == "root4" else "0.0" for a in axes),
-        "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"]) else "0.0" for a in axes),
+        "root4": ", ".join("1.0" if a["spacing"] == "root4" else _shader_float(ROOT4_WEIGHT)
+                           if a["spacing"] == "uniform-root4" else "0.0" for a in axes),
+        "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"], any("corner" in b for b in axes))
+                            else "0.0" for a in axes),
         "admittance": "1.0" if axes[2]["spacing"] in ADMITTANCE_SPACINGS else "0.0",
         "corner_share": ", ".join(_shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0"
                                   for a in axes),

@@ -43,7 +43,12 @@ __all__ = ["Axis", "BakeSpec", "parse_axis", "axis_from_header", "AXIS_NAMES", "
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
-SPACINGS = ("uniform", "sqrt", "root4", *ADMITTANCE_SPACINGS)
+SPACINGS = ("uniform", "sqrt", "root4", "uniform-root4", *ADMITTANCE_SPACINGS)
+# "uniform-root4" (format v5): uniform in (1 − g)·v + g·v^¼, g = ROOT4_WEIGHT. On cos θ1 under a corner
+# zoom: near grazing, at a fixed node coordinate, D, η3 and κ3 move with √cos θ1, which the ¼ power makes
+# a smooth function of the coordinate; towards normal incidence, where a thick film's phase turns with
+# cos θ1, it is near uniform.
+ROOT4_WEIGHT = 0.5
 CORNER_AXES = ("opd_nm", "eta3", "kappa3")
 PRECISIONS = ("float", "half")
 COMPUTE_PRECISIONS = ("float64", "float32")
@@ -56,6 +61,7 @@ DEFAULT_MEMORY_LIMIT_GIB = 8.0
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 _BISECTIONS = 64          # Axis.from_unit with a corner: the base coordinate to 2^-64
+_NEWTON_STEPS = 60        # the uniform-root4 spacing's inverse: converged to rounding (monotone steps)
 CORNER_COS = 1e-5         # where a corner LUT evaluates its cos θ1 = 0 nodes: the limit along each node's curve
 SCREEN_CHUNK = 1 << 16   # texels capped_texels screens at once
 SERIES_CHUNK = 1 << 16   # columns (or pairs) integrate._series_chunks builds at once
@@ -99,12 +105,13 @@ class Axis:
         Nodes, including both ends (2 ≤ count).
     spacing : str
         'uniform'; 'sqrt' (uniform in √value: nodes crowd towards lo); 'root4' (uniform in value^¼:
-        crowding harder, cos θ's towards grazing); 'admittance' (η3 only: uniform in
+        crowding harder, cos θ's towards grazing); 'uniform-root4' (uniform in (value + value^¼)/2:
+        near uniform at 1, ¼ power near 0; cos θ1 of a corner zoom); 'admittance' (η3 only: uniform in
         √(η3² − (η1 sin θ1)²) at each cos θ1 node, crowding towards η3 = η1 at grazing);
         'sqrt-admittance' (η3 only: uniform in the square root of that admittance, crowding harder).
     corner : tuple
         () or (nodes, scale): the grazing corner's zoom (format v5, D, η3 and κ3 only; docs/lut-format.md#the-grazing-corner).
-        The coordinate becomes (1 − β)·u + β·H(ρ)/H(ρ_max), β = nodes/(count − 1), H(ρ) = √ρ/(1 + √ρ), with
+        The coordinate becomes (1 − β)·u + β·H(ρ)/H(ρ_max), β = nodes/(count − 1), H(ρ) = 1 − (1 + ρ)^−¼, with
         ρ the axis's ratio to the incidence: D/(scale·cos θ1), (η3² − η1²)/(scale·(η1 cos θ1)²) or
         2η1κ3/(scale·(η1 cos θ1)²). Near cos θ1 = 0, D = 0, η3 = η1, κ3 = 0 the colour is a function of
         these ratios only, so in this coordinate it has a limit there, which a grid can follow.
@@ -141,6 +148,8 @@ class Axis:
             return np.sqrt(np.maximum(v, 0.0))
         if self.spacing == "root4":
             return np.sqrt(np.sqrt(np.maximum(v, 0.0)))
+        if self.spacing == "uniform-root4":
+            return (1.0 - ROOT4_WEIGHT) * v + ROOT4_WEIGHT * np.sqrt(np.sqrt(np.maximum(v, 0.0)))
         if self.spacing in ADMITTANCE_SPACINGS:   # Y3² = (η3 − η1)(η3 + η1) + (η1 cos θ1)²: no cancellation
             root = np.sqrt(np.maximum((v - inc[0]) * (v + inc[0]) + inc[1], 0.0))
             return root if self.spacing == "admittance" else np.sqrt(root)
@@ -151,6 +160,12 @@ class Axis:
             return w * w
         if self.spacing == "root4":
             return np.square(w * w)
+        if self.spacing == "uniform-root4":   # r = v^¼ solves (1 − g) r⁴ + g r = w, convex and increasing in
+            g = ROOT4_WEIGHT                    # r ≥ 0: Newton's steps from above converge monotonically
+            r = np.maximum(np.sqrt(np.sqrt(np.maximum(w, 0.0) / (1.0 - g))), w / g)
+            for _ in range(_NEWTON_STEPS):
+                r = r - ((1.0 - g) * r ** 4 + g * r - w) / (4.0 * (1.0 - g) * r ** 3 + g)
+            return np.square(r * r)
         if self.spacing in ADMITTANCE_SPACINGS:   # η3 from η3² = Y3² − (η1 cos θ1)² + η1²
             y2 = w * w if self.spacing == "admittance" else np.square(w * w)
             return np.sqrt(np.maximum(y2 - inc[1] + inc[0] ** 2, 0.0))
@@ -204,6 +219,23 @@ class Axis:
         beta = self.corner[0] / (self.count - 1)
         return (1.0 - beta) * u + beta * self._zoom(v, cos_theta, inc)
 
+    def resized(self, count: int) -> "Axis":
+        """This axis with ``count`` nodes; a corner zoom keeps its share of them (at least 1, at most N − 2)."""
+        corner = self.corner
+        if corner:
+            nodes = int(round(corner[0] * (count - 1) / (self.count - 1)))
+            corner = (min(max(nodes, 1), max(count - 2, 1)), corner[1])
+        return Axis(self.name, self.lo, self.hi, count, self.spacing, corner)
+
+    def flag(self) -> str:
+        """The axis as the command line takes it: A:B:N[:SPACING[:CORNER_NODES:CORNER_SCALE]]."""
+        text = f"{self.lo:g}:{self.hi:g}:{self.count}"
+        if self.spacing != "uniform" or self.corner:
+            text += f":{self.spacing}"
+        if self.corner:
+            text += f":{self.corner[0]}:{self.corner[1]:g}"
+        return text
+
     def describe(self) -> dict:
         out = {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
                "count": self.count, "spacing": self.spacing}
@@ -213,11 +245,13 @@ class Axis:
 
 
 def _ratio_h(a, b):
-    """H = √a/(√a + √b) = √ρ/(1 + √ρ) of ρ = a/b for a, b ≥ 0; 1 where a = b = 0, which happens only at
-    grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the stack."""
-    ra, rb = np.sqrt(a), np.sqrt(b)
+    """H = 1 − (1 + ρ)^−¼ of the ratio ρ = a/b (a, b ≥ 0), written 1 − (b/(a + b))^¼; 1 where a = b = 0,
+    which happens only at grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the
+    stack. Near ρ = 0 H ≈ ρ/4, so the colour, quadratic in the ratios there, stays quadratic in the node
+    coordinate; at ρ → ∞ 1 − R falls as (1 − H)² or faster, so R meets 1 without a kink."""
+    total = np.asarray(a + b, float)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(ra + rb > 0, ra / (ra + rb), 1.0)
+        return np.where(total > 0, 1.0 - np.sqrt(np.sqrt(b / np.where(total > 0, total, 1.0))), 1.0)
 
 
 def axis_from_header(record: dict) -> Axis:
@@ -228,18 +262,20 @@ def axis_from_header(record: dict) -> Axis:
 
 
 def parse_axis(name: str, text: str) -> Axis:
-    """Parse 'A:B:N' or 'A:B:N:sqrt' into a validated Axis."""
+    """Parse 'A:B:N', 'A:B:N:SPACING' or 'A:B:N:SPACING:CORNER_NODES:CORNER_SCALE' into a validated Axis."""
     parts = text.split(":")
-    if len(parts) not in (3, 4):
-        raise ParameterError(f"{{{name}}} {{text}} is not A:B:N or A:B:N:SPACING", text=repr(text))
+    if len(parts) not in (3, 4, 6):
+        raise ParameterError(f"{{{name}}} {{text}} is not A:B:N, A:B:N:SPACING or A:B:N:SPACING:NODES:SCALE",
+                             text=repr(text))
     try:
         lo, hi = float(parts[0]), float(parts[1])
         count = int(parts[2])
+        corner = (int(parts[4]), float(parts[5])) if len(parts) == 6 else ()
     except ValueError:
-        raise ParameterError(f"{{{name}}} {{text}}: A and B must be numbers and N an integer",
+        raise ParameterError(f"{{{name}}} {{text}}: A, B and SCALE must be numbers, N and NODES integers",
                              text=repr(text)) from None
-    spacing = parts[3] if len(parts) == 4 else "uniform"
-    return validate_axis(Axis(name, lo, hi, count, spacing))
+    spacing = parts[3] if len(parts) >= 4 else "uniform"
+    return validate_axis(Axis(name, lo, hi, count, spacing, corner))
 
 
 def validate_axis(axis: Axis) -> Axis:
@@ -462,14 +498,14 @@ class BakeSpec:
 
     def _grazing_column(self, axis: Axis) -> np.ndarray:
         """Node values of a corner axis in the cos θ1 = 0 column, evaluated at CORNER_COS: there the zoom is
-        H(ρ)/H(ρ_max) → H(ρ), so node u < β holds the ratio ρ = (h/(1 − h))², h = u/β, set exactly
+        H(ρ)/H(ρ_max) → H(ρ), so node u < β holds the ratio ρ = (1 − h)^−4 − 1, h = u/β, set exactly
         (the bisection would reach it only to O(√CORNER_COS)); nodes u ≥ β hold total reflection
         (``grazing_white``) and keep the value the bisection gives."""
         nodes, scale = axis.corner
         u = np.linspace(0.0, 1.0, axis.count)
         h = np.minimum(u * (axis.count - 1) / nodes, 1.0)
         with np.errstate(divide="ignore"):
-            rho = np.square(h / (1.0 - h))
+            rho = (1.0 - h) ** -4.0 - 1.0
         e1c2 = np.square(self.eta1 * CORNER_COS)
         if axis.name == "opd_nm":
             ratio_value = rho * scale * CORNER_COS

@@ -172,7 +172,7 @@ def trial_lut(spec, counts, integrator) -> tuple:
     from .integrate import bake_rows_all
     from .sample import Lut
 
-    grid = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, counts)))
+    grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, counts)))
     start = time.perf_counter()
     image = bake_rows_all(integrator, grid).astype(np.float16 if spec.precision == "half" else np.float32)
     return Lut.in_memory(grid, image), image.nbytes, time.perf_counter() - start
@@ -231,7 +231,7 @@ def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, b
     from .report import held_out_points, proxy_truth, score, search_max
     from .sample import Lut
 
-    grid = replace(spec, axes=tuple(replace(a, count=c) for a, c in zip(spec.axes, result.counts)))
+    grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, result.counts)))
     lut = Lut.in_memory(grid, result.artefact)
     pts = held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed)
     de = score("lut", lut.sample(pts.stack), pts, spec.space, spec.observer).de00
@@ -240,7 +240,7 @@ def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, b
 
 def tune_document(spec, result: Refinement) -> dict:
     """`tune --json`: the target, the counts found and their axes, the best trial's statistics, the rounds."""
-    axes = [replace(a, count=c).describe() for a, c in zip(spec.axes, result.counts)]
+    axes = [a.resized(c).describe() for a, c in zip(spec.axes, result.counts)]
     return {"target_de00_p99": result.target_de00_p99, "met": result.met, "counts": list(result.counts),
             "axes": axes, "interpolation": spec.interpolation, "result": {**result.best.stats, **result.best.row()},
             "point_kinds": "half uniform, half at centres of each trial grid's cells (as `report`)",

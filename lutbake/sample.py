@@ -145,7 +145,8 @@ class Lut:
         by tile, then clamped per channel to the range of the texels read."""
         axes = self.axes
         layout = TileLayout(*(a.count for a in axes))
-        taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo)) for fi, a in zip(f, axes)]
+        zoomed = any(a.corner for a in axes)
+        taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo, zoomed)) for fi, a in zip(f, axes)]
         nodes = [[np.clip(first + k, 0, a.count - 1) for k in range(4)] for (first, _), a in zip(taps, axes)]
         out = np.zeros(f[0].shape + (3,))
         low, high = np.full_like(out, np.inf), np.full_like(out, -np.inf)

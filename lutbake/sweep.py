@@ -18,7 +18,7 @@ from pathlib import Path
 from .approximations import APPROXIMATIONS
 from .bake import bake
 from .errors import ParameterError
-from .plan import Axis, BakeSpec
+from .plan import BakeSpec
 from .progress import no_progress
 from .refine import POINT_KIND, uniform_points
 from .report import proxy_truth, score, search_max
@@ -30,8 +30,7 @@ SWEEP_SEARCH_BUDGET = 5000   # evaluations of each row's worst-case search
 
 
 def _scaled(spec: BakeSpec, factors) -> BakeSpec:
-    axes = tuple(Axis(a.name, a.lo, a.hi, max(2, int(round(a.count * f))), a.spacing)
-                 for a, f in zip(spec.axes, factors))
+    axes = tuple(a.resized(max(2, int(round(a.count * f)))) for a, f in zip(spec.axes, factors))
     return replace(spec, axes=axes)
 
 

@@ -37,16 +37,11 @@ def test_default_lut_images_fit_4096_texels_a_side():
         assert max(spec.image_size) <= 4096, (name, spec.image_size)
 
 
-# Searched max over the whole domain of each metal LUT (docs/accuracy.md): within 1, but η2 2.0's, whose
-# low-loss corner near grazing needs more D × κ3 nodes than 4096 texel rows hold (measured 1.08–1.42).
-METAL_MAX = {"lutbake-eta2-1.33-metal": 1.0, "lutbake-eta2-1.50-metal": 1.0, "lutbake-eta2-2.00-metal": 1.5}
-
-
 @pytest.mark.parametrize("name", sorted(default_specs()))
 def test_default_lut_passes_the_readme_gate(name):
-    """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points;
-    its searched max is within the metal LUTs' bounds, and a dielectric LUT's sits at the corner where the
-    truth has no limit (ρ < 0.2; outside it: the next test)."""
+    """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points,
+    issue 13's p99 ≤ 0.3, and issue 24's searched max ≤ 1 over the whole domain: the dielectric LUTs' grazing
+    corner included, which their zoom resolves (docs/lut-format.md#the-grazing-corner)."""
     out = subprocess.run([sys.executable, "-m", "lutbake.cli", "report", str(LUTS / f"{name}.exr"), "--max-de", "1.0",
                           "--no-approximations", "--json"], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr or out.stdout[-2000:]
@@ -55,25 +50,19 @@ def test_default_lut_passes_the_readme_gate(name):
     assert summary["point_kinds"] == {"cell-centre": 500, "uniform": 500}
     # issue 13's p99 target, read cubic as the header says (linear reads of the same files score ~0.7)
     assert summary["interpolation"] == "cubic" and summary["lut_error"]["de00_p99"] <= 0.3
-    worst = summary["lut_error"]["worst_case"]
-    if name in METAL_MAX:
-        assert worst["de00_max"] <= METAL_MAX[name]
-    else:
-        at = FilmPoints.build(eta2=default_specs()[name].eta2, cos_theta=worst["cos_theta"], opd_nm=worst["opd_nm"],
-                              eta3=worst["eta3"], kappa3=worst["kappa3"])
-        assert worst["de00_max"] > 10 and corner_distance(at)[0] < 0.2
+    assert summary["lut_error"]["worst_case"]["de00_max"] <= 1.0, summary["lut_error"]["worst_case"]
 
 
 @pytest.mark.parametrize("name", [n for n in sorted(default_specs()) if not n.endswith("-metal")])
-def test_dielectric_lut_max_is_within_1_outside_the_corner(name):
-    """Outside the corner's neighbourhood ρ < 0.2 (report.corner_distance: for a film over air, beyond ~78°
-    with D below ~60 nm, η3 within ~2 % of η1 and κ3 below ~0.02 together) the searched max is ≤ 1
-    (measured 0.44–0.79 at seeds 0–2); the corner itself errs by up to ΔE00 100 in any grid."""
+def test_dielectric_lut_max_is_within_1_in_the_corner(name):
+    """Inside the corner's neighbourhood ρ < 0.2 (report.corner_distance: for a film over air, beyond ~78°
+    with D below ~60 nm, η3 within ~2 % of η1 and κ3 below ~0.02 together), where an unzoomed grid errs by
+    up to ΔE00 100, the search spends its whole budget and finds at most 1 (a seed the report does not use)."""
     lut = Lut.load(LUTS / f"{name}.exr")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", 1000, 3)
     de = score("lut", lut.sample(pts.stack), pts, "rec709", "cie1931").de00
     found = search_max(lut.sample, lut, pts, de, proxy_truth(lut), SEARCH_BUDGET, 3,
-                       exclude=lambda stack: corner_distance(stack) < 0.2)
+                       exclude=lambda stack: corner_distance(stack) >= 0.2)
     assert found["de00_max"] <= 1.0, found
 
 

@@ -76,6 +76,21 @@ def _coordinates(rng, lo, hi, n, floor=None, ceil=None):
     return np.clip(v, floor, ceil)
 
 
+def _into_the_corner(columns: dict, rng, share: float = 0.25) -> None:
+    """A ``share`` of the points moved next to the grazing corner a zoomed LUT resolves (cos θ1 1e-6–1e-2,
+    D, η3 − 1 and κ3 at ratios 1e-2–1e2 to cos θ1, cos² θ1, or exactly 0), as float32 values, so the
+    shader reads the very inputs `lutbake sample` does (η3 − 1 below float32's spacing would not be)."""
+    n = columns["cos_theta"].size
+    pick = rng.random(n) < share
+    k = int(pick.sum())
+    c = 10 ** rng.uniform(-6, -2, k)
+    ratio = [np.where(rng.random(k) < 0.2, 0.0, 10 ** rng.uniform(-2, 2, k)) for _ in range(3)]
+    moved = {"cos_theta": c, "opd_nm": ratio[0] * 30.0 * c, "eta3": 1.0 + ratio[1] * c * c,
+             "kappa3": ratio[2] * c * c}
+    for name, values in moved.items():
+        columns[name][pick] = values.astype(np.float32).astype(float)
+
+
 def lutbake_sample(folder: Path, path: Path, columns: dict, *args) -> list:
     """`lutbake sample PATH --points CSV --json` rows, run as a user would."""
     text = io.StringIO()
@@ -97,6 +112,8 @@ def lut_job(folder: Path, path: Path, rng, interpolation=None) -> dict:
     limits = [(0.0, 1.0), (0.0, None), (0.01, None), (0.0, None)]   # η3 ≥ 0.01: what `sample` accepts
     columns = {name: _coordinates(rng, a.lo, a.hi, POINTS, *lim)
                for name, a, lim in zip(("cos_theta", "opd_nm", "eta3", "kappa3"), axes, limits)}
+    if any(a.corner for a in axes):
+        _into_the_corner(columns, rng)
     rows = lutbake_sample(folder, path, columns, *(["--interpolation", interpolation] if interpolation else []))
     function = f"lutbake_sample_{interpolation}" if interpolation else "lutbake_sample"
     return {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}",

@@ -408,7 +408,21 @@ HEADER_VALUES = {
     "channels GBR": lambda m: m.update(channels=["G", "B", "R"]),
     "precision half over FLOAT channels": lambda m: m.update(precision="half"),
     "metadata nested 10,000 deep": lambda m: None,   # the text is built below: json.dumps would recurse
+    "corner zoom in a version 4 file": lambda m: m["axes"][1].update(corner={"nodes": 1, "scale": 30.0}),
+    "uniform-root4 in a version 4 file": lambda m: m["axes"][0].update(spacing="uniform-root4"),
+    "corner zoom on cos_theta": lambda m: _v5(m, 0, {"nodes": 1, "scale": 1.0}),
+    "corner nodes past N - 2": lambda m: _v5(m, 1, {"nodes": 3, "scale": 30.0}),
+    "corner scale 0": lambda m: _v5(m, 1, {"nodes": 1, "scale": 0.0}),
+    "corner without scale": lambda m: _v5(m, 3, {"nodes": 1}),
+    "corner a list": lambda m: _v5(m, 2, [1, 1.0]),
+    "corner on eta3 not from eta1": lambda m: (_v5(m, 2, {"nodes": 1, "scale": 1.0}), m["axes"][2].update(min=1.2)),
 }
+
+
+def _v5(meta: dict, axis: int, corner) -> None:
+    """A version 5 header whose axis ``axis`` has the corner record ``corner``."""
+    meta.update(format_version=5)
+    meta["axes"][axis]["corner"] = corner
 
 
 @pytest.mark.parametrize("name", list(HEADER_VALUES))
