@@ -245,13 +245,16 @@ class Axis:
 
 
 def _ratio_h(a, b):
-    """H = 1 − (1 + ρ)^−¼ of the ratio ρ = a/b (a, b ≥ 0), written 1 − (b/(a + b))^¼; 1 where a = b = 0,
-    which happens only at grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the
-    stack. Near ρ = 0 H ≈ ρ/4, so the colour, quadratic in the ratios there, stays quadratic in the node
-    coordinate; at ρ → ∞ 1 − R falls as (1 − H)² or faster, so R meets 1 without a kink."""
+    """H = 1 − (1 + ρ)^−¼ of the ratio ρ = a/b (a, b ≥ 0), written with q = b/(a + b) as
+    (a/(a + b))/((1 + √q)(1 + q^¼)), which does not cancel at small ρ; 1 where a = b = 0, which happens only
+    at grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the stack. Near ρ = 0
+    H ≈ ρ/4, so the colour, quadratic in the ratios there, stays quadratic in the node coordinate; at
+    ρ → ∞ 1 − R falls as (1 − H)² or faster, so R meets 1 without a kink."""
     total = np.asarray(a + b, float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(total > 0, 1.0 - np.sqrt(np.sqrt(b / np.where(total > 0, total, 1.0))), 1.0)
+    empty = total == 0
+    safe = np.where(empty, 1.0, total)
+    q = b / safe
+    return (a / safe + empty) / ((1.0 + np.sqrt(q)) * (1.0 + np.sqrt(np.sqrt(q))))
 
 
 def axis_from_header(record: dict) -> Axis:
