@@ -63,12 +63,12 @@ class BakeResult:
 
     Examples
     --------
-    A shipped spec at 4 nodes per axis:
+    A shipped spec at 4 nodes per axis (``Axis.resized`` keeps a corner zoom's share of the nodes):
 
     >>> from dataclasses import replace
     >>> import lutbake
     >>> spec = lutbake.default_specs()["lutbake-eta2-1.50"]
-    >>> small = replace(spec, axes=tuple(replace(axis, count=4) for axis in spec.axes))
+    >>> small = replace(spec, axes=tuple(axis.resized(4) for axis in spec.axes))
     >>> result = lutbake.bake_lut(small, "small.exr")
     >>> result.cells, result.path.name, bool(result.spectral_error_rgb_max < 1e-6)
     (256, 'small.exr', True)

@@ -315,8 +315,9 @@ def _validate_corner(axis: Axis, field: str) -> None:
     if axis.name != "eta3" and axis.lo != 0.0:
         raise ParameterError(field + " corner zoom needs A = 0, got {lo}", lo=f"{axis.lo:g}")
     if not (isinstance(nodes, int) and 1 <= nodes <= axis.count - 2):
-        raise ParameterError(field + " corner nodes {nodes} is not allowed: need 1 <= nodes <= N - 2 = {most}",
-                             nodes=repr(nodes), most=axis.count - 2)
+        raise ParameterError(field + " corner nodes {nodes} is not allowed: need 1 <= nodes <= N - 2 = {most} "
+                             "(Axis.resized(N) keeps a zoom's share of the nodes)", nodes=repr(nodes),
+                             most=axis.count - 2)
     if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
         raise ParameterError(field + " corner scale {scale} is not allowed: need a finite number > 0",
                              scale=repr(scale))

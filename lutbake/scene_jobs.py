@@ -157,7 +157,7 @@ def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrato
         result = tune(spec, job.scene.max_de, n_points=SCORED_POINTS["lut"], seed=0, backend=backend,
                       max_rounds=_LUT_MAX_ROUNDS, start=job.counts, frozen=frozen, search_budget=_LUT_SEARCH_BUDGET)
         worst = result.best.stats["worst_case"]
-    axes = tuple(replace(a, count=c) for a, c in zip(spec.axes, result.counts))
+    axes = tuple(a.resized(c) for a, c in zip(spec.axes, result.counts))
     write_lut(replace(spec, axes=axes), path, files, backend)
     scoring = {"path_scoring": result.best.stats} if "base_path" in job.key else {}
     return {"counts": list(result.counts), "de00_p99": result.best.de00_p99, "de00_p99_bound": result.best.held,

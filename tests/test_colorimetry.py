@@ -110,7 +110,7 @@ import sys, lutbake
 from lutbake.colorimetry import delta_e00
 spec = lutbake.default_specs()["lutbake-eta2-1.50"]
 from dataclasses import replace
-lutbake.bake_lut(replace(spec, axes=tuple(replace(a, count=4) for a in spec.axes)), sys.argv[1])
+lutbake.bake_lut(replace(spec, axes=tuple(a.resized(4) for a in spec.axes)), sys.argv[1])
 delta_e00([0.1, 0.2, 0.3], [0.1, 0.2, 0.31])
 print("colour" in sys.modules)
 """

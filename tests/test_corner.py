@@ -125,3 +125,13 @@ def test_at_the_corner_itself_the_read_matches_the_truth(zoomed):
     _, lut = zoomed
     at = _stack([0.0, 0.0, 1e-9, 1e-3], [0.0, 5.0, 0.0, 0.0], 1.0, 0.0)
     np.testing.assert_allclose(lut.sample(at), reference_rgb(at), atol=1e-6)
+
+
+def test_blender_node_groups_refuse_a_zoomed_axis():
+    """Blender's node groups read scene and glTF bakes, whose LUTs never zoom; a zoomed axis reaching them is
+    refused by name rather than read as its plain spacing (which would be wrong by the zoom)."""
+    from lutbake.blender_nodes import _axis_coordinate
+
+    axis = _axes(True)[1].describe()
+    with pytest.raises(ValueError, match="opd_nm: the grazing corner's zoom"):
+        _axis_coordinate(None, 0.0, axis, None)
