@@ -61,14 +61,15 @@ class HeldOutPoints:
 def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n_points: int,
                     seed: int, centre_fraction: float = 0.5, truth=None) -> HeldOutPoints:
     """Uniform over the axes' domain, and a ``centre_fraction`` at centres of random cells of
-    this grid (in node coordinates), where its interpolation error peaks; their colour by ``truth``
-    (``stack -> RGB``; the ground truth, reference.py, by default)."""
+    this grid (in node coordinates), where its interpolation error peaks, as float32 values (what a
+    shader is given, ``shader_inputs``); their colour by ``truth`` (``stack -> RGB``; the ground truth,
+    reference.py, by default)."""
     rng = np.random.default_rng(seed)
     n_centre = int(n_points * centre_fraction)
     uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in axes]
     units = np.column_stack([(rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1) for a in axes])
     centres = lut_stacks(axes, eta1, eta2, units)
-    coords = {a.name: np.concatenate([u, c]) for a, u, c in
+    coords = {a.name: np.concatenate([u, c]).astype(np.float32).astype(float) for a, u, c in   # shader_inputs
               zip(axes, uniform, (centres.cos_theta, centres.opd_nm, centres.eta3, centres.kappa3))}
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
     stack = FilmPoints.build(eta1=eta1, eta2=eta2, **coords)
@@ -137,7 +138,7 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
         de00 = np.where(exclude(pts.stack), 0.0, de00)
 
     def error(unit):
-        stack = lut_stacks(axes, lut.eta1, lut.eta2, unit)
+        stack = shader_inputs(lut_stacks(axes, lut.eta1, lut.eta2, unit))
         with np.errstate(invalid="ignore", divide="ignore"):   # NaN (a 0/0 in an approximation) is the worst
             de = delta_e00(read(stack), proxy(stack), observer, space)
         return de if exclude is None else np.where(exclude(stack), 0.0, de)
@@ -147,7 +148,7 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
                        errors=de00, singular=singular_places(axes, lut.eta1), budget=budget, seed=seed)
     found = worst.candidates[:RESCORED]
     how = [c.how().replace("given point", start_label, 1) for c in found]
-    stack = lut_stacks(axes, lut.eta1, lut.eta2, np.array([c.where for c in found]))
+    stack = shader_inputs(lut_stacks(axes, lut.eta1, lut.eta2, np.array([c.where for c in found])))
     truth = reference_colour(stack, observer, space).values
     with np.errstate(invalid="ignore", divide="ignore"):
         rgb = read(stack)
@@ -167,6 +168,15 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
             "local_maxima": [{**_point(stack, i), "de00": float(scored[i]), "found_by": how[i],
                               "lut_rgb": rgb[i].tolist(), "truth_rgb": truth[i].tolist()}
                              for i in range(len(found))]}
+
+
+def shader_inputs(stack: FilmPoints) -> FilmPoints:
+    """The stacks at float32 values of cos θ1, D, η3 and κ3, as a shader receives them: near the grazing
+    corner the search reaches ratios (η3 − η1 against cos² θ1) that float32 inputs cannot carry, and every
+    path, the LUT's too, is scored against the truth at the inputs it can be given."""
+    return FilmPoints.texels(eta1=stack.eta1, eta2=stack.eta2, **{
+        name: np.asarray(getattr(stack, name), np.float32).astype(float)
+        for name in ("cos_theta", "opd_nm", "eta3", "kappa3")})
 
 
 def _point(stack: FilmPoints, i: int) -> dict:
