@@ -135,3 +135,36 @@ def test_blender_node_groups_refuse_a_zoomed_axis():
     axis = _axes(True)[1].describe()
     with pytest.raises(ValueError, match="opd_nm: the grazing corner's zoom"):
         _axis_coordinate(None, 0.0, axis, None)
+
+
+def test_the_command_line_takes_a_zoom_and_prints_what_it_takes():
+    """A:B:N:SPACING:NODES:SCALE on D, η3 or κ3; ``Axis.flag`` (what `tune` prints) parses back to the axis."""
+    from lutbake.plan import parse_axis
+
+    axis = parse_axis("opd_nm", "0:1500:80:sqrt:20:100")
+    assert axis == Axis("opd_nm", 0.0, 1500.0, 80, "sqrt", (20, 100.0))
+    for a in _axes(True):
+        assert parse_axis(a.name, a.flag()) == a
+
+
+def _cli(args, cwd):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "lutbake.cli", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_a_bad_zoom_is_one_line_exit_2_and_nothing_written(tmp_path):
+    out = _cli(["bake", "--eta2", "1.33", "--opd", "0:1500:8:sqrt:9:100", "--out", "x.exr"], tmp_path)
+    assert out.returncode == 2 and "corner nodes 9 is not allowed" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and not any(tmp_path.iterdir())
+
+
+def test_default_axes_drop_their_zoom_where_the_domain_leaves_out_the_corner(tmp_path):
+    """`--cos-theta 0.2:1:8` leaves grazing out: the default D, η3 and κ3 axes then bake without their zoom
+    (a format v4 file) instead of refusing axes the user did not give."""
+    out = _cli(["bake", "--eta2", "1.33", "--cos-theta", "0.2:1:8", "--opd", "0:1500:16:sqrt", "--out", "x.exr"],
+               tmp_path)
+    assert out.returncode == 0, out.stderr
+    meta = Lut.load(tmp_path / "x.exr").meta
+    assert meta["format_version"] == 4 and not any("corner" in a for a in meta["axes"])
