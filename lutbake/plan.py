@@ -181,18 +181,30 @@ class Axis:
 
     def _zoom(self, v, cos_theta, inc):
         """H(ρ)/H(ρ_max) of the corner: 0 at lo, 1 at hi, and 1 at any v > lo when cos θ1 = 0."""
-        if self.name == "opd_nm":
-            a, a_max, b = np.maximum(v, 0.0), np.float64(self.hi), self.corner[1] * cos_theta
-        else:
-            a, a_max, b = self._ratio_numerator(v, inc[0]), self._ratio_numerator(self.hi, inc[0]), self.corner[1] * inc[1]
-        return _ratio_h(a, b) / _ratio_h(a_max, b)
+        b = self._ratio_denominator(cos_theta, inc)
+        return _ratio_h(self._ratio_numerator(v, inc[0]), b) / _ratio_h(self._ratio_numerator(self.hi, inc[0]), b)
 
     def _ratio_numerator(self, v, eta1):
-        """η3² − η1² (η3) or 2η1κ3 (κ3), ≥ 0: the base's admittance squared minus (η1 cos θ1)², in size."""
+        """a ≥ 0 of the axis's ratio ρ = a/b to the incidence: D (nm), η3² − η1² or 2η1κ3 (the base's admittance
+        squared minus (η1 cos θ1)², in size)."""
         v = np.asarray(v, float)
+        if self.name == "opd_nm":
+            return np.maximum(v, 0.0)
         if self.name == "eta3":
             return np.maximum((v - eta1) * (v + eta1), 0.0)
         return np.maximum(2.0 * eta1 * v, 0.0)
+
+    def _ratio_denominator(self, cos_theta, inc):
+        """b of the ratio: scale·cos θ1 (D) or scale·(η1 cos θ1)² (η3, κ3)."""
+        return self.corner[1] * (cos_theta if self.name == "opd_nm" else inc[1])
+
+    def value_at_ratio(self, rho, cos_theta, eta1=1.0):
+        """The value whose ratio to the incidence cos θ1 is ρ (``_ratio_numerator``'s inverse at a = ρ·b)."""
+        cos_theta = np.asarray(cos_theta, float)
+        a = rho * self._ratio_denominator(cos_theta, (eta1, np.square(eta1 * cos_theta)))
+        if self.name == "opd_nm":
+            return a
+        return np.sqrt(eta1 * eta1 + a) if self.name == "eta3" else a / (2.0 * eta1)
 
     def from_unit(self, u, cos_theta=1.0, eta1=1.0):
         """Value at the normalized coordinate u in [0, 1] at the incidence cos θ1 (under the ambient η1):
@@ -496,7 +508,7 @@ class BakeSpec:
             return cos_t
         axis = self.axis[name]
         v = np.array(np.broadcast_to(axis.values(cos_t, self.eta1), (axis.count, cos_t.size)))
-        if axis.corner and self.axis["cos_theta"].lo == 0.0:
+        if axis.corner:   # a zoom's cos θ1 axis starts at 0 (validated): its first column is the limit
             v[:, 0] = self._grazing_column(axis)
         return v
 
@@ -505,19 +517,10 @@ class BakeSpec:
         H(ρ)/H(ρ_max) → H(ρ), so node u < β holds the ratio ρ = (1 − h)^−4 − 1, h = u/β, set exactly
         (the bisection would reach it only to O(√CORNER_COS)); nodes u ≥ β hold total reflection
         (``grazing_white``) and keep the value the bisection gives."""
-        nodes, scale = axis.corner
-        u = np.linspace(0.0, 1.0, axis.count)
-        h = np.minimum(u * (axis.count - 1) / nodes, 1.0)
+        h = np.minimum(np.arange(axis.count) / axis.corner[0], 1.0)
         with np.errstate(divide="ignore"):
             rho = (1.0 - h) ** -4.0 - 1.0
-        e1c2 = np.square(self.eta1 * CORNER_COS)
-        if axis.name == "opd_nm":
-            ratio_value = rho * scale * CORNER_COS
-        elif axis.name == "eta3":
-            ratio_value = np.sqrt(self.eta1 ** 2 + rho * scale * e1c2)
-        else:
-            ratio_value = rho * scale * e1c2 / (2.0 * self.eta1)
-        return np.where(h < 1.0, ratio_value, axis.values(CORNER_COS, self.eta1))
+        return np.where(h < 1.0, axis.value_at_ratio(rho, CORNER_COS, self.eta1), axis.values(CORNER_COS, self.eta1))
 
     def grazing_white(self, y0: int, y1: int) -> np.ndarray:
         """Texels of rows [y0, y1) that hold total reflection, (rows, width) bool: in the cos θ1 = 0 column of a
@@ -526,12 +529,10 @@ class BakeSpec:
         width, _ = self.image_size
         i_cos, i_opd, i_eta3, i_kappa3 = self.layout.nodes(np.arange(width)[None, :], np.arange(y0, y1)[:, None])
         white = np.zeros((y1 - y0, width), bool)
-        if not self.has_corner:
-            return white
         for axis, index in zip(self.axes[1:], (i_opd, i_eta3, i_kappa3)):
             if axis.corner:
                 white |= index >= axis.corner[0]
-        return white & (i_cos == 0) & (self.axis["cos_theta"].lo == 0.0)
+        return white & (i_cos == 0)
 
     def eta3_columns(self) -> np.ndarray:
         """η3 of each image column, in column order (layout.TileLayout: η3 nodes at the column's cos θ1 node)."""
