@@ -366,6 +366,7 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
                 method, samples_per_cycle, default_precision="float"):
     """BakeSpec from domain flags; axes not given take the default set's first LUT's (dielectric bases)."""
     from .bake import default_specs
+    from .errors import ParameterError
     from .plan import BakeSpec, parse_axis
 
     if eta2 is None:
@@ -373,12 +374,17 @@ def domain_spec(eta2, eta1, cos_theta, opd_nm, eta3, kappa3, space, observer, pr
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
     template = next(iter(default_specs().values())).axes
     axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
-    if not _corner_fits(axes, eta1):   # the default axes' corner zoom needs the corner in the domain
-        axes = tuple(a if given[a.name] else replace(a, corner=()) for a in axes)
     extra = {} if samples_per_cycle is None else {"samples_per_cycle": samples_per_cycle}
-    return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
-                    precision=precision or default_precision, interpolation=interpolation, compute=compute,
-                    method=method, **extra)
+
+    def spec(axes):
+        return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, space=space, observer=observer,
+                        precision=precision or default_precision, interpolation=interpolation, compute=compute,
+                        method=method, **extra)
+
+    try:
+        return spec(axes)
+    except ParameterError:   # the default axes' corner zoom needs the corner in the given domain; without it
+        return spec(tuple(a if given[a.name] else replace(a, corner=()) for a in axes))   # (or raise what else)
 
 
 def _default_axis(axis, eta1: float):
@@ -387,14 +393,6 @@ def _default_axis(axis, eta1: float):
     if axis.spacing in ADMITTANCE_SPACINGS and axis.lo < eta1:
         return replace(axis, spacing="uniform", corner=())
     return axis
-
-
-def _corner_fits(axes, eta1: float) -> bool:
-    """Whether the domain holds the grazing corner the zoom needs: cos θ1 and D from 0; η3 from η1 (where it
-    zooms) and κ3 from 0."""
-    cos_theta, opd, eta3, kappa3 = axes
-    return (cos_theta.lo == 0.0 and opd.lo == 0.0 and kappa3.lo == 0.0
-            and (not eta3.corner or eta3.lo == eta1))
 
 
 def scene_source_options(f):
