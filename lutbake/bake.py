@@ -29,7 +29,7 @@ from .integrate import NumpyBackend, bake_rows_all
 from .integrate import backend as make_backend
 from .errors import ParameterError
 from .fileset import FileSet, open_set
-from .lutfile import FORMAT, FORMAT_VERSION, exr_rows, shader_includes
+from .lutfile import FORMAT, exr_rows, shader_includes
 from .plan import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
 from .points import FilmPoints
 from .reference import reference_colour
@@ -112,8 +112,8 @@ def default_specs(precision: str = "half") -> dict:
     (format v5, docs/lut-format.md#the-grazing-corner): D, η3 and κ3 mix their own spacings (√,
     sqrt-admittance, √) with those ratios, and cos θ1 is uniform in (cos θ1 + cos θ1^¼)/2. Counts from
     the searched maximum and the p99 at 5,000 held-out points against the ground truth
-    (docs/accuracy.md), under 8 MiB of EXR per LUT in half precision and 4096 texels a side (D × κ3
-    nodes ≤ 4096 rows).
+    (docs/accuracy.md), under 8 MiB of EXR per LUT in half precision and 4096 texels a side (η2 2.0's
+    metal LUT, 200 D × 30 κ3 nodes, lays its tiles along x by κ3: format v6).
 
     Examples
     --------
@@ -135,7 +135,7 @@ def default_specs(precision: str = "half") -> dict:
 # incidence, where a thick film's phase turns with cos θ1 as 1/η2²; η2 2.0 over metals needs D and κ3
 # at the low-loss corner near grazing (docs/accuracy.md).
 _DIELECTRIC_COUNTS = {1.33: (46, 104, 24, 24), 1.5: (36, 120, 24, 24), 2.0: (36, 120, 24, 24)}
-_METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (38, 146, 22, 28)}
+_METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (30, 200, 18, 30)}
 # The dielectric LUTs' grazing corner zoom (docs/lut-format.md#the-grazing-corner): nodes and scale per
 # axis. Their ratio parts resolve the corner's colour, whose darkest valleys (a thin film's and a weak
 # absorber's reflections cancelling) set the counts; κ3's zoom also serves weak absorbers at any angle,
@@ -213,10 +213,13 @@ def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
 
 
 def _format_version(spec: BakeSpec) -> int:
-    """5 for what only v5 readers know (the corner zoom, the uniform-root4 spacing), else 4: LUTs without them
-    stay readable by v4 readers, byte for byte as before."""
-    v5 = spec.has_corner or any(a.spacing == "uniform-root4" for a in spec.axes)
-    return FORMAT_VERSION if v5 else FORMAT_VERSION - 1
+    """The lowest version whose readers know all the file uses: 6 for tiles laid along x by κ3, 5 for the
+    corner zoom or the uniform-root4 spacing, else 4 (such LUTs stay byte for byte as v4 readers know them)."""
+    if spec.file_layout.tiles_x != "eta3":
+        return 6
+    if spec.has_corner or any(a.spacing == "uniform-root4" for a in spec.axes):
+        return 5
+    return 4
 
 
 def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:
@@ -227,7 +230,7 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
         "lutbake_version": __version__,
         "content_hash": spec.content_hash,
         "axes": [a.describe() for a in spec.axes],
-        "packing": spec.layout.packing(),
+        "packing": spec.file_layout.packing(),
         "constants": {"eta1": spec.eta1, "eta2": spec.eta2},
         "observer": spec.observer,
         "illuminant": illuminant,
@@ -345,19 +348,25 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
-    width, height = spec.image_size
+    height = spec.image_size[1]
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    with exr_rows(files.temp(out_path), width, height, meta, spec.precision) as exr:
+    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision) as exr:
         # band k is written while the device bakes band k + 1
-        pending = None
+        pending, retiled = None, spec.file_layout != spec.layout
+        held = []   # the bands, as stored, when the file's tiles run in another order than the integrators'
         for band in [*chunks, None]:
             started = integrator.begin_rows(spec, *band) if band else None
             if pending is not None:
                 rows = pending.result()
-                exr.write_rows(rows)
+                if retiled:
+                    held.append(rows.astype(exr.dtype))
+                else:
+                    exr.write_rows(rows)
                 if on_band:
                     on_band(rows.shape[0], height)
             pending = started
+        if retiled:
+            exr.write_rows(spec.file_layout.retile(np.concatenate(held), spec.layout))
     files.temp(out_path.with_suffix(".json")).write_text(json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
     for suffix, text in shader_includes(meta, out_path.name).items():
         files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
@@ -385,8 +394,9 @@ def lut_members(out_path: Path) -> list:
 
 
 def bake_array(spec: BakeSpec, backend: str = "auto", integrator: str = "series", device=None) -> np.ndarray:
-    """The whole packed image (height, width, 3) in float64, in memory (tests, benchmarks)."""
-    return bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec)
+    """The whole image (height, width, 3) in float64, packed as the file is, in memory (tests, benchmarks)."""
+    return spec.file_layout.retile(bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec),
+                                   spec.layout)
 
 
 def _check_writable(out_path: Path) -> None:

@@ -80,6 +80,7 @@ class LutRead:
     axes: tuple           # four dicts: name, min, max, count, spacing
     eta1: float
     eta2: float
+    tiles_x: str = "eta3"  # the axis whose nodes lay the tiles along x (the header's packing; κ3 since v6)
 
     @property
     def inputs(self) -> tuple:
@@ -149,7 +150,10 @@ def _read_of(folder: Path, name: str, entry: dict):
         axes = tuple(meta["axes"])
         if [a["name"] for a in axes] != ["cos_theta", "opd_nm", "eta3", "kappa3"]:
             raise ValueError(f"materials.{name}: {sidecar.name} axes are not cos_theta, opd_nm, eta3, kappa3")
-        return LutRead(name, image, axes, float(meta["constants"]["eta1"]), float(meta["constants"]["eta2"]))
+        tiles_x = meta["packing"]["tiles_x"]
+        if tiles_x not in ("eta3", "kappa3"):
+            raise ValueError(f"materials.{name}: {sidecar.name} packing.tiles_x {tiles_x!r} is not eta3 or kappa3")
+        return LutRead(name, image, axes, float(meta["constants"]["eta1"]), float(meta["constants"]["eta2"]), tiles_x)
     raise ValueError(f"materials.{name}.kind {entry['kind']!r} is not 'slice' or 'lut'")
 
 
@@ -239,9 +243,11 @@ def lut_program(g, read: LutRead, size: tuple, cos_theta, thickness_nm, eta3, ka
     n_cos, n_opd = int(ax_cos["count"]), int(ax_opd["count"])
     corners = {}
     for da in (0, 1):
-        for db in (0, 1):   # tile x = (a + da)·N_cos + f_cos, y = (b + db)·N_opd + f_opd
-            x = g.math("ADD", g.math("MULTIPLY", g.math("ADD", a, float(da)), n_cos), f_cos)
-            y = g.math("ADD", g.math("MULTIPLY", g.math("ADD", b, float(db)), n_opd), f_opd)
+        for db in (0, 1):   # x = tile column·N_cos + f_cos, y = tile row·N_opd + f_opd (layout.TileLayout)
+            eta3_node, kappa3_node = g.math("ADD", a, float(da)), g.math("ADD", b, float(db))
+            column, row = (eta3_node, kappa3_node) if read.tiles_x == "eta3" else (kappa3_node, eta3_node)
+            x = g.math("ADD", g.math("MULTIPLY", column, n_cos), f_cos)
+            y = g.math("ADD", g.math("MULTIPLY", row, n_opd), f_opd)
             corners[da, db] = g.bilinear(read.image, size, x, y)
     lower = g.mix(corners[0, 0], corners[1, 0], t_a)
     upper = g.mix(corners[0, 1], corners[1, 1], t_a)

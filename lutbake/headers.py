@@ -23,7 +23,7 @@ import struct
 
 import numpy as np
 
-from .layout import TileLayout
+from .layout import TILE_ORDERS, TileLayout
 from .names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from .plan import AXIS_UNITS, CORNER_AXES
 from .points import inside_domain
@@ -152,8 +152,10 @@ def _check_lut(meta: dict, shape: dict) -> None:
         _axis(axis, f"axes[{i}]", meta["format_version"], eta1)
     if meta["format_version"] >= 3:
         _choice(meta, "interpolation", INTERPOLATIONS)
-    expected = TileLayout(*(a["count"] for a in axes)).packing()
     packing = _dict(meta, "packing")
+    orders = TILE_ORDERS if meta["format_version"] >= 6 else TILE_ORDERS[:1]   # κ3 along x since v6
+    _need(packing.get("tiles_x") in orders, "packing.tiles_x")
+    expected = TileLayout(*(a["count"] for a in axes), tiles_x=packing["tiles_x"]).packing()
     for key, value in expected.items():
         _need(packing.get(key) == value, f"packing.{key}")
     _need((shape["width"], shape["height"]) == (expected["width"], expected["height"]), "packing (image size)")

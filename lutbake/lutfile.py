@@ -49,9 +49,9 @@ EXACT_FORMAT = "lutbake-exact"  # the exact runtime mode's colour-weight transfo
 # LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
 # "sqrt-admittance" spacing, v5 the grazing corner's zoom on D, η3 and κ3 (docs/lut-format.md; a LUT
 # without one is written as v4); older LUTs (no such axis) still read.
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 EXACT_FORMAT_VERSION = 1
-_READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4, 5), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
+_READABLE_VERSIONS = {FORMAT: (1, 2, 3, 4, 5, 6), ATLAS_FORMAT: (1,), EXACT_FORMAT: (EXACT_FORMAT_VERSION,)}
 # Larger than most desktop GPUs' guarantee; WebGL2 guarantees only 2048, many mobile GPUs 4096.
 MAX_TEXTURE_SIZE = 8192
 
@@ -268,6 +268,7 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "corner_share": ", ".join(_shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0"
                                   for a in axes),
         "corner_scale": ", ".join(_shader_float(a["corner"]["scale"]) if "corner" in a else "1.0" for a in axes),
+        "tile_steps": "1.0, 0.0, 0.0, 1.0" if meta["packing"]["tiles_x"] == "eta3" else "0.0, 1.0, 1.0, 0.0",
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }

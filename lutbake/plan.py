@@ -429,7 +429,8 @@ class BakeSpec:
                plan=None) -> dict:
         """Estimated peak resident memory of baking this spec, bytes, by item (``MEMORY``): ``peak`` is the
         runtime, what persists through the bake, and the larger of its two phases (the plan with the probes
-        beside it and the capped texels' screen; the bands). Before any work the runtime is MEMORY's and
+        beside it and the capped texels' screen; the bands), plus the whole image where the file's tiles
+        run in another order (``retile``). Before any work the runtime is MEMORY's and
         the shared table and the closed form's table are bounded from the shape; a bake checks again with
         the runtime's resident bytes measured (``runtime_bytes``) and its plan's outcome (``plan``:
         integrate.SeriesStats). That last estimate is within 1.25x of peak RSS measured over several
@@ -456,6 +457,8 @@ class BakeSpec:
             if integrator == "direct":
                 plan += MEMORY["screen"]
             items["phases"] = max(plan, band * MEMORY["band_cell"][integrator] + exr)
+        if self.file_layout != self.layout:   # bake.write_lut re-tiles the whole image, as stored, in 3 copies
+            items["retile"] = self.cells * 9 * (2 if self.precision == "half" else 4)
         items["peak"] = sum(items.values())
         return items
 
@@ -540,12 +543,18 @@ class BakeSpec:
 
     @property
     def layout(self) -> TileLayout:
-        """How the grid is packed into the image (layout.py: the one statement of the tile formula)."""
+        """How the integrators pack the grid into rows of texels, η3 along x (layout.py: the one statement of
+        the tile formula); the file's packing may differ (``file_layout``)."""
         return TileLayout(*self.shape)
 
     @property
+    def file_layout(self) -> TileLayout:
+        """How the LUT file packs the grid (TileLayout.for_grid: κ3 along x where η3 would pass 4096 texels)."""
+        return TileLayout.for_grid(self.shape)
+
+    @property
     def image_size(self) -> tuple:
-        """(width, height) of the packed image in texels."""
+        """(width, height) of the integrators' packed image in texels (``layout``)."""
         return self.layout.size
 
     @property

@@ -75,14 +75,20 @@ class Lut:
 
     @classmethod
     def in_memory(cls, spec, image) -> "Lut":
-        """The LUT of ``spec`` whose texels are ``image`` (as stored), without a file: what tune scores."""
+        """The LUT of ``spec`` whose texels are ``image`` (as stored, packed as the integrators pack it:
+        ``spec.layout``), without a file: what tune scores."""
         return cls({"axes": [a.describe() for a in spec.axes], "interpolation": spec.interpolation,
                     "constants": {"eta1": spec.eta1, "eta2": spec.eta2}, "space": spec.space,
-                    "observer": spec.observer}, image)
+                    "observer": spec.observer, "packing": spec.layout.packing()}, image)
 
     @property
     def axes(self) -> list:
         return [axis_from_header(a) for a in self.meta["axes"]]
+
+    @property
+    def layout(self) -> TileLayout:
+        """How the image packs the grid (the header's packing record)."""
+        return TileLayout(*(a["count"] for a in self.meta["axes"]), tiles_x=self.meta["packing"]["tiles_x"])
 
     @property
     def eta1(self) -> float:
@@ -128,7 +134,7 @@ class Lut:
     def _linear(self, f, filter_bits):
         """(cos θ, D) by hardware bilinear inside the 4 tiles around (η3, κ3), then 3 lerps."""
         f_cos, f_opd, f_eta3, f_kappa3 = f
-        layout = TileLayout(*(a.count for a in self.axes))
+        layout = self.layout
         i_e, t_e = _lower_node(f_eta3, layout.n_eta3)
         i_k, t_k = _lower_node(f_kappa3, layout.n_kappa3)
         corners = {}
@@ -144,7 +150,7 @@ class Lut:
         """Clamped Catmull-Rom in all four axes (lutbake/interpolation.py): 4⁴ texel reads, summed tile
         by tile, then clamped per channel to the range of the texels read."""
         axes = self.axes
-        layout = TileLayout(*(a.count for a in axes))
+        layout = self.layout
         zoomed = any(a.corner for a in axes)
         taps = [cubic_taps(fi, a.count, mirrors_low_end(a.spacing, a.lo, zoomed)) for fi, a in zip(f, axes)]
         nodes = [[np.clip(first + k, 0, a.count - 1) for k in range(4)] for (first, _), a in zip(taps, axes)]

@@ -24,6 +24,7 @@ import lutbake
 from lutbake.blender import (blender_thin_film_probes, find_blender, lutbake_probes, probe_points, render_probes,
                              verify_library, verify_osl, write_library)
 from lutbake.blender_nodes import LutRead, SliceRead, evaluate, read_manifest
+from lutbake.layout import TileLayout
 from lutbake.colorimetry import delta_e00
 from lutbake.plan import Axis, BakeSpec
 from lutbake.sample import Atlas, Lut
@@ -91,18 +92,21 @@ def test_slice_program_is_the_atlas_sampler(rect, thickness):
     assert np.abs(got - expected).max() <= 1e-12
 
 
-@pytest.mark.parametrize("cos_spacing,eta3_spacing", [("sqrt", "uniform"), ("root4", "admittance"),
-                                                      ("uniform", "sqrt-admittance"), ("sqrt", "sqrt-admittance")])
-def test_lut_program_is_the_linear_rule(cos_spacing, eta3_spacing):
-    """Random texels in a LUT of each cos θ and η3 spacing (η3's admittance warps follow cos θ); the 4D
-    group equals Lut.sample(interpolation='linear') at points inside, on and past every axis's ends."""
+@pytest.mark.parametrize("cos_spacing,eta3_spacing,tiles_x", [
+    ("sqrt", "uniform", "eta3"), ("root4", "admittance", "eta3"), ("uniform", "sqrt-admittance", "eta3"),
+    ("sqrt", "sqrt-admittance", "eta3"), ("sqrt", "sqrt-admittance", "kappa3")])
+def test_lut_program_is_the_linear_rule(cos_spacing, eta3_spacing, tiles_x):
+    """Random texels in a LUT of each cos θ and η3 spacing (η3's admittance warps follow cos θ) and tile
+    order; the 4D group equals Lut.sample(interpolation='linear') at points inside, on and past every
+    axis's ends."""
     rng = np.random.default_rng(2)
     axes = (Axis("cos_theta", 0.0, 1.0, 7, cos_spacing), Axis("opd_nm", 100.0, 900.0, 9),
             Axis("eta3", 1.0, 2.6, 5, eta3_spacing), Axis("kappa3", 0.0, 3.0, 4, "sqrt"))
     spec = BakeSpec(eta2=1.4, eta1=1.0, axes=axes)
-    width, height = 5 * 7, 4 * 9
+    layout = TileLayout(*spec.shape, tiles_x=tiles_x)
+    width, height = layout.size
     image = rng.uniform(-0.2, 1.3, (height, width, 3)).astype(np.float32)
-    lut = Lut.in_memory(spec, image)
+    lut = Lut({**Lut.in_memory(spec, None).meta, "packing": layout.packing()}, image)
     n = 600
     cos_theta = np.clip(_random_points(rng, n), 0.0, 1.0)
     d = rng.uniform(20.0, 360.0, n)                      # D = 2·1.4·d: 56–1008 nm, past both ends
@@ -110,7 +114,7 @@ def test_lut_program_is_the_linear_rule(cos_spacing, eta3_spacing):
     kappa3 = np.concatenate([[0.0, 3.0], rng.uniform(0.0, 3.5, n - 2)])
     pts = lutbake.FilmPoints(eta1=1.0, eta2=1.4, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta, thickness_nm=d)
     expected = lut.sample(pts, interpolation="linear")
-    read = LutRead("m", "lut.exr", tuple(a.describe() for a in axes), 1.0, 1.4)
+    read = LutRead("m", "lut.exr", tuple(a.describe() for a in axes), 1.0, 1.4, tiles_x)
     got = evaluate(read, image, {"Cos Theta": cos_theta, "Thickness (nm)": d, "Eta3": eta3, "Kappa3": kappa3})
     assert np.abs(got - expected).max() <= 1e-9
 

@@ -32,9 +32,13 @@ def test_each_default_lut_is_at_most_8_mib():
 
 
 def test_default_lut_images_fit_4096_texels_a_side():
-    """docs/engines.md: within the 4096 × 4096 textures nearly every WebGL2 device offers."""
-    for name, spec in default_specs().items():
-        assert max(spec.image_size) <= 4096, (name, spec.image_size)
+    """docs/engines.md: within the 4096 × 4096 textures nearly every WebGL2 device offers, as written (η2 2.0's
+    metal LUT only by laying its tiles along x by κ3: 18 × 200 rows, not 30 × 200)."""
+    for path in sorted(LUTS.glob("*.exr")):
+        packing = Lut.load(path).meta["packing"]
+        assert max(packing["width"], packing["height"]) <= 4096, (path.name, packing)
+    orders = {name: spec.file_layout.tiles_x for name, spec in default_specs().items()}
+    assert orders.pop("lutbake-eta2-2.00-metal") == "kappa3" and set(orders.values()) == {"eta3"}
 
 
 @pytest.mark.parametrize("name", sorted(default_specs()))

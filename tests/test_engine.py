@@ -30,6 +30,7 @@ from make_scene_examples import bake_example  # noqa: E402
 ENGINE = ROOT / "engine"
 CHROMIUM = Path(os.environ.get("LUTBAKE_CHROMIUM", "/usr/bin/chromium"))
 LUT_NAMES = sorted(default_specs())   # the default set, baked into luts/ (conftest.default_luts)
+KAPPA3_TILED = "lutbake-eta2-2.00-metal"   # format v6: its tiles run along x by κ3 (test_default_luts)
 ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"   # baked by engine_run, not committed
 TOLERANCE = 1e-4
 POINTS = 2500
@@ -161,6 +162,7 @@ def engine_run(tmp_path_factory):
     # The default LUTs are read cubic; the 4-fetch linear rule stays callable and must match too, and
     # reading them linearly must miss the cubic expectation (the cubic path is what the jobs above check).
     jobs["linear reads"] = lut_job(folder, luts[1], rng, "linear")
+    jobs["linear reads, tiles along x by κ3"] = lut_job(folder, default_luts() / f"{KAPPA3_TILED}.exr", rng, "linear")
     jobs["control: linear reads of a cubic LUT"] = {**first, "call": first["call"].replace(
         "lutbake_sample(", "lutbake_sample_linear(")}
     (folder / "jobs.json").write_text(json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")}
@@ -186,7 +188,8 @@ def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
 @pytest.mark.parametrize("name", LUT_NAMES + ["tempered-steel:steel_constant",
                                                                     "tempered-steel:steel_werner",
                                                                     "one shader: two LUT includes and an atlas include",
-                                                                    "linear reads"])
+                                                                    "linear reads",
+                                                                    "linear reads, tiles along x by κ3"])
 def test_engine_matches_lutbake_sample(engine_run, name):
     _, runs = engine_run
     job, got = runs[name]

@@ -416,6 +416,10 @@ HEADER_VALUES = {
     "corner without scale": lambda m: _v5(m, 3, {"nodes": 1}),
     "corner a list": lambda m: _v5(m, 2, [1, 1.0]),
     "corner on eta3 not from eta1": lambda m: (_v5(m, 2, {"nodes": 1, "scale": 1.0}), m["axes"][2].update(min=1.2)),
+    "tiles by kappa3 in a version 5 file": lambda m: (m.update(format_version=5),
+                                                      m["packing"].update(tiles_x="kappa3", tiles_y="eta3")),
+    "tiles by cos_theta": lambda m: (m.update(format_version=6), m["packing"].update(tiles_x="cos_theta")),
+    "tiles along y by the axis along x": lambda m: (m.update(format_version=6), m["packing"].update(tiles_y="eta3")),
 }
 
 
