@@ -182,7 +182,9 @@ def corner_section(reports) -> list:
         "The metal LUTs do not reach the corner (κ3 ≥ 1.5); their searched max over the whole domain is "
         + ", ".join(f"{v:.2f} ({n})" for n, v in metal.items())
         + " at the worst of three seeds: a film between a near-total reflection and a low-loss metal near grazing,",
-        "whose resonances are sharp in D and κ3 alike; the image's height (D × κ3 nodes) may not pass 4096 texels.",
+        "whose resonances are sharp in D and κ3 alike. η2 2.0's needs 200 D and 30 κ3 nodes, 6,000 rows in the",
+        "η3 order of the tiles; its file lays them along x by κ3 instead (format v6, 900 × 3600 texels,",
+        "[lut-format.md](lut-format.md#packing-tiles)).",
     ]
 
 

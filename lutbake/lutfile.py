@@ -268,7 +268,7 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "corner_share": ", ".join(_shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0"
                                   for a in axes),
         "corner_scale": ", ".join(_shader_float(a["corner"]["scale"]) if "corner" in a else "1.0" for a in axes),
-        "tile_steps": "1.0, 0.0, 0.0, 1.0" if meta["packing"]["tiles_x"] == "eta3" else "0.0, 1.0, 1.0, 0.0",
+        "tiles_x_kappa3": "1.0" if meta["packing"]["tiles_x"] == "kappa3" else "0.0",
         "interpolation": meta.get("interpolation", "linear"),
         "cubic": "1.0" if meta.get("interpolation") == "cubic" else "0.0",
     }
