@@ -27,13 +27,19 @@ LUT_MEMBERS = (".json", ".glsl", ".hlsl", ".exr")   # the .exr last: a set is cu
 
 
 def _holds_the_default_set(folder: Path) -> bool:
-    """Every default LUT in ``folder`` has the content hash of the current default spec."""
+    """Every default LUT in ``folder`` has the content hash of the current default spec, and includes that
+    the current templates write (a template change leaves the hash as it was)."""
     from lutbake.bake import default_specs
-    from lutbake.lutfile import read_lut
+    from lutbake.lutfile import read_lut, shader_includes
+
+    def current(name, spec):
+        meta = read_lut(folder / f"{name}.exr")[0]
+        return meta["content_hash"] == spec.content_hash and all(
+            (folder / f"{name}.{suffix}").read_text() == text
+            for suffix, text in shader_includes(meta, f"{name}.exr").items())
 
     try:
-        return all(read_lut(folder / f"{name}.exr")[0]["content_hash"] == spec.content_hash
-                   for name, spec in default_specs().items())
+        return all(current(name, spec) for name, spec in default_specs().items())
     except (OSError, ValueError, KeyError):
         return False
 
