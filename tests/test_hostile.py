@@ -304,7 +304,7 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 6": lambda m, im: ({**m, "format_version": 6}, im),
+    "format version 7": lambda m, im: ({**m, "format_version": 7}, im),   # one past what this reader knows
     "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
     "root4 in a v2 file": lambda m, im: ({**m, "format_version": 2, "axes": [
         {**m["axes"][0], "spacing": "root4"}, *m["axes"][1:]]}, im),
