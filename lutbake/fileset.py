@@ -37,6 +37,7 @@ import stat
 from pathlib import Path
 
 from .documents import load_json
+from .signals import stop_signals_held
 
 __all__ = ["open_set", "FileSet", "sha256_file", "journal_path", "recover", "remove_stale_temporaries",
            "pending_commit", "MAX_JOURNAL_BYTES"]
@@ -44,7 +45,6 @@ __all__ = ["open_set", "FileSet", "sha256_file", "journal_path", "recover", "rem
 _TEMP = re.compile(r"^\..+\.tmp-(\d+)$")
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
 _STOP_HOOK = "LUTBAKE_TEST_STOP_BEFORE_RENAME"
-_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 # A journal line is ~180 bytes per member; a scene with a thousand 4D LUTs stays under 1 MiB.
 MAX_JOURNAL_BYTES = 4 << 20
 
@@ -87,7 +87,7 @@ class FileSet:
             return
         entries = [[tmp.name, final.name, sha256_file(tmp)] for final, tmp in self.members.items()]
         journal = journal_path(self.folder, self.name)
-        with _stop_signals_held():
+        with stop_signals_held():
             _test_stop()
             _write_durably(temporary_for(journal), json.dumps({"set": self.name, "members": entries}))
             os.replace(temporary_for(journal), journal)
@@ -128,7 +128,7 @@ def recover(folder: Path) -> None:
     that is not one lutbake wrote, or whose files changed since, raises ValueError and is left alone."""
     for journal in sorted(Path(folder).glob(".*.commit")):
         entries = read_journal(journal)
-        with _stop_signals_held():
+        with stop_signals_held():
             _roll_forward(Path(folder), entries, journal)
             journal.unlink()
 
@@ -193,16 +193,6 @@ def _roll_forward(folder: Path, entries, journal: Path) -> None:
             raise ValueError(f"{str(final)!r} changed after an interrupted commit: remove {str(journal)!r} "
                              "and bake again")
     _fsync_folder(folder)
-
-
-@contextlib.contextmanager
-def _stop_signals_held():
-    """SIGINT and SIGTERM wait (pending) until the block ends: a journaled commit is never cut short."""
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _regular(path: Path) -> bool:

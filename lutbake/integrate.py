@@ -34,9 +34,21 @@ from .optics import film_reflectance, normal_admittance
 from .plan import SERIES_CHUNK
 from .points import FilmPoints
 from .reference import subset
+from .signals import stop_signals_held
 from .usercache import pyopencl_caches_where_writable
 
 pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
+
+
+@functools.cache
+def _opencl():
+    """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
+    builds Python enums while it initialises, and an exception that a stop signal's handler raises there
+    cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
+    signal arrives once the module is loaded."""
+    with stop_signals_held():
+        import pyopencl
+    return pyopencl
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
            "find_device", "device_key", "device_label", "self_check_error"]
@@ -141,7 +153,7 @@ def device_label(device) -> str:
 
 def opencl_devices() -> list:
     """Every OpenCL device, PoCL's first (the design's runtime), then the rest in platform order."""
-    import pyopencl as cl
+    cl = _opencl()
 
     try:
         with _intel_cpu_runtime_visible():
@@ -155,7 +167,7 @@ def opencl_devices() -> list:
 def _candidate_devices(selector=None):
     """Devices to try, in order: the one ``selector`` (or $LUTBAKE_DEVICE) names, else the one
     PYOPENCL_CTX names, else every device (``opencl_devices`` order)."""
-    import pyopencl as cl
+    cl = _opencl()
 
     selector = selector or os.environ.get("LUTBAKE_DEVICE")
     if selector:
@@ -206,7 +218,7 @@ def _kernel_defines() -> list:
 
 
 def _build(device, compute: str):
-    import pyopencl as cl
+    cl = _opencl()
 
     if compute == "float64" and "cl_khr_fp64" not in device.extensions:
         raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64: bake with compute float32")
@@ -289,7 +301,7 @@ def self_check_error(backend) -> float:
 @functools.lru_cache(maxsize=16)
 def _program(device, compute: str):
     """(context, program) built for one device, or the OpenCLUnavailable saying why not."""
-    import pyopencl as cl
+    cl = _opencl()
 
     try:
         return _build(device, compute)
@@ -312,7 +324,7 @@ def _device_kernels(device, compute: str):
     """(context, queue, kernels by name, table buffers by key) of one device's program (``_program``),
     made once per program: every backend on it shares them (the default set's six bakes upload the
     colour-weight tables once), or the OpenCLUnavailable saying why the program does not build."""
-    import pyopencl as cl
+    cl = _opencl()
 
     built = _program(device, compute)
     if isinstance(built, OpenCLUnavailable):
@@ -500,14 +512,14 @@ class OpenCLBackend:
     def _run(self, kernel, n_items: int, *args):
         """``kernel`` over ``n_items`` work-items in work-groups of _LOCAL_SIZE (see there), or of the
         most the device allows for that kernel where that is fewer."""
-        import pyopencl as cl
+        cl = _opencl()
 
         local = min(_LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE,
                                                             self.ctx.devices[0]))
         kernel(self.queue, (-(-n_items // local) * local,), (local,), *args, np.int32(n_items))
 
     def _static_buffers(self, spec):
-        import pyopencl as cl
+        cl = _opencl()
 
         key = spec.content_hash
         if self._static and self._static[0] == key:
@@ -529,7 +541,7 @@ class OpenCLBackend:
 
     def _series_buffers(self, spec):
         """(buffers, scalars) of the series kernels for ``spec`` (built once per spec)."""
-        import pyopencl as cl
+        cl = _opencl()
 
         if self._series and self._series[0] == spec.content_hash:
             return self._series[1]
@@ -556,7 +568,7 @@ class OpenCLBackend:
     def _cauchy_buffers(self, spec):
         """The closed form's tables (lutbake/poles.py) for the spec's colour weights (built once per
         observer and space)."""
-        import pyopencl as cl
+        cl = _opencl()
 
         from .poles import cauchy_table, chebyshev_rule
 
@@ -580,7 +592,7 @@ class OpenCLBackend:
     def _bake_plan(self, spec) -> "_BakePlan":
         """The rule over the whole grid (plan_rows, band by band): its outcome and each (cos θ, D)
         pair's series terms; the pairs' Ŵ(mX) when they fit one table (built once per spec)."""
-        import pyopencl as cl
+        cl = _opencl()
 
         if self._plan and self._plan.key == spec.content_hash:
             return self._plan
@@ -597,7 +609,7 @@ class OpenCLBackend:
     def _plan_band(self, spec, y0, y1, terms_buf) -> tuple:
         """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]]),
         the pairs' term counts raised in ``terms_buf``."""
-        import pyopencl as cl
+        cl = _opencl()
 
         cells = (y1 - y0) * spec.image_size[0]
         mf = cl.mem_flags
@@ -625,7 +637,7 @@ class OpenCLBackend:
 
     def _pair_table(self, spec, plan) -> list:
         """The pairs' shared Ŵ(mX) for bake_rows_series (pair_transform, once per spec): [offsets, values]."""
-        import pyopencl as cl
+        cl = _opencl()
 
         if plan.buffers is None:
             mf = cl.mem_flags
@@ -643,7 +655,7 @@ class OpenCLBackend:
         """Enqueue the band [y0, y1) and return at once (unless some of its texels take the direct
         quadrature, whose rule levels the host computes): the caller writes the previous band while the
         device works."""
-        import pyopencl as cl
+        cl = _opencl()
 
         width, _ = spec.image_size
         cells = (y1 - y0) * width
@@ -661,7 +673,7 @@ class OpenCLBackend:
     def _series_passes(self, spec, y0, y1, out_buf) -> list:
         """Enqueue the series, the closed form at what it leaves and (where the plan expects any) the
         direct quadrature at what that leaves; the buffers to keep until they are done."""
-        import pyopencl as cl
+        cl = _opencl()
 
         plan = self._bake_plan(spec)
         cells = (y1 - y0) * spec.image_size[0]
@@ -690,7 +702,7 @@ class OpenCLBackend:
 
     def _max(self, values, count: int) -> float:
         """The largest of ``count`` values in a device buffer (max_chunks, then the host)."""
-        import pyopencl as cl
+        cl = _opencl()
 
         chunk = 4096
         parts = np.empty(max(1, -(-count // chunk)), self.dtype)
@@ -700,7 +712,7 @@ class OpenCLBackend:
         return float(parts.max())
 
     def _count(self, buffer) -> int:
-        import pyopencl as cl
+        cl = _opencl()
 
         count = np.empty(1, np.int32)
         cl.enqueue_copy(self.queue, count, buffer)
@@ -709,7 +721,7 @@ class OpenCLBackend:
     def _direct(self, spec, y0, texels, levels, out_buf) -> list:
         """Enqueue the direct quadrature at ``texels`` (band indices) of the band starting at row y0; the
         buffers it reads (to keep until it is done)."""
-        import pyopencl as cl
+        cl = _opencl()
 
         buffers, n_min = self._static_buffers(spec)
         n_cos, n_opd, _, _ = spec.shape
@@ -736,7 +748,7 @@ class OpenCLBackend:
         """The kernel's unpolarized R of the stacks at ``wavelength_nm`` (broadcast as
         optics.film_reflectance; one ambient η1, named materials taken at each wavelength): its
         physics, node by node."""
-        import pyopencl as cl
+        cl = _opencl()
 
         eta1 = float(np.ravel(stack.eta1)[0])
         stack.require("kernel", eta1=eta1)  # one ambient index per launch
@@ -760,7 +772,7 @@ class OpenCLBackend:
         """RGB (P, 3) of one film stack at points (cos θ1, d), by ``rule`` with the film's and base's
         indices per node (``node_indices`` = (η2, η3, κ3), each (N,): dispersive materials): the
         kernel's reflectance summed on the device, its Fresnel side once per distinct cos θ1 × node."""
-        import pyopencl as cl
+        cl = _opencl()
 
         eta2, eta3, kappa3 = (np.broadcast_to(np.asarray(v, np.float64), (rule.count,)) for v in node_indices)
         thickness_nm = np.asarray(thickness_nm, np.float64)

@@ -8,12 +8,13 @@ ignored, so that clean-up runs to its end. A commit that has written its journal
 signal is handled (fileset.py blocks them for the renames).
 """
 
+import contextlib
 import os
 import signal
 import sys
 
 __all__ = ["Interrupted", "STOP_SIGNALS", "exit_status", "interrupted_at_start_up", "raise_interrupted",
-           "set_handler"]
+           "set_handler", "stop_signals_held"]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
@@ -63,3 +64,14 @@ def set_handler(signum, handler):
         except ValueError:  # not the main thread
             pass
     return previous
+
+
+@contextlib.contextmanager
+def stop_signals_held():
+    """SIGINT and SIGTERM wait (pending) until the block ends, then arrive: for work that a stop must not cut
+    short (a journaled commit, fileset.py) or that cannot unwind (a C++ extension's initialisation)."""
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
