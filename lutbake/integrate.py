@@ -39,6 +39,9 @@ from .usercache import pyopencl_caches_where_writable
 
 pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
 
+__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
+           "find_device", "device_key", "device_label", "self_check_error"]
+
 
 @functools.cache
 def _opencl():
@@ -49,9 +52,6 @@ def _opencl():
     with stop_signals_held():
         import pyopencl
     return pyopencl
-
-__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
-           "find_device", "device_key", "device_label", "self_check_error"]
 
 
 class NumpyBackend:

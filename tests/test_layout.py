@@ -104,10 +104,10 @@ def test_a_lut_past_4096_rows_is_written_by_kappa3_and_reads_as_its_grid(tmp_pat
 def test_the_memory_estimate_holds_the_whole_image_where_the_file_retiles():
     spec = _tall_spec()
     assert spec.precision == "float" and spec.memory()["retile"] == spec.cells * 9 * 4
-    assert "retile" not in replace_count(spec, 2).memory()
+    assert "retile" not in _with_kappa3_count(spec, 2).memory()
 
 
-def replace_count(spec, n_kappa3):
+def _with_kappa3_count(spec, n_kappa3):
     from dataclasses import replace
 
     return replace(spec, axes=spec.axes[:3] + (spec.axes[3].resized(n_kappa3),))
