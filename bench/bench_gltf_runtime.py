@@ -2,12 +2,12 @@
 
     python bench/bench_gltf_runtime.py [--json bench/gltf-runtime-result.json]
 
-The Khronos showcase assets' materials (../shared/gltf-assets, on generated spheres and gradient textures:
-tests/gltf_assets.stand_in) are baked (`bake --gltf`'s library call, timed), then three.js r187 in headless
-Chromium renders every iridescent material twice through lutbake's GLTFLoader plugin: served by the bake
-(atlas slices, 4D LUTs) and by the runtime table (`serve: 'runtime'`). At PIXELS pixels per material (a
-seeded choice among those the sphere covers) both film terms are scored against the spectral ground truth at
-the parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
+The Khronos showcase assets' materials (tests/fixtures/khronos_iridescence.json, on generated spheres and
+gradient textures: tests/gltf_assets.stand_in) are baked (`bake --gltf`'s library call, timed), then three.js
+r187 in headless Chromium renders every iridescent material twice through lutbake's GLTFLoader plugin: served by
+the bake (atlas slices, 4D LUTs) and by the runtime table (`serve: 'runtime'`). At PIXELS pixels per material (a
+seeded choice among those the sphere covers) both film terms are scored against the spectral ground truth at the
+parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
 ΔE00 p99 and the largest over those pixels, per material and pooled. Bytes on the GPU: every texture as
 EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and SPIR-V arithmetic per pixel: lutbake report's
 table (lutbake/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
@@ -29,14 +29,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "docs"))
 
-from gltf_assets import SHOWCASE, asset_path, car_concept, stand_in  # noqa: E402
+from gltf_assets import SHOWCASE, khronos_document, stand_in  # noqa: E402
 from make_dropin import write_runtime_table  # noqa: E402
 
 from lutbake.colorimetry import delta_e00  # noqa: E402
 from lutbake.headers import check_structure, exr_header  # noqa: E402
 from lutbake.runtime.accuracy import truth  # noqa: E402
 
-ASSETS = SHOWCASE + ["CarConcept"]
 PIXELS = 150           # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal
 SIZE, STRIDE = 64, 3   # rendered square, and every STRIDE-th pixel returned
 SERVES = ("bake", "runtime")
@@ -44,7 +43,7 @@ GPU_TEXEL_BYTES = 8    # EXRLoader's default upload: RGBA half
 CURVE_BUDGET = 2000    # evaluations of the search along the metal mapping's curve (curve_worst)
 
 
-def bake_stand_ins(folder: Path, names=ASSETS) -> dict:
+def bake_stand_ins(folder: Path, names=SHOWCASE) -> dict:
     """Each asset's stand-in baked into FOLDER/NAME/out: {asset: {gltf, manifest, out, bake_s}}."""
     from lutbake.gltf_scene import load_gltf_scene
     from lutbake.scene_bake import bake_scene
@@ -52,8 +51,7 @@ def bake_stand_ins(folder: Path, names=ASSETS) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     out = {}
     for name in names:
-        doc = json.loads((car_concept(folder / "car.gltf") if name == "CarConcept" else asset_path(name)).read_text())
-        gltf = stand_in(doc, folder / name, name)
+        gltf = stand_in(khronos_document(name), folder / name, name)
         start = time.perf_counter()
         result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
         if result.unmet:

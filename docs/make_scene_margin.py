@@ -2,13 +2,14 @@
 [--seeds 101 202 303] [--jobs 3] [--reuse]
 [--json build/scene-margin.json]); docs/scene.md, Targets, quotes what it prints.
 
-Bakes every examples/*.toml (`lutbake bake --scene`) and every Khronos showcase asset in ../shared/gltf-assets/
-(`lutbake bake --gltf`, CarConcept from its extract), each in a fresh interpreter, then scores what was
-written at each seed against the spectral ground truth, as `lutbake report` does: every atlas slice at 1,000
-points (report.report_atlas: half uniform, half at cell centres), every scene 4D LUT at 1,000 (report_lut),
-every glTF material's parts at 1,000 uniform points per part (the receipts, receipt.gltf_receipts: a
-texture-driven metal's LUT read per channel along its F0 curve). Prints, per source and seed as each is
-scored, the largest p99 ΔE00 of each kind divided by the scene's max_de: a target holds where it is ≤ 1.
+Bakes every examples/*.toml (`lutbake bake --scene`) and every Khronos showcase asset, written from
+tests/fixtures/khronos_iridescence.json (`lutbake bake --gltf`; docs/gltf.md credits the assets), each in a
+fresh interpreter, then scores what was written at each seed against the spectral ground truth, as `lutbake
+report` does: every atlas slice at 1,000 points (report.report_atlas: half uniform, half at cell centres),
+every scene 4D LUT at 1,000 (report_lut), every glTF material's parts at 1,000 uniform points per part
+(the receipts, receipt.gltf_receipts: a texture-driven metal's LUT read per channel along its F0 curve).
+Prints, per source and seed as each is scored, the largest p99 ΔE00 of each kind divided by the scene's
+max_de: a target holds where it is ≤ 1.
 """
 
 import argparse
@@ -22,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))
 
-from gltf_assets import SHOWCASE, asset_path, car_concept  # noqa: E402
+from gltf_assets import SHOWCASE, khronos_gltf  # noqa: E402
 
 from lutbake.receipt import gltf_receipts  # noqa: E402
 from lutbake.report import report_atlas, report_lut  # noqa: E402
@@ -69,8 +70,7 @@ def ratios(label: str, manifest: dict, out: Path, seed: int, gltf: bool) -> tupl
 def sources(build: Path) -> list:
     """(label, flag, path) of every example scene and showcase asset."""
     scenes = [(p.stem, "--scene", p) for p in sorted((ROOT / "examples").glob("*.toml"))]
-    assets = [(name, "--gltf", asset_path(name)) for name in SHOWCASE]
-    return scenes + assets + [("CarConcept", "--gltf", car_concept(build / "CarConcept.gltf"))]
+    return scenes + [(name, "--gltf", khronos_gltf(name, build)) for name in SHOWCASE]
 
 
 def main():

@@ -1,30 +1,96 @@
-"""glTF inputs for the tests: the Khronos sample assets' JSON in ../shared/gltf-assets/ (read there, never
-copied), glTF files written from their extracts, and hand-written ones (.gltf and .glb)."""
+"""glTF inputs for the tests: the Khronos sample assets with KHR_materials_iridescence rebuilt from the facts
+in tests/fixtures/khronos_iridescence.json (khronos_document, khronos_gltf: materials, textures, meshes and
+variants as the assets write them, no geometry), stand-ins of them on generated geometry and images
+(stand_in), and hand-written assets (.gltf and .glb)."""
 
+import copy
+import itertools
 import json
 import struct
-import subprocess
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-
-
-def shared_folder() -> Path:
-    """../shared beside the repository; in a git worktree, beside its main checkout."""
-    beside = ROOT.parent / "shared"
-    if beside.is_dir():
-        return beside
-    common = subprocess.run(["git", "rev-parse", "--git-common-dir"], cwd=ROOT, capture_output=True, text=True)
-    return (ROOT / common.stdout.strip()).resolve().parent.parent / "shared"
-
-
-ASSETS = shared_folder() / "gltf-assets"
+FIXTURE = Path(__file__).resolve().parent / "fixtures" / "khronos_iridescence.json"
+KHRONOS = json.loads(FIXTURE.read_text())["assets"]
 SHOWCASE = ["CompareIridescence", "IridescenceAbalone", "IridescenceLamp", "IridescenceSuzanne",
-            "IridescentDishWithOlives", "SunglassesKhronos"]
+            "IridescentDishWithOlives", "SunglassesKhronos", "CarConcept"]
+SPHERE_GRIDS = ["IridescenceDielectricSpheres", "IridescenceMetallicSpheres"]
 
 
-def asset_path(name: str) -> Path:
-    return ASSETS / name / f"{name}.gltf"
+def credit_line(name: str) -> str:
+    """Who made the Khronos asset NAME, its license and where it comes from, in one line."""
+    c = KHRONOS[name]["credit"]
+    notice = f" ({c['notice']})" if "notice" in c else ""
+    return f"{c['authors']}, {c['year']}, {c['license']}{notice}; {c['repository']} {c['path']} at {c['commit']}"
+
+
+def khronos_document(name: str) -> dict:
+    """The Khronos asset NAME as a glTF 2.0 document built from the fixture: its materials, textures,
+    samplers, image names and KHR_materials_variants as the asset writes them, one node per mesh, one
+    primitive per mesh with no attributes (lutbake reads no geometry) and no buffers."""
+    facts = KHRONOS[name]
+    if "grid" in facts:
+        materials = _grid_materials(facts)
+        meshes = [{"material": i} for i in range(len(materials))]
+    else:
+        materials = _table(facts["materials"], facts.get("material_count", 0))
+        meshes = facts["meshes"]
+    doc = document(materials, [_mesh(m) for m in meshes],
+                   asset={"version": "2.0", "copyright": credit_line(name),
+                          "generator": "lutbake tests/gltf_assets.py from tests/fixtures/khronos_iridescence.json"},
+                   nodes=[{"mesh": k, **({"name": m["name"]} if "name" in m else {})} for k, m in enumerate(meshes)],
+                   scenes=[{"nodes": list(range(len(meshes)))}], scene=0)
+    for key in ("textures", "samplers"):
+        if key in facts:
+            doc[key] = _table(facts[key])
+    if "images" in facts:
+        doc["images"] = [{"uri": uri} if uri else {} for uri in _table(facts["images"])]
+    if "variants" in facts:
+        doc["extensions"] = {"KHR_materials_variants": {"variants": [{"name": v} for v in facts["variants"]]}}
+    doc["extensionsUsed"] = facts.get("extensionsUsed") or sorted(
+        {e for m in materials for e in m.get("extensions", {})})
+    return doc
+
+
+def khronos_gltf(name: str, folder: Path) -> Path:
+    """khronos_document(NAME) written to FOLDER/NAME.gltf."""
+    folder.mkdir(parents=True, exist_ok=True)
+    return write_gltf(folder / f"{name}.gltf", khronos_document(name))
+
+
+def _table(value, count: int = 0) -> list:
+    """A fixture table as a glTF array: a list as it is; {index: entry} (the entries the fixture carries)
+    with {} at the other indices, at least ``count`` long."""
+    if isinstance(value, list):
+        return copy.deepcopy(value)
+    length = max([count] + [int(i) + 1 for i in value])
+    return [copy.deepcopy(value.get(str(i), {})) for i in range(length)]
+
+
+def _grid_materials(facts: dict) -> list:
+    """A sphere grid's materials, the first axis slowest: the sphere template with each axis's value at its
+    key (left out where the asset omits it), then the materials after the spheres."""
+    materials = []
+    for values in itertools.product(*(axis["values"] for axis in facts["grid"])):
+        material = copy.deepcopy(facts["sphere"])
+        for axis, value in zip(facts["grid"], values):
+            if value != axis.get("omitted_at"):
+                *parents, key = axis["key"].split(".")
+                node = material
+                for parent in parents:
+                    node = node.setdefault(parent, {})
+                node[key] = value
+        materials.append(material)
+    return materials + copy.deepcopy(facts["after"])
+
+
+def _mesh(facts: dict) -> dict:
+    """A mesh of one primitive using the fixture's material, and per variant (KHR_materials_variants) the
+    material that variant maps it to."""
+    primitive = {"attributes": {}, "material": facts["material"]}
+    if "variants" in facts:
+        mappings = [{"material": m, "variants": [v]} for v, m in enumerate(facts["variants"])]
+        primitive["extensions"] = {"KHR_materials_variants": {"mappings": mappings}}
+    return {**({"name": facts["name"]} if "name" in facts else {}), "primitives": [primitive]}
 
 
 def document(materials, meshes=None, **extra) -> dict:
@@ -66,41 +132,6 @@ def glb_bytes(doc: dict, binary: bytes | None = None) -> bytes:
         binary += b"\0" * (-len(binary) % 4)
         chunks += struct.pack("<II", len(binary), 0x004E4942) + binary
     return struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks
-
-
-def car_concept(path: Path) -> Path:
-    """CarConcept as far as its extract holds it: materials 22 and 25 verbatim, the others plain, and
-    two body meshes mapping 11/22/23 and 10/24/25 to the three variants (KHR_materials_variants)."""
-    extract = json.loads((ASSETS / "CarConcept" / "materials-extract.json").read_text())
-    materials = [{"name": f"material {i}"} for i in range(26)]
-    for index, body in extract["materials"].items():
-        materials[int(index)] = body
-
-    def body(default, variants):
-        mappings = [{"material": m, "variants": [v]} for v, m in enumerate(variants)]
-        return {"primitives": [{"attributes": {}, "material": default,
-                                "extensions": {"KHR_materials_variants": {"mappings": mappings}}}]}
-
-    doc = document(materials, [body(11, (11, 22, 23)), body(10, (24, 24, 25))],
-                   textures=[{} for _ in range(15)],
-                   extensions={"KHR_materials_variants": {"variants": [{"name": n} for n in extract["variants"]]}})
-    return write_gltf(path, doc)
-
-
-def sphere_grid(name: str, path: Path) -> Path:
-    """A sphere-grid asset (IridescenceDielectricSpheres / IridescenceMetallicSpheres) written from its
-    extract: one material per sphere, each used by one primitive."""
-    extract = json.loads((ASSETS / name / "materials-extract.json").read_text())
-    materials = []
-    for m in extract["materials"]:
-        grey = m.get("baseColorGrey", 0.8)
-        ext = {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": m["iridescenceIor"],
-                                             "iridescenceThicknessMaximum": m["thickness_nm"]}}
-        if "ior" in m:
-            ext["KHR_materials_ior"] = {"ior": m["ior"]}
-        materials.append({"extensions": ext, "pbrMetallicRoughness": {
-            "metallicFactor": m["metallicFactor"], "baseColorFactor": [grey, grey, grey, 1], "roughnessFactor": 0.1}})
-    return write_gltf(path, document(materials))
 
 
 def _sphere(stacks: int = 24, slices: int = 48):
@@ -153,7 +184,7 @@ def stand_in(doc: dict, folder: Path, name: str) -> Path:
         _gradient_png(folder / f"{name}-image{i}.png", i)
     used = [i for i, m in enumerate(doc["materials"]) if "KHR_materials_iridescence" in m.get("extensions", {})]
     attributes = {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, "TEXCOORD_1": 2}
-    out = {"asset": {"version": "2.0"}, "materials": doc["materials"],
+    out = {"asset": doc["asset"], "materials": doc["materials"],
            "textures": [{"source": t.get("source", 0), **({"sampler": t["sampler"]} if "sampler" in t else {})}
                         for t in textures],
            "samplers": doc.get("samplers", []), "images": [{"uri": f"{name}-image{i}.png"} for i in range(images)],

@@ -8,8 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from gltf_assets import (ASSETS, SHOWCASE, asset_path, car_concept, document, glb_bytes, iridescent, sphere_grid,
-                         write_gltf)
+from gltf_assets import SHOWCASE, SPHERE_GRIDS, document, glb_bytes, iridescent, khronos_gltf, write_gltf
 from lutbake.colorimetry import delta_e00
 from lutbake.gltf_scene import load_gltf_scene, material_rows
 from lutbake.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
@@ -19,22 +18,15 @@ from lutbake.sample import Atlas
 from lutbake.scene_bake import bake_scene
 from lutbake.scene_plan import plan_scene
 
-ROOT = ASSETS.parent.parent
-
 
 def cli(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True,
                           cwd=cwd)
 
 
-def _showcase(tmp_path):
-    """Every showcase asset: the six .gltf files as they are, CarConcept written from its extract."""
-    return [asset_path(name) for name in SHOWCASE] + [car_concept(tmp_path / "CarConcept.gltf")]
-
-
 def test_every_showcase_asset_plans_with_a_slice_per_used_iridescent_material(tmp_path):
     served = 0
-    for path in _showcase(tmp_path):
+    for path in (khronos_gltf(name, tmp_path) for name in SHOWCASE):
         proc = cli("plan", "--gltf", path, "--json")
         assert proc.returncode == 0, proc.stderr
         rows = json.loads(proc.stdout)["gltf_materials"]
@@ -49,7 +41,7 @@ def test_every_showcase_asset_plans_with_a_slice_per_used_iridescent_material(tm
 
 
 def test_materials_used_only_through_variants_are_baked_and_say_which_variant(tmp_path):
-    scene = load_gltf_scene(car_concept(tmp_path / "car.gltf"))
+    scene = load_gltf_scene(khronos_gltf("CarConcept", tmp_path))
     rows = {r["gltf_index"]: r for r in material_rows(scene, plan_scene(scene))}
     assert rows[22]["used_by"] == ["Pearly Swirly"] and rows[25]["used_by"] == ["Torched Graphite"]
     assert rows[22]["film"] == 1.2 and rows[22]["thickness_nm"] == [820.0, 920.0]  # thickness texture: the range
@@ -59,7 +51,7 @@ def test_materials_used_only_through_variants_are_baked_and_say_which_variant(tm
 def test_sample_by_slice_name_from_the_command_line(tmp_path):
     """`sample ATLAS --material SLICE` (the name plan --json gives) returns the ground truth of that
     glTF material's film over its base (Sunglasses' lens: film 2.0, 300.01 nm, on ior 1.0)."""
-    path = asset_path("SunglassesKhronos")
+    path = khronos_gltf("SunglassesKhronos", tmp_path)
     row = json.loads(cli("plan", "--gltf", path, "--json").stdout)["gltf_materials"][0]
     assert cli("bake", "--gltf", path, "--out", tmp_path / "out").returncode == 0
     proc = cli("sample", tmp_path / "out" / "SunglassesKhronos.exr", "--material", row["slice"], "--thickness",
@@ -158,8 +150,8 @@ def test_random_hand_written_assets_bake_as_gltf_and_glb(tmp_path):
 
 
 def test_sphere_grids_plan_every_sphere(tmp_path):
-    for name in ("IridescenceDielectricSpheres", "IridescenceMetallicSpheres"):
-        scene = load_gltf_scene(sphere_grid(name, tmp_path / f"{name}.gltf"))
+    for name in SPHERE_GRIDS:
+        scene = load_gltf_scene(khronos_gltf(name, tmp_path))
         rows = material_rows(scene, plan_scene(scene))
         assert len(rows) == 343 and all(r["slice"] for r in rows)
 

@@ -1,5 +1,5 @@
-"""glTF bakes of the Khronos showcase assets' materials (../shared/gltf-assets, on generated spheres and
-gradient textures) and of generated assets: every slice and 4D LUT holds its material's ground truth, and
+"""glTF bakes of the Khronos showcase assets' materials (tests/fixtures/khronos_iridescence.json, on generated
+spheres and gradient textures) and of generated assets: every slice and 4D LUT holds its material's ground truth, and
 the three.js GLTFLoader plugin (engine/lutbake-gltf.js) in headless Chromium computes, at every pixel, the
 film term lutbake's samplers return for that pixel's cos θ, thickness, metalness and base colour, to 1e-4."""
 
@@ -11,7 +11,7 @@ import uuid
 import numpy as np
 import pytest
 
-from gltf_assets import SHOWCASE, asset_path, car_concept, document, iridescent, stand_in
+from gltf_assets import SHOWCASE, document, iridescent, khronos_document, stand_in
 from lutbake.colorimetry import delta_e00
 from lutbake.gltf_scene import load_gltf_scene
 from lutbake.points import FilmPoints
@@ -63,14 +63,12 @@ def _slice(manifest, folder, name, cos_t, thickness) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def bakes(tmp_path_factory):
+def bakes():
     """Every asset's stand-in (gltf_assets.stand_in), baked by `bake --gltf`'s library call into a folder the
     harness serves (repository files): {asset: (glTF path, manifest, output folder)}."""
     folder = ROOT / "build" / f"gltf-engine-{uuid.uuid4().hex[:8]}"
     try:
-        sources = {name: json.loads(asset_path(name).read_text()) for name in SHOWCASE}
-        sources["CarConcept"] = json.loads(car_concept(tmp_path_factory.mktemp("car") / "c.gltf").read_text())
-        sources["generated"] = _generated()
+        sources = {**{name: khronos_document(name) for name in SHOWCASE}, "generated": _generated()}
         out = {}
         for name, doc in sources.items():
             gltf = stand_in(doc, folder / name, name)
@@ -125,7 +123,7 @@ def test_showcase_slices_and_luts_hold_their_materials_ground_truth(bakes):
             assert p99 <= manifest["settings"]["max_de"], (name, material, p99)
 
 
-@pytest.mark.parametrize("asset", SHOWCASE + ["CarConcept", "generated"])
+@pytest.mark.parametrize("asset", SHOWCASE + ["generated"])
 def test_plugin_film_term_equals_lutbake_sample(plugin_run, asset):
     manifest, folder, result = plugin_run[asset]
     records = {r["gltf_index"]: r for r in manifest["source"]["materials"] if r["parts"]}
