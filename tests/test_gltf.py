@@ -4,11 +4,13 @@ hand-written assets with random films bake, the metal mappings are what they cla
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from gltf_assets import SHOWCASE, SPHERE_GRIDS, document, glb_bytes, iridescent, khronos_gltf, write_gltf
+from gltf_assets import (KHRONOS, SHOWCASE, SPHERE_GRIDS, credit_line, document, glb_bytes, iridescent, khronos_gltf,
+                         write_gltf)
 from lutbake.colorimetry import delta_e00
 from lutbake.gltf_scene import load_gltf_scene, material_rows
 from lutbake.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
@@ -147,6 +149,16 @@ def test_random_hand_written_assets_bake_as_gltf_and_glb(tmp_path):
         lo, hi = (atlas.slice_of(name)["axes"]["thickness_nm"][k] for k in ("min", "max"))
         pts = FilmPoints.build(**atlas.film_stack(name), cos_theta=rng.uniform(0, 1, 100), thickness_nm=lo)
         assert np.percentile(delta_e00(atlas.sample(name, pts), reference_colour(pts).values), 99) <= 1.0
+
+
+def test_the_docs_credit_every_khronos_asset_the_fixture_carries():
+    """CC-BY-4.0 asks for credit wherever something derived from an asset is shown: docs/gltf.md names every
+    asset of the fixture (author, year, license, source), gltf-examples.md (make_gltf.py) every one it bakes."""
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    for page, names in (("gltf.md", KHRONOS), ("gltf-examples.md", SHOWCASE)):
+        text = (docs / page).read_text()
+        missing = [name for name in names if f"- {name}: {credit_line(name)}\n" not in text]
+        assert not missing, (page, missing)
 
 
 def test_sphere_grids_plan_every_sphere(tmp_path):
