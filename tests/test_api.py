@@ -1,4 +1,4 @@
-"""The public Python API: the README's example, each public name's doctest, no process-state changes."""
+"""The public Python API: docs/api.md's example, each public name's doctest, no process-state changes."""
 
 import doctest
 import json
@@ -23,11 +23,11 @@ def _run_doctests(text: str, name: str, globs=None):
     return runner.summarize(verbose=False), len(test.examples)
 
 
-def test_readme_python_example_runs(tmp_path, monkeypatch):
+def test_api_page_python_example_runs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), re.S)
-    assert blocks, "README has no Python example"
-    result, examples = _run_doctests("".join(blocks), "README.md")
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "api.md").read_text(), re.S)
+    assert blocks, "docs/api.md has no Python example"
+    result, examples = _run_doctests("".join(blocks), "docs/api.md")
     assert examples >= 5 and result.failed == 0
     assert {p.name for p in tmp_path.iterdir()} >= {"soap.exr", "soap.json", "soap.glsl", "soap.hlsl"}
 
