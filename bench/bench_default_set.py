@@ -5,7 +5,8 @@ run, on every OpenCL runtime that builds the kernel.
 
 Per runtime, `lutbake bake --out DIR --device KEY` (the six default LUTs, 14.4 M cells) and
 `lutbake bake` of B1 (4.19 M cells, bench_b1.py's grid) alternate, each in its own process, --reps
-times, after one discarded B1 bake (a cold kernel binary cache cost 8 s once): process wall (interpreter
+times (the runtimes in turn within each rep), after one discarded B1 bake per runtime (a cold kernel
+binary cache cost 8 s once): process wall (interpreter
 start and imports included), cells/s, peak RSS (VmHWM) and, from the headers, the texels per path
 (series, closed form, direct) summed over the set. The ratio of the set's cells/s to B1's is taken rep
 by rep (pairing keeps it fair on a busy machine); medians are reported. The numpy 2 nm integration (bench_b1.numpy_2nm) runs on the first --sample-rows image rows
@@ -85,12 +86,15 @@ def main() -> None:
     report = {"load_average_start": load_average(), "not_building": not_building(), "runtimes": {}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for key in devices():
-            runs = {"set": [], "b1": []}
+        keys = devices()
+        by_key = {key: {"set": [], "b1": []} for key in keys}
+        for key in keys:
             run("b1", tmp / f"warm-{key}" / "b1.exr", key)   # discarded: builds the kernel's binary cache
-            for rep in range(args.reps):
-                runs["b1"].append(run("b1", tmp / f"b1-{key}-{rep}" / "b1.exr", key))
-                runs["set"].append(run("set", tmp / f"set-{key}-{rep}", key))
+        for rep in range(args.reps):   # the runtimes alternate within each rep: a busy spell hits them alike
+            for key in keys:
+                by_key[key]["b1"].append(run("b1", tmp / f"b1-{key}-{rep}" / "b1.exr", key))
+                by_key[key]["set"].append(run("set", tmp / f"set-{key}-{rep}", key))
+        for key, runs in by_key.items():
             ratios = [s["process_cells_per_s"] / b["process_cells_per_s"] for s, b in zip(runs["set"], runs["b1"])]
             report["runtimes"][key] = {
                 "runs": runs, "set_over_b1_cells_per_s": ratios,

@@ -1,6 +1,6 @@
 """Peak memory of a bake against the memory model (lutbake.plan.BakeSpec.memory), shape by shape.
 
-    python bench/bench_memory.py [--shapes NAME ...] [--json FILE]
+    python bench/bench_memory.py [--shapes NAME ...] [--devices KEY ...] [--json FILE]
 
 Each shape bakes in its own process (peak RSS is that process's own: VmHWM) and reports the
 wall time, cells/s, the file's size, the measured peak, the model's estimate by item as the bake's
@@ -8,7 +8,8 @@ last check has it (the runtime's resident memory measured, the plan's outcome kn
 and the estimate the bake checks before any work (constants and bounds from the shape alone).
 The shapes stress one term of the model each: the bands (B1, a default metal LUT), the (cos θ, D)
 pairs, the (cos θ, η3, κ3) columns, the numpy path's chunks, a grid of 63 M cells (and, asked for by
-name, one of 513 M: minutes); tests/test_memory.py runs a few of them small.
+name, one of 513 M: minutes); tests/test_memory.py runs a few of them small, on every runtime.
+--devices bakes each shape on each device named (`lutbake devices`; default: lutbake's default device).
 """
 
 import argparse
@@ -44,7 +45,7 @@ def spec_of(shape, opd_max, precision):
         Axis("eta3", 1.0, 3.0, n_eta3), Axis("kappa3", 0.0, 5.0, n_kappa3, "sqrt")))
 
 
-def child(name: str, out: str) -> None:
+def child(name: str, out: str, device=None) -> None:
     """Bake ``name`` and print one JSON line (runs in its own process): the peak against the model with
     the runtime's resident memory and the plan as the bake's last check before the bands has them, and
     the estimate before any work."""
@@ -53,10 +54,10 @@ def child(name: str, out: str) -> None:
 
     shape, opd_max, backend, precision = SHAPES[name]
     spec = spec_of(shape, opd_max, precision)
-    integrator = make_backend(backend)   # what write_lut does first: the runtime up, its memory measured
+    integrator = make_backend(backend, device=device)   # what write_lut does first: the runtime up, measured
     runtime = resident_bytes()
     start = time.perf_counter()
-    result = bake(spec, out, backend, memory_limit_gib=64.0)
+    result = bake(spec, out, backend, memory_limit_gib=64.0, device=device)
     wall = time.perf_counter() - start
     model = spec.memory(backend, runtime_bytes=runtime, plan=integrator.series_plan(spec))
     peak = resident_bytes(peak=True)
@@ -69,9 +70,9 @@ def child(name: str, out: str) -> None:
                       "model_mib": {k: v / 2**20 for k, v in model.items()}}))
 
 
-def measure(name: str, folder: Path) -> dict:
-    proc = subprocess.run([sys.executable, __file__, "--child", name, "--out", str(folder / f"{name}.exr")],
-                          capture_output=True, text=True)
+def measure(name: str, folder: Path, device: str = "") -> dict:
+    proc = subprocess.run([sys.executable, __file__, "--child", name, "--out", str(folder / f"{name}.exr"),
+                           "--device", device], capture_output=True, text=True)
     if proc.returncode:
         raise SystemExit(proc.stderr)
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -84,15 +85,18 @@ def main():
     ap.add_argument("--child")
     ap.add_argument("--out")
     ap.add_argument("--shapes", nargs="+", default=[name for name in SHAPES if name != "513M"])
+    ap.add_argument("--device", default="")   # the child's
+    ap.add_argument("--devices", nargs="+", default=[""])
     ap.add_argument("--json")
     args = ap.parse_args()
     if args.child:
-        child(args.child, args.out)
+        child(args.child, args.out, args.device or None)
         return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.shapes:
-            rows.append(measure(name, Path(tmp)))
+        for device in args.devices:
+            for name in args.shapes:
+                rows.append(measure(name, Path(tmp), device))
             print(json.dumps(rows[-1]), flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")

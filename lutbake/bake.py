@@ -275,7 +275,8 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
         Kernel path: 'series' (the exact Fourier series, direct quadrature where out of scope) or
         'direct' (quadrature for every texel).
     device : str, optional
-        OpenCL device: index, runtime key ('pocl', 'intel') or part of its name.
+        OpenCL device: index, key ('pocl-system', 'pocl-pypi', 'intel-pypi'), runtime ('pocl': the first PoCL
+        that builds the kernel) or part of its label (lutbake/devices.py).
     memory_limit_gib : float
         Refuse specs whose image and work buffers would exceed this, GiB.
 

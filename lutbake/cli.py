@@ -329,8 +329,10 @@ def _use_device(ctx, param, selector):
 
 device_option = click.option(
     "--device", metavar="N|KEY|TEXT", callback=_use_device, expose_value=False, is_eager=True,
-    help="OpenCL device: its number or key in `lutbake devices`, or part of its name (default: the "
-         "first that builds the kernel and passes its self-check; PYOPENCL_CTX is honoured).")
+    help="OpenCL device: its number or key in `lutbake devices` (pocl-system, pocl-pypi, intel-pypi), a "
+         "runtime (pocl: the first PoCL that builds the kernel), or part of its name (default: the first "
+         "device that builds the kernel and passes its self-check, PoCL first, the system's before "
+         "PyPI's; PYOPENCL_CTX is honoured).")
 
 
 def domain_options(f):
@@ -1132,8 +1134,12 @@ def devices_cmd(as_json):
         if row["index"] is None:
             click.echo(f"no OpenCL device: {row['error']}")
             continue
-        mark = " (default)" if row["default"] else ""
-        click.echo(f"{row['index']} {row['key']}: {row['label']}{mark}")
+        head = f"{row['index']} {row['key']}: {row['label']}{' (default)' if row['default'] else ''}"
+        builds = [compute for compute in ("float64", "float32") if row[compute]["builds"]]
+        if not builds and row["float64"]["error"] == row["float32"]["error"]:   # one reason: one line
+            click.echo(f"{head}: {row['float64']['error']}")
+            continue
+        click.echo(head)
         for compute in ("float64", "float32"):
             r = row[compute]
             state = (f"builds, self-check |ΔR| {r['self_check_error']:.1e}" if r["builds"]
@@ -1141,7 +1147,6 @@ def devices_cmd(as_json):
             click.echo(f"    {compute}: {state}")
         if "cells_per_second" in row:
             click.echo(f"    {row['cells_per_second']:.3g} cells/s (float64, {probe.cells} cells over D 0–3000 nm)")
-
 
 if __name__ == "__main__":  # pragma: no cover
     main()

@@ -4,8 +4,10 @@ Both return the RGB of every texel of a band of image rows, an array
 (rows, width, 3):
 
 * ``OpenCLBackend`` runs kernels/airy.cl through pyopencl, by default on
-  PoCL's CPU device from PyPI; ``PYOPENCL_CTX`` picks any other platform
-  (a GPU's driver runs the same source unchanged). The program is built
+  the first device in lutbake/devices.py's order (PoCL, the system's before
+  PyPI's, then Intel's CPU runtime) that builds the kernel and passes its
+  self-check; ``--device`` or ``PYOPENCL_CTX`` picks any other (a GPU's
+  driver runs the same source unchanged). The program is built
   once per process and compute precision. By default each texel is summed
   as the exact Fourier series (lutbake/fourier.py) where its rule allows,
   and integrated by the spectral rule elsewhere.
@@ -17,16 +19,16 @@ Both return the RGB of every texel of a band of image rows, an array
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import os
-import sys
-import tempfile
 import warnings
 from importlib import resources
-from pathlib import Path
 
 import numpy as np
 
+from .devices import _every_runtime_registered, _opencl, device_key, device_label, find_device, find_devices, \
+    opencl_devices, runtime_of
 from .errors import OpenCLUnavailable, ParameterError
 from .fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
                       weight_transform)
@@ -34,24 +36,9 @@ from .optics import film_reflectance, normal_admittance
 from .plan import SERIES_CHUNK
 from .points import FilmPoints
 from .reference import subset
-from .signals import stop_signals_held
-from .usercache import pyopencl_caches_where_writable
-
-pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
 
 __all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
            "find_device", "device_key", "device_label", "self_check_error"]
-
-
-@functools.cache
-def _opencl():
-    """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
-    builds Python enums while it initialises, and an exception that a stop signal's handler raises there
-    cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
-    signal arrives once the module is loaded."""
-    with stop_signals_held():
-        import pyopencl
-    return pyopencl
 
 
 class NumpyBackend:
@@ -108,94 +95,22 @@ def _split(values, dtype):
     return np.ascontiguousarray(hi), np.ascontiguousarray(lo)
 
 
-@contextlib.contextmanager
-def _intel_cpu_runtime_visible():
-    """Make Intel's CPU OpenCL runtime (PyPI: opencl-rt) visible to the platform query inside.
-
-    PoCL 3.0 from PyPI compiles kernels with LLVM 14, which cannot name CPUs
-    newer than it (AMD family 1Ah, Zen 5: "unknown target CPU 'generic'").
-    The test extra installs Intel's CPU runtime into the environment's lib/;
-    registering it gives such machines a second OpenCL CPU device that runs
-    the same kernel source. The ICD loader reads its vendor list once, at the
-    process's first platform query, so the .icd file (in a private temporary
-    folder) and OCL_ICD_VENDORS exist only for that query and are gone after
-    it. An explicit OCL_ICD_VENDORS is left alone; a process that queried
-    platforms before lutbake did sees only the runtimes it registered itself.
-    """
-    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
-    if "OCL_ICD_VENDORS" in os.environ or not lib.is_file():
-        yield
-        return
-    with tempfile.TemporaryDirectory(prefix="lutbake-icd-") as vendors:
-        (Path(vendors) / "intel-cpu.icd").write_text(f"{lib}\n")
-        os.environ["OCL_ICD_VENDORS"] = vendors
-        try:
-            yield
-        finally:
-            del os.environ["OCL_ICD_VENDORS"]
-
-
-RUNTIME_KEYS = {"Portable Computing Language": "pocl", "Intel(R) OpenCL": "intel"}
-
-
-def device_key(device) -> str:
-    """Short stable name of a device: its runtime ('pocl', 'intel', …), plus ':N' past the first."""
-    platform = device.platform.name.strip()
-    key = RUNTIME_KEYS.get(platform, platform.split()[0].lower())
-    index = device.platform.get_devices().index(device)
-    return key if index == 0 else f"{key}:{index}"
-
-
-def device_label(device) -> str:
-    """'platform / device' as the runtime names them."""
-    return f"{device.platform.name.strip()} / {device.name.strip()}"
-
-
-def opencl_devices() -> list:
-    """Every OpenCL device, PoCL's first (the design's runtime), then the rest in platform order."""
-    cl = _opencl()
-
-    try:
-        with _intel_cpu_runtime_visible():
-            platforms = cl.get_platforms()
-    except cl.Error as exc:
-        raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
-    platforms.sort(key=lambda p: "Portable Computing Language" not in p.name)
-    return [d for p in platforms for d in p.get_devices()]
-
-
 def _candidate_devices(selector=None):
-    """Devices to try, in order: the one ``selector`` (or $LUTBAKE_DEVICE) names, else the one
+    """Devices to try, in order: those ``selector`` (or $LUTBAKE_DEVICE) names, else the one
     PYOPENCL_CTX names, else every device (``opencl_devices`` order)."""
     cl = _opencl()
 
     selector = selector or os.environ.get("LUTBAKE_DEVICE")
     if selector:
-        return [find_device(selector)]
+        return find_devices(selector)
     if os.environ.get("PYOPENCL_CTX"):
         try:
-            with _intel_cpu_runtime_visible():
+            with _every_runtime_registered():
                 return [cl.create_some_context(interactive=False).devices[0]]
         except (cl.Error, RuntimeError, ValueError) as exc:  # pyopencl's words for a selector it cannot match
             raise ValueError(f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} names no OpenCL device ({exc}): "
                              "unset it, or give a platform:device index such as 0:0") from None
     return opencl_devices()
-
-
-def find_device(selector: str):
-    """The device a selector names: its index in ``opencl_devices()``, its key, or a
-    case-insensitive part of its label (e.g. '0', 'pocl', 'intel')."""
-    devices = opencl_devices()
-    text = str(selector).strip().lower()
-    if text.isdigit() and int(text) < len(devices):
-        return devices[int(text)]
-    exact = [d for d in devices if device_key(d) == text]
-    found = exact or [d for d in devices if text in device_label(d).lower()]
-    if len(found) != 1:
-        known = ", ".join(f"{i} ({device_key(d)}: {device_label(d)})" for i, d in enumerate(devices))
-        state = "matches no" if not found else "matches more than one"
-        raise ValueError(f"device {selector!r} {state} OpenCL device; devices: {known or 'none'}")
-    return found[0]
 
 
 KERNEL_SOURCES = ("kernels/airy.cl", "kernels/poles.cl")
@@ -306,8 +221,19 @@ def _program(device, compute: str):
     try:
         return _build(device, compute)
     except (cl.Error, OpenCLUnavailable) as exc:
-        lines = str(exc).strip().splitlines() or ["build failed"]
-        return OpenCLUnavailable(f"{device_label(device)}: {next((l for l in lines if 'error' in l), lines[0])}")
+        return OpenCLUnavailable(f"{device_label(device)}: {_why_not_built(device, exc)}")
+
+
+def _why_not_built(device, exc) -> str:
+    """One line: the build log's first error, and where the runtime's LLVM cannot name this CPU (PoCL 3.0
+    from PyPI, LLVM 14, on AMD Zen 5: "unknown target CPU 'generic'"), what builds instead."""
+    lines = [line.strip() for line in str(exc).strip().splitlines()] or ["build failed"]
+    first = next((line for line in lines if "error" in line), lines[0])
+    if "unknown target CPU" not in first:
+        return first
+    return (f"cannot compile for this CPU: {first.removeprefix('error: ')} (LLVM {runtime_of(device).llvm or '?'} "
+            "does not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, "
+            "builds on such CPUs)")
 
 
 KERNELS = {"direct_kernel": "bake_texels_direct", "series_kernel": "bake_rows_series",
@@ -465,9 +391,9 @@ def _column_rule(co, mass) -> np.ndarray:
 
 
 class OpenCLBackend:
-    """kernels/airy.cl on an OpenCL device: the one ``device`` names (see ``find_device``),
-    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else the first that builds the kernel and
-    passes its self-check (PoCL first).
+    """kernels/airy.cl on an OpenCL device: the first that builds the kernel and passes its self-check
+    among those ``device`` names (see ``devices.find_devices``: one device, or a family such as 'pocl'),
+    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else every device (``devices.opencl_devices`` order).
 
     ``integrator`` 'series' (the bake's default) runs the Fourier series where
     its rule allows, the poles' closed form (kernels/poles.cl) where the film
@@ -808,7 +734,7 @@ class DeviceCannotRun(ParameterError, OpenCLUnavailable):
 def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):
     """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
     ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device``
-    the OpenCL device (``find_device``). A device named here or by $LUTBAKE_DEVICE that cannot run
+    the OpenCL device (``devices.find_devices``). A device named here or by $LUTBAKE_DEVICE that cannot run
     raises DeviceCannotRun, even under 'auto': only the default device falls back."""
     if name == "numpy":
         return NumpyBackend()
@@ -833,20 +759,23 @@ def survey_devices(throughput_spec=None) -> list:
     import time
 
     try:
-        devices = opencl_devices()
+        devices = opencl_devices() or ["no OpenCL platform offers a device"]
     except (OpenCLUnavailable, ImportError) as exc:
-        return [{"index": None, "key": "opencl", "label": "no OpenCL platform", "error": str(exc)}]
+        devices = [str(exc)]
+    if isinstance(devices[0], str):
+        return [{"index": None, "key": "opencl", "label": "no OpenCL device", "error": devices[0]}]
     default = _default_device_key()
     rows = []
     for index, device in enumerate(devices):
-        row = {"index": index, "key": device_key(device), "label": device_label(device),
-               "default": device_key(device) == default}
+        key, label = device_key(device, devices), device_label(device)
+        row = {"index": index, "key": key, "label": label, "default": key == default,
+               "runtime": dataclasses.asdict(runtime_of(device))}
         for compute in ("float64", "float32"):
             try:
                 fast = OpenCLBackend(compute, device=str(index))
-                row[compute] = {"builds": True, "self_check_error": self_check_error(fast)}
-            except OpenCLUnavailable as exc:
-                row[compute] = {"builds": False, "error": str(exc)}
+                row[compute] = {"builds": True, "self_check_error": _self_check(fast, device)}
+            except OpenCLUnavailable as exc:   # one device tried: its reason, without its label
+                row[compute] = {"builds": False, "error": str(exc).removeprefix(f"{label}: ")}
         if throughput_spec is not None and row["float64"].get("builds"):
             fast = OpenCLBackend("float64", device=str(index))
             fast.bake_rows(throughput_spec, 0, 1)

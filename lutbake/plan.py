@@ -71,9 +71,10 @@ _MIB = 1 << 20
 # that bakes one shape; the allocators keep some freed memory, so these are resident bytes, not the
 # arrays' sizes alone); tests/test_memory.py holds the estimate within 1.25x of measured peaks.
 MEMORY = {
-    # interpreter, numpy, OpenEXR, the colour tables; OpenCL: pyopencl, the runtime, the program (measured
-    # once the integrator is up where a bake can: runtimes differ by 2x between machines)
-    "runtime": {"opencl": 232 * _MIB, "numpy": 48 * _MIB},
+    # interpreter, numpy, OpenEXR, the colour tables; OpenCL: pyopencl, every registered runtime's library,
+    # the running one's compiler, program and self-check, per runtime family (docs/devices.md#memory). A bake
+    # measures it once its integrator is up; before that the largest stands for whichever will run.
+    "runtime": {"numpy": 48 * _MIB, "opencl": {"pocl": 170 * _MIB, "intel": 270 * _MIB}},
     "tables": 24 * _MIB,           # the closed form's Cauchy table (8.3 MB) on the host and the device
     "column": 192,                 # per (cos θ, η3, κ3): the series and rule constants on the device (24 REAL)
     "pair": 56,                    # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
@@ -83,8 +84,9 @@ MEMORY = {
     "plan_cell": 12,               # per cell of a band during the plan: the texels left and the series bounds
     "probes": 30 * _MIB,           # the ground truth at the 48 probes (reference.py) ...
     "probes_per_um": 0.52 * _MIB,  # ... and its growth with the thickest film D (finer rules)
-    "band_cell": {"series": 90, "direct": 160},  # per cell of a band: RGB float64 on the host and the device for
-                                                  # two bands in flight, the lists of texels left (direct: levels)
+    "flight_cell": {"series": 45, "direct": 80},  # per cell of the bands in flight (the one written, the next baking;
+                                                   # one where the image is one band): RGB float64 on the host and
+                                                   # the device, the lists of texels left (direct: levels)
     "numpy_cell": 168,             # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
     "numpy_chunk": 330,            # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
     "screen": 750 << 16,           # capped_texels: one chunk of 2^16 texels screened and filtered
@@ -441,7 +443,8 @@ class BakeSpec:
         band = min(self.cells, max(_CHUNK_CELLS, self.image_size[0]))   # row_chunks: at least one image row
         exr = band * 9 * (2 if self.precision == "half" else 4)         # stored, its planes and their bytes
         probes = MEMORY["probes"] + MEMORY["probes_per_um"] * self.axis["opd_nm"].hi / 1000.0
-        items = {"runtime": runtime_bytes or MEMORY["runtime"]["numpy" if backend == "numpy" else "opencl"]}
+        before_work = MEMORY["runtime"]["numpy"] if backend == "numpy" else max(MEMORY["runtime"]["opencl"].values())
+        items = {"runtime": runtime_bytes or before_work}
         if backend == "numpy":
             chunk = min(band * MAX_WAVENUMBER_NODES, 1 << 19) * MEMORY["numpy_chunk"]
             items["phases"] = max(probes + MEMORY["screen"], band * MEMORY["numpy_cell"] + exr + chunk)
@@ -456,7 +459,8 @@ class BakeSpec:
             plan = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
             if integrator == "direct":
                 plan += MEMORY["screen"]
-            items["phases"] = max(plan, band * MEMORY["band_cell"][integrator] + exr)
+            in_flight = min(self.cells, 2 * band)   # bake.write_lut: band k written while band k + 1 bakes
+            items["phases"] = max(plan, in_flight * MEMORY["flight_cell"][integrator] + exr)
         if self.file_layout != self.layout:   # bake.write_lut re-tiles the whole image, as stored, in 3 copies
             items["retile"] = self.cells * 9 * (2 if self.precision == "half" else 4)
         items["peak"] = sum(items.values())

@@ -1,6 +1,7 @@
 """Shared fixtures. Kernel tests run once per OpenCL device that builds the kernel
-(parametrized by ``kernel_device``, the device's key in the test id: ``[pocl]``,
-``[intel]``); the summary lists which runtimes were exercised and which could not be."""
+(parametrized by ``kernel_device``, the device's key in the test id: ``[pocl-system]``,
+``[pocl-pypi]``, ``[intel-pypi]``); the summary names each runtime (which PoCL, which Intel)
+and lists which were exercised and which could not be."""
 
 import fcntl
 import os
@@ -80,9 +81,9 @@ def _survey_devices():
     for device in devices:
         built = _program(device, "float64")
         if isinstance(built, OpenCLUnavailable):
-            excluded[device_key(device)] = str(built)
+            excluded[device_key(device, devices)] = str(built)
         else:
-            builds.append((device_key(device), device_label(device)))
+            builds.append((device_key(device, devices), device_label(device)))
     return builds, excluded
 
 
@@ -147,7 +148,7 @@ def pytest_terminal_summary(terminalreporter):
         ran = ", ".join(f"{n} {o}" for o, n in counts.items() if n) or "no kernel test ran"
         tr.write_line(f"{key}: {label}: {ran}")
     for key, reason in _EXCLUDED.items():
-        tr.write_line(f"{key}: not exercised (the kernel does not build): {reason[:200]}")
+        tr.write_line(f"{key}: not exercised (the kernel does not build): {reason}")
 
 
 def node_parses(text: str) -> bool:

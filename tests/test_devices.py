@@ -3,12 +3,13 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from airy_mp import airy_reflectance_mp
-from lutbake import integrate
+from lutbake import devices as runtimes, integrate
 from lutbake.bake import bake, bake_array
 from lutbake.plan import Axis, BakeSpec
 from lutbake.points import FilmPoints
@@ -20,7 +21,7 @@ def _cli(*args):
 
 def _building_devices():
     """(index in `lutbake devices`, device) of each device whose compiler builds the kernel. Device 0 need not
-    be one: PoCL 3.0 is listed first and cannot compile on CPUs newer than its LLVM (AMD Zen 5)."""
+    be one: PoCL 3.0 from PyPI cannot compile on CPUs newer than its LLVM (AMD Zen 5)."""
     return [(index, device) for index, device in enumerate(integrate.opencl_devices())
             if not isinstance(integrate._program(device, "float64"), integrate.OpenCLUnavailable)]
 
@@ -149,7 +150,103 @@ def test_devices_command_lists_every_device():
     rows = json.loads(out.stdout)["devices"]
     assert [r["label"] for r in rows] == [integrate.device_label(d) for d in integrate.opencl_devices()]
     assert sum(r["default"] for r in rows) == 1
+    assert len({r["key"] for r in rows}) == len(rows)
     for r in rows:
+        assert r["key"].startswith(f"{r['runtime']['family']}-{r['runtime']['origin'].lower()}")
         if r["float64"]["builds"]:
             assert r["float64"]["self_check_error"] <= integrate.SELF_CHECK_TOLERANCE["float64"]
             assert r["cells_per_second"] > 0
+
+
+_PLAIN_PYOPENCL = """
+import json, pyopencl as cl
+print(json.dumps([[p.name.strip(), p.version.strip(), d.name.strip()] for p in cl.get_platforms()
+                  for d in p.get_devices()]))
+"""
+
+
+def test_every_runtime_is_found_and_each_is_named_apart():
+    """Every device pyopencl alone finds (PyPI's PoCL from its own folder, the system's vendor list: Debian's
+    PoCL where installed) is listed, and Intel's runtime where the environment holds it; the two PoCLs
+    have keys of their own (the family and where the runtime came from), so a test id or --device names one."""
+    plain = json.loads(subprocess.run([sys.executable, "-c", _PLAIN_PYOPENCL], capture_output=True, text=True,
+                                      check=True).stdout)
+    devices = integrate.opencl_devices()
+    listed = [[d.platform.name.strip(), d.platform.version.strip(), d.name.strip()] for d in devices]
+    assert all(row in listed for row in plain), (plain, listed)
+    keys = [integrate.device_key(d) for d in devices]
+    assert len(set(keys)) == len(keys), keys
+    origins = {(runtimes.runtime_of(d).family, runtimes.runtime_of(d).origin) for d in devices}
+    pyopencl_icds = Path(runtimes._opencl().__file__).parent / ".libs"
+    if any("pocl" in icd.name for icd in pyopencl_icds.glob("*.icd")):   # pocl-binary-distribution
+        assert ("pocl", "PyPI") in origins and "pocl-pypi" in keys
+    if (Path(sys.prefix) / "lib" / "libintelocl.so").is_file():          # the cpu extra
+        assert ("intel", "PyPI") in origins and "intel-pypi" in keys
+    for device in devices:
+        runtime = runtimes.runtime_of(device)
+        label = integrate.device_label(device)
+        assert label.startswith(f"{runtime.name} {runtime.version} ({runtime.origin}") and device.name.strip() in label
+        if runtime.family == "pocl":   # which PoCL: its version and LLVM's, from the platform's own words
+            assert f"PoCL {runtime.version}" in device.platform.version and f"LLVM {runtime.llvm}" in label
+
+
+def test_devices_are_tried_pocl_first_the_systems_before_pypis():
+    """The stated rule (lutbake/devices.py, docs/devices.md): PoCL before other runtimes, the system's PoCL
+    before PyPI's; the default device is the first in that order whose kernel builds and passes the
+    self-check."""
+    devices = integrate.opencl_devices()
+    rank = [(runtimes.runtime_of(d).family != "pocl", runtimes.runtime_of(d).origin != "system") for d in devices]
+    assert rank == sorted(rank)
+    first = next(device for _, device in _building_devices())
+    assert integrate.OpenCLBackend("float64").device == integrate.device_label(first)
+
+
+def test_device_pocl_means_a_pocl_that_builds(monkeypatch):
+    """--device pocl: the first PoCL whose kernel builds and passes its self-check, never another runtime.
+    The PoCLs are made to fail their build one by one, from the first: the next PoCL runs, and once none
+    is left the named family is refused (even where Intel's runtime builds)."""
+    pocls = [d for _, d in _building_devices() if runtimes.runtime_of(d).family == "pocl"]
+    assert pocls, "no PoCL builds the kernel"
+    real = integrate._device_kernels
+    broken = []
+    monkeypatch.setattr(integrate, "_device_kernels", lambda d, compute: integrate.OpenCLUnavailable(
+        f"{integrate.device_label(d)}: error: no build") if d in broken else real(d, compute))
+    for pocl in pocls:
+        assert integrate.OpenCLBackend("float64", device="pocl").device == integrate.device_label(pocl)
+        broken.append(pocl)
+    with pytest.raises(integrate.DeviceCannotRun, match="no build"):
+        integrate.backend("auto", device="pocl")
+
+
+# PyPI's PoCL 3.0 building the kernel on AMD Zen 5, as pyopencl words it (recorded under qemu-x86_64
+# -cpu EPYC-Milan,family=26,model=2: LLVM 14 names the CPU 'generic'; docs/devices.md).
+_ZEN5_BUILD_LOG = ("clBuildProgram failed: BUILD_PROGRAM_FAILURE - clBuildProgram failed: BUILD_PROGRAM_FAILURE\n\n"
+                   "Build on <pyopencl.Device 'pthread-AMD EPYC' on 'Portable Computing Language' at 0x400067a550>:"
+                   "\n\nerror: unknown target CPU 'generic'\nDevice pthread-AMD EPYC failed to build the program\n\n"
+                   "(options: -DLUTBAKE_FP64 -DMAX_NEAR=32)")
+
+
+def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkeypatch, capsys):
+    """`lutbake devices` names a device whose compiler fails in one line: which runtime (version, LLVM, PyPI
+    or system), that it cannot compile for this CPU, and what does."""
+    from lutbake import cli
+
+    devices = integrate.opencl_devices()
+    index, pocl = next((i, d) for i, d in enumerate(devices) if runtimes.runtime_of(d).family == "pocl")
+    runtime = runtimes.runtime_of(pocl)
+    real = integrate._device_kernels
+    monkeypatch.setattr(integrate, "_device_kernels", lambda d, compute: integrate.OpenCLUnavailable(
+        f"{integrate.device_label(d)}: {integrate._why_not_built(d, RuntimeError(_ZEN5_BUILD_LOG))}")
+        if d == pocl else real(d, compute))
+    try:
+        cli.main(["devices"])
+    except SystemExit as exc:
+        assert exc.code == 0
+    lines = capsys.readouterr().out.splitlines()
+    entry = lines.index(next(line for line in lines if line.startswith(f"{index} ")))
+    assert lines[entry] == (
+        f"{index} {integrate.device_key(pocl)}: PoCL {runtime.version} ({runtime.origin}, LLVM {runtime.llvm}) / "
+        f"{pocl.name.strip()}: cannot compile for this CPU: unknown target CPU 'generic' (LLVM {runtime.llvm} does "
+        "not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, builds on "
+        "such CPUs)")
+    assert entry + 1 == len(lines) or lines[entry + 1][0].isdigit()   # nothing more about it
