@@ -8,10 +8,10 @@ import mpmath as mp
 
 
 def airy_reflectance_mp(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm, digits=50):
-    """(R_s, R_p) as floats."""
+    """(R_s, R_p) as floats, of any real inputs (each taken as the float64 nearest it)."""
+    inputs = (float(v) for v in (eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm))
     with mp.workdps(digits):
-        return tuple(float(r) for r in airy_reflectance_exact(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm,
-                                                              wavelength_nm))
+        return tuple(float(r) for r in airy_reflectance_exact(*inputs))
 
 
 def airy_reflectance_exact(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
