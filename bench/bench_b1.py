@@ -13,7 +13,7 @@ texels per path (series, closed form, direct) from the LUT's header. The numpy p
 optics.film_reflectance at 360, 362, …, 830 nm with trapezoid weights: a straightforward independent
 integration. Accuracy: the baked texels (not interpolated points) at random grid nodes and on a stiff
 grid (thick films near grazing incidence over metals and over a base that reflects totally), against the
-ground truth (reference.py).
+ground truth (lutbake/spectral/reference.py).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ _FLAGS = ("--cos-theta", "--opd", "--eta3", "--kappa3")
 
 
 def _spec(eta2, axes, compute="float64"):
-    from lutbake.plan import AXIS_NAMES, BakeSpec, parse_axis
+    from lutbake.grid.spec import AXIS_NAMES, BakeSpec, parse_axis
 
     return BakeSpec(eta2=eta2, compute=compute, axes=tuple(parse_axis(n, a) for n, a in zip(AXIS_NAMES, axes)))
 
@@ -43,8 +43,8 @@ def _spec(eta2, axes, compute="float64"):
 def numpy_2nm(spec, out: str, rows: int = None) -> None:
     """RGB of every texel (of the first ``rows`` image rows) by R at 2 nm steps and trapezoid weights;
     saved as .npy."""
-    from lutbake.colorimetry import colorimetry
-    from lutbake.optics import film_reflectance
+    from lutbake.physics.colorimetry import colorimetry
+    from lutbake.physics.optics import film_reflectance
 
     lam = np.arange(360.0, 830.1, 2.0)
     quad = np.full(lam.size, 2.0)
@@ -71,7 +71,7 @@ def cli_argv(eta2, axes, compute, device, out) -> list:
 
 def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     """Bake one grid with one path and print a JSON line (run in a fresh process)."""
-    from lutbake.bake import resident_bytes
+    from lutbake.lut.bake import resident_bytes
 
     eta2, axes = (1.5, B1_AXES) if grid == "b1" else (STIFF["eta2"], STIFF["axes"])
     spec = _spec(eta2, axes, compute)
@@ -89,7 +89,7 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
             if exc.code:
                 raise
     else:
-        from lutbake.bake import bake
+        from lutbake.lut.bake import bake
 
         bake(spec, out, "opencl", integrator=path, device=device)
     if path != "numpy-2nm":
@@ -121,14 +121,14 @@ def run_path(path: str, out: Path, compute: str = "float64", device: str = "", g
 
 def devices() -> list:
     """Keys of the OpenCL devices that build the kernel (lutbake devices), the default first."""
-    from lutbake.integrate import OpenCLUnavailable, _program, device_key, opencl_devices
+    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, opencl_devices
 
     return [device_key(d) for d in opencl_devices() if not isinstance(_program(d, "float64"), OpenCLUnavailable)]
 
 
 def not_building() -> dict:
     """{device key: why not} for the OpenCL devices whose compiler does not build the kernel."""
-    from lutbake.integrate import OpenCLUnavailable, _program, device_key, opencl_devices
+    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, opencl_devices
 
     return {device_key(d): str(built) for d in opencl_devices()
             if isinstance(built := _program(d, "float64"), OpenCLUnavailable)}
@@ -148,14 +148,14 @@ def load_average() -> list:
 
 
 def _image(path: Path) -> np.ndarray:
-    from lutbake.sample import Lut
+    from lutbake.lut.sample import Lut
 
     return np.load(path) if path.suffix == ".npy" else Lut.load(path).image.astype(float)
 
 
 def texel_error(images: dict, spec, n_points: int, seed: int) -> dict:
     """max |ΔRGB| of each image against the ground truth at random texels (all texels if fewer)."""
-    from lutbake.reference import reference_colour
+    from lutbake.spectral.reference import reference_colour
 
     width, height = spec.image_size
     rng = np.random.default_rng(seed)

@@ -4,8 +4,8 @@
     python bench/bench_blender.py --sections osl --points 300 --json bench/blender-osl-result.json
 
 Every figure in docs/blender.md comes from this script. Blender runs as `lutbake blender` runs it
-(lutbake/blender.py: a Python with bpy, default ./.venv-blender/bin/python, or $LUTBAKE_BLENDER, or a
-Blender executable): probe planes at known angles under a white world (lutbake/blender_probe.py), one
+(lutbake/blender/library.py: a Python with bpy, default ./.venv-blender/bin/python, or $LUTBAKE_BLENDER, or a
+Blender executable): probe planes at known angles under a white world (lutbake/blender/probe.py), one
 colour per plane, compared with lutbake's ground truth (reference.reference_rgb) by CIEDE2000.
 
 1. ``setup``: Principled BSDF with thin film thickness 0 at random angles and base indices against the
@@ -58,14 +58,14 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "docs"))
 
 import lutbake  # noqa: E402
-from lutbake.blender import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
+from lutbake.blender.library import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
                              verify_osl, write_library)
-from lutbake.blender_nodes import (EXACT_MATERIAL, RUNTIME_MATERIAL, LutRead, NumpyGraph, bilinear_program,  # noqa: E402
+from lutbake.blender.nodes import (EXACT_MATERIAL, RUNTIME_MATERIAL, LutRead, NumpyGraph, bilinear_program,  # noqa: E402
                                    read_manifest, read_program)
-from lutbake.exact import write_exact_table  # noqa: E402
-from lutbake.runtime import write_runtime_table  # noqa: E402
-from lutbake.colorimetry import delta_e00  # noqa: E402
-from lutbake.sample import Lut  # noqa: E402
+from lutbake.modes.exact import write_exact_table  # noqa: E402
+from lutbake.modes.runtime import write_runtime_table  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.lut.sample import Lut  # noqa: E402
 from make_scene_examples import bake_example  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")

@@ -30,7 +30,7 @@ from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_buildi
 
 def child(what: str, out: str, device: str, rows: int) -> None:
     """One bake (or numpy sample) in this process; prints one JSON line."""
-    from lutbake.bake import default_specs, resident_bytes
+    from lutbake.lut.bake import default_specs, resident_bytes
 
     start = time.perf_counter()
     if what.startswith("numpy:"):
@@ -69,7 +69,7 @@ def run(what: str, out: Path, device: str = "", rows: int = 0) -> dict:
 
 
 def main() -> None:
-    from lutbake.bake import default_specs
+    from lutbake.lut.bake import default_specs
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--child")

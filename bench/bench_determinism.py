@@ -24,7 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = {"chosen for this CPU": {}, "SSE3 (Prescott)": {"OPENBLAS_CORETYPE": "Prescott"}}
-DEFAULT_LUT = ("import sys; from lutbake.bake import default_specs, bake; "
+DEFAULT_LUT = ("import sys; from lutbake.lut.bake import default_specs, bake; "
                "bake(default_specs()['lutbake-eta2-1.50'], sys.argv[1])")
 SETS = {"exact table": ["-m", "lutbake", "exact-table", "--out"], "lutbake-eta2-1.50": ["-c", DEFAULT_LUT]}
 
@@ -46,7 +46,7 @@ def header_numbers(a, b, path="") -> list:
 
 
 def compare(files: dict) -> dict:
-    from lutbake.lutfile import ATLAS_FORMAT, EXACT_FORMAT, FORMAT, read_lut
+    from lutbake.tables.lutfile import ATLAS_FORMAT, EXACT_FORMAT, FORMAT, read_lut
 
     (meta_a, image_a), (meta_b, image_b) = (read_lut(p, (FORMAT, ATLAS_FORMAT, EXACT_FORMAT)) for p in files.values())
     bits = np.int16 if image_a.dtype == np.float16 else np.int32

@@ -10,7 +10,7 @@ seeded choice among those the sphere covers) both film terms are scored against 
 parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
 ΔE00 p99 and the largest over those pixels, per material and pooled. Bytes on the GPU: every texture as
 EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and SPIR-V arithmetic per pixel: lutbake report's
-table (lutbake/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
+table (lutbake/modes/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
 curve the plugin reads for texture-driven metals (curve_worst), which the pixels sample only in part.
 """
 
@@ -32,9 +32,9 @@ sys.path.insert(0, str(ROOT / "docs"))
 from gltf_assets import SHOWCASE, khronos_document, stand_in  # noqa: E402
 from make_dropin import write_runtime_table  # noqa: E402
 
-from lutbake.colorimetry import delta_e00  # noqa: E402
-from lutbake.headers import check_structure, exr_header  # noqa: E402
-from lutbake.runtime.accuracy import truth  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.tables.headers import check_structure, exr_header  # noqa: E402
+from lutbake.modes.runtime.accuracy import truth  # noqa: E402
 
 PIXELS = 150           # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal
 SIZE, STRIDE = 64, 3   # rendered square, and every STRIDE-th pixel returned
@@ -45,8 +45,8 @@ CURVE_BUDGET = 2000    # evaluations of the search along the metal mapping's cur
 
 def bake_stand_ins(folder: Path, names=SHOWCASE) -> dict:
     """Each asset's stand-in baked into FOLDER/NAME/out: {asset: {gltf, manifest, out, bake_s}}."""
-    from lutbake.gltf_scene import load_gltf_scene
-    from lutbake.scene_bake import bake_scene
+    from lutbake.scene.gltf.materials import load_gltf_scene
+    from lutbake.scene.bake import bake_scene
 
     folder.mkdir(parents=True, exist_ok=True)
     out = {}
@@ -136,12 +136,12 @@ def curve_worst(budget: int, seed: int = 0):
     texture-driven metal: worstcase.find_worst over (cos θ, d 0–1500 nm, η2 1–3, F0 0–0.99), the base
     (η3, κ3) interpolated in the 65-node F0 table the manifest carries, one F0 for all channels (each
     channel is the film over its own base). runtime.model is what three.js returns to 1e-4
-    (tests/test_runtime_engine.py). The curve's white end leaves the table's searched metal box (η3 < 0.05
+    (tests/engines/test_runtime_engine.py). The curve's white end leaves the table's searched metal box (η3 < 0.05
     above F0 0.97) and its dark end the metal box for the dielectric one (κ3 < 1.5)."""
-    from lutbake.gltf_scene import METAL_TABLE_NODES
-    from lutbake.metals import F0_MAX, conductor
-    from lutbake.runtime import read_runtime_table, runtime_colour
-    from lutbake.worstcase import SearchAxis, find_worst
+    from lutbake.scene.gltf.materials import METAL_TABLE_NODES
+    from lutbake.physics.metals import F0_MAX, conductor
+    from lutbake.modes.runtime import read_runtime_table, runtime_colour
+    from lutbake.quality.worstcase import SearchAxis, find_worst
 
     table = read_runtime_table(write_runtime_table())
     nodes = np.linspace(0.0, F0_MAX["fitted"], METAL_TABLE_NODES)
@@ -169,7 +169,7 @@ def gpu_bytes(bake: dict) -> int:
 
 
 def summary(bakes: dict, scores: dict) -> dict:
-    from lutbake.runtime.costs import path_costs
+    from lutbake.modes.runtime.costs import path_costs
 
     costs = path_costs()["paths"]
     rows = []

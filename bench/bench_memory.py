@@ -1,4 +1,4 @@
-"""Peak memory of a bake against the memory model (lutbake.plan.BakeSpec.memory), shape by shape.
+"""Peak memory of a bake against the memory model (lutbake.grid.spec.BakeSpec.memory), shape by shape.
 
     python bench/bench_memory.py [--shapes NAME ...] [--devices KEY ...] [--json FILE]
 
@@ -8,7 +8,7 @@ last check has it (the runtime's resident memory measured, the plan's outcome kn
 and the estimate the bake checks before any work (constants and bounds from the shape alone).
 The shapes stress one term of the model each: the bands (B1, a default metal LUT), the (cos θ, D)
 pairs, the (cos θ, η3, κ3) columns, the numpy path's chunks, a grid of 63 M cells (and, asked for by
-name, one of 513 M: minutes); tests/test_memory.py runs a few of them small, on every runtime.
+name, one of 513 M: minutes); tests/grid/test_memory.py runs a few of them small, on every runtime.
 --devices bakes each shape on each device named (`lutbake devices`; default: lutbake's default device).
 """
 
@@ -28,7 +28,7 @@ SHAPES = {
     "numpy": ((16, 32, 8, 8), 1000.0, "numpy", "half"),
     "63M": ((64, 256, 62, 62), 100.0, "opencl", "half"),
     "513M": ((64, 256, 177, 177), 100.0, "opencl", "half"),   # minutes; not in the default run
-    # the small ones tests/test_memory.py bakes
+    # the small ones tests/grid/test_memory.py bakes
     "small-bands": ((64, 256, 8, 8), 4000.0, "opencl", "float"),
     "small-pairs": ((600, 600, 2, 2), 100.0, "opencl", "half"),
     "small-columns": ((32, 8, 120, 120), 100.0, "opencl", "half"),
@@ -37,7 +37,7 @@ SHAPES = {
 
 
 def spec_of(shape, opd_max, precision):
-    from lutbake.plan import Axis, BakeSpec
+    from lutbake.grid.spec import Axis, BakeSpec
 
     n_cos, n_opd, n_eta3, n_kappa3 = shape
     return BakeSpec(eta2=1.5, precision=precision, axes=(
@@ -49,8 +49,8 @@ def child(name: str, out: str, device=None) -> None:
     """Bake ``name`` and print one JSON line (runs in its own process): the peak against the model with
     the runtime's resident memory and the plan as the bake's last check before the bands has them, and
     the estimate before any work."""
-    from lutbake.bake import bake, resident_bytes
-    from lutbake.integrate import backend as make_backend
+    from lutbake.lut.bake import bake, resident_bytes
+    from lutbake.integrate.opencl import backend as make_backend
 
     shape, opd_max, backend, precision = SHAPES[name]
     spec = spec_of(shape, opd_max, precision)

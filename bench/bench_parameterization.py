@@ -2,8 +2,8 @@
 
     python bench/bench_parameterization.py [--eta2 1.5] [--points 5000] [--json FILE]
 
-Each layout is baked in half precision with `lutbake.bake.bake` (the shipped path) and scored by
-`lutbake.report.report_lut` at the same kind of held-out points as `lutbake report` (half uniform, half
+Each layout is baked in half precision with `lutbake.lut.bake.bake` (the shipped path) and scored by
+`lutbake.quality.report.report_lut` at the same kind of held-out points as `lutbake report` (half uniform, half
 at centres of its own grid's cells, seed 0): p99 and max ΔE00 against the ground truth, and the EXR's
 bytes. The layouts pair the previous default counts and the shipped ones with and without the admittance
 spacing on η3, so the table separates what the spacing buys from what the bytes buy.
@@ -14,9 +14,9 @@ import json
 import tempfile
 from pathlib import Path
 
-from lutbake.bake import bake
-from lutbake.plan import BakeSpec, parse_axis
-from lutbake.report import report_lut
+from lutbake.lut.bake import bake
+from lutbake.grid.spec import BakeSpec, parse_axis
+from lutbake.quality.report import report_lut
 
 LAYOUTS = {
     "√ grid, 32×128×16×16 (previous default)": ("0:1:32:sqrt", "0:3000:128", "1:3:16", "0:5:16:sqrt"),

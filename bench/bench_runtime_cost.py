@@ -150,10 +150,10 @@ def spirv_profile(functions: str, call: str, unroll: bool = True) -> dict:
     return out
 
 def belcour_barla_source() -> str:
-    """Belcour & Barla (2017) as lutbake.approximations.belcour_barla_rgb evaluates it (orders 0–3, exact
+    """Belcour & Barla (2017) as lutbake.modes.approximations.belcour_barla_rgb evaluates it (orders 0–3, exact
     dielectric and Born & Wolf conductor Fresnel terms, XYZ adapted to Rec.709), as GLSL: a port for this
     benchmark (not shipped), checked against the numpy at random points by `python bench/bench_runtime_cost.py`."""
-    from lutbake.approximations import _NORM, _POS, _VAL, _VAR, _X2, _to_space
+    from lutbake.modes.approximations import _NORM, _POS, _VAL, _VAR, _X2, _to_space
 
     matrix = _to_space(np.eye(3), "rec709", "cie1931")   # rows: XYZ unit vectors → RGB
     columns = ", ".join(f"{v:.9g}" for v in matrix.ravel())
@@ -356,7 +356,7 @@ DROPIN_MODES = ["runtime", "exact", "lut"]
 def dropin_costs(rounds: int) -> dict:
     """The drop-in on a lit MeshPhysicalMaterial sphere filling a 512 × 512 view: per material, each mode's
     wall net of the same material without iridescence, over three.js's own iridescence's."""
-    from lutbake.exact import base_rgb
+    from lutbake.modes.exact import base_rgb
 
     materials = []
     for label, eta2, thickness, base, lut in DROPIN_MATERIALS:

@@ -25,13 +25,14 @@ BUFFER_MIB = 256
 
 def child(key: str) -> None:
     """Measure ``key``'s stages and a buffer's life in this process; print one JSON line."""
-    from lutbake.bake import resident_bytes
+    from lutbake.lut.bake import resident_bytes
 
     def mib():
         return round(resident_bytes() / 2**20, 1)
 
     stages = {"imports": mib()}
-    from lutbake import devices, integrate
+    from lutbake.integrate import devices
+    from lutbake.integrate import opencl as integrate
 
     cl = devices._opencl()
     stages["pyopencl"] = mib()

@@ -73,7 +73,7 @@ def bake(scene: Path, out: Path, pocl_cache: Path | None = None) -> dict:
     return row
 
 
-STARTUP = ("import time; t = time.perf_counter(); from lutbake.integrate import backend; backend(); "
+STARTUP = ("import time; t = time.perf_counter(); from lutbake.integrate.opencl import backend; backend(); "
            "print(time.perf_counter() - t)")
 
 

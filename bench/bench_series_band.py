@@ -24,7 +24,7 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3)
     args = ap.parse_args()
     from bench_b1 import B1_AXES, _spec
-    from lutbake.integrate import OpenCLBackend
+    from lutbake.integrate.opencl import OpenCLBackend
 
     spec = _spec(1.5, B1_AXES)
     paths = {name: OpenCLBackend("float64", name) for name in ("series", "direct")}

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.integrate import NumpyBackend
-from lutbake.plan import Axis, BakeSpec
-from lutbake.points import FilmPoints
-from lutbake.reference import reference_colour
+from lutbake.integrate.opencl import NumpyBackend
+from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.physics.points import FilmPoints
+from lutbake.spectral.reference import reference_colour
 
 
 def main():

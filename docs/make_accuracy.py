@@ -35,8 +35,8 @@ def lutbake(*args):
 def bake_default_luts():
     """luts/ is not tracked (up to 8 MiB per LUT): bake the default set into it (`lutbake bake --out luts`,
     the same bytes every time) unless every file is there with the current spec's content hash."""
-    from lutbake.bake import default_specs
-    from lutbake.lutfile import read_lut
+    from lutbake.lut.bake import default_specs
+    from lutbake.tables.lutfile import read_lut
 
     try:
         current = all(read_lut(ROOT / "luts" / f"{name}.exr")[0]["content_hash"] == spec.content_hash
@@ -71,8 +71,8 @@ def main():
 def searched_in_corner(path) -> dict:
     """`report`'s search (its 5,000 points and budget) confined to the corner's neighbourhood ρ < 0.2
     (report.corner_distance), at a seed the reports do not use."""
-    from lutbake.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
-    from lutbake.sample import Lut
+    from lutbake.quality.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
+    from lutbake.lut.sample import Lut
 
     lut = Lut.load(path)
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", POINTS, 3)
@@ -86,11 +86,11 @@ def corner_map(paths, out_png, n: int = 64):
     film in air: the slice through the corner), with the contour ρ = 0.2."""
     from matplotlib.figure import Figure
 
-    from lutbake.colorimetry import delta_e00
-    from lutbake.points import FilmPoints
-    from lutbake.reference import reference_colour
-    from lutbake.report import corner_distance
-    from lutbake.sample import Lut
+    from lutbake.physics.colorimetry import delta_e00
+    from lutbake.physics.points import FilmPoints
+    from lutbake.spectral.reference import reference_colour
+    from lutbake.quality.report import corner_distance
+    from lutbake.lut.sample import Lut
 
     cos_t, opd = np.meshgrid(np.logspace(-6, 0, n), np.logspace(-4, np.log10(3000.0), n))
     fig = Figure(figsize=(4.8 * len(paths), 4.4), layout="constrained")
@@ -116,7 +116,7 @@ def corner_map(paths, out_png, n: int = 64):
 
 def base_ranges() -> dict:
     """(η3 min, max, κ3 min, max) of each common base over 400–700 nm (lutbake's named materials)."""
-    from lutbake.materials import material
+    from lutbake.physics.materials import material
 
     wavelength_nm = np.linspace(400.0, 700.0, 301)
     out = {}
@@ -128,7 +128,7 @@ def base_ranges() -> dict:
 
 def _holder(e0, e1, k0, k1) -> str:
     """Which LUT of a film (the same (η3, κ3) ranges for every η2) holds the whole box."""
-    from lutbake.bake import default_specs
+    from lutbake.lut.bake import default_specs
 
     held = []
     for name, spec in default_specs().items():
@@ -166,7 +166,7 @@ def corner_section(reports) -> list:
         "|2(Y1 − Y3) + iφY2|² / |2(Y1 + Y3) − iφY2|² per polarization (φ the film's phase), a function of",
         "their ratios only. Every neighbourhood of the corner holds every value — R = 0 with no film over a base",
         "that matches the ambient, R = 1 at grazing — so a table interpolated in (cos θ1, D, η3, κ3) is wrong",
-        "there by up to ΔE00 100 whatever its grid (format v4's were; `tests/test_corner.py` keeps one to show",
+        "there by up to ΔE00 100 whatever its grid (format v4's were; `tests/lut/test_corner.py` keeps one to show",
         "it). Format v5 zooms into the corner ([lut-format.md](lut-format.md#the-grazing-corner)): D, η3 and κ3",
         "mix their own spacings with H = 1 − (1 + ρ)^−¼ of their ratios to the incidence, D/cos θ1,",
         "(η3² − η1²)/cos² θ1 and κ3/cos² θ1, so the colour has a limit in node coordinates, which the",
@@ -174,7 +174,7 @@ def corner_section(reports) -> list:
         "a fixed node coordinate move smoothly. What remains hardest there is the darkest colour: where a thin",
         "film's reflection and a weak absorber's cancel, the colour sits within ~0.001 of black, where ΔE00 is",
         "most sensitive; the ratio parts' node counts (D 24, η3 8, κ3 14) are set by those valleys.",
-        "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.report.corner_distance`, measures the distance to the",
+        "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.quality.report.corner_distance`, measures the distance to the",
         f"corner. The search confined to ρ < {CORNER_RADIUS:g} (5,000 held-out points at seed 3, 20,000 evaluations) finds "
         + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items()) + ".",
         "The exact runtime mode evaluates each point instead: its searched max near the corner is 0.28 (`python",
@@ -201,7 +201,7 @@ def render(reports, sweep, bases):
         "ΔE00 ≈ 1 is a just-noticeable difference. The LUT rows read the file by its header's rule, cubic",
         "for the default set ([lut-format.md](lut-format.md#interpolation)); `lut-linear-reads` is the same",
         "file read by the 4-fetch linear rule. The approximation rows are the shader math engines run",
-        "today (`lutbake/approximations.py`), scored at the same points.",
+        "today (`lutbake/modes/approximations.py`), scored at the same points.",
         "",
         "## Domain and parameterization",
         "",

@@ -24,10 +24,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from make_accuracy import bake_default_luts  # noqa: E402
-from lutbake.colorimetry import delta_e00  # noqa: E402
-from lutbake.exact import METALS, base_rgb  # noqa: E402
-from lutbake.points import FilmPoints  # noqa: E402
-from lutbake.reference import reference_colour  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.modes.exact import METALS, base_rgb  # noqa: E402
+from lutbake.physics.points import FilmPoints  # noqa: E402
+from lutbake.spectral.reference import reference_colour  # noqa: E402
 
 IMAGE = ROOT / "docs" / "img" / "dropin.png"
 # The exact mode's table the drop-in loads: written here, not kept in the repository (its float32 texels may

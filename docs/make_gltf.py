@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from gltf_assets import KHRONOS, SHOWCASE, credit_line, khronos_gltf  # noqa: E402
 
-from lutbake.metals import F0_MAX, conductor, reflectance_error  # noqa: E402
+from lutbake.physics.metals import F0_MAX, conductor, reflectance_error  # noqa: E402
 
 def lutbake(*args):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

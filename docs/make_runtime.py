@@ -3,8 +3,8 @@ error-vs-cost table (the cost side: bench/bench_runtime_cost.py).
 
 Over the issue's domain (η2 1–3, d 0–1500 nm, cos θ 0–1; dielectric bases η3 1–3, κ3 0–2; metals η3
 0.05–4, κ3 1.5–9; the named metals Au, Ag, Cu, Al, Fe, Ti, Cr at their per-channel indices), against the
-ground truth (reference.py) at float32-rounded inputs:
-1. the runtime path (runtime.model: the include's arithmetic; tests/test_runtime_engine.py holds three.js
+ground truth (lutbake/spectral/reference.py) at float32-rounded inputs:
+1. the runtime path (runtime.model: the include's arithmetic; tests/engines/test_runtime_engine.py holds three.js
    to it within 1e-4): random points, the full stress grid, a searched maximum per box and per metal
    (worstcase.find_worst), and the same random points with 8-bit filter weights;
 2. at the same random points, the other paths that take any film: the exact mode at tolerances 1e-3, 1e-4
@@ -25,12 +25,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from lutbake.approximations import belcour_barla_rgb, khr_iridescence_rgb  # noqa: E402
-from lutbake.colorimetry import delta_e00  # noqa: E402
-from lutbake.exact import exact_colour, stored_table as exact_table  # noqa: E402
-from lutbake.points import FilmPoints  # noqa: E402
-from lutbake.runtime import runtime_colour, stored_table  # noqa: E402
-from lutbake.runtime.accuracy import BOXES, NAMED_METALS, named_error, searched_named_worst, searched_worst, \
+from lutbake.modes.approximations import belcour_barla_rgb, khr_iridescence_rgb  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.modes.exact import exact_colour, stored_table as exact_table  # noqa: E402
+from lutbake.physics.points import FilmPoints  # noqa: E402
+from lutbake.modes.runtime import runtime_colour, stored_table  # noqa: E402
+from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, named_error, searched_named_worst, searched_worst, \
     stress_error, truth  # noqa: E402
 
 RESULT = ROOT / "docs" / "runtime-result.json"

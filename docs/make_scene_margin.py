@@ -25,9 +25,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from gltf_assets import SHOWCASE, khronos_gltf  # noqa: E402
 
-from lutbake.receipt import gltf_receipts  # noqa: E402
-from lutbake.report import report_atlas, report_lut  # noqa: E402
-from lutbake.sample import Atlas  # noqa: E402
+from lutbake.scene.gltf.receipt import gltf_receipts  # noqa: E402
+from lutbake.quality.report import report_atlas, report_lut  # noqa: E402
+from lutbake.lut.sample import Atlas  # noqa: E402
 
 POINTS = 1000        # `report`'s default
 SEARCH_BUDGET = 50   # the searched max is not what this checks: p99 is

@@ -1,4 +1,4 @@
-// The engine side of tests/test_gltf_engine.py and tests/test_gltf_runtime.py: three.js's GLTFLoader loads a
+// The engine side of tests/engines/test_gltf_engine.py and tests/engines/test_gltf_runtime.py: three.js's GLTFLoader loads a
 // glTF asset with lutbake's plugin (engine/lutbake-gltf.js) and renders each mesh alone into a float target:
 // the film term the material computes (material.iridescenceFresnel), the parameters it used (cos theta,
 // thickness, metalness, iridescence) and its base colour, then the film term again for each further way of

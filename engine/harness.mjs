@@ -1,10 +1,10 @@
 // Runs engine/page.html in headless Chromium (Debian's package) against a server bound to 127.0.0.1.
-// Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/test_engine.py)
+// Usage: node engine/harness.mjs evaluate JOBS.json RESULT.json   (tests/engines/test_engine.py)
 //        node engine/harness.mjs cost SPEC.json RESULT.json        (bench/bench_runtime_cost.py: shader wall times)
 //        node engine/harness.mjs dropin-cost SPEC.json RESULT.json (bench/bench_runtime_cost.py: the drop-in's)
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
-//        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/test_exact_engine.py)
-//        node engine/harness.mjs gltf SPEC.json RESULT.json               (tests/test_gltf_engine.py)
+//        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/engines/test_exact_engine.py)
+//        node engine/harness.mjs gltf SPEC.json RESULT.json               (tests/engines/test_gltf_engine.py)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';

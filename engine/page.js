@@ -1,4 +1,4 @@
-// The engine side of tests/test_engine.py and of the viewer: three.js loads lutbake's files with its
+// The engine side of tests/engines/test_engine.py and of the viewer: three.js loads lutbake's files with its
 // default loader settings and evaluates the shipped includes, unmodified, in a fragment shader.
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';

@@ -15,24 +15,27 @@ importing lutbake changes no process state (signal handlers, environment).
 # (the function bake.bake is public as bake_lut: a package attribute named like a submodule is
 # replaced by the submodule when that is imported)
 _API = {
-    "Axis": "plan",
-    "BakeSpec": "plan",
-    "FilmPoints": "points",
-    "reference_colour": "reference",
-    "reference_rgb": "reference",
-    "bake_lut": ("bake", "bake"),
-    "BakeResult": "bake",
-    "default_specs": "bake",
-    "Lut": "sample",
-    "Atlas": "sample",
-    "report_lut": "report",
-    "write_report": "report",
-    "load_scene": "scene_toml",
-    "load_gltf_scene": "gltf_scene",
-    "plan_scene": "scene_plan",
-    "bake_scene": "scene_bake",
-    "run_checks": "check",
+    "Axis": "grid.spec",
+    "BakeSpec": "grid.spec",
+    "FilmPoints": "physics.points",
+    "reference_colour": "spectral.reference",
+    "reference_rgb": "spectral.reference",
+    "bake_lut": ("lut.bake", "bake"),
+    "BakeResult": "lut.bake",
+    "default_specs": "lut.bake",
+    "Lut": "lut.sample",
+    "Atlas": "lut.sample",
+    "report_lut": "quality.report",
+    "write_report": "quality.report",
+    "load_scene": "scene.toml",
+    "load_gltf_scene": "scene.gltf.materials",
+    "plan_scene": "scene.plan",
+    "bake_scene": "scene.bake",
+    "run_checks": "quality.check",
 }
+
+# the former flat layout's module paths of the public names (lutbake/_moved/)
+__path__.append(__path__[0] + "/_moved")
 
 __all__ = sorted(_API) + ["__version__"]
 

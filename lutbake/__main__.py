@@ -1,5 +1,5 @@
 """`python -m lutbake`: the same command line as the `lutbake` script."""
 
-from .cli import main
+from lutbake.cli import main
 
 main()

@@ -33,4 +33,4 @@ class ParameterError(ValueError):
 
 
 class OpenCLUnavailable(RuntimeError):
-    """No usable OpenCL platform or device (lutbake/integrate.py raises it; the CLI reports it in one line)."""
+    """No usable OpenCL platform or device (lutbake/integrate/opencl.py raises it; the CLI reports it in one line)."""

@@ -30,8 +30,8 @@ LUT_MEMBERS = (".json", ".glsl", ".hlsl", ".exr")   # the .exr last: a set is cu
 def _holds_the_default_set(folder: Path) -> bool:
     """Every default LUT in ``folder`` has the content hash of the current default spec, and includes that
     the current templates write (a template change leaves the hash as it was)."""
-    from lutbake.bake import default_specs
-    from lutbake.lutfile import read_lut, shader_includes
+    from lutbake.lut.bake import default_specs
+    from lutbake.tables.lutfile import read_lut, shader_includes
 
     def current(name, spec):
         meta = read_lut(folder / f"{name}.exr")[0]
@@ -51,7 +51,7 @@ def default_luts() -> Path:
     when lutbake-luts/ is missing or stale: a content hash differs from the current default specs) and
     copied into luts/ when luts/ is stale. Under a lock that test processes running side by side
     (pytest-xdist) share."""
-    from lutbake.bake import default_specs
+    from lutbake.lut.bake import default_specs
 
     DEFAULT_LUTS.mkdir(exist_ok=True)
     with open(DEFAULT_LUTS / ".bake.lock", "w") as lock:
@@ -71,7 +71,7 @@ def default_luts() -> Path:
 
 def _survey_devices():
     """(keys of devices whose compiler builds the kernel, {key: why not} for the rest)."""
-    from lutbake.integrate import OpenCLUnavailable, _program, device_key, device_label, opencl_devices
+    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, device_label, opencl_devices
 
     try:
         devices = opencl_devices()

@@ -12,7 +12,7 @@ import functools
 import mpmath as mp
 import numpy as np
 
-from lutbake.colorimetry import colorimetry
+from lutbake.physics.colorimetry import colorimetry
 
 LONG = np.longdouble
 U_LONG = float(np.finfo(LONG).eps) / 2    # 2^-64 on x86-64 (80-bit)

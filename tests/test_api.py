@@ -107,9 +107,27 @@ def test_library_use_changes_no_process_state(tmp_path):
 ])
 def test_library_errors_name_parameters_not_flags(call, message, tmp_path, monkeypatch):
     """The library speaks Python names; the command line shows the same line with its flags
-    (tests/test_hostile.py checks the CLI's side)."""
+    (tests/cli/test_hostile.py checks the CLI's side)."""
     monkeypatch.chdir(tmp_path)
     with pytest.raises(ValueError) as caught:
         call()
     assert str(caught.value) == message
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("old, names", [
+    ("plan", ["Axis", "BakeSpec"]), ("points", ["FilmPoints"]), ("reference", ["reference_colour", "reference_rgb"]),
+    ("bake", ["BakeResult", "default_specs"]), ("sample", ["Atlas", "Lut"]), ("report", ["report_lut", "write_report"]),
+    ("scene_toml", ["load_scene"]), ("gltf_scene", ["load_gltf_scene"]), ("scene_plan", ["plan_scene"]),
+    ("scene_bake", ["bake_scene"]), ("check", ["run_checks"]),
+])
+def test_public_names_keep_their_former_import_paths(old, names):
+    """`from lutbake.plan import Axis` (the flat layout's paths) gives the same objects, with a warning naming
+    the new path; run in a fresh process so the warning is not already spent."""
+    script = (f"import warnings; warnings.simplefilter('error')\n"
+              f"try:\n    import lutbake.{old}\nexcept DeprecationWarning as w:\n    print(w)\n"
+              f"warnings.simplefilter('ignore')\nimport lutbake, lutbake.{old} as m\n"
+              f"print(all(getattr(m, n) is getattr(lutbake, n) for n in {names!r}))")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT)
+    warning, same = out.stdout.strip().splitlines()
+    assert warning.startswith(f"lutbake.{old} is lutbake.") and same == "True", out.stderr

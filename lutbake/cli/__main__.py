@@ -1,0 +1,5 @@
+"""`python -m lutbake.cli`: the command line."""
+
+from lutbake.cli import main
+
+main()

@@ -1,0 +1,208 @@
+"""OpenCL devices: every CPU runtime registered, each device named by its runtime and where that came
+from, and the order lutbake tries them in (docs/devices.md).
+
+Three sources of runtimes on Linux:
+
+* PoCL from PyPI (``pocl-binary-distribution``) lies in pyopencl's ``.libs`` folder. The ICD loader
+  in pyopencl's wheel (ocl-icd, patched) loads every ``.icd`` there after the vendor folder, whatever
+  the environment says: pyopencl points ``PYOPENCL_HOME`` at itself when it is imported.
+* The system's runtimes: the ``.icd`` files of the vendor folder (``OCL_ICD_VENDORS``, else
+  ``OPENCL_VENDOR_PATH``, else /etc/OpenCL/vendors), e.g. Debian's ``pocl-opencl-icd``.
+* Intel's CPU runtime from PyPI (``opencl-rt``, the ``cpu`` extra) lies in the environment's lib/
+  and registers itself nowhere: ``_every_runtime_registered`` adds it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import functools
+import os
+import re
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from lutbake.errors import OpenCLUnavailable
+from lutbake.io.signals import stop_signals_held
+from lutbake.io.usercache import pyopencl_caches_where_writable
+
+pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
+
+__all__ = ["Runtime", "runtime_of", "opencl_devices", "device_key", "device_label", "find_devices",
+           "find_device"]
+
+SYSTEM_VENDORS = "/etc/OpenCL/vendors"   # the ICD loaders' vendor folder when no variable names one
+FAMILIES = {"Portable Computing Language": ("pocl", "PoCL"), "Intel(R) OpenCL": ("intel", "Intel OpenCL")}
+
+
+@functools.cache
+def _opencl():
+    """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
+    builds Python enums while it initialises, and an exception that a stop signal's handler raises there
+    cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
+    signal arrives once the module is loaded."""
+    with stop_signals_held():
+        import pyopencl
+    return pyopencl
+
+
+@contextlib.contextmanager
+def _every_runtime_registered():
+    """Make Intel's CPU runtime from the environment visible beside the system's runtimes, for the
+    platform query inside.
+
+    The loader reads one vendor folder, so Intel's runtime cannot be added to the system's: lutbake
+    writes a private folder holding a link to each of the system folder's .icd files and one .icd
+    naming Intel's library, and points OCL_ICD_VENDORS at it. The loader reads its list once, at the
+    process's first platform query, so the folder and the variable exist only for that query. An
+    explicit OCL_ICD_VENDORS is left alone; a process that queried platforms before lutbake did sees
+    only the runtimes it registered itself.
+    """
+    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
+    if "OCL_ICD_VENDORS" in os.environ or not lib.is_file():
+        yield
+        return
+    system = Path(os.environ.get("OPENCL_VENDOR_PATH") or SYSTEM_VENDORS)
+    with tempfile.TemporaryDirectory(prefix="lutbake-icd-") as vendors:
+        for icd in sorted(system.glob("*.icd")) if system.is_dir() else ():
+            os.symlink(icd, Path(vendors) / icd.name)
+        (Path(vendors) / "lutbake-environment-intel-cpu.icd").write_text(f"{lib}\n")
+        os.environ["OCL_ICD_VENDORS"] = vendors
+        try:
+            yield
+        finally:
+            del os.environ["OCL_ICD_VENDORS"]
+
+
+@dataclass(frozen=True)
+class Runtime:
+    """An OpenCL platform's runtime: its family ('pocl', 'intel', …), where it came from ('PyPI': its
+    library lies in this Python environment; 'system': elsewhere, e.g. a distribution's package),
+    its version and, for PoCL, the LLVM it compiles with."""
+
+    family: str
+    name: str
+    origin: str
+    version: str
+    llvm: str = ""
+
+    def __str__(self):
+        """'PoCL 3.1+debian (system, LLVM 15.0.6)'."""
+        return f"{self.name} {self.version} ({self.origin}{f', LLVM {self.llvm}' if self.llvm else ''})"
+
+
+class _DlInfo(ctypes.Structure):
+    _fields_ = [("dli_fname", ctypes.c_char_p), ("dli_fbase", ctypes.c_void_p), ("dli_sname", ctypes.c_char_p),
+                ("dli_saddr", ctypes.c_void_p)]
+
+
+def _library_of(platform):
+    """The shared library that serves ``platform``, or None where that cannot be told. An ICD
+    platform (cl_khr_icd) begins with its dispatch table, whose second entry is the runtime's own
+    clGetPlatformInfo (Khronos cl_icd.h); dladdr names the file that holds that function."""
+    if "cl_khr_icd" not in platform.extensions:
+        return None
+    try:
+        dladdr = ctypes.CDLL(None).dladdr
+    except (OSError, AttributeError):   # no dladdr in this C library
+        return None
+    dladdr.argtypes = [ctypes.c_void_p, ctypes.POINTER(_DlInfo)]
+    table = ctypes.c_void_p.from_address(platform.int_ptr).value
+    function = table and ctypes.c_void_p.from_address(table + ctypes.sizeof(ctypes.c_void_p)).value
+    info = _DlInfo()
+    if not function or not dladdr(function, ctypes.byref(info)) or not info.dli_fname:
+        return None
+    return Path(os.fsdecode(info.dli_fname)).resolve()
+
+
+def _origin(library) -> str:
+    """'PyPI' for a library inside this Python environment or pyopencl's folder (what pip installed:
+    PoCL in pyopencl's .libs, Intel's opencl-rt in lib/), else 'system'."""
+    homes = [Path(sys.prefix).resolve(), Path(_opencl().__file__).resolve().parent]
+    return "PyPI" if library and any(library.is_relative_to(home) for home in homes) else "system"
+
+
+_RUNTIMES = {}
+
+
+def runtime_of(device) -> Runtime:
+    """The runtime of ``device``'s platform (read once per platform and process)."""
+    platform = device.platform
+    if platform.int_ptr not in _RUNTIMES:
+        name, version = platform.name.strip(), platform.version.strip()
+        family, title = FAMILIES.get(name, (name.split()[0].lower() if name else "opencl", name))
+        pocl = re.search(r"PoCL (\S+)", version)   # 'OpenCL 3.0 PoCL 3.1+debian  Linux, …, LLVM 15.0.6, …'
+        llvm = re.search(r"LLVM (\d[\w.]*)", version)
+        _RUNTIMES[platform.int_ptr] = Runtime(family, title, _origin(_library_of(platform)),
+                                              pocl[1] if pocl else device.driver_version.strip() or version,
+                                              llvm[1] if llvm and family == "pocl" else "")
+    return _RUNTIMES[platform.int_ptr]
+
+
+# The order lutbake tries devices in (docs/devices.md, measured there): PoCL first, the system's
+# before PyPI's (a distribution builds PoCL with its current LLVM and picks the target CPU from the
+# CPU's features, so it compiles where PyPI's PoCL 3.0, LLVM 14, cannot name the CPU), then every
+# other runtime in the loader's order.
+def _preference(device) -> tuple:
+    runtime = runtime_of(device)
+    return runtime.family != "pocl", runtime.origin != "system"
+
+
+def opencl_devices() -> list:
+    """Every OpenCL device of every registered runtime, in the order lutbake tries them (``_preference``)."""
+    cl = _opencl()
+
+    try:
+        with _every_runtime_registered():
+            platforms = cl.get_platforms()
+    except cl.Error as exc:
+        raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
+    devices = []
+    for platform in platforms:
+        with contextlib.suppress(cl.Error):   # a platform offering no device (PoCL with POCL_DEVICES=none)
+            devices += platform.get_devices()
+    return sorted(devices, key=_preference)
+
+
+def device_key(device, devices=None) -> str:
+    """Short stable name of a device: its runtime's family and origin ('pocl-system', 'pocl-pypi',
+    'intel-pypi'), plus ':N' for the N-th further device of that name."""
+    key = _runtime_key(device)
+    same = [d for d in (devices or opencl_devices()) if _runtime_key(d) == key]
+    index = same.index(device) if device in same else 0
+    return key if index == 0 else f"{key}:{index}"
+
+
+def _runtime_key(device) -> str:
+    runtime = runtime_of(device)
+    return f"{runtime.family}-{runtime.origin.lower()}"
+
+
+def device_label(device) -> str:
+    """'runtime / device', e.g. 'PoCL 3.1+debian (system, LLVM 15.0.6) / pthread-skylake-avx512-AMD EPYC'."""
+    return f"{runtime_of(device)} / {device.name.strip()}"
+
+
+def find_devices(selector: str) -> list:
+    """The devices a selector names, in the order lutbake tries them: its index in ``opencl_devices()``,
+    its key ('pocl-system'), a runtime family ('pocl': every PoCL, 'intel'), or a case-insensitive
+    part of its label naming one device."""
+    devices = opencl_devices()
+    text = str(selector).strip().lower()
+    if text.isdigit() and int(text) < len(devices):
+        return [devices[int(text)]]
+    exact = [d for d in devices if device_key(d, devices) == text]
+    family = [d for d in devices if runtime_of(d).family == text]
+    found = exact or family or [d for d in devices if text in device_label(d).lower()]
+    if not found or len(found) > 1 and not family:
+        known = ", ".join(f"{i} ({device_key(d, devices)}: {device_label(d)})" for i, d in enumerate(devices))
+        state = "matches no" if not found else "matches more than one"
+        raise ValueError(f"device {selector!r} {state} OpenCL device; devices: {known or 'none'}")
+    return found
+
+
+def find_device(selector: str):
+    """The first device ``find_devices`` names."""
+    return find_devices(selector)[0]

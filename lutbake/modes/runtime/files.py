@@ -1,0 +1,174 @@
+"""The runtime table as files: one RGBA half EXR, a JSON sidecar, GLSL and HLSL includes.
+
+Image layout (docs/engines.md, "Runtime table"): U_c(X, w) − W_c of transform.py, W_c = Ŵ_c(0) the
+channel's white (the table holds the departure from it: half floats keep ~11 bits of it, not of U). Tiles
+of NODES × NODES texels (columns Re w, scanlines Im w, both from −1 to 1); the tile of slice pair j
+(j = 0 … SLICES − 2) of channel c holds slices j and j + 1 as (Re, Im, Re, Im), so one bilinear read
+gives both slices and the shader interpolates between them. Channel c's tiles fill a band of
+BAND_ROWS tile rows, TILES_PER_ROW to a row, bands R, G, B from the top.
+
+The same inputs give the same bytes (ZIP compression, no time or machine in the header); across machines
+the float64 build may differ in the last bits, so a half texel can round the other way (the table is
+generated, not committed: `lutbake runtime-table`).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lutbake import __version__
+from lutbake.io.fileset import open_set
+from lutbake.spectral.fourier import NU0_PER_NM
+from lutbake.tables.lutfile import flat_attributes, shader_template
+from lutbake.modes.runtime.transform import NODES, SLICES, X_MAX_NM, ZOOM_NM, transform_table
+
+__all__ = ["RUNTIME_FORMAT", "RUNTIME_FORMAT_VERSION", "TILES_PER_ROW", "BAND_ROWS", "RuntimeTable",
+           "stored_table", "write_runtime_table", "read_runtime_table", "include_fields", "runtime_includes"]
+
+RUNTIME_FORMAT = "lutbake-runtime"
+RUNTIME_FORMAT_VERSION = 1
+TILES_PER_ROW = 32
+BAND_ROWS = -(-(SLICES - 1) // TILES_PER_ROW)   # tile rows per channel band
+
+
+@dataclass(frozen=True)
+class RuntimeTable:
+    """The table as an engine holds it: ``image`` (height, width, 4) float, the stored half values."""
+
+    meta: dict
+    image: np.ndarray
+
+    def tile_origin(self, pair, channel):
+        """(x, y) texel of node (0, 0) of slice pair ``pair`` in channel band ``channel`` (scanlines from
+        the top)."""
+        row = pair // TILES_PER_ROW + channel * BAND_ROWS
+        return (pair % TILES_PER_ROW) * NODES, row * NODES
+
+
+def _image(u: np.ndarray, white: np.ndarray) -> np.ndarray:
+    """(height, width, 4) float64 image of U − W (u: (3, SLICES, NODES, NODES) complex)."""
+    v = u - white[:, None, None, None]
+    image = np.zeros((3 * BAND_ROWS * NODES, TILES_PER_ROW * NODES, 4))
+    for c in range(3):
+        for j in range(SLICES - 1):
+            row, col = j // TILES_PER_ROW + c * BAND_ROWS, j % TILES_PER_ROW
+            tile = np.stack([v[c, j].real, v[c, j].imag, v[c, j + 1].real, v[c, j + 1].imag], axis=-1)
+            image[row * NODES:(row + 1) * NODES, col * NODES:(col + 1) * NODES] = tile
+    return image
+
+
+def _white(observer: str, space: str) -> np.ndarray:
+    """W_c = Ŵ_c(0) = ∫ w_c dλ (1 for every channel: the weights are normalized to white)."""
+    from lutbake.physics.colorimetry import colorimetry
+
+    cm = colorimetry(observer, space)
+    return np.trapezoid(cm.rgb_table, cm.wavelength_nm.astype(float), axis=1)
+
+
+def _metadata(observer: str, space: str, exact: np.ndarray, stored: np.ndarray, white: np.ndarray) -> dict:
+    digest = hashlib.sha256(json.dumps([__version__, RUNTIME_FORMAT_VERSION, observer, space, X_MAX_NM, ZOOM_NM,
+                                        SLICES, NODES, TILES_PER_ROW]).encode())
+    height, width, _ = stored.shape
+    illuminant = "D65" if space != "acescg" else "ACES white (CIE daylight series)"
+    return {
+        "format": RUNTIME_FORMAT, "format_version": RUNTIME_FORMAT_VERSION, "lutbake_version": __version__,
+        "content_hash": digest.hexdigest()[:16], "observer": observer, "illuminant": illuminant, "space": space,
+        "encoding": "linear", "precision": "half", "channels": ["R", "G", "B", "A"],
+        "table": {"quantity": "U_c(X, w) - W_c: (1 - z) sum_m z^(m-1) A_c(m X), A_c(x) = W_c(x) exp(-2 pi i nu0 x)",
+                  "x_max_nm": X_MAX_NM, "x_spacing": "sqrt", "slices": SLICES, "nodes": NODES,
+                  "zoom_nm": ZOOM_NM, "nu0_per_nm": NU0_PER_NM, "white": [float(v) for v in white],
+                  "tiles_per_row": TILES_PER_ROW, "band_rows": BAND_ROWS, "width": width, "height": height,
+                  "layout": "tile (pair j, channel c) at column j mod tiles_per_row, tile row j div tiles_per_row "
+                            "+ c band_rows; texel (Re V_j, Im V_j, Re V_j+1, Im V_j+1), Re w along x, Im w "
+                            "along scanlines, both -1 to 1"},
+        "error": {"storage_max": float(np.abs(stored - exact).max())},
+    }
+
+
+@functools.lru_cache(maxsize=4)
+def stored_table(observer: str = "cie1931", space: str = "rec709") -> RuntimeTable:
+    """The table `runtime-table` writes, as stored (half), without the file."""
+    white = _white(observer, space)
+    exact = _image(transform_table(observer, space), white)
+    stored = exact.astype(np.float16)
+    return RuntimeTable(_metadata(observer, space, exact, stored, white), stored.astype(np.float32))
+
+
+def _write_exr(path: Path, image: np.ndarray, meta: dict) -> None:
+    import Imath
+    import OpenEXR
+
+    height, width, _ = image.shape
+    header = OpenEXR.Header(width, height)
+    header["channels"] = {c: Imath.Channel(Imath.PixelType(Imath.PixelType.HALF)) for c in "RGBA"}
+    header["compression"] = Imath.Compression(Imath.Compression.ZIP_COMPRESSION)
+    header["lutbake.metadata"] = json.dumps(meta, sort_keys=True).encode()
+    for key, value in flat_attributes(meta).items():
+        header[key] = value.encode()
+    exr = OpenEXR.OutputFile(str(path), header)
+    try:
+        half = image.astype(np.float16)
+        exr.writePixels({c: np.ascontiguousarray(half[:, :, i]).tobytes() for i, c in enumerate("RGBA")})
+    finally:
+        exr.close()
+
+
+def write_runtime_table(out_path, observer: str = "cie1931", space: str = "rec709") -> dict:
+    """Write NAME.exr, NAME.json, NAME.glsl and NAME.hlsl as one set; return the metadata."""
+    from lutbake.lut.bake import _check_writable
+
+    out_path = Path(out_path)
+    _check_writable(out_path)
+    table = stored_table(observer, space)
+    with open_set(out_path.parent, out_path.name) as files:
+        _write_exr(files.temp(out_path), table.image, table.meta)
+        files.temp(out_path.with_suffix(".json")).write_text(json.dumps(table.meta, indent=2, sort_keys=True) + "\n")
+        for suffix, text in runtime_includes(table.meta, out_path.name).items():
+            files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
+    return table.meta
+
+
+def read_runtime_table(path) -> RuntimeTable:
+    """The table as stored; ValueError names the file when it is not a runtime table."""
+    import OpenEXR
+
+    path = Path(path)
+    try:
+        with OpenEXR.File(str(path)) as exr:
+            meta = json.loads(exr.header()["lutbake.metadata"])
+            channels = exr.channels()
+            image = (np.array(channels["RGBA"].pixels) if "RGBA" in channels
+                     else np.stack([np.array(channels[c].pixels) for c in "RGBA"], axis=-1))
+    except Exception:  # OpenEXR raises several types for missing or damaged files
+        raise ValueError(f"{str(path)!r} is not a readable lutbake runtime table") from None
+    if meta.get("format") != RUNTIME_FORMAT or meta.get("format_version") != RUNTIME_FORMAT_VERSION:
+        raise ValueError(f"{str(path)!r} is not a {RUNTIME_FORMAT} v{RUNTIME_FORMAT_VERSION} file")
+    t = meta.get("table", {})
+    expected = (3 * t.get("band_rows", 0) * t.get("nodes", 0), t.get("tiles_per_row", 0) * t.get("nodes", 0), 4)
+    if image.shape != expected or not np.isfinite(image).all():
+        raise ValueError(f"{str(path)!r}: its image does not match its header's table layout (or holds non-finite texels)")
+    return RuntimeTable(meta, image.astype(np.float32))
+
+
+def include_fields(meta: dict, table_name: str) -> dict:
+    """The template fields of a runtime table's shader sources (runtime.*.in): its constants."""
+    t = meta["table"]
+    return {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
+            "observer": meta["observer"], "nu0": repr(t["nu0_per_nm"]), "x_max": repr(t["x_max_nm"]),
+            "zoom": repr(t["zoom_nm"]), "last_slice": repr(float(t["slices"] - 1)),
+            "half_span": repr(0.5 * (t["nodes"] - 1)), "nodes": repr(float(t["nodes"])),
+            "tiles": repr(float(t["tiles_per_row"])), "band": repr(float(t["band_rows"] * t["nodes"])),
+            "width": repr(float(t["width"])), "height": repr(float(t["height"])),
+            "white": ", ".join(repr(v) for v in t["white"])}
+
+
+def runtime_includes(meta: dict, table_name: str) -> dict:
+    """GLSL and HLSL include texts for a runtime table, keyed by file suffix."""
+    fields = include_fields(meta, table_name)
+    return {suffix: shader_template(f"runtime.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}

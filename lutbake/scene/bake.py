@@ -1,0 +1,263 @@
+"""Scene bakes (`bake --scene`, `bake --gltf`): a scene's plan run and written as one file set.
+
+The stages, a module each: a source (scene_toml, gltf_scene) makes the scene model (lutbake/scene/model.py);
+scene_plan makes its jobs; scene_jobs runs them (lutbake/scene/slices.py, lutbake/quality/refine.py); lutbake/tables/atlas.py packs the slices;
+this module keeps the cache (lutbake/scene/cache.py) and writes the set: the atlas, the includes, the 4D
+LUTs and the manifest, committed together (lutbake/io/fileset.py).
+
+Incremental: unchanged jobs come from OUT/.lutbake-cache; an unchanged scene writes nothing. "Up to
+date" means the manifest is unedited (its own hash), is this scene's (scene hash) and every member
+it lists has the recorded SHA-256.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lutbake.tables.atlas import ERROR_KEYS, atlas_header, atlas_includes, pack_atlas, slice_entry
+from lutbake.lut.bake import lut_members
+from lutbake.io.documents import load_json, read_text
+from lutbake.errors import ParameterError
+from lutbake.io.fileset import open_set, sha256_file
+from lutbake.tables.lutfile import warn_texture_size, write_atlas
+from lutbake.io.progress import no_progress
+from lutbake.scene.model import Scene
+from lutbake.scene.cache import SceneCache
+from lutbake.integrate.opencl import backend as make_backend
+from lutbake.scene.jobs import refine_slice, tuned_lut
+from lutbake.scene.plan import ScenePlan, plan_scene
+
+__all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
+
+MANIFEST_FORMAT = "lutbake-scene-manifest"
+# A manifest lists every material's entry (~1 kB each); this bounds what an up-to-date check reads.
+_MAX_MANIFEST_BYTES = 256 << 20
+
+
+@dataclass
+class SceneResult:
+    out_dir: Path
+    written: list
+    computed: list
+    reused: list
+    up_to_date: bool
+    seconds: float
+    unmet: dict = field(default_factory=dict)  # material -> {de00_p99, de00_p99_bound}, where not met
+    device: str | None = None  # the integrator's device, when a job was computed
+
+
+def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict:
+    """Role -> path of every file of the scene's set (4D LUTs by job id)."""
+    paths = {role: out / f"{scene.stem}{suffix}" for role, suffix in
+             (("manifest", ".json"), ("glsl", ".glsl"), ("hlsl", ".hlsl"))}
+    if any(j.kind == "slice" for j in plan.jobs):
+        paths["atlas"] = out / f"{scene.stem}.exr"
+    for job in plan.jobs:
+        if job.kind == "lut":
+            paths.update({f"{job.id}{p.suffix}": p for p in lut_members(out / f"{job.id}.exr")})
+    return paths
+
+
+def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) -> None:
+    """Refuse before any write: an output or the cache path taken by the wrong kind of entry, or an
+    output that is one of the scene's own input files (inputs and outputs never alias)."""
+    outputs = scene_outputs(out, scene, plan or plan_scene(scene))
+    inputs = {Path(p).resolve(): p for p in (scene.path, *scene.inputs)}
+    for path in outputs.values():
+        if path.is_dir():
+            raise ParameterError("{out_dir} {out}: {path} is a folder, expected a file or nothing",
+                                 out=repr(str(out)), path=repr(str(path)))
+        if path.resolve() in inputs:
+            raise ParameterError("{out_dir} {out}: the bake would overwrite its input {path}: choose another folder",
+                                 out=repr(str(out)), path=repr(str(inputs[path.resolve()])))
+    cache = out / ".lutbake-cache"
+    if cache.exists() and not cache.is_dir():
+        raise ParameterError("{out_dir} {out}: {path} is a file, expected the cache folder",
+                             out=repr(str(out)), path=repr(str(cache)))
+
+
+def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto",
+               progress=no_progress) -> SceneResult:
+    """Bake what ``scene`` needs into ``out_dir`` as one file set.
+
+    Slices go into one atlas (NAME.exr, .json manifest, .glsl/.hlsl includes with the material table);
+    each 4D job into its own LUT. Each job grows until its p99 ΔE00 at held-out points, measured on
+    the stored values, meets the scene's ``max_de``. Unchanged jobs come from ``out_dir``'s cache; an
+    unchanged scene writes nothing.
+
+    Parameters
+    ----------
+    scene : Scene
+        From ``load_scene`` (TOML) or ``load_gltf_scene`` (glTF).
+    out_dir : str or os.PathLike
+        Folder for the file set (created if absent).
+    force : bool
+        Recompute every job, ignoring the cache.
+    backend : str
+        'auto', 'opencl' or 'numpy' (see ``bake_lut``).
+    progress : callable
+        ``progress(done, total, note)`` before each job.
+
+    Returns
+    -------
+    SceneResult
+        Files written, jobs computed and reused, whether it was up to date, wall seconds, materials whose
+        target was not met (with the p99 reached), the device.
+
+    Examples
+    --------
+    >>> import lutbake
+    >>> _ = open("films.toml", "w").write('''
+    ... [materials.soap]
+    ... film = 1.33
+    ... thickness_nm = [200, 600]
+    ... base = 1.0
+    ... ''')
+    >>> scene = lutbake.load_scene("films.toml")
+    >>> first = lutbake.bake_scene(scene, "baked")
+    >>> sorted(p.name for p in first.written), first.unmet
+    (['films.exr', 'films.glsl', 'films.hlsl', 'films.json'], {})
+    >>> lutbake.bake_scene(scene, "baked").up_to_date
+    True
+    >>> atlas = lutbake.Atlas.load("baked/films.exr")
+    >>> soap = lutbake.FilmPoints.build(**atlas.film_stack("soap"), thickness_nm=300.0, cos_theta=[1.0, 0.5])
+    >>> atlas.sample("soap", soap).shape
+    (2, 3)
+    """
+    start = time.perf_counter()
+    out = Path(out_dir)
+    plan = plan_scene(scene)
+    check_scene_outputs(out, scene, plan)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError("{out_dir} folder {out} cannot be created: {why}", out=repr(str(out)),
+                             why=exc.strerror or type(exc).__name__) from None
+    scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials],
+                               *([] if scene.source is None else [scene.source]))
+    outputs = scene_outputs(out, scene, plan)
+    with open_set(out, f"scene-{scene.stem}") as files:
+        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
+        if unmet is not None:
+            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
+        run = _JobRun(plan, SceneCache(out), force, backend, progress)
+        entries, slices = run.all(out, files)
+        atlas = pack_atlas([values for _, values, _ in slices])
+        warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else scene.stem)
+        if slices:
+            jobs, rects = [job for job, _, _ in slices], atlas["rects"]
+            write_atlas(files.temp(outputs["atlas"]), atlas, atlas_header(scene, scene_hash, jobs, rects),
+                        scene.precision)
+            for (job, _, record), rect in zip(slices, rects):
+                entries.update({name: slice_entry(job, record, rect, atlas, outputs["atlas"].name)
+                                for name in job.materials})
+        manifest = _manifest(scene, scene_hash, entries)
+        for lang, text in atlas_includes(manifest, atlas).items():
+            files.temp(outputs[lang]).write_text(text)
+        manifest["files"] = {p.name: sha256_file(files.members.get(p, p))
+                             for p in outputs.values() if p != outputs["manifest"]}
+        files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
+        written = sorted(files.members)
+    return SceneResult(out, written, run.computed, run.reused, False, time.perf_counter() - start,
+                       _unmet(manifest["materials"]), run.device)
+
+
+class _JobRun:
+    """Every job of a plan, from the cache or computed (and then cached): slice values and 4D LUTs."""
+
+    def __init__(self, plan: ScenePlan, cache: SceneCache, force: bool, backend: str, progress):
+        self.plan, self.cache, self.force, self.backend, self.progress = plan, cache, force, backend, progress
+        self.computed, self.reused, self.integrator = [], [], None
+
+    @property
+    def device(self) -> str | None:
+        """The integrator's device, when a job was computed (it is made only then)."""
+        return None if self.integrator is None else self.integrator.device
+
+    def _integrator(self):
+        if self.integrator is None:
+            self.integrator = make_backend(self.backend)
+        return self.integrator
+
+    def all(self, out: Path, files) -> tuple:
+        """(manifest entries of the 4D jobs' materials, [(job, values, record)] of the slices)."""
+        entries, slices = {}, []
+        for done, job in enumerate(self.plan.jobs):
+            self.progress(done, len(self.plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
+            if job.kind == "slice":
+                slices.append((job, *self._slice(job)))
+            else:
+                record = self._lut(job, out, files)
+                entries.update({name: _lut_entry(job, record) for name in job.materials})
+        return entries, slices
+
+    def _slice(self, job) -> tuple:
+        cached = None if self.force else self.cache.slice(job)
+        if cached is not None:
+            self.reused.append(job.id)
+            return cached
+        values, record = refine_slice(job, self._integrator())
+        self.computed.append(job.id)
+        return values, self.cache.store_slice(job, values, record)
+
+    def _lut(self, job, out: Path, files) -> dict:
+        """The record of a ranged-base 4D LUT: reused when intact, else tuned and written."""
+        path = out / f"{job.id}.exr"
+        record = None if self.force else self.cache.lut(job, path, lut_members(path))
+        if record is not None:
+            self.reused.append(job.id)
+            return record
+        record = tuned_lut(job, path, self.backend, files, self._integrator())
+        self.cache.store_lut(job, record)
+        self.computed.append(job.id)
+        return record
+
+
+def _lut_entry(job, record: dict) -> dict:
+    return {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": record["counts"],
+            **{k: record[k] for k in ERROR_KEYS}, **{k: record[k] for k in ("path_scoring",) if k in record},
+            "sample": "lutbake_sample (docs/lut-format.md)"}
+
+
+def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:
+    manifest = {"format": MANIFEST_FORMAT, "format_version": 1, "scene": scene.file_name,
+                "scene_hash": scene_hash, "settings": scene.settings_key(),
+                "materials": {m.name: entries[m.name] for m in scene.materials}}
+    if scene.source is not None:
+        manifest["source"] = scene.source
+    return manifest
+
+
+def _manifest_hash(manifest: dict) -> str:
+    """SHA-256 of the manifest's content without this hash (sorted keys, compact JSON)."""
+    body = {k: v for k, v in manifest.items() if k != "manifest_hash"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def _sealed(manifest: dict) -> dict:
+    return {**manifest, "manifest_hash": _manifest_hash(manifest)}
+
+
+def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | None:
+    """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
+    it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
+    try:
+        manifest = load_json(read_text(manifest_path, "manifest", _MAX_MANIFEST_BYTES), str(manifest_path))
+        files = manifest["files"]
+        if (manifest["manifest_hash"] != _manifest_hash(manifest) or manifest["scene_hash"] != scene_hash
+                or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)):
+            return None
+        fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
+        return _unmet(manifest["materials"]) if fresh else None
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def _unmet(entries: dict) -> dict:
+    """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
+    return {name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
+            for name, e in entries.items() if not e["target_met"]}

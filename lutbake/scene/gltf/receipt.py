@@ -1,0 +1,173 @@
+"""The receipt of a glTF bake: per glTF material, what was read, how it was mapped, and what each
+choice costs in ΔE00 against the spectral ground truth (`lutbake report OUT/ASSET.json`, docs/gltf.md).
+
+For each used iridescent material, at held-out points (cos θ uniform in √cos θ, thickness uniform
+over the material's range, for a texture-driven metal F0 uniform up to each channel's reach):
+
+* ``baked``: what the engine samples (the atlas slice, or the 4D LUT read at the mapping table's
+  (η3, κ3)) against the ground truth of the same film over the same base;
+* ``threejs``: three.js's own iridescence (approximations.khr_iridescence_rgb, fed the same F0)
+  against that ground truth: what the material shows without lutbake;
+* ``other_mapping`` (metals mapped ``fitted`` or ``threejs``): the ground truth under the other
+  mapping against this one's: what the mapping choice alone changes.
+
+A metal part's colour is per channel: channel c of the stack whose base is channel c's (η3, κ3).
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from lutbake.modes.approximations import khr_iridescence_rgb
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.io.documents import load_json, read_text
+from lutbake.physics.metals import MAPPINGS, conductor
+from lutbake.physics.points import FilmPoints
+from lutbake.spectral.reference import reference_colour
+from lutbake.lut.sample import Atlas, Lut
+from lutbake.io.strictjson import dumps
+
+__all__ = ["gltf_receipts", "write_receipts"]
+
+_MAX_MANIFEST_BYTES = 256 << 20
+
+
+def gltf_receipts(manifest_path, n_points: int = 300, seed: int = 0) -> dict:
+    """The receipts of the glTF bake whose manifest is ``manifest_path`` (ValueError if it is not one)."""
+    path = Path(manifest_path)
+    manifest = load_json(read_text(path, "manifest", _MAX_MANIFEST_BYTES), str(path))
+    source = manifest.get("source") if isinstance(manifest, dict) else None
+    if not isinstance(source, dict) or source.get("kind") != "gltf":
+        raise ValueError(f"{str(path)!r} is not the manifest of a glTF bake (lutbake bake --gltf)")
+    rng = np.random.default_rng(seed)
+    rows = [_receipt(r, manifest, path.parent, n_points, rng) for r in source["materials"]]
+    return {"asset": source["asset"], "manifest": path.name, "metal_mapping": source["metal_mapping"],
+            "points_per_part": n_points, "materials": rows}
+
+
+def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
+    row = {k: record.get(k) for k in ("gltf_index", "name", "used_by", "film", "thickness_nm", "metalness",
+                                      "why_not", "warnings")}
+    row["read"] = record["read"]
+    row["defaults"] = sorted(k for k, v in record["read"].items() if isinstance(v, dict) and v["default"])
+    row["parts"] = {}
+    if record["film"] is None:
+        return row
+    cos_t = rng.uniform(0.0, 1.0, n) ** 2
+    thickness = rng.uniform(*record["thickness_nm"], n)
+    for part, info in record["parts"].items():
+        bases, baked = _part(part, info, manifest, folder, record["film"], cos_t, thickness, rng)
+        stacks = _stacks(record["film"], cos_t, thickness, bases)
+        truth = _per_channel(lambda s: reference_colour(s).values, stacks)
+        costs = {"baked": _stats(baked, truth), "threejs": _stats(_per_channel(khr_iridescence_rgb, stacks), truth)}
+        if info.get("mapping") in MAPPINGS:
+            other = next(m for m in MAPPINGS if m != info["mapping"])
+            costs["other_mapping"] = {"mapping": other, **_stats(_other_truth(info, other, record["film"], cos_t,
+                                                                              thickness, bases), truth)}
+        row["parts"][part] = {**{k: v for k, v in info.items() if k != "table"}, "de00": costs}
+    return row
+
+
+def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_t, thickness, rng) -> tuple:
+    """(base keywords per channel, baked RGB) of one part at the points."""
+    if part == "dielectric":
+        name = info["material"]
+        bases = [{"eta3": info["base"][0], "kappa3": info["base"][1]}] * 3
+        return bases, _sample_slice(manifest, folder, name, eta2, cos_t, thickness, bases[0])
+    if info.get("texture"):
+        table = info["table"]
+        f0 = [rng.uniform(0.0, top, cos_t.size) for top in info["f0_max"]]
+        bases = [{"eta3": np.interp(f, table["f0"], table["eta3"]), "kappa3": np.interp(f, table["f0"], table["kappa3"])}
+                 for f in f0]
+        entry = manifest["materials"][info["channels"][0]]
+        return bases, _per_channel(Lut.load(folder / entry["file"]).sample, _stacks(eta2, cos_t, thickness, bases))
+    if info["mapping"] == "named":
+        bases = [{"base": info["named"]}] * 3
+    else:
+        unique = {}
+        bases = [unique.setdefault((e, k), {"eta3": e, "kappa3": k}) for e, k in zip(info["eta3"], info["kappa3"])]
+    baked = np.stack([_sample_slice(manifest, folder, name, eta2, cos_t, thickness, b)[:, c]
+                      for c, (name, b) in enumerate(zip(info["channels"], bases))], axis=-1)
+    return bases, baked
+
+
+def _sample_slice(manifest, folder, name, eta2, cos_t, thickness, base) -> np.ndarray:
+    entry = manifest["materials"][name]
+    atlas = Atlas.load(folder / entry["file"])
+    return atlas.sample(name, FilmPoints.build(eta2=eta2, cos_theta=cos_t, thickness_nm=thickness, **base))
+
+
+def _other_truth(info, mapping, eta2, cos_t, thickness, bases) -> np.ndarray:
+    """The ground truth with each channel's F0 mapped by ``mapping`` instead."""
+    other = {}
+    for b in bases:
+        if id(b) not in other:
+            f0 = ((b["eta3"] - 1.0) ** 2 + b["kappa3"] ** 2) / ((b["eta3"] + 1.0) ** 2 + b["kappa3"] ** 2)
+            eta, kappa, _ = conductor(np.atleast_1d(f0), mapping)
+            other[id(b)] = {"eta3": eta if np.ndim(b["eta3"]) else eta[0],
+                            "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0]}
+    stacks = _stacks(eta2, cos_t, thickness, [other[id(b)] for b in bases])
+    return _per_channel(lambda s: reference_colour(s).values, stacks)
+
+
+def _stacks(eta2, cos_t, thickness, bases) -> list:
+    """One FilmPoints per channel; channels sharing a base (the same dict) share one object."""
+    built = {}
+    for b in bases:
+        if id(b) not in built:
+            built[id(b)] = FilmPoints.build(eta2=eta2, cos_theta=cos_t, thickness_nm=thickness, **b)
+    return [built[id(b)] for b in bases]
+
+
+def _per_channel(colour, stacks) -> np.ndarray:
+    """RGB with channel c from ``colour(stacks[c])`` (one evaluation when the stacks are one)."""
+    if all(s is stacks[0] for s in stacks):
+        return colour(stacks[0])
+    return np.stack([colour(s)[:, c] for c, s in enumerate(stacks)], axis=-1)
+
+
+def _stats(rgb, truth) -> dict:
+    de = delta_e00(rgb, truth)
+    return {"de00_p99": float(np.percentile(de, 99)), "de00_max": float(de.max()), "de00_mean": float(de.mean())}
+
+
+def write_receipts(receipts: dict, out_dir) -> None:
+    """receipts.json and receipts.html in ``out_dir``."""
+    from lutbake.tables.lutfile import write_text_atomic
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "receipts.json", dumps(receipts) + "\n")
+    write_text_atomic(out / "receipts.html", _html(receipts))
+
+
+def _html(receipts: dict) -> str:
+    esc = html.escape
+    parts = [f"<!doctype html><meta charset=utf-8><title>lutbake receipts: {esc(receipts['asset'])}</title>",
+             "<style>body{font:14px sans-serif;margin:2em}td,th{padding:2px 8px;text-align:left}"
+             "table{border-collapse:collapse;margin-bottom:1.5em}tr:nth-child(even){background:#f3f3f3}</style>",
+             f"<h1>{esc(receipts['asset'])}: one receipt per glTF material</h1>",
+             f"<p>ΔE00 against the spectral ground truth at {receipts['points_per_part']} held-out points per part; "
+             f"metal mapping {esc(receipts['metal_mapping'])} (docs/gltf.md).</p>"]
+    for r in receipts["materials"]:
+        parts.append(f"<h2>material {r['gltf_index']}: {esc(r['name'] or '(unnamed)')}</h2>")
+        read = ", ".join(f"{esc(k)} = {esc(str(v['value'] if isinstance(v, dict) else v))}"
+                         + (" (default)" if isinstance(v, dict) and v["default"] else "") for k, v in r["read"].items())
+        parts.append(f"<p>read: {read}</p>")
+        if r["why_not"]:
+            parts.append(f"<p>not baked: {esc(r['why_not'])}</p>")
+        for w in r["warnings"]:
+            parts.append(f"<p>warning: {esc(w)}</p>")
+        if r["parts"]:
+            parts.append("<table><tr><th>part</th><th>mapping</th><th>baked p99 / max</th>"
+                         "<th>three.js p99 / max</th><th>other mapping p99 / max</th></tr>")
+            for name, p in r["parts"].items():
+                cells = [f"{c['de00_p99']:.2f} / {c['de00_max']:.2f}" if c else "" for c in
+                         (p["de00"]["baked"], p["de00"]["threejs"], p["de00"].get("other_mapping"))]
+                parts.append(f"<tr><td>{esc(name)}</td><td>{esc(str(p.get('mapping', 'ior')))}</td>"
+                             + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+            parts.append("</table>")
+    return "\n".join(parts) + "\n"

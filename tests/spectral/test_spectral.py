@@ -1,0 +1,143 @@
+"""The ground truth converges, and the fixed rules it replaces would not."""
+
+import numpy as np
+
+from lutbake.physics.points import FilmPoints
+from lutbake.spectral.reference import _integrate, reference_colour, subset
+from lutbake.spectral.rules import panel_rule, wavenumber_rule
+
+
+def _hard_points(rng, n=150):
+    """Thick films up to D = 20 µm, plus near-resonant ones (metal base at grazing,
+    total reflection at the base) where R(λ) has narrow Fabry–Perot features."""
+    thick = dict(eta2=rng.uniform(1.2, 3.0, n), opd_nm=rng.uniform(0, 20000, n),
+                 cos_theta=rng.uniform(0, 1, n), eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+    resonant = dict(eta2=rng.uniform(2.0, 3.0, n), opd_nm=rng.uniform(5000, 20000, n),
+                    cos_theta=rng.uniform(0.02, 0.3, n), eta3=rng.uniform(1.0, 1.5, n),
+                    kappa3=rng.choice([0.0, 20.0], n))
+    return [FilmPoints.build(**thick), FilmPoints.build(**resonant)]
+
+
+def test_reference_is_converged_to_1e_7(rng):
+    """Each point against a rule four times finer than the one it stopped at (points grouped by it:
+    a third of the work of holding every point to four times the finest any point needed)."""
+    for pts in _hard_points(rng):
+        ref = reference_colour(pts)
+        assert ref.converged.all()
+        for nodes_per_nm in np.unique(ref.nodes_per_nm):
+            at = np.flatnonzero(ref.nodes_per_nm == nodes_per_nm)
+            truth = _integrate(subset(pts, at), panel_rule(4 * int(nodes_per_nm)))
+            assert np.max(np.abs(ref.values[at] - truth)) <= 1e-7
+
+
+def test_fixed_5nm_sampling_is_not_converged(rng):
+    """The refinement test above can fail: 5 nm sampling misses by far more than 1e-7."""
+    pts = _hard_points(rng)[1]
+    ref = reference_colour(pts).values
+    lam = np.arange(360.0, 831.0, 5.0)
+    from lutbake.spectral.reference import spectral_reflectance
+    from lutbake.physics.colorimetry import colorimetry
+    w = colorimetry().sensitivity(lam) * 5.0
+    coarse = spectral_reflectance(pts, lam)[2] @ w.T
+    assert np.max(np.abs(coarse - ref)) > 1e-3
+
+
+def test_wavenumber_rule_error_falls_with_node_count(rng):
+    pts = _hard_points(rng)[0]
+    ref = reference_colour(pts).values
+    errors = [np.max(np.abs(_integrate(pts, wavenumber_rule(n)) - ref)) for n in (128, 256, 512)]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < errors[0] / 10
+
+
+def test_wavenumber_rule_is_exact_for_polynomials_in_wavenumber():
+    """Product integration of a degree-7 interpolant: exact up to degree 7, not beyond."""
+    ref = panel_rule(16)
+    for count in (16, 64, 250, 4096, 16384):  # dense rules: nodes far closer than the 1 nm CMF grid
+        rule = wavenumber_rule(count)
+        for degree in range(8):
+            exact = ref.weights @ (1e3 / ref.wavelength_nm) ** degree
+            assert np.max(np.abs(rule.weights @ (1e3 / rule.wavelength_nm) ** degree - exact)) < 1e-9 * 3**degree
+    rule = wavenumber_rule(16)
+    exact = ref.weights @ (1e3 / ref.wavelength_nm) ** 9
+    assert np.max(np.abs(rule.weights @ (1e3 / rule.wavelength_nm) ** 9 - exact)) > 1e-9
+
+
+def test_ladder_meets_its_error_target_on_random_texels(rng):
+    """Per-texel levels (bandwidth × harmonics) hold |ΔRGB| ≤ 1e-5 at 3 samples/cycle."""
+    from lutbake.integrate.opencl import NumpyBackend
+    from lutbake.grid.spec import Axis, BakeSpec
+
+    n = 300
+    spec = BakeSpec(eta2=1.8, axes=(Axis("cos_theta", 0.0, 1.0, 2), Axis("opd_nm", 0.0, 8000.0, 2),
+                                    Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 8.0, 2)))
+    pts = FilmPoints.build(eta2=1.8, cos_theta=rng.uniform(0, 1, n) ** 2, opd_nm=rng.uniform(0, 8000, n),
+                           eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 8, n))
+    fast = NumpyBackend().evaluate(spec, pts)
+    assert np.max(np.abs(fast - reference_colour(pts).values)) <= 1e-5
+
+
+def test_dense_rules_converge_on_a_high_finesse_texel():
+    """Regression: weights projected at 8 points per nm starved dense rules (error stuck at 1.2e-5)."""
+    pts = FilmPoints.build(eta2=2.0, cos_theta=0.05, opd_nm=20000.0, eta3=2.5, kappa3=40.0)
+    truth = reference_colour(pts).values
+    errors = [np.max(np.abs(_integrate(pts, wavenumber_rule(n)) - truth)) for n in (1024, 4096, 16384)]
+    assert errors[0] > errors[1] > errors[2] and errors[2] < 1e-10
+
+
+def test_knotted_rule_is_exact_for_spectra_with_kinks_at_its_knots():
+    """Cut at the knots, the rule integrates a spectrum that is a different cubic in ν on each side
+    of every knot (continuous, kinked: what a linearly interpolated index table gives) to rounding;
+    the uncut rule of the same count keeps the kinks' O(h²) error."""
+    knots = (450.0, 523.0, 611.0)
+    ref = panel_rule(16)  # the knots sit on its 1 nm panel edges: exact there too
+
+    def kinked(lam):
+        x = 1e3 / lam
+        pieces = [np.ones_like(x)] + [np.maximum(x - 1e3 / k, 0.0) for k in knots]
+        return sum(((-1) ** i) * (i + 1) * p + 0.3 * p ** 3 for i, p in enumerate(pieces))
+
+    exact = ref.weights @ kinked(ref.wavelength_nm)
+    for count in (64, 256, 1024):
+        cut = wavenumber_rule(count, knots_nm=knots)
+        assert cut.count >= count and cut.name.endswith("-4-panels")
+        assert np.max(np.abs(cut.weights @ kinked(cut.wavelength_nm) - exact)) < 1e-12
+        plain = wavenumber_rule(count)
+        assert np.max(np.abs(plain.weights @ kinked(plain.wavelength_nm) - exact)) > 1e-7
+
+
+def test_knotted_rule_cuts_only_where_every_panel_gets_its_nodes():
+    from lutbake.spectral.rules import MIN_PANEL_NODES
+
+    knots = tuple(np.linspace(370.0, 820.0, 20))  # 21 panels
+    assert wavenumber_rule(64, knots_nm=knots).count == 64          # 21 × 4 > 64: the plain rule
+    assert wavenumber_rule(128, knots_nm=knots).name.endswith("-21-panels")
+    assert 21 * MIN_PANEL_NODES > 64
+
+
+def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monkeypatch):
+    """A rule's nodes and weights persist in $LUTBAKE_CACHE_DIR, one entry per distinct rule; a later
+    process reads them without building, bit for bit; a damaged entry is rebuilt."""
+    import lutbake.spectral.rules as spectral
+
+    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    spectral.wavenumber_rule.cache_clear()
+    fresh = wavenumber_rule(256, knots_nm=(450.0,))
+    wavenumber_rule(256, knots_nm=(451.0,))
+    assert len(list(tmp_path.glob("wavenumber-rule-*"))) == 2
+    build = spectral._panel_rule_arrays
+
+    def refuse(*args):
+        raise AssertionError("rebuilt a cached rule")
+
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", refuse)
+    spectral.wavenumber_rule.cache_clear()
+    again = wavenumber_rule(256, knots_nm=(450.0,))
+    np.testing.assert_array_equal(again.weights, fresh.weights)
+    np.testing.assert_array_equal(again.wavelength_nm, fresh.wavelength_nm)
+    for entry in tmp_path.glob("wavenumber-rule-*"):
+        entry.write_bytes(b"not a numpy file")
+    monkeypatch.setattr(spectral, "_panel_rule_arrays", build)
+    spectral.wavenumber_rule.cache_clear()
+    np.testing.assert_array_equal(wavenumber_rule(256, knots_nm=(450.0,)).weights, fresh.weights)
+    spectral.wavenumber_rule.cache_clear()
