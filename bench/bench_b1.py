@@ -65,8 +65,21 @@ def _rows_2nm(spec, y0, y1, lam, weights, film_reflectance):
 def cli_argv(eta2, axes, compute, device, out) -> list:
     """`lutbake bake` for one LUT of the grid."""
     flags = [token for flag, axis in zip(_FLAGS, axes) for token in (flag, axis)]
-    return ["bake", "--quiet", "--eta2", str(eta2), *flags, "--compute", compute, "--backend", "opencl",
-            "--device", device, "--out", out]
+    return [
+        "bake",
+        "--quiet",
+        "--eta2",
+        str(eta2),
+        *flags,
+        "--compute",
+        compute,
+        "--backend",
+        "opencl",
+        "--device",
+        device,
+        "--out",
+        out,
+    ]
 
 
 def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
@@ -97,8 +110,9 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
         row["device"] = sidecar["baked_on"]["device"]
         row["integrator"] = sidecar["integrator"]
     wall = time.perf_counter() - start
-    row.update(cells=spec.cells, wall_s=wall, cells_per_s=spec.cells / wall,
-               peak_rss_mib=resident_bytes(peak=True) / 2**20)
+    row.update(
+        cells=spec.cells, wall_s=wall, cells_per_s=spec.cells / wall, peak_rss_mib=resident_bytes(peak=True) / 2**20
+    )
     print(json.dumps(row))
 
 
@@ -130,8 +144,11 @@ def not_building() -> dict:
     """{device key: why not} for the OpenCL devices whose compiler does not build the kernel."""
     from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, opencl_devices
 
-    return {device_key(d): str(built) for d in opencl_devices()
-            if isinstance(built := _program(d, "float64"), OpenCLUnavailable)}
+    return {
+        device_key(d): str(built)
+        for d in opencl_devices()
+        if isinstance(built := _program(d, "float64"), OpenCLUnavailable)
+    }
 
 
 def write_report(report: dict, json_path) -> None:
@@ -163,8 +180,7 @@ def texel_error(images: dict, spec, n_points: int, seed: int) -> dict:
     y, x = np.divmod(flat, width)
     pts = spec.texel_stacks(np.ravel(p)[flat] for p in spec.cell_params(0, height))
     truth = reference_colour(pts, spec.observer, spec.space).values
-    return {"texels": int(flat.size), **{name: float(np.abs(img[y, x] - truth).max())
-                                         for name, img in images.items()}}
+    return {"texels": int(flat.size), **{name: float(np.abs(img[y, x] - truth).max()) for name, img in images.items()}}
 
 
 def main() -> None:
@@ -182,8 +198,13 @@ def main() -> None:
     if args.child:
         child(args.child, args.out, args.compute, args.grid, args.device)
         return
-    report = {"grid": "B1", "cells": _spec(1.5, B1_AXES).cells, "load_average_start": load_average(),
-              "not_building": not_building(), "runtimes": {}}
+    report = {
+        "grid": "B1",
+        "cells": _spec(1.5, B1_AXES).cells,
+        "load_average_start": load_average(),
+        "not_building": not_building(),
+        "runtimes": {},
+    }
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         images, stiff = {}, {}
@@ -197,22 +218,27 @@ def main() -> None:
                 stiff_out = tmp / f"stiff-{label}-{key}.exr"
                 run_path(path, stiff_out, compute, label, "stiff")
                 stiff[f"{label}-{key}"] = _image(stiff_out)
-            rows["series_vs_direct_speedup"] = rows["series-float64"]["cells_per_s"] / rows["direct-float64"]["cells_per_s"]
+            rows["series_vs_direct_speedup"] = (
+                rows["series-float64"]["cells_per_s"] / rows["direct-float64"]["cells_per_s"]
+            )
             report["runtimes"][label] = rows
         if not args.skip_numpy:
             out = tmp / "numpy-2nm.npy"
             report["numpy_2nm"] = run_path("numpy-2nm", out)
             images["numpy-2nm"] = _image(out)
             for rows in report["runtimes"].values():
-                rows["series_vs_numpy_2nm_speedup"] = (rows["series-float64"]["cells_per_s"]
-                                                       / report["numpy_2nm"]["cells_per_s"])
-                rows["series_vs_numpy_2nm_process_speedup"] = (report["numpy_2nm"]["process_wall_s"]
-                                                               / rows["series-float64"]["process_wall_s"])
+                rows["series_vs_numpy_2nm_speedup"] = (
+                    rows["series-float64"]["cells_per_s"] / report["numpy_2nm"]["cells_per_s"]
+                )
+                rows["series_vs_numpy_2nm_process_speedup"] = (
+                    report["numpy_2nm"]["process_wall_s"] / rows["series-float64"]["process_wall_s"]
+                )
         report["rgb_abs_max_vs_ground_truth"] = texel_error(images, _spec(1.5, B1_AXES), args.points, args.seed)
-        report["stiff_grid"] = {"axes": dict(zip(("cos_theta", "opd_nm", "eta3", "kappa3"), STIFF["axes"])),
-                                "eta2": STIFF["eta2"],
-                                "rgb_abs_max_vs_ground_truth": texel_error(stiff, _spec(STIFF["eta2"], STIFF["axes"]),
-                                                                            1 << 30, args.seed)}
+        report["stiff_grid"] = {
+            "axes": dict(zip(("cos_theta", "opd_nm", "eta3", "kappa3"), STIFF["axes"])),
+            "eta2": STIFF["eta2"],
+            "rgb_abs_max_vs_ground_truth": texel_error(stiff, _spec(STIFF["eta2"], STIFF["axes"]), 1 << 30, args.seed),
+        }
     write_report(report, args.json)
 
 

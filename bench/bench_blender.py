@@ -57,16 +57,30 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "docs"))
 
+from make_scene_examples import bake_example  # noqa: E402
+
 import lutbake  # noqa: E402
-from lutbake.blender.library import (Probes, blender_thin_film_probes, lutbake_probes, render_probes,  # noqa: E402
-                             verify_osl, write_library)
-from lutbake.blender.nodes import (EXACT_MATERIAL, RUNTIME_MATERIAL, LutRead, NumpyGraph, bilinear_program,  # noqa: E402
-                                   read_manifest, read_program)
+from lutbake.blender.library import (
+    Probes,
+    blender_thin_film_probes,
+    lutbake_probes,
+    render_probes,  # noqa: E402
+    verify_osl,
+    write_library,
+)
+from lutbake.blender.nodes import (
+    EXACT_MATERIAL,
+    RUNTIME_MATERIAL,
+    LutRead,
+    NumpyGraph,
+    bilinear_program,  # noqa: E402
+    read_manifest,
+    read_program,
+)
+from lutbake.lut.sample import Lut  # noqa: E402
 from lutbake.modes.exact import write_exact_table  # noqa: E402
 from lutbake.modes.runtime import write_runtime_table  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
-from lutbake.lut.sample import Lut  # noqa: E402
-from make_scene_examples import bake_example  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 EXAMPLE_POINTS = 200
@@ -76,8 +90,12 @@ GRAZING_DEG = 85.0
 
 def stats(de) -> dict:
     de = np.asarray(de)
-    return {"median": float(np.median(de)), "p99": float(np.percentile(de, 99)), "max": float(de.max()),
-            "points": int(de.size)}
+    return {
+        "median": float(np.median(de)),
+        "p99": float(np.percentile(de, 99)),
+        "max": float(de.max()),
+        "points": int(de.size),
+    }
 
 
 def _angles(rng, n):
@@ -102,13 +120,20 @@ def setup_check(blender, rng) -> dict:
 def thin_film_cases(rng, n) -> dict:
     """Section 2's points: θ 0–85°, d 20–1000 nm, film η2 1.2–2.4, over each kind of base (label: the
     Blender closure that renders its own thin film there); the named metals ``n``/7 each."""
-    def common(m):
-        return {"eta2": rng.uniform(1.2, 2.4, m), "thickness_nm": rng.uniform(20.0, 1000.0, m),
-                "cos_theta": _angles(rng, m)}
 
-    cases = {"dielectric (Principled, eta3 1.0-2.5)": lutbake.FilmPoints.build(**common(n), eta3=rng.uniform(1.0, 2.5, n)),
-             "absorbing (Conductor, n 0.05-4, k 1.5-9)": lutbake.FilmPoints.build(
-                 **common(n), eta3=rng.uniform(0.05, 4.0, n), kappa3=rng.uniform(1.5, 9.0, n))}
+    def common(m):
+        return {
+            "eta2": rng.uniform(1.2, 2.4, m),
+            "thickness_nm": rng.uniform(20.0, 1000.0, m),
+            "cos_theta": _angles(rng, m),
+        }
+
+    cases = {
+        "dielectric (Principled, eta3 1.0-2.5)": lutbake.FilmPoints.build(**common(n), eta3=rng.uniform(1.0, 2.5, n)),
+        "absorbing (Conductor, n 0.05-4, k 1.5-9)": lutbake.FilmPoints.build(
+            **common(n), eta3=rng.uniform(0.05, 4.0, n), kappa3=rng.uniform(1.5, 9.0, n)
+        ),
+    }
     per_metal = max(n // len(METALS), 10)
     return cases, {name: lutbake.FilmPoints.build(**common(per_metal), base=name) for name in METALS}
 
@@ -116,6 +141,7 @@ def thin_film_cases(rng, n) -> dict:
 def thin_film_errors(render_rgb, cases, metals, clamped: bool = False) -> dict:
     """ΔE00 statistics of ``render_rgb(points)`` against the ground truth at ``thin_film_cases``' points
     (``clamped``: the truth held at 0 where negative, what a Blender closure can show)."""
+
     def de(pts):
         truth = lutbake.reference_rgb(pts)
         return delta_e00(render_rgb(pts), np.maximum(truth, 0.0) if clamped else truth)
@@ -123,7 +149,9 @@ def thin_film_errors(render_rgb, cases, metals, clamped: bool = False) -> dict:
     out = {label: stats(de(pts)) for label, pts in cases.items()}
     metal_de = {name: de(pts) for name, pts in metals.items()}
     out["named metals (Conductor, per-channel n, k)"] = {
-        **stats(np.concatenate(list(metal_de.values()))), "by_metal": {k: stats(v) for k, v in metal_de.items()}}
+        **stats(np.concatenate(list(metal_de.values()))),
+        "by_metal": {k: stats(v) for k, v in metal_de.items()},
+    }
     return out
 
 
@@ -136,8 +164,14 @@ def _film_points(scene, read, probes) -> lutbake.FilmPoints:
     lo, hi = read.thickness_nm
     d = np.clip(probes.thickness_nm, lo, hi)
     if isinstance(read, LutRead):
-        return lutbake.FilmPoints.build(eta1=read.eta1, eta2=read.eta2, cos_theta=probes.cos_theta, thickness_nm=d,
-                                        eta3=probes.eta3, kappa3=probes.kappa3)
+        return lutbake.FilmPoints.build(
+            eta1=read.eta1,
+            eta2=read.eta2,
+            cos_theta=probes.cos_theta,
+            thickness_nm=d,
+            eta3=probes.eta3,
+            kappa3=probes.kappa3,
+        )
     atlas = lutbake.Atlas.load(scene.folder / read.image)
     return lutbake.FilmPoints.build(**atlas.film_stack(read.material), cos_theta=probes.cos_theta, thickness_nm=d)
 
@@ -149,13 +183,19 @@ def _probes_in_domain(read, rng, n: int, cos_theta=None) -> Probes:
     if isinstance(read, LutRead):
         e, k = read.axes[2:]
         eta3, kappa3 = rng.uniform(e["min"], e["max"], n), rng.uniform(k["min"], k["max"], n)
-    return Probes(read.material, _angles(rng, n) if cos_theta is None else cos_theta,
-                  rng.uniform(lo, hi, n) if hi > lo else np.full(n, lo), eta3, kappa3, expected=None)
+    return Probes(
+        read.material,
+        _angles(rng, n) if cos_theta is None else cos_theta,
+        rng.uniform(lo, hi, n) if hi > lo else np.full(n, lo),
+        eta3,
+        kappa3,
+        expected=None,
+    )
 
 
 def examples(blender, rng, folder: Path) -> dict:
     rows = {}
-    for scene in sorted((ROOT / "examples").glob("*.toml")):   # docs/scenes is baked, not kept in the repository
+    for scene in sorted((ROOT / "examples").glob("*.toml")):  # docs/scenes is baked, not kept in the repository
         bake_example(scene.stem)
     for manifest in sorted((ROOT / "docs" / "scenes").glob("*/*.json")):
         if manifest.stem.startswith("lut-"):
@@ -169,15 +209,17 @@ def examples(blender, rng, folder: Path) -> dict:
         ours = np.array(render(blender, "CYCLES", materials, job)["rgb"]).reshape(len(probes), EXAMPLE_POINTS, 3)
         for i, (read, pts) in enumerate(zip(scene.reads, truth_points)):
             truth = lutbake.reference_rgb(pts)
-            shown = np.maximum(truth, 0.0)   # what a Blender closure can show: negative components clamp at 0
+            shown = np.maximum(truth, 0.0)  # what a Blender closure can show: negative components clamp at 0
             theirs = blender_film(blender, pts)
-            row = {"kind": "4D LUT, linear rule" if isinstance(read, LutRead) else "slice",
-                   "negative_points": int((truth < 0).any(axis=1).sum()),
-                   "truth_clamped_at_0": stats(delta_e00(shown, truth)),
-                   "lutbake_blender": stats(delta_e00(ours[i], truth)),
-                   "blender_thin_film": stats(delta_e00(theirs, truth)),
-                   "lutbake_blender_vs_clamped_truth": stats(delta_e00(ours[i], shown)),
-                   "blender_thin_film_vs_clamped_truth": stats(delta_e00(theirs, shown))}
+            row = {
+                "kind": "4D LUT, linear rule" if isinstance(read, LutRead) else "slice",
+                "negative_points": int((truth < 0).any(axis=1).sum()),
+                "truth_clamped_at_0": stats(delta_e00(shown, truth)),
+                "lutbake_blender": stats(delta_e00(ours[i], truth)),
+                "blender_thin_film": stats(delta_e00(theirs, truth)),
+                "lutbake_blender_vs_clamped_truth": stats(delta_e00(ours[i], shown)),
+                "blender_thin_film_vs_clamped_truth": stats(delta_e00(theirs, shown)),
+            }
             if isinstance(read, LutRead):
                 lut = Lut.load(scene.folder / read.image)
                 row["lutbake_sample_cubic"] = stats(delta_e00(lut.sample(pts), truth))
@@ -194,8 +236,10 @@ def eevee_thin_film(blender, rng) -> dict:
     out = {}
     for engine in ("BLENDER_EEVEE", "CYCLES"):
         a, b = blender_film(blender, with_film, engine), blender_film(blender, without, engine)
-        out[engine] = {"max_abs_rgb_300nm_vs_0nm": float(np.abs(a - b).max()),
-                       "de00_vs_truth_300nm": stats(delta_e00(a, lutbake.reference_rgb(with_film)))}
+        out[engine] = {
+            "max_abs_rgb_300nm_vs_0nm": float(np.abs(a - b).max()),
+            "de00_vs_truth_300nm": stats(delta_e00(a, lutbake.reference_rgb(with_film))),
+        }
     return out
 
 
@@ -251,25 +295,31 @@ def osl_materials(blender, rng, n, folder: Path, repeats: int = 3) -> dict:
     write_runtime_table(folder / "runtime.exr")
     library = folder / "osl.blend"
     write_library(None, library, blender, exact=folder / "exact.exr", runtime_table=folder / "runtime.exr")
-    out = {f"{kind}_vs_numpy": verify_osl(library, kind, folder / f"{kind}.exr", blender, n_points=96)
-           for kind in ("exact", "runtime")}
+    out = {
+        f"{kind}_vs_numpy": verify_osl(library, kind, folder / f"{kind}.exr", blender, n_points=96)
+        for kind in ("exact", "runtime")
+    }
     cases, metals = thin_film_cases(rng, n)
     renderers = {"blender thin film": lambda pts: blender_film(blender, pts)}
     for label, material in (("lutbake runtime (OSL)", RUNTIME_MATERIAL), ("lutbake exact (OSL)", EXACT_MATERIAL)):
         renderers[label] = lambda pts, material=material: np.array(
-            render(blender, "CYCLES", *_osl_probes(library, material, pts), osl=True)["rgb"])
+            render(blender, "CYCLES", *_osl_probes(library, material, pts), osl=True)["rgb"]
+        )
     for key, clamped in (("vs_truth", False), ("vs_truth_clamped", True)):
         out[key] = {label: thin_film_errors(_once(rgb), cases, metals, clamped) for label, rgb in renderers.items()}
-    out["negative_points"] = {label: int((lutbake.reference_rgb(pts) < 0).any(axis=-1).sum())
-                              for label, pts in {**cases, **metals}.items()}
+    out["negative_points"] = {
+        label: int((lutbake.reference_rgb(pts) < 0).any(axis=-1).sum()) for label, pts in {**cases, **metals}.items()
+    }
     m = 64
     cos_theta, d, eta2 = _angles(rng, m), rng.uniform(20, 1000, m), rng.uniform(1.2, 2.4, m)
     glossy = ([{"kind": "glossy", "color": [0.5, 0.4, 0.3]}], [{"cos_theta": float(c)} for c in cos_theta])
     for base, base_args in (("dielectric", {"eta3": rng.uniform(1.0, 2.5, m)}), ("Cu", {"base": "Cu"})):
         pts = lutbake.FilmPoints.build(eta2=eta2, thickness_nm=d, cos_theta=cos_theta, **base_args)
-        chosen = {"Glossy BSDF, constant colour": glossy,
-                  "lutbake runtime (OSL)": _osl_probes(library, RUNTIME_MATERIAL, pts),
-                  "lutbake exact (OSL)": _osl_probes(library, EXACT_MATERIAL, pts)}
+        chosen = {
+            "Glossy BSDF, constant colour": glossy,
+            "lutbake runtime (OSL)": _osl_probes(library, RUNTIME_MATERIAL, pts),
+            "lutbake exact (OSL)": _osl_probes(library, EXACT_MATERIAL, pts),
+        }
         out[f"cost ({base} base)"] = _render_costs(blender, "CYCLES", 16, True, chosen, repeats)
     return out
 
@@ -282,6 +332,7 @@ def _once(render_rgb):
         if id(pts) not in done:
             done[id(pts)] = render_rgb(pts)
         return done[id(pts)]
+
     return rgb
 
 
@@ -290,8 +341,10 @@ def _render_costs(blender, engine, samples, osl, chosen, repeats) -> dict:
     rows = {}
     for label, (materials, probes) in chosen.items():
         result = render(blender, engine, materials, probes, cell_px=32, samples=samples, repeat=repeats + 1, osl=osl)
-        rows[label] = {"first_render_seconds": result["render_seconds"],
-                       "render_seconds": float(np.median(result["repeat_seconds"]))}
+        rows[label] = {
+            "first_render_seconds": result["render_seconds"],
+            "render_seconds": float(np.median(result["repeat_seconds"])),
+        }
     base = rows["Glossy BSDF, constant colour"]["render_seconds"]
     return {label: {**row, "ratio_to_glossy": row["render_seconds"] / base} for label, row in rows.items()}
 
@@ -301,24 +354,34 @@ def cost(blender, folder: Path, repeats: int = 3) -> dict:
     coated = read_manifest(ROOT / "docs" / "scenes" / "textured-base" / "textured-base.json")
     n, rng = 64, np.random.default_rng(5)
     cos_theta = _angles(rng, n)
-    candidates = {"Glossy BSDF, constant colour": ([{"kind": "glossy", "color": [0.5, 0.4, 0.3]}],
-                                                   [{"cos_theta": float(c)} for c in cos_theta])}
+    candidates = {
+        "Glossy BSDF, constant colour": (
+            [{"kind": "glossy", "color": [0.5, 0.4, 0.3]}],
+            [{"cos_theta": float(c)} for c in cos_theta],
+        )
+    }
     for scene, label in ((steel, "lutbake slice group"), (coated, "lutbake 4D LUT group (linear)")):
         probes = _probes_in_domain(scene.reads[-1], rng, n, cos_theta)
-        candidates[label] = lutbake_probes(scene, folder / f"{scene.name}.blend", [probes])   # written by examples()
+        candidates[label] = lutbake_probes(scene, folder / f"{scene.name}.blend", [probes])  # written by examples()
     pts = lutbake.FilmPoints.build(eta2=2.9, thickness_nm=rng.uniform(10, 70, n), cos_theta=cos_theta, eta3=1.5)
     candidates["Principled BSDF, thin film"] = blender_thin_film_probes(pts)
-    out = {engine: _render_costs(blender, engine, samples, False, candidates, repeats)
-           for engine, samples in (("CYCLES", 16), ("BLENDER_EEVEE", 1))}
-    out["nodes"] = {"slice (tempered-steel/steel_werner)": node_counts(steel.reads[-1], (32, 84)),
-                    "4D LUT (textured-base/coated_metal)": node_counts(coated.reads[0], (64, 144))}
+    out = {
+        engine: _render_costs(blender, engine, samples, False, candidates, repeats)
+        for engine, samples in (("CYCLES", 16), ("BLENDER_EEVEE", 1))
+    }
+    out["nodes"] = {
+        "slice (tempered-steel/steel_werner)": node_counts(steel.reads[-1], (32, 84)),
+        "4D LUT (textured-base/coated_metal)": node_counts(coated.reads[0], (64, 144)),
+    }
     out["library_bytes"] = {p.name: p.stat().st_size for p in sorted(folder.glob("*.blend"))}
     return out
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--blender", default=os.environ.get("LUTBAKE_BLENDER", str(ROOT / ".venv-blender" / "bin" / "python")))
+    parser.add_argument(
+        "--blender", default=os.environ.get("LUTBAKE_BLENDER", str(ROOT / ".venv-blender" / "bin" / "python"))
+    )
     parser.add_argument("--points", type=int, default=2000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, default=None)
@@ -329,18 +392,23 @@ def main():
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="bench-blender-") as folder:
         folder = Path(folder)
-        sections = {"setup": lambda: setup_check(args.blender, rng),
-                    "blender_thin_film": lambda: blender_thin_film(args.blender, rng, args.points),
-                    "examples": lambda: examples(args.blender, rng, folder),
-                    "eevee": lambda: eevee_thin_film(args.blender, rng),
-                    "osl": lambda: osl_materials(args.blender, np.random.default_rng([args.seed, 5]), args.points,
-                                                 folder),   # its own points: the other sections' stay as they were
-                    "cost": lambda: cost(args.blender, folder)}
+        sections = {
+            "setup": lambda: setup_check(args.blender, rng),
+            "blender_thin_film": lambda: blender_thin_film(args.blender, rng, args.points),
+            "examples": lambda: examples(args.blender, rng, folder),
+            "eevee": lambda: eevee_thin_film(args.blender, rng),
+            "osl": lambda: osl_materials(
+                args.blender, np.random.default_rng([args.seed, 5]), args.points, folder
+            ),  # its own points: the other sections' stay as they were
+            "cost": lambda: cost(args.blender, folder),
+        }
         for name in SECTIONS:
             if name in args.sections:
                 doc[name] = sections[name]()
-    doc["blender"] = render_probes({"engine": "CYCLES", "materials": [{"kind": "glossy", "color": [1, 1, 1]}],
-                                    "probes": [{"cos_theta": 1.0}]}, args.blender)["blender"]
+    doc["blender"] = render_probes(
+        {"engine": "CYCLES", "materials": [{"kind": "glossy", "color": [1, 1, 1]}], "probes": [{"cos_theta": 1.0}]},
+        args.blender,
+    )["blender"]
     doc["load_average_1min_end"] = os.getloadavg()[0]
     doc["seconds"] = time.perf_counter() - start
     text = json.dumps(doc, indent=2)

@@ -24,7 +24,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from bench_b1 import B1_AXES, _spec, cli_argv, devices, load_average, not_building, numpy_2nm, run_child, write_report
 
 
@@ -38,13 +37,24 @@ def child(what: str, out: str, device: str, rows: int) -> None:
         spec = _spec(1.5, B1_AXES) if name == "b1" else default_specs()[name]
         numpy_2nm(spec, out, rows)
         cells = rows * spec.image_size[0]
-        print(json.dumps({"name": name, "cells": cells, "wall_s": time.perf_counter() - start,
-                          "cells_per_s": cells / (time.perf_counter() - start)}))
+        print(
+            json.dumps(
+                {
+                    "name": name,
+                    "cells": cells,
+                    "wall_s": time.perf_counter() - start,
+                    "cells_per_s": cells / (time.perf_counter() - start),
+                }
+            )
+        )
         return
     from lutbake.cli import main
 
-    argv = ["bake", "--quiet", "--out", out, "--device", device] if what == "set" else \
-        cli_argv(1.5, B1_AXES, "float64", device, out)
+    argv = (
+        ["bake", "--quiet", "--out", out, "--device", device]
+        if what == "set"
+        else cli_argv(1.5, B1_AXES, "float64", device, out)
+    )
     sys.argv = ["lutbake", *argv]
     try:
         main()
@@ -54,12 +64,24 @@ def child(what: str, out: str, device: str, rows: int) -> None:
     wall = time.perf_counter() - start
     folder = Path(out) if what == "set" else Path(out).parent
     sidecars = [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
-    paths = {key: sum(s["integrator"][key] for s in sidecars)
-             for key in ("series_texels", "closed_form_texels", "direct_texels")}
+    paths = {
+        key: sum(s["integrator"][key] for s in sidecars)
+        for key in ("series_texels", "closed_form_texels", "direct_texels")
+    }
     cells = sum(paths.values())
-    print(json.dumps({"what": what, "cells": cells, "luts": len(sidecars), "wall_s": wall,
-                      "device": sidecars[0]["baked_on"]["device"], "texels_per_path": paths,
-                      "peak_rss_mib": resident_bytes(peak=True) / 2**20}))
+    print(
+        json.dumps(
+            {
+                "what": what,
+                "cells": cells,
+                "luts": len(sidecars),
+                "wall_s": wall,
+                "device": sidecars[0]["baked_on"]["device"],
+                "texels_per_path": paths,
+                "peak_rss_mib": resident_bytes(peak=True) / 2**20,
+            }
+        )
+    )
 
 
 def run(what: str, out: Path, device: str = "", rows: int = 0) -> dict:
@@ -89,28 +111,38 @@ def main() -> None:
         keys = devices()
         by_key = {key: {"set": [], "b1": []} for key in keys}
         for key in keys:
-            run("b1", tmp / f"warm-{key}" / "b1.exr", key)   # discarded: builds the kernel's binary cache
-        for rep in range(args.reps):   # the runtimes alternate within each rep: a busy spell hits them alike
+            run("b1", tmp / f"warm-{key}" / "b1.exr", key)  # discarded: builds the kernel's binary cache
+        for rep in range(args.reps):  # the runtimes alternate within each rep: a busy spell hits them alike
             for key in keys:
                 by_key[key]["b1"].append(run("b1", tmp / f"b1-{key}-{rep}" / "b1.exr", key))
                 by_key[key]["set"].append(run("set", tmp / f"set-{key}-{rep}", key))
         for key, runs in by_key.items():
             ratios = [s["process_cells_per_s"] / b["process_cells_per_s"] for s, b in zip(runs["set"], runs["b1"])]
             report["runtimes"][key] = {
-                "runs": runs, "set_over_b1_cells_per_s": ratios,
+                "runs": runs,
+                "set_over_b1_cells_per_s": ratios,
                 "set_over_b1_cells_per_s_median": float(np.median(ratios)),
-                **{f"{what}_process_wall_s_median": float(np.median([r["process_wall_s"] for r in runs[what]]))
-                   for what in runs}}
-        samples = {name: run(f"numpy:{name}", tmp / f"numpy-{name}.npy", rows=args.sample_rows)
-                   for name in ["b1", *default_specs()]}
+                **{
+                    f"{what}_process_wall_s_median": float(np.median([r["process_wall_s"] for r in runs[what]]))
+                    for what in runs
+                },
+            }
+        samples = {
+            name: run(f"numpy:{name}", tmp / f"numpy-{name}.npy", rows=args.sample_rows)
+            for name in ["b1", *default_specs()]
+        }
     report["numpy_2nm_sample"] = samples
-    set_rate = sum(r["cells"] for name, r in samples.items() if name != "b1") / \
-        sum(r["wall_s"] for name, r in samples.items() if name != "b1")
+    set_rate = sum(r["cells"] for name, r in samples.items() if name != "b1") / sum(
+        r["wall_s"] for name, r in samples.items() if name != "b1"
+    )
     report["numpy_2nm_cells_per_s"] = {"b1": samples["b1"]["cells_per_s"], "default_set": set_rate}
     for rows in report["runtimes"].values():
-        rows["set_over_numpy_2nm"] = float(np.median([r["process_cells_per_s"] for r in rows["runs"]["set"]])) / set_rate
-        rows["b1_over_numpy_2nm"] = (float(np.median([r["process_cells_per_s"] for r in rows["runs"]["b1"]]))
-                                     / samples["b1"]["cells_per_s"])
+        rows["set_over_numpy_2nm"] = (
+            float(np.median([r["process_cells_per_s"] for r in rows["runs"]["set"]])) / set_rate
+        )
+        rows["b1_over_numpy_2nm"] = (
+            float(np.median([r["process_cells_per_s"] for r in rows["runs"]["b1"]])) / samples["b1"]["cells_per_s"]
+        )
     write_report(report, args.json)
 
 

@@ -24,14 +24,21 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = {"chosen for this CPU": {}, "SSE3 (Prescott)": {"OPENBLAS_CORETYPE": "Prescott"}}
-DEFAULT_LUT = ("import sys; from lutbake.lut.bake import default_specs, bake; "
-               "bake(default_specs()['lutbake-eta2-1.50'], sys.argv[1])")
+DEFAULT_LUT = (
+    "import sys; from lutbake.lut.bake import default_specs, bake; "
+    "bake(default_specs()['lutbake-eta2-1.50'], sys.argv[1])"
+)
 SETS = {"exact table": ["-m", "lutbake", "exact-table", "--out"], "lutbake-eta2-1.50": ["-c", DEFAULT_LUT]}
 
 
 def write(args, out: Path, env: dict) -> None:
-    subprocess.run([sys.executable, *args, str(out)], check=True, capture_output=True, cwd=ROOT,
-                   env={**os.environ, **env, "PYTHONPATH": str(ROOT)})
+    subprocess.run(
+        [sys.executable, *args, str(out)],
+        check=True,
+        capture_output=True,
+        cwd=ROOT,
+        env={**os.environ, **env, "PYTHONPATH": str(ROOT)},
+    )
 
 
 def header_numbers(a, b, path="") -> list:
@@ -53,11 +60,17 @@ def compare(files: dict) -> dict:
     ulps = np.abs(image_a.view(bits).astype(np.int64) - image_b.view(bits))
     numbers = header_numbers(meta_a, meta_b)
     a, b = files.values()
-    return {"exr_bytes_equal": a.read_bytes() == b.read_bytes(), "texels": int(image_a.shape[0] * image_a.shape[1]),
-            "values": int(image_a.size), "values_differing": int((ulps > 0).sum()), "max_ulps": int(ulps.max()),
-            "header_numbers_differing": [{"field": f, "relative": r} for f, r in numbers],
-            "includes_equal": all(a.with_suffix(s).read_bytes() == b.with_suffix(s).read_bytes()
-                                  for s in (".glsl", ".hlsl"))}
+    return {
+        "exr_bytes_equal": a.read_bytes() == b.read_bytes(),
+        "texels": int(image_a.shape[0] * image_a.shape[1]),
+        "values": int(image_a.size),
+        "values_differing": int((ulps > 0).sum()),
+        "max_ulps": int(ulps.max()),
+        "header_numbers_differing": [{"field": f, "relative": r} for f, r in numbers],
+        "includes_equal": all(
+            a.with_suffix(s).read_bytes() == b.with_suffix(s).read_bytes() for s in (".glsl", ".hlsl")
+        ),
+    }
 
 
 def main():
@@ -78,11 +91,21 @@ def main():
             rows.append({"set": name, **compare(files)})
             print(json.dumps(rows[-1]))
     simd = numpy._core._multiarray_umath.__cpu_features__
-    doc = {"machine": platform.processor() or platform.machine(),
-           "cpu": next((l.split(":", 1)[1].strip() for l in Path("/proc/cpuinfo").read_text().splitlines()
-                        if l.startswith("model name")), "?"),
-           "numpy": numpy.__version__, "numpy_avx512": bool(simd.get("AVX512F")), "kernels": list(KERNELS),
-           "sets": rows}
+    doc = {
+        "machine": platform.processor() or platform.machine(),
+        "cpu": next(
+            (
+                l.split(":", 1)[1].strip()
+                for l in Path("/proc/cpuinfo").read_text().splitlines()
+                if l.startswith("model name")
+            ),
+            "?",
+        ),
+        "numpy": numpy.__version__,
+        "numpy_avx512": bool(simd.get("AVX512F")),
+        "kernels": list(KERNELS),
+        "sets": rows,
+    }
     if opts.json:
         opts.json.write_text(json.dumps(doc, indent=2) + "\n")
 

@@ -21,11 +21,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "docs")]
 
-from lutbake.quality import report  # noqa: E402
-from lutbake.modes.exact import exact_colour, exact_mode_rgb, stored_table  # noqa: E402
-from lutbake.lut.sample import Lut  # noqa: E402
 from make_accuracy import bake_default_luts  # noqa: E402
 from test_exact import CORNER_SPAN, corner_search  # noqa: E402
+
+from lutbake.lut.sample import Lut  # noqa: E402
+from lutbake.modes.exact import exact_colour, exact_mode_rgb, stored_table  # noqa: E402
+from lutbake.quality import report  # noqa: E402
 
 
 def lut_row(path: Path) -> dict:
@@ -53,8 +54,15 @@ def main():
     corner = {}
     for eta2 in (1.33, 1.5, 2.0, 3.0):
         value, where, how = corner_search(stored_table(), eta2, budget=3000)
-        corner[str(eta2)] = {"de00_max": value, "cos_theta": where[0], "opd_nm": where[1], "eta3_minus_eta1": where[2],
-                             "kappa3": where[3], "found_by": how, "capped_share": capped_share(eta2)}
+        corner[str(eta2)] = {
+            "de00_max": value,
+            "cos_theta": where[0],
+            "opd_nm": where[1],
+            "eta3_minus_eta1": where[2],
+            "kappa3": where[3],
+            "found_by": how,
+            "capped_share": capped_share(eta2),
+        }
     out = {"luts": luts, "corner": corner, "load_average": os.getloadavg()[0]}
     (ROOT / "bench" / "exact-corner-result.json").write_text(json.dumps(out, indent=1) + "\n")
     print(json.dumps(out, indent=1))

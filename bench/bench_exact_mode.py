@@ -20,31 +20,45 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
-from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from test_exact_engine import RGB_CALL, TABLE, float64_exact, ground_truth, khr_points, run_jobs  # noqa: E402
+
 from lutbake.modes.exact import METALS, base_rgb, read_exact_table, write_exact_table  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 from lutbake.physics.materials import material  # noqa: E402
 from lutbake.physics.points import FilmPoints  # noqa: E402
 from lutbake.spectral.reference import reference_colour  # noqa: E402
-from test_exact_engine import RGB_CALL, TABLE, float64_exact, ground_truth, khr_points, run_jobs  # noqa: E402
 
 
 def stats(values) -> dict:
     v = np.asarray(values, float)
-    return {"mean": float(v.mean()), "p50": float(np.percentile(v, 50)), "p99": float(np.percentile(v, 99)),
-            "max": float(v.max())}
+    return {
+        "mean": float(v.mean()),
+        "p50": float(np.percentile(v, 50)),
+        "p99": float(np.percentile(v, 99)),
+        "max": float(v.max()),
+    }
 
 
 def engine(points, truth):
     cos, thickness, eta2, eta3, kappa3, name = points
     rows = [[c, d, e, 0.0, *n, 0.0, *k, 0.0] for c, d, e, n, k in zip(cos, thickness, eta2, eta3, kappa3)]
-    job = {"exr": f"/{TABLE.relative_to(ROOT)}", "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
-           "float": True, "points": rows, "call": RGB_CALL}
+    job = {
+        "exr": f"/{TABLE.relative_to(ROOT)}",
+        "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
+        "float": True,
+        "points": rows,
+        "call": RGB_CALL,
+    }
     with tempfile.TemporaryDirectory() as tmp:
         got = np.array(run_jobs(Path(tmp), {"rgb": job})["rgb"]["rgb"])
     expected, terms = float64_exact(read_exact_table(TABLE), cos, thickness, eta2, eta3, kappa3)
     de = delta_e00(got, truth)
-    out = {"points": int(cos.size), "engine_vs_float64_rgb_max": float(np.abs(got - expected).max()),
-           "engine_vs_truth_de00": stats(de), "per_base": {}}
+    out = {
+        "points": int(cos.size),
+        "engine_vs_float64_rgb_max": float(np.abs(got - expected).max()),
+        "engine_vs_truth_de00": stats(de),
+        "per_base": {},
+    }
     for base in np.unique(name):
         at = name == base
         out["per_base"][str(base)] = {"terms": stats(terms[at]), "de00_max": float(de[at].max())}
@@ -72,8 +86,9 @@ def mappings(points):
             eta3 = np.full(3, float(material(page).index(np.array([549.0]))[0][0]))
             kappa3 = np.zeros(3)
         constant = ground_truth(cos, thickness, eta2, np.tile(eta3, (n, 1)), np.tile(kappa3, (n, 1)))
-        dispersive = reference_colour(FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness,
-                                                       base=page)).values
+        dispersive = reference_colour(
+            FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, base=page)
+        ).values
         out[name] = stats(delta_e00(constant, dispersive))
     return out
 
@@ -81,8 +96,11 @@ def mappings(points):
 def main():
     points = khr_points()
     truth = ground_truth(*points[:5])
-    result = {"engine": engine(points, truth), "half_table": half_table(points, truth),
-              "base_mapping_vs_dispersive_de00": mappings(points)}
+    result = {
+        "engine": engine(points, truth),
+        "half_table": half_table(points, truth),
+        "base_mapping_vs_dispersive_de00": mappings(points),
+    }
     text = json.dumps(result, indent=2)
     (ROOT / "bench" / "exact-mode-result.json").write_text(text + "\n")
     print(text)

@@ -30,18 +30,31 @@ ROOT = Path(__file__).resolve().parents[1]
 def write_inputs(folder: Path, n: int, seed: int) -> tuple:
     rng = np.random.default_rng(seed)
     films, thicknesses, iors = rng.uniform(1.0, 2.5, n), rng.uniform(50, 800, n), rng.uniform(1.0, 2.5, n)
-    materials = [{"name": f"film{i}", "pbrMetallicRoughness": {"metallicFactor": 0},
-                  "extensions": {"KHR_materials_iridescence": {"iridescenceIor": float(f),
-                                                               "iridescenceThicknessMaximum": float(d)},
-                                 "KHR_materials_ior": {"ior": float(b)}}}
-                 for i, (f, d, b) in enumerate(zip(films, thicknesses, iors))]
-    doc = {"asset": {"version": "2.0"}, "materials": materials,
-           "meshes": [{"primitives": [{"attributes": {}, "material": i}]} for i in range(n)]}
+    materials = [
+        {
+            "name": f"film{i}",
+            "pbrMetallicRoughness": {"metallicFactor": 0},
+            "extensions": {
+                "KHR_materials_iridescence": {"iridescenceIor": float(f), "iridescenceThicknessMaximum": float(d)},
+                "KHR_materials_ior": {"ior": float(b)},
+            },
+        }
+        for i, (f, d, b) in enumerate(zip(films, thicknesses, iors))
+    ]
+    doc = {
+        "asset": {"version": "2.0"},
+        "materials": materials,
+        "meshes": [{"primitives": [{"attributes": {}, "material": i}]} for i in range(n)],
+    }
     gltf = folder / "random.gltf"
     gltf.write_text(json.dumps(doc))
     toml = folder / "random.toml"
-    toml.write_text("".join(f"[materials.m{i}-film{i}-dielectric]\nfilm = {float(f)!r}\nthickness_nm = {float(d)!r}\nbase = {float(b)!r}\n"
-                            for i, (f, d, b) in enumerate(zip(films, thicknesses, iors))))
+    toml.write_text(
+        "".join(
+            f"[materials.m{i}-film{i}-dielectric]\nfilm = {float(f)!r}\nthickness_nm = {float(d)!r}\nbase = {float(b)!r}\n"
+            for i, (f, d, b) in enumerate(zip(films, thicknesses, iors))
+        )
+    )
     return gltf, toml
 
 
@@ -49,17 +62,38 @@ def bake(flag: str, path: Path, out: Path) -> dict:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", flag, str(path), "--out", str(out), "--force",
-                           "--quiet", "--json"], capture_output=True, text=True, env=env, cwd=ROOT)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "bake",
+            flag,
+            str(path),
+            "--out",
+            str(out),
+            "--force",
+            "--quiet",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+    )
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode:
         raise SystemExit(proc.stderr)
     doc = json.loads(proc.stdout)
     manifest = json.loads((out / f"{path.stem}.json").read_text())
-    return {"seconds": doc["seconds"], "wall": wall, "cpu": (after.ru_utime - before.ru_utime)
-            + (after.ru_stime - before.ru_stime), "device": doc["device"],
-            "worst_p99": max(e["de00_p99"] for e in manifest["materials"].values())}
+    return {
+        "seconds": doc["seconds"],
+        "wall": wall,
+        "cpu": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        "device": doc["device"],
+        "worst_p99": max(e["de00_p99"] for e in manifest["materials"].values()),
+    }
 
 
 def main():
@@ -78,13 +112,25 @@ def main():
             order = [("gltf", "--gltf", gltf), ("toml", "--scene", toml)]
             for key, flag, path in order if r % 2 == 0 else order[::-1]:
                 runs[key].append(bake(flag, path, tmp / f"{key}-{r}"))
-    medians = {k: {m: statistics.median(row[m] for row in v) for m in ("seconds", "wall", "cpu")} for k, v in runs.items()}
-    doc = {"materials": args.materials, "seed": args.seed, "repeats": args.repeats, "load_average": load,
-           "device": runs["gltf"][0]["device"], "median": medians,
-           "ratio_gltf_over_toml": {m: medians["gltf"][m] / medians["toml"][m] for m in ("seconds", "wall", "cpu")},
-           "worst_p99": {k: max(row["worst_p99"] for row in v) for k, v in runs.items()}, "runs": runs}
-    print(json.dumps({k: doc[k] for k in ("median", "ratio_gltf_over_toml", "worst_p99", "load_average", "device")},
-                     indent=2))
+    medians = {
+        k: {m: statistics.median(row[m] for row in v) for m in ("seconds", "wall", "cpu")} for k, v in runs.items()
+    }
+    doc = {
+        "materials": args.materials,
+        "seed": args.seed,
+        "repeats": args.repeats,
+        "load_average": load,
+        "device": runs["gltf"][0]["device"],
+        "median": medians,
+        "ratio_gltf_over_toml": {m: medians["gltf"][m] / medians["toml"][m] for m in ("seconds", "wall", "cpu")},
+        "worst_p99": {k: max(row["worst_p99"] for row in v) for k, v in runs.items()},
+        "runs": runs,
+    }
+    print(
+        json.dumps(
+            {k: doc[k] for k in ("median", "ratio_gltf_over_toml", "worst_p99", "load_average", "device")}, indent=2
+        )
+    )
     if args.json:
         args.json.write_text(json.dumps(doc, indent=2) + "\n")
 

@@ -32,21 +32,21 @@ sys.path.insert(0, str(ROOT / "docs"))
 from gltf_assets import SHOWCASE, khronos_document, stand_in  # noqa: E402
 from make_dropin import write_runtime_table  # noqa: E402
 
+from lutbake.modes.runtime.accuracy import truth  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 from lutbake.tables.headers import check_structure, exr_header  # noqa: E402
-from lutbake.modes.runtime.accuracy import truth  # noqa: E402
 
-PIXELS = 150           # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal
-SIZE, STRIDE = 64, 3   # rendered square, and every STRIDE-th pixel returned
+PIXELS = 150  # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal
+SIZE, STRIDE = 64, 3  # rendered square, and every STRIDE-th pixel returned
 SERVES = ("bake", "runtime")
-GPU_TEXEL_BYTES = 8    # EXRLoader's default upload: RGBA half
-CURVE_BUDGET = 2000    # evaluations of the search along the metal mapping's curve (curve_worst)
+GPU_TEXEL_BYTES = 8  # EXRLoader's default upload: RGBA half
+CURVE_BUDGET = 2000  # evaluations of the search along the metal mapping's curve (curve_worst)
 
 
 def bake_stand_ins(folder: Path, names=SHOWCASE) -> dict:
     """Each asset's stand-in baked into FOLDER/NAME/out: {asset: {gltf, manifest, out, bake_s}}."""
-    from lutbake.scene.gltf.materials import load_gltf_scene
     from lutbake.scene.bake import bake_scene
+    from lutbake.scene.gltf.materials import load_gltf_scene
 
     folder.mkdir(parents=True, exist_ok=True)
     out = {}
@@ -56,8 +56,12 @@ def bake_stand_ins(folder: Path, names=SHOWCASE) -> dict:
         result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
         if result.unmet:
             raise RuntimeError(f"{name}: the bake missed its target: {result.unmet}")
-        out[name] = {"gltf": gltf, "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
-                     "out": folder / name / "out", "bake_s": time.perf_counter() - start}
+        out[name] = {
+            "gltf": gltf,
+            "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
+            "out": folder / name / "out",
+            "bake_s": time.perf_counter() - start,
+        }
     return out
 
 
@@ -75,8 +79,13 @@ def render(specs: list) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         spec, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         spec.write_text(json.dumps(specs))
-        proc = subprocess.run(["node", str(ROOT / "engine" / "harness.mjs"), "gltf", str(spec), str(result)],
-                              capture_output=True, text=True, cwd=ROOT, timeout=600)
+        proc = subprocess.run(
+            ["node", str(ROOT / "engine" / "harness.mjs"), "gltf", str(spec), str(result)],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=600,
+        )
         if proc.returncode:
             raise RuntimeError(proc.stderr[-4000:])
         return json.loads(result.read_text())
@@ -84,8 +93,17 @@ def render(specs: list) -> dict:
 
 def both_serves(bakes: dict) -> list:
     """One spec per asset: its bake, and the runtime table for the second serve."""
-    return [{"gltf": url(b["gltf"]), "manifest": url(b["out"] / f"{name}.json"), "runtime": runtime_stem(),
-             "serves": list(SERVES), "size": SIZE, "stride": STRIDE} for name, b in bakes.items()]
+    return [
+        {
+            "gltf": url(b["gltf"]),
+            "manifest": url(b["out"] / f"{name}.json"),
+            "runtime": runtime_stem(),
+            "serves": list(SERVES),
+            "size": SIZE,
+            "stride": STRIDE,
+        }
+        for name, b in bakes.items()
+    ]
 
 
 def part_bases(part: dict, colour: np.ndarray) -> tuple:
@@ -125,9 +143,14 @@ def score(result: dict, bakes: dict, seed: int = 7) -> dict:
             rows = np.array(samples)
             rows = rows[np.sort(rng.choice(len(rows), min(PIXELS, len(rows)), replace=False))]
             reference = film_truth(records[int(index)], rows)
-            out[name][int(index)] = {"rows": rows, "truth": reference,
-                                     **{serve: delta_e00(rows[:, cols], reference)
-                                        for serve, cols in zip(SERVES, (slice(0, 3), slice(10, 13)))}}
+            out[name][int(index)] = {
+                "rows": rows,
+                "truth": reference,
+                **{
+                    serve: delta_e00(rows[:, cols], reference)
+                    for serve, cols in zip(SERVES, (slice(0, 3), slice(10, 13)))
+                },
+            }
     return out
 
 
@@ -138,10 +161,10 @@ def curve_worst(budget: int, seed: int = 0):
     channel is the film over its own base). runtime.model is what three.js returns to 1e-4
     (tests/engines/test_runtime_engine.py). The curve's white end leaves the table's searched metal box (η3 < 0.05
     above F0 0.97) and its dark end the metal box for the dielectric one (κ3 < 1.5)."""
-    from lutbake.scene.gltf.materials import METAL_TABLE_NODES
-    from lutbake.physics.metals import F0_MAX, conductor
     from lutbake.modes.runtime import read_runtime_table, runtime_colour
+    from lutbake.physics.metals import F0_MAX, conductor
     from lutbake.quality.worstcase import SearchAxis, find_worst
+    from lutbake.scene.gltf.materials import METAL_TABLE_NODES
 
     table = read_runtime_table(write_runtime_table())
     nodes = np.linspace(0.0, F0_MAX["fitted"], METAL_TABLE_NODES)
@@ -154,11 +177,24 @@ def curve_worst(budget: int, seed: int = 0):
         de = delta_e00(runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3), truth(cos, d, eta2, eta3, kappa3))
         return np.where(np.isfinite(de), de, np.inf)
 
-    axes = (SearchAxis("cos_theta", cells=16), SearchAxis("thickness_nm", cells=32), SearchAxis("eta2", cells=16),
-            SearchAxis("f0", cells=METAL_TABLE_NODES - 1))
-    return find_worst(error, axes, singular={"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0},
-                                             "film = ambient": {"eta2": 0.0}, "black": {"f0": 0.0}},
-                      budget=budget, seed=seed)
+    axes = (
+        SearchAxis("cos_theta", cells=16),
+        SearchAxis("thickness_nm", cells=32),
+        SearchAxis("eta2", cells=16),
+        SearchAxis("f0", cells=METAL_TABLE_NODES - 1),
+    )
+    return find_worst(
+        error,
+        axes,
+        singular={
+            "grazing": {"cos_theta": 0.0},
+            "no film": {"thickness_nm": 0.0},
+            "film = ambient": {"eta2": 0.0},
+            "black": {"f0": 0.0},
+        },
+        budget=budget,
+        seed=seed,
+    )
 
 
 def gpu_bytes(bake: dict) -> int:
@@ -176,19 +212,33 @@ def summary(bakes: dict, scores: dict) -> dict:
     for name, materials in scores.items():
         for index, s in materials.items():
             record = next(r for r in bakes[name]["manifest"]["source"]["materials"] if r["gltf_index"] == index)
-            rows.append({"asset": name, "gltf_index": index, "name": record["name"], "film": record["film"],
-                         "parts": {p: ("texture" if v.get("texture") else "constant") for p, v in record["parts"].items()},
-                         **{f"{serve}_{k}": float(f(s[serve])) for serve in SERVES
-                            for k, f in (("p99", lambda d: np.percentile(d, 99)), ("max", np.max))}})
+            rows.append(
+                {
+                    "asset": name,
+                    "gltf_index": index,
+                    "name": record["name"],
+                    "film": record["film"],
+                    "parts": {p: ("texture" if v.get("texture") else "constant") for p, v in record["parts"].items()},
+                    **{
+                        f"{serve}_{k}": float(f(s[serve]))
+                        for serve in SERVES
+                        for k, f in (("p99", lambda d: np.percentile(d, 99)), ("max", np.max))
+                    },
+                }
+            )
     pooled = {serve: np.concatenate([s[serve] for m in scores.values() for s in m.values()]) for serve in SERVES}
-    return {"materials": rows, "pixels_per_material": PIXELS,
-            "pooled": {serve: {"p99": float(np.percentile(d, 99)), "max": float(d.max()), "n": int(d.size)}
-                       for serve, d in pooled.items()},
-            "gpu_bytes": {"bake": {n: gpu_bytes(b) for n, b in bakes.items()},
-                          "runtime": costs["runtime"]["gpu_bytes"]},
-            "bake_s": {n: round(b["bake_s"], 2) for n, b in bakes.items()},
-            "per_pixel": {k: costs[k] for k in ("runtime", "runtime-rgb", "lut-cubic-rgb")},
-            "load_average": os.getloadavg()}
+    return {
+        "materials": rows,
+        "pixels_per_material": PIXELS,
+        "pooled": {
+            serve: {"p99": float(np.percentile(d, 99)), "max": float(d.max()), "n": int(d.size)}
+            for serve, d in pooled.items()
+        },
+        "gpu_bytes": {"bake": {n: gpu_bytes(b) for n, b in bakes.items()}, "runtime": costs["runtime"]["gpu_bytes"]},
+        "bake_s": {n: round(b["bake_s"], 2) for n, b in bakes.items()},
+        "per_pixel": {k: costs[k] for k in ("runtime", "runtime-rgb", "lut-cubic-rgb")},
+        "load_average": os.getloadavg(),
+    }
 
 
 def main():
@@ -199,19 +249,29 @@ def main():
     try:
         bakes = bake_stand_ins(folder)
         result = render(both_serves(bakes))
-        doc = {"renderer": result["renderer"], "three": result["three"], **summary(bakes, score(result, bakes)),
-               "metal_curve_worst": curve_worst(CURVE_BUDGET).describe()}
+        doc = {
+            "renderer": result["renderer"],
+            "three": result["three"],
+            **summary(bakes, score(result, bakes)),
+            "metal_curve_worst": curve_worst(CURVE_BUDGET).describe(),
+        }
     finally:
         subprocess.run(["rm", "-rf", str(folder)], check=False)
     args.json.write_text(json.dumps(doc, indent=1) + "\n")
     print("| asset | glTF material | film | parts | baked p99 / max | runtime p99 / max |\n|---|---|---|---|---|---|")
     for r in doc["materials"]:
-        print(f"| {r['asset']} | {r['gltf_index']} {r['name']} | {r['film']} | "
-              f"{', '.join(f'{p} ({k})' for p, k in r['parts'].items())} | "
-              f"{r['bake_p99']:.2f} / {r['bake_max']:.2f} | {r['runtime_p99']:.3f} / {r['runtime_max']:.3f} |")
+        print(
+            f"| {r['asset']} | {r['gltf_index']} {r['name']} | {r['film']} | "
+            f"{', '.join(f'{p} ({k})' for p, k in r['parts'].items())} | "
+            f"{r['bake_p99']:.2f} / {r['bake_max']:.2f} | {r['runtime_p99']:.3f} / {r['runtime_max']:.3f} |"
+        )
     worst = {k: v for k, v in doc["metal_curve_worst"].items() if k != "starts"}
-    print(json.dumps({**{k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average")}, "metal_curve_worst": worst},
-                     indent=1))
+    print(
+        json.dumps(
+            {**{k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average")}, "metal_curve_worst": worst},
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -14,8 +14,8 @@ import json
 import tempfile
 from pathlib import Path
 
-from lutbake.lut.bake import bake
 from lutbake.grid.spec import BakeSpec, parse_axis
+from lutbake.lut.bake import bake
 from lutbake.quality.report import report_lut
 
 LAYOUTS = {
@@ -36,18 +36,30 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, texts) in enumerate(LAYOUTS.items()):
-            spec = BakeSpec(eta2=args.eta2, axes=tuple(parse_axis(n, t) for n, t in zip(NAMES, texts)),
-                            precision="half")
+            spec = BakeSpec(
+                eta2=args.eta2, axes=tuple(parse_axis(n, t) for n, t in zip(NAMES, texts)), precision="half"
+            )
             path = Path(tmp) / f"{i}.exr"
             bake(spec, path)
             err = report_lut(path, n_points=args.points, seed=0, approximations=False).lut.summary()
-            rows.append({"layout": name, "axes": list(texts), "exr_bytes": path.stat().st_size,
-                         "de00_p99": err["de00_p99"], "de00_max": err["de00_max"]})
-            print(f"{name:42s} {path.stat().st_size / 2**20:5.2f} MiB  p99 {err['de00_p99']:.3f}  "
-                  f"max {err['de00_max']:.3f}", flush=True)
+            rows.append(
+                {
+                    "layout": name,
+                    "axes": list(texts),
+                    "exr_bytes": path.stat().st_size,
+                    "de00_p99": err["de00_p99"],
+                    "de00_max": err["de00_max"],
+                }
+            )
+            print(
+                f"{name:42s} {path.stat().st_size / 2**20:5.2f} MiB  p99 {err['de00_p99']:.3f}  "
+                f"max {err['de00_max']:.3f}",
+                flush=True,
+            )
     if args.json:
-        Path(args.json).write_text(json.dumps({"eta2": args.eta2, "points": args.points, "rows": rows}, indent=2)
-                                   + "\n")
+        Path(args.json).write_text(
+            json.dumps({"eta2": args.eta2, "points": args.points, "rows": rows}, indent=2) + "\n"
+        )
 
 
 if __name__ == "__main__":

@@ -39,13 +39,32 @@ sys.path[:0] = [str(ROOT), str(ROOT / "docs")]
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 THREE_CHUNKS = ROOT / "engine" / "node_modules" / "three" / "src" / "renderers" / "shaders" / "ShaderChunk"
 RESULT = ROOT / "bench" / "runtime-cost-result.json"
-SHIPPED = ROOT / "lutbake" / "runtime" / "costs.json"   # what `lutbake report` prints (runtime/costs.py)
+SHIPPED = ROOT / "lutbake" / "runtime" / "costs.json"  # what `lutbake report` prints (runtime/costs.py)
 
-ARITHMETIC = re.compile(r"Op(F|I|S|U)(Add|Sub|Mul|Div|Mod|Rem|Negate|Ord\w+|Unord\w+|Equal|NotEqual|LessThan\w*|"
-                        r"GreaterThan\w*)$|Op(VectorTimesScalar|MatrixTimesVector|Dot|Select|Logical\w+|Convert\w+|"
-                        r"ShiftRight\w+|ShiftLeft\w+|Bitwise\w+|Any|All|ExtInst)$")
-TRANSCENDENTAL = {"Sqrt", "InverseSqrt", "Exp", "Exp2", "Log", "Log2", "Sin", "Cos", "Tan", "Asin", "Acos", "Atan",
-                  "Atan2", "Pow", "Length", "Normalize", "Distance"}
+ARITHMETIC = re.compile(
+    r"Op(F|I|S|U)(Add|Sub|Mul|Div|Mod|Rem|Negate|Ord\w+|Unord\w+|Equal|NotEqual|LessThan\w*|"
+    r"GreaterThan\w*)$|Op(VectorTimesScalar|MatrixTimesVector|Dot|Select|Logical\w+|Convert\w+|"
+    r"ShiftRight\w+|ShiftLeft\w+|Bitwise\w+|Any|All|ExtInst)$"
+)
+TRANSCENDENTAL = {
+    "Sqrt",
+    "InverseSqrt",
+    "Exp",
+    "Exp2",
+    "Log",
+    "Log2",
+    "Sin",
+    "Cos",
+    "Tan",
+    "Asin",
+    "Acos",
+    "Atan",
+    "Atan2",
+    "Pow",
+    "Length",
+    "Normalize",
+    "Distance",
+}
 TEXTURE = re.compile(r"OpImage(Sample\w*|Fetch|Gather\w*)$")
 
 
@@ -68,13 +87,16 @@ def _compile(source: str) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         frag, spv, opt = (Path(tmp) / n for n in ("s.frag", "s.spv", "o.spv"))
         frag.write_text(source)
-        for args in ([PREFIX / "bin" / "glslang", "-V", "-S", "frag", "-o", spv, frag],
-                     [PREFIX / "bin" / "spirv-opt", "--loop-unroll", "-O", spv, "-o", opt]):
+        for args in (
+            [PREFIX / "bin" / "glslang", "-V", "-S", "frag", "-o", spv, frag],
+            [PREFIX / "bin" / "spirv-opt", "--loop-unroll", "-O", spv, "-o", opt],
+        ):
             out = subprocess.run([str(a) for a in args], capture_output=True, text=True, env=env)
             if out.returncode:
                 raise RuntimeError(out.stdout + out.stderr)
-        return subprocess.run([str(PREFIX / "bin" / "spirv-dis"), str(opt)], capture_output=True, text=True,
-                              env=env, check=True).stdout
+        return subprocess.run(
+            [str(PREFIX / "bin" / "spirv-dis"), str(opt)], capture_output=True, text=True, env=env, check=True
+        ).stdout
 
 
 def _blocks(text: str):
@@ -111,7 +133,7 @@ def _count(lines, components) -> dict:
         elif ARITHMETIC.match(op):
             n = components.get(kind, 1)
             if op == "OpMatrixTimesVector":
-                n *= 5                     # 3 × 3: 9 multiplies and 6 adds per vec3
+                n *= 5  # 3 × 3: 9 multiplies and 6 adds per vec3
             arithmetic += n
             if op == "OpExtInst" and rest.split()[1] in TRANSCENDENTAL:
                 transcendental += n
@@ -123,10 +145,13 @@ def spirv_profile(functions: str, call: str, unroll: bool = True) -> dict:
     declared there). A loop left after unrolling (its trip count depends on the inputs) is counted apart:
     ``per_iteration`` is one pass through its blocks (both sides of a branch in it)."""
     body = re.sub(r"\bfor \(", "[[unroll]] for (", functions) if unroll else functions
-    source = ("#version 450\n#extension GL_EXT_control_flow_attributes : require\n" + body
-              + "\nlayout(location = 0) in highp vec4 p;\nlayout(location = 1) in highp vec4 q;\n"
-              "layout(location = 2) in highp vec4 r;\nlayout(location = 0) out highp vec4 colour;\n"
-              f"void main() {{ colour = vec4({call}, 1.0); }}\n")
+    source = (
+        "#version 450\n#extension GL_EXT_control_flow_attributes : require\n"
+        + body
+        + "\nlayout(location = 0) in highp vec4 p;\nlayout(location = 1) in highp vec4 q;\n"
+        "layout(location = 2) in highp vec4 r;\nlayout(location = 0) out highp vec4 colour;\n"
+        f"void main() {{ colour = vec4({call}, 1.0); }}\n"
+    )
     text = _compile(source)
     components = {}
     for m in re.finditer(r"(%\w+) = OpType(Vector|Float|Int|Bool) ?(%\w+)? ?(\d+)?", text):
@@ -149,13 +174,14 @@ def spirv_profile(functions: str, call: str, unroll: bool = True) -> dict:
         out["per_iteration"] = loop
     return out
 
+
 def belcour_barla_source() -> str:
     """Belcour & Barla (2017) as lutbake.modes.approximations.belcour_barla_rgb evaluates it (orders 0–3, exact
     dielectric and Born & Wolf conductor Fresnel terms, XYZ adapted to Rec.709), as GLSL: a port for this
     benchmark (not shipped), checked against the numpy at random points by `python bench/bench_runtime_cost.py`."""
     from lutbake.modes.approximations import _NORM, _POS, _VAL, _VAR, _X2, _to_space
 
-    matrix = _to_space(np.eye(3), "rec709", "cie1931")   # rows: XYZ unit vectors → RGB
+    matrix = _to_space(np.eye(3), "rec709", "cie1931")  # rows: XYZ unit vectors → RGB
     columns = ", ".join(f"{v:.9g}" for v in matrix.ravel())
     return f"""
 const highp mat3 BB_XYZ_TO_RGB = mat3({columns});
@@ -236,26 +262,50 @@ RUNTIME = (["luts/runtime/lutbake-runtime.glsl"], {"rt": ("luts/runtime/lutbake-
 EXACT = (["engine/exact/lutbake-exact.glsl"], {"ex": ("engine/exact/lutbake-exact.exr", True)})
 FILM = "cos_theta, thickness_nm, 1.0, eta2"
 PATHS = {
-    "three": ([], {}, "evalIridescence(1.0, eta2, cos_theta, thickness_nm, f0)",
-              "three.js r187 evalIridescence (KHR_materials_iridescence)"),
+    "three": (
+        [],
+        {},
+        "evalIridescence(1.0, eta2, cos_theta, thickness_nm, f0)",
+        "three.js r187 evalIridescence (KHR_materials_iridescence)",
+    ),
     "runtime": (*RUNTIME, f"lutbake_iridescence(rt, {FILM}, eta3, kappa3)", "lutbake runtime table, one base index"),
-    "runtime-rgb": (*RUNTIME, f"lutbake_iridescence_rgb(rt, {FILM}, eta3m, kappa3m)",
-                    "lutbake runtime table, per-channel metal"),
-    "exact": (*EXACT, f"lutbake_exact(ex, {FILM}, eta3, kappa3)", "lutbake exact mode (tolerance 1e-4), one base index"),
+    "runtime-rgb": (
+        *RUNTIME,
+        f"lutbake_iridescence_rgb(rt, {FILM}, eta3m, kappa3m)",
+        "lutbake runtime table, per-channel metal",
+    ),
+    "exact": (
+        *EXACT,
+        f"lutbake_exact(ex, {FILM}, eta3, kappa3)",
+        "lutbake exact mode (tolerance 1e-4), one base index",
+    ),
     "exact-rgb": (*EXACT, f"lutbake_exact_rgb(ex, {FILM}, eta3m, kappa3m)", "lutbake exact mode, per-channel metal"),
-    "lut-cubic": ([f"{LUT}.glsl"], {"lut": (f"{LUT}.exr", False)},
-                  "lutbake_sample(lut, LUTBAKE_ETA2_1_50, cos_theta, 3.0 * thickness_nm, eta3, kappa3)",
-                  "lutbake LUT read cubic (the default set's rule)"),
-    "lut-cubic-rgb": ([f"{LUT}-metal.glsl"], {"lutm": (f"{LUT}-metal.exr", False)},
-                      "vec3(lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.r, kappa3m.r).r,"
-                      " lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.g, kappa3m.g).g,"
-                      " lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.b, kappa3m.b).b)",
-                      "lutbake LUT read cubic, per-channel metal (three reads of the metal LUT)"),
-    "lut-linear": ([f"{LUT}.glsl"], {"lut": (f"{LUT}.exr", False)},
-                   "lutbake_sample_linear(lut, LUTBAKE_ETA2_1_50, cos_theta, 3.0 * thickness_nm, eta3, kappa3)",
-                   "lutbake LUT read by 4 bilinear fetches"),
-    "belcour-barla-2017": (["<belcour-barla>"], {}, "bb_iridescence(cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)",
-                           "Belcour & Barla 2017, orders 0-3 (a GLSL port of approximations.belcour_barla_rgb)"),
+    "lut-cubic": (
+        [f"{LUT}.glsl"],
+        {"lut": (f"{LUT}.exr", False)},
+        "lutbake_sample(lut, LUTBAKE_ETA2_1_50, cos_theta, 3.0 * thickness_nm, eta3, kappa3)",
+        "lutbake LUT read cubic (the default set's rule)",
+    ),
+    "lut-cubic-rgb": (
+        [f"{LUT}-metal.glsl"],
+        {"lutm": (f"{LUT}-metal.exr", False)},
+        "vec3(lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.r, kappa3m.r).r,"
+        " lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.g, kappa3m.g).g,"
+        " lutbake_sample(lutm, LUTBAKE_ETA2_1_50_METAL, cos_theta, 3.0 * thickness_nm, eta3m.b, kappa3m.b).b)",
+        "lutbake LUT read cubic, per-channel metal (three reads of the metal LUT)",
+    ),
+    "lut-linear": (
+        [f"{LUT}.glsl"],
+        {"lut": (f"{LUT}.exr", False)},
+        "lutbake_sample_linear(lut, LUTBAKE_ETA2_1_50, cos_theta, 3.0 * thickness_nm, eta3, kappa3)",
+        "lutbake LUT read by 4 bilinear fetches",
+    ),
+    "belcour-barla-2017": (
+        ["<belcour-barla>"],
+        {},
+        "bb_iridescence(cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)",
+        "Belcour & Barla 2017, orders 0-3 (a GLSL port of approximations.belcour_barla_rgb)",
+    ),
 }
 
 
@@ -273,20 +323,29 @@ def static_costs(names=None) -> dict:
     """SPIR-V arithmetic, transcendental calls and texture instructions per pixel of each path, its inputs
     read from shader inputs (the exact mode: outside its loop, and per term), and the bytes its textures
     take on the GPU. ``names``: only these paths."""
-    declarations = ("highp float cos_theta = p.x, thickness_nm = p.y, eta2 = p.z, eta3 = p.w, kappa3 = q.x;\n"
-                    "highp vec3 eta3m = q.yzw, kappa3m = r.xyz, f0 = q.yzw;\n")   # inputs as loads: nothing to count
+    declarations = (
+        "highp float cos_theta = p.x, thickness_nm = p.y, eta2 = p.z, eta3 = p.w, kappa3 = q.x;\n"
+        "highp vec3 eta3m = q.yzw, kappa3m = r.xyz, f0 = q.yzw;\n"
+    )  # inputs as loads: nothing to count
     keys = ("arithmetic", "transcendental", "texture_instructions")
 
     def profile(prelude, functions, samplers, call):
-        return spirv_profile(prelude + samplers + functions + "\nhighp vec3 lutbake_bench_call(highp vec4 p, highp vec4 q,"
-                             " highp vec4 r) {" + declarations + f"return {call}; }}\n", "lutbake_bench_call(p, q, r)")
+        return spirv_profile(
+            prelude + samplers + functions + "\nhighp vec3 lutbake_bench_call(highp vec4 p, highp vec4 q,"
+            " highp vec4 r) {" + declarations + f"return {call}; }}\n",
+            "lutbake_bench_call(p, q, r)",
+        )
 
     out = {}
     for name, (includes, textures, call, label) in PATHS.items():
         if names is not None and name not in names:
             continue
-        functions = _countable(name, (three_source() if name == "three" else _sources(includes)).replace(
-            "uniform highp sampler2D", "// uniform"))
+        functions = _countable(
+            name,
+            (three_source() if name == "three" else _sources(includes)).replace(
+                "uniform highp sampler2D", "// uniform"
+            ),
+        )
         samplers = "".join(f"layout(binding = {2 + i}) uniform highp sampler2D {t};\n" for i, t in enumerate(textures))
         counts = profile("", functions, samplers, call)
         entry = {k: counts[k] for k in (*keys, "loops", "per_iteration") if k in counts}
@@ -309,8 +368,13 @@ def _run(command: str, spec: dict) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         job, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         job.write_text(json.dumps(spec))
-        proc = subprocess.run(["node", str(ROOT / "engine" / "harness.mjs"), command, str(job), str(result)],
-                              cwd=ROOT, capture_output=True, text=True, timeout=3600)
+        proc = subprocess.run(
+            ["node", str(ROOT / "engine" / "harness.mjs"), command, str(job), str(result)],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=3600,
+        )
         if proc.returncode:
             raise RuntimeError(proc.stderr[-4000:])
         return json.loads(result.read_text())
@@ -323,15 +387,21 @@ def _ratios(times: dict, baseline: str, reference: str) -> dict:
     out = {}
     for name, t in times.items():
         r = (np.array(t) - base) / (ref - base)
-        out[name] = {"ratio": float(np.median(r)), "ratio_quartiles": [float(np.percentile(r, 25)), float(np.percentile(r, 75))],
-                     "ms_per_pass": float(np.median(t))}
+        out[name] = {
+            "ratio": float(np.median(r)),
+            "ratio_quartiles": [float(np.percentile(r, 25)), float(np.percentile(r, 75))],
+            "ms_per_pass": float(np.median(t)),
+        }
     return out
 
 
 def engine_costs(rounds: int) -> dict:
     """Every path as a 512 × 512 full-screen pass against an empty one and three.js's, interleaved."""
     size = 512
-    textures, jobs = {}, [{"name": "empty", "call": "vec3(cos_theta + thickness_nm + eta2) + eta3m + kappa3m + f0 + eta3 + kappa3"}]
+    textures, jobs = (
+        {},
+        [{"name": "empty", "call": "vec3(cos_theta + thickness_nm + eta2) + eta3m + kappa3m + f0 + eta3 + kappa3"}],
+    )
     for name, (includes, tex, call, _) in PATHS.items():
         job = {"name": name, "call": call, "includes": [f"/{i}" for i in includes if not i.startswith("<")]}
         if name == "three":
@@ -340,13 +410,27 @@ def engine_costs(rounds: int) -> dict:
             job["source"] = belcour_barla_source()
         textures.update({t: {"exr": f"/{f}", "float": fl} for t, (f, fl) in tex.items()})
         jobs.append(job)
-    result = _run("cost", {"textures": textures, "params": PARAMS.replace("SIZE", f"{size:.1f}"), "jobs": jobs,
-                           "size": size, "rounds": rounds, "draws": 3})
-    return {"renderer": result["renderer"], "three": result["three"], "size": size, "rounds": rounds,
-            "paths": _ratios(result["times"], "empty", "three")}
+    result = _run(
+        "cost",
+        {
+            "textures": textures,
+            "params": PARAMS.replace("SIZE", f"{size:.1f}"),
+            "jobs": jobs,
+            "size": size,
+            "rounds": rounds,
+            "draws": 3,
+        },
+    )
+    return {
+        "renderer": result["renderer"],
+        "three": result["three"],
+        "size": size,
+        "rounds": rounds,
+        "paths": _ratios(result["times"], "empty", "three"),
+    }
 
 
-DROPIN_MATERIALS = [   # (label, iridescenceIOR, thickness nm, base: an ior or a metal, LUT for the film)
+DROPIN_MATERIALS = [  # (label, iridescenceIOR, thickness nm, base: an ior or a metal, LUT for the film)
     ("soap on glass", 1.33, 300.0, 1.5, "luts/lutbake-eta2-1.33"),
     ("oxide on Fe", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
@@ -360,14 +444,26 @@ def dropin_costs(rounds: int) -> dict:
 
     materials = []
     for label, eta2, thickness, base, lut in DROPIN_MATERIALS:
-        m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
-             "runtime": "/luts/runtime/lutbake-runtime", "exact": "/engine/exact/lutbake-exact",
-             "ior": base if isinstance(base, float) else 1.5}
+        m = {
+            "label": label,
+            "iridescenceIOR": eta2,
+            "thickness": thickness,
+            "lut": f"/{lut}",
+            "runtime": "/luts/runtime/lutbake-runtime",
+            "exact": "/engine/exact/lutbake-exact",
+            "ior": base if isinstance(base, float) else 1.5,
+        }
         if not isinstance(base, float):
             n, k = base_rgb(base)
-            m["metal"] = {"eta": n.tolist(), "kappa": k.tolist(), "f0": (((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2)).tolist()}
+            m["metal"] = {
+                "eta": n.tolist(),
+                "kappa": k.tolist(),
+                "f0": (((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2)).tolist(),
+            }
         materials.append(m)
-    result = _run("dropin-cost", {"materials": materials, "modes": DROPIN_MODES, "size": 512, "rounds": rounds, "draws": 3})
+    result = _run(
+        "dropin-cost", {"materials": materials, "modes": DROPIN_MODES, "size": 512, "rounds": rounds, "draws": 3}
+    )
     out = {}
     for label, *_ in DROPIN_MATERIALS:
         times = {k.split("|")[1]: v for k, v in result["times"].items() if k.startswith(f"{label}|")}
@@ -379,17 +475,22 @@ def shipped_costs(result: dict) -> dict:
     """The figures `lutbake report` prints per path: reads, SPIR-V arithmetic, GPU bytes, SwiftShader ×three."""
     engine = result["swiftshader"]
     load = result["machine"]
-    where = (f"{engine['renderer']}, {load['cpus']} CPU cores at load average {load['load_average_start']:.1f}–"
-             f"{load['load_average_end']:.1f}, {engine['size']}² pass, median of {engine['rounds']} rounds")
+    where = (
+        f"{engine['renderer']}, {load['cpus']} CPU cores at load average {load['load_average_start']:.1f}–"
+        f"{load['load_average_end']:.1f}, {engine['size']}² pass, median of {engine['rounds']} rounds"
+    )
     paths = {}
     for name, s in result["static"].items():
         loop = s.get("per_iteration")
         reads = str(s["texture_instructions"]) + (f" + {loop['texture_instructions']} per term" if loop else "")
         if name.startswith("lut-cubic"):
             reads += f" ({s['texture_instructions'] // 4} at a κ3 node)"
-        paths[name] = {"reads": reads, "gpu_bytes": s["gpu_bytes"],
-                       "spirv_arithmetic": f"{s['arithmetic']} + {loop['arithmetic']} per term" if loop else s["arithmetic"],
-                       "swiftshader_x_three": round(engine["paths"][name]["ratio"], 2)}
+        paths[name] = {
+            "reads": reads,
+            "gpu_bytes": s["gpu_bytes"],
+            "spirv_arithmetic": f"{s['arithmetic']} + {loop['arithmetic']} per term" if loop else s["arithmetic"],
+            "swiftshader_x_three": round(engine["paths"][name]["ratio"], 2),
+        }
     return {"measured": {"by": "python bench/bench_runtime_cost.py", "where": where}, "paths": paths}
 
 
@@ -416,15 +517,23 @@ def main():
     if not args.no_engine:
         SHIPPED.write_text(json.dumps(shipped_costs(result), indent=2, ensure_ascii=False) + "\n")
     three = result["static"]["three"]["arithmetic"]
-    print("| path | reads / pixel | SPIR-V arithmetic (× three) | GPU bytes | SwiftShader × three |\n|---|---|---|---|---|")
+    print(
+        "| path | reads / pixel | SPIR-V arithmetic (× three) | GPU bytes | SwiftShader × three |\n|---|---|---|---|---|"
+    )
     for name, s in result["static"].items():
         engine = result.get("swiftshader", {}).get("paths", {}).get(name)
-        reads = f"{s['texture_instructions']}" + (f" + {s['per_iteration']['texture_instructions']} per term" if "per_iteration" in s else "")
+        reads = f"{s['texture_instructions']}" + (
+            f" + {s['per_iteration']['texture_instructions']} per term" if "per_iteration" in s else ""
+        )
         ops = f"{s['arithmetic']}" + (f" + {s['per_iteration']['arithmetic']} per term" if "per_iteration" in s else "")
-        print(f"| {name} | {reads} | {ops} ({s['arithmetic'] / three:.2f}) | {s['gpu_bytes'] / 2**20:.2f} MiB | "
-              f"{'—' if engine is None else round(engine['ratio'], 2)} |")
+        print(
+            f"| {name} | {reads} | {ops} ({s['arithmetic'] / three:.2f}) | {s['gpu_bytes'] / 2**20:.2f} MiB | "
+            f"{'—' if engine is None else round(engine['ratio'], 2)} |"
+        )
     for label, modes in result.get("dropin", {}).items():
-        print(f"drop-in {label}: " + ", ".join(f"{m} {v['ratio']:.2f}×" for m, v in modes.items() if m not in ("none",)))
+        print(
+            f"drop-in {label}: " + ", ".join(f"{m} {v['ratio']:.2f}×" for m, v in modes.items() if m not in ("none",))
+        )
 
 
 if __name__ == "__main__":

@@ -43,8 +43,17 @@ def child(key: str) -> None:
     stages["built"] = mib()
     integrate.OpenCLBackend("float64", device=key)
     stages["self_checked"] = mib()
-    print(json.dumps({"key": key, "label": devices.device_label(device), "devices_registered": len(found),
-                      "stages_mib": stages, "buffer_mib": _buffer_life(cl, device, mib)}))
+    print(
+        json.dumps(
+            {
+                "key": key,
+                "label": devices.device_label(device),
+                "devices_registered": len(found),
+                "stages_mib": stages,
+                "buffer_mib": _buffer_life(cl, device, mib),
+            }
+        )
+    )
 
 
 def _buffer_life(cl, device, mib) -> dict:
@@ -53,9 +62,10 @@ def _buffer_life(cl, device, mib) -> dict:
 
     ctx = cl.Context([device])
     queue = cl.CommandQueue(ctx)
-    fill = cl.Kernel(cl.Program(ctx, "__kernel void fill(__global float *x) { x[get_global_id(0)] = 1.0f; }")
-                     .build(), "fill")
-    count = BUFFER_MIB << 18   # floats
+    fill = cl.Kernel(
+        cl.Program(ctx, "__kernel void fill(__global float *x) { x[get_global_id(0)] = 1.0f; }").build(), "fill"
+    )
+    count = BUFFER_MIB << 18  # floats
     base = mib()
     steps = {}
     buffer = cl.Buffer(ctx, cl.mem_flags.READ_WRITE, count * 4)
@@ -76,8 +86,9 @@ def _buffer_life(cl, device, mib) -> dict:
 
 
 def measure(key: str, env=None) -> dict:
-    proc = subprocess.run([sys.executable, __file__, "--child", key], capture_output=True, text=True,
-                          env={**os.environ, **(env or {})})
+    proc = subprocess.run(
+        [sys.executable, __file__, "--child", key], capture_output=True, text=True, env={**os.environ, **(env or {})}
+    )
     if proc.returncode:
         raise SystemExit(proc.stderr)
     return json.loads(proc.stdout.strip().splitlines()[-1])

@@ -63,32 +63,46 @@ def bake(scene: Path, out: Path, pocl_cache: Path | None = None) -> dict:
     manifest = json.loads((out / f"{scene.stem}.json").read_text())
     entries = manifest["materials"].values()
     p99, bound, searched = (max(m[k] for m in entries) for k in ("de00_p99", "de00_p99_bound", "de00_max"))
-    row = {"scene": scene.name, "bake_seconds": doc["seconds"], "wall_seconds": wall, "cpu_seconds": cpu,
-           "device": doc["device"],
-           "jobs_computed": len(doc["computed"]), "de00_p99_max": p99, "de00_p99_bound_max": bound,
-           "de00_max": searched,
-           "target_de00_p99": manifest["settings"]["max_de"], "exit": done.returncode}
+    row = {
+        "scene": scene.name,
+        "bake_seconds": doc["seconds"],
+        "wall_seconds": wall,
+        "cpu_seconds": cpu,
+        "device": doc["device"],
+        "jobs_computed": len(doc["computed"]),
+        "de00_p99_max": p99,
+        "de00_p99_bound_max": bound,
+        "de00_max": searched,
+        "target_de00_p99": manifest["settings"]["max_de"],
+        "exit": done.returncode,
+    }
     if pocl_cache:  # the binaries PoCL built for this bake: the program and its work-group functions
         row["pocl_builds"] = len(list(pocl_cache.rglob("*.so")))
     return row
 
 
-STARTUP = ("import time; t = time.perf_counter(); from lutbake.integrate.opencl import backend; backend(); "
-           "print(time.perf_counter() - t)")
+STARTUP = (
+    "import time; t = time.perf_counter(); from lutbake.integrate.opencl import backend; backend(); "
+    "print(time.perf_counter() - t)"
+)
 
 
 def startup_seconds(pocl_cache: Path | None = None) -> float:
-    done = subprocess.run([sys.executable, "-c", STARTUP], capture_output=True, text=True, env=_env(pocl_cache),
-                          check=True)
+    done = subprocess.run(
+        [sys.executable, "-c", STARTUP], capture_output=True, text=True, env=_env(pocl_cache), check=True
+    )
     return float(done.stdout)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="also write the results here")
-    parser.add_argument("--cold-pocl-cache", action="store_true",
-                        help="each bake (and the start-up) with an empty PoCL kernel cache, as on a machine that "
-                             "has not met its kernels yet; rows record how many binaries PoCL built")
+    parser.add_argument(
+        "--cold-pocl-cache",
+        action="store_true",
+        help="each bake (and the start-up) with an empty PoCL kernel cache, as on a machine that "
+        "has not met its kernels yet; rows record how many binaries PoCL built",
+    )
     opts = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         cold = (lambda name: Path(tmp) / "pocl" / name) if opts.cold_pocl_cache else (lambda name: None)
@@ -96,19 +110,26 @@ def main():
         print(f"device start-up (colour-science import, kernel build and self-check): {startup:.2f} s")
         rows = []
         for scene in sorted((ROOT / "examples").glob("*.toml")):
-            load = os.getloadavg()[0]   # before the bake: includes the previous bake's tail
+            load = os.getloadavg()[0]  # before the bake: includes the previous bake's tail
             rows.append({**bake(scene, Path(tmp) / scene.stem, cold(scene.stem)), "load_average_1min": load})
             r = rows[-1]
             r["compute_seconds"] = r["bake_seconds"] - startup
-            print(f"{r['scene']:<22} bake {r['bake_seconds']:6.2f} s  compute {r['compute_seconds']:6.2f} s  "
-                  f"wall {r['wall_seconds']:6.2f} s  CPU {r['cpu_seconds']:6.2f} s  "
-                  f"jobs {r['jobs_computed']}  p99 ΔE00 {r['de00_p99_max']:.3f} bound {r['de00_p99_bound_max']:.3f} "
-                  f"(target {r['target_de00_p99']:g}) max {r['de00_max']:.3f}  "
-                  f"load {r['load_average_1min']:.2f}  {r['device']}"
-                  + (f"  PoCL builds {r['pocl_builds']}" if "pocl_builds" in r else ""), flush=True)
+            print(
+                f"{r['scene']:<22} bake {r['bake_seconds']:6.2f} s  compute {r['compute_seconds']:6.2f} s  "
+                f"wall {r['wall_seconds']:6.2f} s  CPU {r['cpu_seconds']:6.2f} s  "
+                f"jobs {r['jobs_computed']}  p99 ΔE00 {r['de00_p99_max']:.3f} bound {r['de00_p99_bound_max']:.3f} "
+                f"(target {r['target_de00_p99']:g}) max {r['de00_max']:.3f}  "
+                f"load {r['load_average_1min']:.2f}  {r['device']}"
+                + (f"  PoCL builds {r['pocl_builds']}" if "pocl_builds" in r else ""),
+                flush=True,
+            )
     if opts.json:
-        doc = {"load_average_1min": os.getloadavg()[0], "device_startup_seconds": startup,
-               "pocl_cache": "cold" if opts.cold_pocl_cache else "as found", "scenes": rows}
+        doc = {
+            "load_average_1min": os.getloadavg()[0],
+            "device_startup_seconds": startup,
+            "pocl_cache": "cold" if opts.cold_pocl_cache else "as found",
+            "scenes": rows,
+        }
         opts.json.write_text(json.dumps(doc, indent=2) + "\n")
 
 

@@ -24,6 +24,7 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3)
     args = ap.parse_args()
     from bench_b1 import B1_AXES, _spec
+
     from lutbake.integrate.opencl import OpenCLBackend
 
     spec = _spec(1.5, B1_AXES)
@@ -37,8 +38,16 @@ def main() -> None:
             backend.bake_rows(spec, 0, args.rows)
             times[name].append(time.perf_counter() - start)
     median = {name: float(np.median(t)) for name, t in times.items()}
-    print(json.dumps({"device": paths["series"].device, "texels": args.rows * spec.image_size[0],
-                      "seconds": median, "direct_over_series": median["direct"] / median["series"]}))
+    print(
+        json.dumps(
+            {
+                "device": paths["series"].device,
+                "texels": args.rows * spec.image_size[0],
+                "seconds": median,
+                "direct_over_series": median["direct"] / median["series"],
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.integrate.opencl import NumpyBackend
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.integrate.opencl import NumpyBackend
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
 
@@ -29,8 +29,12 @@ def main():
     rng = np.random.default_rng(args.seed)
     n = args.texels
     eta2 = rng.uniform(1.2, 2.5, n)
-    cols = dict(cos_theta=rng.uniform(0, 1, n) ** 2, opd_nm=rng.uniform(0, 4000, n),
-                eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+    cols = dict(
+        cos_theta=rng.uniform(0, 1, n) ** 2,
+        opd_nm=rng.uniform(0, 4000, n),
+        eta3=rng.uniform(1, 3, n),
+        kappa3=rng.uniform(0, 5, n),
+    )
     truth = reference_colour(FilmPoints.build(eta2=eta2, **cols)).values
     rows = []
     for spc in (1.0, 2.0, 3.0, 4.0, 6.0):
@@ -42,8 +46,14 @@ def main():
             fast[i] = NumpyBackend().evaluate(spec, spec.texel_stacks(p))[0]
             nodes[i] = spec.ladder.counts[int(spec.cell_levels(*p)[0])]
         err = np.abs(fast - truth).max(axis=1)
-        rows.append({"samples_per_cycle": spc, "rgb_abs_max": float(err.max()),
-                     "rgb_abs_p99": float(np.percentile(err, 99)), "mean_nodes": float(nodes.mean())})
+        rows.append(
+            {
+                "samples_per_cycle": spc,
+                "rgb_abs_max": float(err.max()),
+                "rgb_abs_p99": float(np.percentile(err, 99)),
+                "mean_nodes": float(nodes.mean()),
+            }
+        )
         print(json.dumps(rows[-1]), flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")

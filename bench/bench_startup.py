@@ -22,7 +22,19 @@ ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = {  # argument lists after `python`; the bare interpreter is the floor on this machine
     "python -c pass": ["-c", "pass"],
     "lutbake --help": ["-m", "lutbake", "--help"],
-    "lutbake eval (one point)": ["-m", "lutbake", "eval", "--eta2", "1.33", "--thickness", "300", "--angle", "30", "--eta3", "1.5"],
+    "lutbake eval (one point)": [
+        "-m",
+        "lutbake",
+        "eval",
+        "--eta2",
+        "1.33",
+        "--thickness",
+        "300",
+        "--angle",
+        "30",
+        "--eta3",
+        "1.5",
+    ],
 }
 
 
@@ -42,10 +54,19 @@ def main():
     for name, args in COMMANDS.items():
         wall_seconds(args)  # warm-up
         times = [wall_seconds(args) for _ in range(opts.runs)]
-        results.append({"command": name, "runs": opts.runs, "median_s": statistics.median(times),
-                        "min_s": min(times), "max_s": max(times)})
-        print(f"{name:<28} median {statistics.median(times):.3f} s  (min {min(times):.3f}, max {max(times):.3f}, "
-              f"{opts.runs} runs)")
+        results.append(
+            {
+                "command": name,
+                "runs": opts.runs,
+                "median_s": statistics.median(times),
+                "min_s": min(times),
+                "max_s": max(times),
+            }
+        )
+        print(
+            f"{name:<28} median {statistics.median(times):.3f} s  (min {min(times):.3f}, max {max(times):.3f}, "
+            f"{opts.runs} runs)"
+        )
     if opts.json:
         opts.json.write_text(json.dumps(results, indent=2) + "\n")
 

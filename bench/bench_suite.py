@@ -34,11 +34,20 @@ def pytest_runtest_protocol(item, nextitem):
     start, before = time.time(), os.times()
     yield
     after = os.times()
-    cpu = sum(getattr(after, f) - getattr(before, f)
-              for f in ("user", "system", "children_user", "children_system"))
+    cpu = sum(getattr(after, f) - getattr(before, f) for f in ("user", "system", "children_user", "children_system"))
     with open(os.environ[_RECORD], "a") as fh:
-        fh.write(json.dumps({"worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "test": item.nodeid,
-                             "start": start, "end": time.time(), "cpu_s": cpu}) + "\n")
+        fh.write(
+            json.dumps(
+                {
+                    "worker": os.environ.get("PYTEST_XDIST_WORKER", "main"),
+                    "test": item.nodeid,
+                    "start": start,
+                    "end": time.time(),
+                    "cpu_s": cpu,
+                }
+            )
+            + "\n"
+        )
 
 
 def summarize(rows: list, top: int) -> dict:
@@ -53,11 +62,16 @@ def summarize(rows: list, top: int) -> dict:
             m = modules.setdefault(r["test"].split("::")[0], {"start_s": r["start"] - t0, "wall_s": 0.0, "cpu_s": 0.0})
             m["wall_s"] += r["end"] - r["start"]
             m["cpu_s"] += r["cpu_s"]
-        out["workers"][worker] = {"end_s": max(r["end"] for r in tests) - t0,
-                                  "cpu_s": sum(r["cpu_s"] for r in tests), "modules": modules}
+        out["workers"][worker] = {
+            "end_s": max(r["end"] for r in tests) - t0,
+            "cpu_s": sum(r["cpu_s"] for r in tests),
+            "modules": modules,
+        }
     out["cpu_s"] = sum(r["cpu_s"] for r in rows)
-    out["tests"] = [{"test": r["test"], "cpu_s": r["cpu_s"], "wall_s": r["end"] - r["start"]}
-                    for r in sorted(rows, key=lambda r: -r["cpu_s"])[:top]]
+    out["tests"] = [
+        {"test": r["test"], "cpu_s": r["cpu_s"], "wall_s": r["end"] - r["start"]}
+        for r in sorted(rows, key=lambda r: -r["cpu_s"])[:top]
+    ]
     return out
 
 
@@ -69,17 +83,32 @@ def main():
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         record = Path(tmp) / "tests.jsonl"
-        env = {**os.environ, _RECORD: str(record),
-               "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), str(ROOT / "bench"), os.environ.get("PYTHONPATH")]))}
+        env = {
+            **os.environ,
+            _RECORD: str(record),
+            "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), str(ROOT / "bench"), os.environ.get("PYTHONPATH")])),
+        }
         load_before, start = os.getloadavg()[0], time.time()
-        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "bench_suite", "-p", "no:cacheprovider",
-                               *args.pytest_args], cwd=ROOT, env=env, capture_output=True, text=True)
+        proc = subprocess.run(
+            [sys.executable, "-m", "pytest", "-q", "-p", "bench_suite", "-p", "no:cacheprovider", *args.pytest_args],
+            cwd=ROOT,
+            env=env,
+            capture_output=True,
+            text=True,
+        )
         wall, load_after = time.time() - start, os.getloadavg()[0]
         rows = [json.loads(line) for line in record.read_text().splitlines()]
-    doc = {"wall_s": wall, "returncode": proc.returncode, "summary": proc.stdout.strip().splitlines()[-1],
-           "load_average_1min": [load_before, load_after], **summarize(rows, args.top)}
-    print(f"{doc['summary']}: wall {wall:.0f} s, load average {load_before:.2f} -> {load_after:.2f}, "
-          f"CPU {doc['cpu_s']:.0f} s over all workers")
+    doc = {
+        "wall_s": wall,
+        "returncode": proc.returncode,
+        "summary": proc.stdout.strip().splitlines()[-1],
+        "load_average_1min": [load_before, load_after],
+        **summarize(rows, args.top),
+    }
+    print(
+        f"{doc['summary']}: wall {wall:.0f} s, load average {load_before:.2f} -> {load_after:.2f}, "
+        f"CPU {doc['cpu_s']:.0f} s over all workers"
+    )
     for worker, w in doc["workers"].items():
         print(f"{worker}: ends at {w['end_s']:.0f} s, CPU {w['cpu_s']:.0f} s")
         for name, m in w["modules"].items():

@@ -21,8 +21,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "accuracy"
 POINTS = 5000
-CORNER_RADIUS = 0.2   # ρ of the corner's neighbourhood searched on its own
-BASES = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr", "water", "SiO2", "TiO2")   # issue 13's metals, common dielectrics
+CORNER_RADIUS = 0.2  # ρ of the corner's neighbourhood searched on its own
+BASES = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr", "water", "SiO2", "TiO2")  # issue 13's metals, common dielectrics
 
 
 def lutbake(*args):
@@ -39,8 +39,10 @@ def bake_default_luts():
     from lutbake.tables.lutfile import read_lut
 
     try:
-        current = all(read_lut(ROOT / "luts" / f"{name}.exr")[0]["content_hash"] == spec.content_hash
-                      for name, spec in default_specs().items())
+        current = all(
+            read_lut(ROOT / "luts" / f"{name}.exr")[0]["content_hash"] == spec.content_hash
+            for name, spec in default_specs().items()
+        )
     except (OSError, ValueError, KeyError):
         current = False
     if not current:
@@ -52,13 +54,33 @@ def main():
     bake_default_luts()
     for lut in sorted((ROOT / "luts").glob("*.exr")):
         folder = OUT / lut.stem
-        lutbake("report", str(lut.relative_to(ROOT)), "--points", str(POINTS), "--seed", "0",
-                "--out", str(folder.relative_to(ROOT)))
+        lutbake(
+            "report",
+            str(lut.relative_to(ROOT)),
+            "--points",
+            str(POINTS),
+            "--seed",
+            "0",
+            "--out",
+            str(folder.relative_to(ROOT)),
+        )
         reports[lut.stem] = json.loads((folder / "summary.json").read_text())
         reports[lut.stem]["exr_bytes"] = lut.stat().st_size
-        reports[lut.stem]["again"] = [json.loads(lutbake("report", str(lut.relative_to(ROOT)), "--points", str(POINTS),
-                                                         "--seed", seed, "--no-approximations", "--json"))["lut_error"]
-                                      for seed in ("1", "2")]
+        reports[lut.stem]["again"] = [
+            json.loads(
+                lutbake(
+                    "report",
+                    str(lut.relative_to(ROOT)),
+                    "--points",
+                    str(POINTS),
+                    "--seed",
+                    seed,
+                    "--no-approximations",
+                    "--json",
+                )
+            )["lut_error"]
+            for seed in ("1", "2")
+        ]
         if not lut.stem.endswith("-metal"):
             reports[lut.stem]["in_corner"] = searched_in_corner(lut)
     corner_map(sorted(p for p in (ROOT / "luts").glob("*.exr") if not p.stem.endswith("-metal")), OUT / "corner.png")
@@ -71,14 +93,22 @@ def main():
 def searched_in_corner(path) -> dict:
     """`report`'s search (its 5,000 points and budget) confined to the corner's neighbourhood ρ < 0.2
     (report.corner_distance), at a seed the reports do not use."""
-    from lutbake.quality.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
     from lutbake.lut.sample import Lut
+    from lutbake.quality.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
 
     lut = Lut.load(path)
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", POINTS, 3)
     de = score("lut", lut.sample(pts.stack), pts, "rec709", "cie1931").de00
-    return search_max(lut.sample, lut, pts, de, proxy_truth(lut), SEARCH_BUDGET, 3,
-                      exclude=lambda stack: corner_distance(stack) >= CORNER_RADIUS)
+    return search_max(
+        lut.sample,
+        lut,
+        pts,
+        de,
+        proxy_truth(lut),
+        SEARCH_BUDGET,
+        3,
+        exclude=lambda stack: corner_distance(stack) >= CORNER_RADIUS,
+    )
 
 
 def corner_map(paths, out_png, n: int = 64):
@@ -86,23 +116,25 @@ def corner_map(paths, out_png, n: int = 64):
     film in air: the slice through the corner), with the contour ρ = 0.2."""
     from matplotlib.figure import Figure
 
+    from lutbake.lut.sample import Lut
     from lutbake.physics.colorimetry import delta_e00
     from lutbake.physics.points import FilmPoints
-    from lutbake.spectral.reference import reference_colour
     from lutbake.quality.report import corner_distance
-    from lutbake.lut.sample import Lut
+    from lutbake.spectral.reference import reference_colour
 
     cos_t, opd = np.meshgrid(np.logspace(-6, 0, n), np.logspace(-4, np.log10(3000.0), n))
     fig = Figure(figsize=(4.8 * len(paths), 4.4), layout="constrained")
     axes = fig.subplots(1, len(paths), squeeze=False)[0]
     for a, path in zip(axes, paths):
         lut = Lut.load(path)
-        stack = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(),
-                                 eta3=lut.eta1, kappa3=0.0)
+        stack = FilmPoints.build(
+            eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(), eta3=lut.eta1, kappa3=0.0
+        )
         de = delta_e00(lut.sample(stack), reference_colour(stack).values).reshape(n, n)
         im = a.pcolormesh(cos_t, opd, de, shading="auto", cmap="magma", vmin=0, vmax=1)
-        contours = a.contour(cos_t, opd, corner_distance(stack).reshape(n, n), levels=[CORNER_RADIUS], colors="cyan",
-                             linewidths=1)
+        contours = a.contour(
+            cos_t, opd, corner_distance(stack).reshape(n, n), levels=[CORNER_RADIUS], colors="cyan", linewidths=1
+        )
         a.clabel(contours, fmt=lambda r: f"ρ = {r:g}", fontsize=8)
         a.contour(cos_t, opd, de, levels=[1.0], colors="white", linewidths=0.8, linestyles="--")
         a.set_xscale("log")
@@ -139,11 +171,13 @@ def _holder(e0, e1, k0, k1) -> str:
 
 
 def _row(name, r):
-    return (f"| {name} | {r['de00_mean']:.2f} | {r['de00_p50']:.2f} | {r['de00_p95']:.2f} | "
-            f"{r['de00_p99']:.2f} | {r['de00_max']:.2f} | {r['rgb_abs_max']:.1e} |")
+    return (
+        f"| {name} | {r['de00_mean']:.2f} | {r['de00_p50']:.2f} | {r['de00_p95']:.2f} | "
+        f"{r['de00_p99']:.2f} | {r['de00_max']:.2f} | {r['rgb_abs_max']:.1e} |"
+    )
 
 
-GOAL = {"de00_max": 1.0, "de00_p99": 0.3, "exr_bytes": 8 << 20}   # issues 13 and 24's target per default LUT
+GOAL = {"de00_max": 1.0, "de00_p99": 0.3, "exr_bytes": 8 << 20}  # issues 13 and 24's target per default LUT
 
 
 def _where(w) -> str:
@@ -154,13 +188,20 @@ def corner_section(reports) -> list:
     """Where the maximum sits, and how the dielectric LUTs resolve the corner."""
     dielectric = [n for n in reports if not n.endswith("-metal")]
     inside = {n: reports[n]["in_corner"]["de00_max"] for n in dielectric}
-    metal = {n: max([reports[n]["lut_error"]["de00_max"]] + [a["de00_max"] for a in reports[n]["again"]])
-             for n in reports if n.endswith("-metal")}
+    metal = {
+        n: max([reports[n]["lut_error"]["de00_max"]] + [a["de00_max"] for a in reports[n]["again"]])
+        for n in reports
+        if n.endswith("-metal")
+    }
     return [
-        "", "## Where the maximum sits", "",
-        "![ΔE00 near the corner of each dielectric LUT](accuracy/corner.png)", "",
+        "",
+        "## Where the maximum sits",
+        "",
+        "![ΔE00 near the corner of each dielectric LUT](accuracy/corner.png)",
+        "",
         "*ΔE00 of each dielectric LUT at η3 = η1, κ3 = 0 (a film in air: the slice through the corner), over",
-        f"log cos θ1 and log D, clipped at 1; cyan: ρ = {CORNER_RADIUS:g} (`python docs/make_accuracy.py`).*", "",
+        f"log cos θ1 and log D, clipped at 1; cyan: ρ = {CORNER_RADIUS:g} (`python docs/make_accuracy.py`).*",
+        "",
         "The dielectric LUTs reach the corner cos θ1 → 0, D → 0, η3 → η1, κ3 → 0, where the truth has no limit:",
         "with Y1 = η1 cos θ1 and Y2, Y3 the film's and the base's admittances, the Airy reflectance tends to",
         "|2(Y1 − Y3) + iφY2|² / |2(Y1 + Y3) − iφY2|² per polarization (φ the film's phase), a function of",
@@ -176,7 +217,8 @@ def corner_section(reports) -> list:
         "most sensitive; the ratio parts' node counts (D 24, η3 8, κ3 14) are set by those valleys.",
         "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.quality.report.corner_distance`, measures the distance to the",
         f"corner. The search confined to ρ < {CORNER_RADIUS:g} (5,000 held-out points at seed 3, 20,000 evaluations) finds "
-        + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items()) + ".",
+        + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items())
+        + ".",
         "The exact runtime mode evaluates each point instead: its searched max near the corner is 0.28 (`python",
         "bench/bench_exact_corner.py`, [engines.md](engines.md#exact-mode-the-series-per-pixel-no-lut-domain)).",
         "The metal LUTs do not reach the corner (κ3 ≥ 1.5); their searched max over the whole domain is "
@@ -245,45 +287,77 @@ def render(reports, sweep, bases):
     ]
     for name, rep in reports.items():
         e, w = rep["lut_error"], rep["lut_error"]["worst_case"]
-        largest = max([e["de00_max"]] + [a["de00_max"] for a in rep["again"]]
-                      + [rep["in_corner"]["de00_max"] for _ in ("in_corner",) if "in_corner" in rep])
-        met = largest <= GOAL["de00_max"] and e["de00_p99"] <= GOAL["de00_p99"] and rep["exr_bytes"] <= GOAL["exr_bytes"]
-        shape = " × ".join(f"{a['count']}{'' if a['spacing'] == 'uniform' else ' ' + a['spacing']}"
-                           + (f" (zoom {a['corner']['nodes']}, {a['corner']['scale']:g})" if "corner" in a else "")
-                           for a in rep["axes"])
+        largest = max(
+            [e["de00_max"]]
+            + [a["de00_max"] for a in rep["again"]]
+            + [rep["in_corner"]["de00_max"] for _ in ("in_corner",) if "in_corner" in rep]
+        )
+        met = (
+            largest <= GOAL["de00_max"] and e["de00_p99"] <= GOAL["de00_p99"] and rep["exr_bytes"] <= GOAL["exr_bytes"]
+        )
+        shape = " × ".join(
+            f"{a['count']}{'' if a['spacing'] == 'uniform' else ' ' + a['spacing']}"
+            + (f" (zoom {a['corner']['nodes']}, {a['corner']['scale']:g})" if "corner" in a else "")
+            for a in rep["axes"]
+        )
         again = ", ".join(f"{a['de00_p99']:.2f} / {a['de00_max']:.2f}" for a in rep["again"])
-        corner = (f"{rep['in_corner']['de00_max']:.2f}" if "in_corner" in rep else "— (ρ ≥ 1: κ3 ≥ 1.5)")
+        corner = f"{rep['in_corner']['de00_max']:.2f}" if "in_corner" in rep else "— (ρ ≥ 1: κ3 ≥ 1.5)"
         verdict = "yes" if met else "no"
-        lines.append(f"| {name} | {shape} | {rep['exr_bytes'] / (1 << 20):.2f} | {e['de00_p99']:.2f} | "
-                     f"{e['de00_max']:.2f} | {_where(w)} | {corner} | {verdict} | {again} |")
-    lines += ["", "The last column scores 5,000 other held-out points at each of seeds 1 and 2, each report searching",
-              "with its own seed. Target met means every searched maximum (three seeds and, for the dielectric",
-              "LUTs, the corner's) is within 1."]
+        lines.append(
+            f"| {name} | {shape} | {rep['exr_bytes'] / (1 << 20):.2f} | {e['de00_p99']:.2f} | "
+            f"{e['de00_max']:.2f} | {_where(w)} | {corner} | {verdict} | {again} |"
+        )
+    lines += [
+        "",
+        "The last column scores 5,000 other held-out points at each of seeds 1 and 2, each report searching",
+        "with its own seed. Target met means every searched maximum (three seeds and, for the dielectric",
+        "LUTs, the corner's) is within 1.",
+    ]
     lines += corner_section(reports)
     lines += ["", "## The default LUTs (`lutbake bake --out luts`)", ""]
     for name, rep in reports.items():
-        lines += [f"### {name}", "", "| method | mean | p50 | p95 | p99 | max | max abs ΔRGB |", "|---|---|---|---|---|---|---|",
-                  _row("LUT (reference sampler)", rep["lut_error"])]
+        lines += [
+            f"### {name}",
+            "",
+            "| method | mean | p50 | p95 | p99 | max | max abs ΔRGB |",
+            "|---|---|---|---|---|---|---|",
+            _row("LUT (reference sampler)", rep["lut_error"]),
+        ]
         lines += [_row(a["name"], a) for a in rep["approximations"]]
         w = rep["lut_error"]["worst_case"]
-        lines += ["", f"Searched max: ΔE00 {w['de00_max']:.2f} at cos θ1, D, η3, κ3 = {_where(w)} ({w['found_by']}; "
-                  f"the held-out points' largest: {w['held_out_max']:.2f}). "
-                  f"[Report]({'accuracy/' + name + '/report.html'}), its ΔE00 maps through the searched max.", ""]
-    lines += ["## Error against cost (η2 = 1.5, default domain)", "",
-              "![p99 ΔE00 against bake time and bytes](accuracy/sweep/pareto.png)", "",
-              "| variant | shape | p99 ΔE00 | bake (s) | bytes | ns/eval (numpy) |", "|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            f"Searched max: ΔE00 {w['de00_max']:.2f} at cos θ1, D, η3, κ3 = {_where(w)} ({w['found_by']}; "
+            f"the held-out points' largest: {w['held_out_max']:.2f}). "
+            f"[Report]({'accuracy/' + name + '/report.html'}), its ΔE00 maps through the searched max.",
+            "",
+        ]
+    lines += [
+        "## Error against cost (η2 = 1.5, default domain)",
+        "",
+        "![p99 ΔE00 against bake time and bytes](accuracy/sweep/pareto.png)",
+        "",
+        "| variant | shape | p99 ΔE00 | bake (s) | bytes | ns/eval (numpy) |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in sweep["rows"]:
         if r["kind"] == "lut":
-            lines.append(f"| {r['name']} | {r['shape']} | {r['de00_p99']:.2f} | {r['bake_seconds']:.2f} | {r['bytes']} | |")
+            lines.append(
+                f"| {r['name']} | {r['shape']} | {r['de00_p99']:.2f} | {r['bake_seconds']:.2f} | {r['bytes']} | |"
+            )
         else:
             lines.append(f"| {r['name']} | (no LUT) | {r['de00_p99']:.2f} | | | {r['ns_per_eval']:.0f} |")
-    lines += ["", "Bake times are wall-clock on the machine that ran the script (2 cores, CPU OpenCL) and",
-              "include measuring the spectral error; compare rows within one run. A GPU sampling a LUT pays",
-              "256 texel reads for cubic reads, or 4 bilinear fetches and 3 lerps for the `linear reads` rows,",
-              "whatever its size (the admittance spacings add one or two square roots); the approximations' cost is",
-              "shader ALU. The `uniform grid`, `√ grid` and `admittance grid` rows are the default counts on",
-              "other spacings: the `admittance grid` is the previous default, η3 uniform in the admittance rather",
-              "than in its square root (docs/reports.md).", ""]
+    lines += [
+        "",
+        "Bake times are wall-clock on the machine that ran the script (2 cores, CPU OpenCL) and",
+        "include measuring the spectral error; compare rows within one run. A GPU sampling a LUT pays",
+        "256 texel reads for cubic reads, or 4 bilinear fetches and 3 lerps for the `linear reads` rows,",
+        "whatever its size (the admittance spacings add one or two square roots); the approximations' cost is",
+        "shader ALU. The `uniform grid`, `√ grid` and `admittance grid` rows are the default counts on",
+        "other spacings: the `admittance grid` is the previous default, η3 uniform in the admittance rather",
+        "than in its square root (docs/reports.md).",
+        "",
+    ]
     return "\n".join(lines)
 
 

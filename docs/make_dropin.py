@@ -24,8 +24,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from make_accuracy import bake_default_luts  # noqa: E402
-from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+
 from lutbake.modes.exact import METALS, base_rgb  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 from lutbake.physics.points import FilmPoints  # noqa: E402
 from lutbake.spectral.reference import reference_colour  # noqa: E402
 
@@ -41,8 +42,8 @@ MATERIALS = [
     ("oxide on Fe, 250 nm", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
 SWATCH_COS = np.linspace(1.0, 0.05, 16)
-MODES = ("three", "runtime", "exact", "lut", "lut-linear")   # lut-linear: the LUT by the drop-in's lutRule 'linear'
-RUNTIME = ROOT / "luts" / "runtime" / "lutbake-runtime.exr"   # beside, not among, the default LUTs
+MODES = ("three", "runtime", "exact", "lut", "lut-linear")  # lut-linear: the LUT by the drop-in's lutRule 'linear'
+RUNTIME = ROOT / "luts" / "runtime" / "lutbake-runtime.exr"  # beside, not among, the default LUTs
 
 
 def _base(base):
@@ -56,13 +57,15 @@ def truth(cos, thickness, eta2, base) -> np.ndarray:
     """Ground truth with constant indices per channel (channel c with the base's c-th n, k; a dielectric
     base has one index for all three: one integral)."""
     if isinstance(base, float):
-        return reference_colour(FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness,
-                                                 eta3=base)).values
+        return reference_colour(
+            FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, eta3=base)
+        ).values
     eta3, kappa3 = _base(base)
     out = np.empty((np.size(cos), 3))
     for c in range(3):
-        pts = FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c],
-                               kappa3=kappa3[c])
+        pts = FilmPoints.build(
+            eta1=1.0, eta2=eta2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c], kappa3=kappa3[c]
+        )
         out[:, c] = reference_colour(pts).values[:, c]
     return out
 
@@ -75,13 +78,22 @@ def dispersive_truth(cos, thickness, eta2, metal) -> np.ndarray:
 def spec() -> dict:
     materials, swatches = [], []
     for label, eta2, thickness, base, lut in MATERIALS:
-        m = {"label": label, "iridescenceIOR": eta2, "thickness": thickness, "lut": f"/{lut}",
-             "exact": "/engine/exact/lutbake-exact", "runtime": f"/{RUNTIME.relative_to(ROOT).with_suffix('')}",
-             "ior": base if isinstance(base, float) else 1.5}
+        m = {
+            "label": label,
+            "iridescenceIOR": eta2,
+            "thickness": thickness,
+            "lut": f"/{lut}",
+            "exact": "/engine/exact/lutbake-exact",
+            "runtime": f"/{RUNTIME.relative_to(ROOT).with_suffix('')}",
+            "ior": base if isinstance(base, float) else 1.5,
+        }
         if not isinstance(base, float):
             n, k = base_rgb(base)
-            m["metal"] = {"eta": n.tolist(), "kappa": k.tolist(),
-                          "f0": (((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2)).tolist()}
+            m["metal"] = {
+                "eta": n.tolist(),
+                "kappa": k.tolist(),
+                "f0": (((n - 1) ** 2 + k**2) / ((n + 1) ** 2 + k**2)).tolist(),
+            }
         materials.append(m)
         swatches.append(truth(SWATCH_COS, thickness, eta2, base).tolist())
     return {"materials": materials, "swatches": swatches}
@@ -92,8 +104,14 @@ def write_exact_table() -> Path:
     """engine/exact/lutbake-exact.{exr,json,glsl,hlsl} as `lutbake exact-table` writes them on this machine,
     once per process (a second writer of the folder waits on the bake's lock and writes the same bytes)."""
     EXACT_TABLE.parent.mkdir(exist_ok=True)
-    subprocess.run([sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(EXACT_TABLE.relative_to(ROOT))],
-                   cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
+    subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(EXACT_TABLE.relative_to(ROOT))],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     return EXACT_TABLE
 
 
@@ -102,8 +120,14 @@ def write_runtime_table() -> Path:
     """luts/runtime/lutbake-runtime.{exr,json,glsl,hlsl} as `lutbake runtime-table` writes them here, once
     per process (generated, not committed: like the exact table, its texels may round differently elsewhere)."""
     RUNTIME.parent.mkdir(parents=True, exist_ok=True)
-    subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(RUNTIME.relative_to(ROOT))],
-                   cwd=ROOT, check=True, capture_output=True, text=True, timeout=600)
+    subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(RUNTIME.relative_to(ROOT))],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     return RUNTIME
 
 
@@ -114,8 +138,13 @@ def run(image: Path) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         job, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         job.write_text(json.dumps(spec()))
-        proc = subprocess.run(["node", str(ROOT / "engine" / "harness.mjs"), "dropin", str(job), str(result),
-                               str(image)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+        proc = subprocess.run(
+            ["node", str(ROOT / "engine" / "harness.mjs"), "dropin", str(job), str(result), str(image)],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         if proc.returncode:
             raise RuntimeError(proc.stderr[-4000:])
         cells = json.loads(result.read_text())["cells"]
@@ -139,15 +168,25 @@ def errors(cells: dict, dispersive: bool = True) -> list:
             rgb, p = cells[(label, mode)]
             assert np.allclose(p, params, atol=1e-6), "modes rendered different pixels"
             de = delta_e00(rgb, ref)
-            rows.append((label, mode, float(de.max()), float(np.percentile(de, 99)),
-                         None if disp is None else float(delta_e00(rgb, disp).max()), len(rgb)))
+            rows.append(
+                (
+                    label,
+                    mode,
+                    float(de.max()),
+                    float(np.percentile(de, 99)),
+                    None if disp is None else float(delta_e00(rgb, disp).max()),
+                    len(rgb),
+                )
+            )
     return rows
 
 
 def main():
     bake_default_luts()
     rows = errors(run(IMAGE))
-    print("| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|")
+    print(
+        "| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|"
+    )
     for label, mode, worst, p99, disp, n in rows:
         print(f"| {label} | {mode} | {worst:.3f} | {p99:.3f} | {'—' if disp is None else f'{disp:.2f}'} | {n} |")
 

@@ -26,12 +26,20 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from lutbake.modes.approximations import belcour_barla_rgb, khr_iridescence_rgb  # noqa: E402
-from lutbake.physics.colorimetry import delta_e00  # noqa: E402
-from lutbake.modes.exact import exact_colour, stored_table as exact_table  # noqa: E402
-from lutbake.physics.points import FilmPoints  # noqa: E402
+from lutbake.modes.exact import exact_colour  # noqa: E402
+from lutbake.modes.exact import stored_table as exact_table
 from lutbake.modes.runtime import runtime_colour, stored_table  # noqa: E402
-from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, named_error, searched_named_worst, searched_worst, \
-    stress_error, truth  # noqa: E402
+from lutbake.modes.runtime.accuracy import (
+    BOXES,
+    NAMED_METALS,
+    named_error,
+    searched_named_worst,
+    searched_worst,
+    stress_error,
+    truth,
+)  # noqa: E402
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.physics.points import FilmPoints  # noqa: E402
 
 RESULT = ROOT / "docs" / "runtime-result.json"
 
@@ -45,8 +53,16 @@ def exact_mode(cos, d, eta2, eta3, kappa3, tolerance=None):
     table = exact_table()
     out, terms = np.empty((cos.size, 3)), np.empty(cos.size)
     for i in range(cos.size):
-        r = exact_colour(table, cos[i:i + 1], d[i:i + 1], 1.0, float(eta2[i]), eta3[i:i + 1], kappa3[i:i + 1],
-                         tolerance=tolerance)
+        r = exact_colour(
+            table,
+            cos[i : i + 1],
+            d[i : i + 1],
+            1.0,
+            float(eta2[i]),
+            eta3[i : i + 1],
+            kappa3[i : i + 1],
+            tolerance=tolerance,
+        )
         out[i], terms[i] = r.values[0], r.terms[0]
     return out, terms
 
@@ -57,17 +73,23 @@ def random_rows(table, n: int, seed: int) -> dict:
     for name, box in BOXES.items():
         cols = tuple(np.float32(c).astype(float) for c in box.point(np.random.default_rng(seed).random((n, 5))))
         ref = truth(*cols)
-        stack = FilmPoints.build(eta1=1.0, eta2=cols[2], cos_theta=cols[0], thickness_nm=cols[1], eta3=cols[3],
-                                 kappa3=cols[4])
-        paths = {"runtime": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:]),
-                 "runtime, 8-bit filter weights": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:], filter_bits=8),
-                 "three.js r187 (KHR)": khr_iridescence_rgb(stack), "Belcour & Barla 2017": belcour_barla_rgb(stack)}
+        stack = FilmPoints.build(
+            eta1=1.0, eta2=cols[2], cos_theta=cols[0], thickness_nm=cols[1], eta3=cols[3], kappa3=cols[4]
+        )
+        paths = {
+            "runtime": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:]),
+            "runtime, 8-bit filter weights": runtime_colour(table, cols[0], cols[1], 1.0, *cols[2:], filter_bits=8),
+            "three.js r187 (KHR)": khr_iridescence_rgb(stack),
+            "Belcour & Barla 2017": belcour_barla_rgb(stack),
+        }
         out[name] = {path: stats(delta_e00(rgb, ref)) for path, rgb in paths.items()}
-        for tolerance in (1e-3, 1e-4, 1e-5):   # the exact mode at its tolerances: error against terms (cost)
+        for tolerance in (1e-3, 1e-4, 1e-5):  # the exact mode at its tolerances: error against terms (cost)
             rgb, terms = exact_mode(*cols, tolerance=tolerance)
-            out[name][f"exact mode, tolerance {tolerance:g}"] = {**stats(delta_e00(rgb, ref)),
-                                                                  "terms_mean": float(terms.mean()),
-                                                                  "terms_max": int(terms.max())}
+            out[name][f"exact mode, tolerance {tolerance:g}"] = {
+                **stats(delta_e00(rgb, ref)),
+                "terms_mean": float(terms.mean()),
+                "terms_max": int(terms.max()),
+            }
     return out
 
 
@@ -80,10 +102,13 @@ def main():
     result = {"random": random_rows(table, args.points, seed=22)}
     result["stress"] = {name: stats(stress_error(table, box)) for name, box in BOXES.items()}
     result["searched"] = {}
-    for name, box in BOXES.items():   # the full stress grid among the starts
+    for name, box in BOXES.items():  # the full stress grid among the starts
         worst = searched_worst(table, box, budget=args.budget, seed=1, full_stress=True)
-        result["searched"][name] = {"max": worst.value, "at": [float(v[0]) for v in box.point(worst.where[None])],
-                                    "evaluations": worst.evaluations}
+        result["searched"][name] = {
+            "max": worst.value,
+            "at": [float(v[0]) for v in box.point(worst.where[None])],
+            "evaluations": worst.evaluations,
+        }
     rng = np.random.default_rng(23)
     result["named"] = {}
     for metal in NAMED_METALS:
@@ -95,14 +120,22 @@ def main():
     print("| base | points | random p99 / max | stress grid max | searched max |\n|---|---|---|---|---|")
     for name in BOXES:
         r, s, w = result["random"][name]["runtime"], result["stress"][name], result["searched"][name]
-        print(f"| {name} | {r['points']} + {s['points']} + {w['evaluations']} | {r['p99']:.3f} / {r['max']:.3f} | "
-              f"{s['max']:.3f} | {w['max']:.3f} |")
+        print(
+            f"| {name} | {r['points']} + {s['points']} + {w['evaluations']} | {r['p99']:.3f} / {r['max']:.3f} | "
+            f"{s['max']:.3f} | {w['max']:.3f} |"
+        )
     for metal, r in result["named"].items():
         print(f"| {metal} per channel | {r['points']} | {r['p99']:.3f} / {r['max']:.3f} | | {r['searched_max']:.3f} |")
-    print("\n| path (any film) | dielectric p99 / max | metal p99 / max | exact mode terms, mean (max) |\n|---|---|---|---|")
+    print(
+        "\n| path (any film) | dielectric p99 / max | metal p99 / max | exact mode terms, mean (max) |\n|---|---|---|---|"
+    )
     for path in result["random"]["dielectric"]:
         d, m = result["random"]["dielectric"][path], result["random"]["metal"][path]
-        terms = f"{d['terms_mean']:.1f} ({d['terms_max']}); {m['terms_mean']:.1f} ({m['terms_max']})" if "terms_mean" in d else ""
+        terms = (
+            f"{d['terms_mean']:.1f} ({d['terms_max']}); {m['terms_mean']:.1f} ({m['terms_max']})"
+            if "terms_mean" in d
+            else ""
+        )
         print(f"| {path} | {d['p99']:.3f} / {d['max']:.3f} | {m['p99']:.3f} / {m['max']:.3f} | {terms} |")
 
 

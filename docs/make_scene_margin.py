@@ -25,12 +25,12 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from gltf_assets import SHOWCASE, khronos_gltf  # noqa: E402
 
-from lutbake.scene.gltf.receipt import gltf_receipts  # noqa: E402
-from lutbake.quality.report import report_atlas, report_lut  # noqa: E402
 from lutbake.lut.sample import Atlas  # noqa: E402
+from lutbake.quality.report import report_atlas, report_lut  # noqa: E402
+from lutbake.scene.gltf.receipt import gltf_receipts  # noqa: E402
 
-POINTS = 1000        # `report`'s default
-SEARCH_BUDGET = 50   # the searched max is not what this checks: p99 is
+POINTS = 1000  # `report`'s default
+SEARCH_BUDGET = 50  # the searched max is not what this checks: p99 is
 
 
 def bake(flag: str, source: Path, out: Path, reuse: bool = False) -> dict:
@@ -38,9 +38,26 @@ def bake(flag: str, source: Path, out: Path, reuse: bool = False) -> dict:
     if reuse and (out / f"{source.stem}.json").exists():
         return json.loads((out / f"{source.stem}.json").read_text())
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", flag, str(source), "--out", str(out),
-                           "--force", "--quiet", "--json"], capture_output=True, text=True, env=env, cwd=ROOT)
-    if proc.returncode not in (0, 1):   # 1: written, a target unmet at the cap (the manifest says which)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "bake",
+            flag,
+            str(source),
+            "--out",
+            str(out),
+            "--force",
+            "--quiet",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+    )
+    if proc.returncode not in (0, 1):  # 1: written, a target unmet at the cap (the manifest says which)
         raise SystemExit(f"{source}: {proc.stderr}")
     return json.loads((out / f"{source.stem}.json").read_text())
 
@@ -83,13 +100,22 @@ def main():
     build = ROOT / "build" / "scene-margin"
     build.mkdir(parents=True, exist_ok=True)
     baked = {label: (flag, bake(flag, path, build / label, args.reuse)) for label, flag, path in sources(build)}
-    tasks = [(label, manifest, build / label, seed, flag == "--gltf") for label, (flag, manifest) in baked.items()
-             for seed in args.seeds]
+    tasks = [
+        (label, manifest, build / label, seed, flag == "--gltf")
+        for label, (flag, manifest) in baked.items()
+        for seed in args.seeds
+    ]
     rows = []
     with multiprocessing.Pool(args.jobs) as pool:
-        for label, seed, found in pool.imap_unordered(_ratios, tasks):   # each as it is scored
-            rows.append({"source": label, "seed": seed, "max_de": baked[label][1]["settings"]["max_de"],
-                         "p99_over_target": found})
+        for label, seed, found in pool.imap_unordered(_ratios, tasks):  # each as it is scored
+            rows.append(
+                {
+                    "source": label,
+                    "seed": seed,
+                    "max_de": baked[label][1]["settings"]["max_de"],
+                    "p99_over_target": found,
+                }
+            )
             print(f"{label} seed {seed}: " + ", ".join(f"{k} {v:.3f}" for k, v in sorted(found.items())), flush=True)
     worst = max(v for r in rows for v in r["p99_over_target"].values())
     print(f"\nlargest p99 / max_de over every source, kind and seed: {worst:.3f} (load {os.getloadavg()[0]:.1f})")

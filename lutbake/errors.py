@@ -28,8 +28,9 @@ class ParameterError(ValueError):
 
     def render(self, names: dict) -> str:
         """The message with each ``{parameter}`` shown as ``names`` gives it (default: its own name)."""
-        return _FIELD.sub(lambda m: str(self.values[m[1]]) if m[1] in self.values else names.get(m[1], m[1]),
-                          self.template)
+        return _FIELD.sub(
+            lambda m: str(self.values[m[1]]) if m[1] in self.values else names.get(m[1], m[1]), self.template
+        )
 
 
 class OpenCLUnavailable(RuntimeError):

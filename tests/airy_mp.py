@@ -27,8 +27,7 @@ def airy_reflectance_exact(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, w
     out = []
     for r12, r23 in (
         ((g1 - g2) / (g1 + g2), (g2 - g3) / (g2 + g3)),
-        ((n2**2 * g1 - e1**2 * g2) / (n2**2 * g1 + e1**2 * g2),
-         (n3**2 * g2 - n2**2 * g3) / (n3**2 * g2 + n2**2 * g3)),
+        ((n2**2 * g1 - e1**2 * g2) / (n2**2 * g1 + e1**2 * g2), (n3**2 * g2 - n2**2 * g3) / (n3**2 * g2 + n2**2 * g3)),
     ):
         r = (r12 + r23 * z) / (1 + r12 * r23 * z)
         out.append(abs(r) ** 2)

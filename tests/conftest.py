@@ -23,8 +23,8 @@ warnings.filterwarnings("ignore", module="colour")
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_LUTS = ROOT / "luts"
-README_LUTS = ROOT / "lutbake-luts"   # README command 1, `lutbake bake` in the repo root (CI runs it first)
-LUT_MEMBERS = (".json", ".glsl", ".hlsl", ".exr")   # the .exr last: a set is current once its .exr is
+README_LUTS = ROOT / "lutbake-luts"  # README command 1, `lutbake bake` in the repo root (CI runs it first)
+LUT_MEMBERS = (".json", ".glsl", ".hlsl", ".exr")  # the .exr last: a set is current once its .exr is
 
 
 def _holds_the_default_set(folder: Path) -> bool:
@@ -37,7 +37,8 @@ def _holds_the_default_set(folder: Path) -> bool:
         meta = read_lut(folder / f"{name}.exr")[0]
         return meta["content_hash"] == spec.content_hash and all(
             (folder / f"{name}.{suffix}").read_text() == text
-            for suffix, text in shader_includes(meta, f"{name}.exr").items())
+            for suffix, text in shader_includes(meta, f"{name}.exr").items()
+        )
 
     try:
         return all(current(name, spec) for name, spec in default_specs().items())
@@ -57,8 +58,14 @@ def default_luts() -> Path:
     with open(DEFAULT_LUTS / ".bake.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not _holds_the_default_set(README_LUTS):
-            out = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", "--quiet"], cwd=ROOT, check=True,
-                                 capture_output=True, text=True, timeout=600)
+            out = subprocess.run(
+                [sys.executable, "-m", "lutbake.cli", "bake", "--quiet"],
+                cwd=ROOT,
+                check=True,
+                capture_output=True,
+                text=True,
+                timeout=600,
+            )
             assert out.stdout.endswith(f"default LUT set in {README_LUTS.name}/\n"), out.stdout
         if not _holds_the_default_set(DEFAULT_LUTS):
             for name in default_specs():
@@ -99,9 +106,21 @@ def pytest_generate_tests(metafunc):
 # Modules that take the most CPU (bench/bench_suite.py), the longest first: pytest-xdist hands modules to
 # its workers in collection order (pyproject: --no-loadscope-reorder), so the long ones start early and
 # the short ones fill the end of the run on both workers, instead of one worker finishing a long module alone.
-LONGEST_FIRST = ("test_fileset.py", "test_exact_engine.py", "test_blender.py", "test_scene.py", "test_report.py", "test_cli_honest.py",
-                 "test_gltf_runtime.py", "test_bake.py", "test_api.py", "test_default_luts.py", "test_engine.py", "test_stability.py",
-                 "test_spectral.py")
+LONGEST_FIRST = (
+    "test_fileset.py",
+    "test_exact_engine.py",
+    "test_blender.py",
+    "test_scene.py",
+    "test_report.py",
+    "test_cli_honest.py",
+    "test_gltf_runtime.py",
+    "test_bake.py",
+    "test_api.py",
+    "test_default_luts.py",
+    "test_engine.py",
+    "test_stability.py",
+    "test_spectral.py",
+)
 
 
 @pytest.fixture(autouse=True)
@@ -134,7 +153,7 @@ def pytest_collection_modifyitems(items):
 
 
 def _device_of(report):
-    return dict(getattr(report, "user_properties", ())).get("kernel_device")   # collection reports have none
+    return dict(getattr(report, "user_properties", ())).get("kernel_device")  # collection reports have none
 
 
 def pytest_terminal_summary(terminalreporter):
@@ -142,9 +161,12 @@ def pytest_terminal_summary(terminalreporter):
     tr = terminalreporter
     tr.section("OpenCL runtimes exercised by the kernel tests")
     for key, label in _DEVICES:
-        counts = {outcome: sum(_device_of(r) == key for r in tr.stats.get(outcome, [])
-                               if r.when == "call" or outcome == "error")
-                  for outcome in ("passed", "failed", "error", "skipped")}
+        counts = {
+            outcome: sum(
+                _device_of(r) == key for r in tr.stats.get(outcome, []) if r.when == "call" or outcome == "error"
+            )
+            for outcome in ("passed", "failed", "error", "skipped")
+        }
         ran = ", ".join(f"{n} {o}" for o, n in counts.items() if n) or "no kernel test ran"
         tr.write_line(f"{key}: {label}: {ran}")
     for key, reason in _EXCLUDED.items():

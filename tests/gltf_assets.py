@@ -11,8 +11,15 @@ from pathlib import Path
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "khronos_iridescence.json"
 KHRONOS = json.loads(FIXTURE.read_text())["assets"]
-SHOWCASE = ["CompareIridescence", "IridescenceAbalone", "IridescenceLamp", "IridescenceSuzanne",
-            "IridescentDishWithOlives", "SunglassesKhronos", "CarConcept"]
+SHOWCASE = [
+    "CompareIridescence",
+    "IridescenceAbalone",
+    "IridescenceLamp",
+    "IridescenceSuzanne",
+    "IridescentDishWithOlives",
+    "SunglassesKhronos",
+    "CarConcept",
+]
 SPHERE_GRIDS = ["IridescenceDielectricSpheres", "IridescenceMetallicSpheres"]
 
 
@@ -34,11 +41,18 @@ def khronos_document(name: str) -> dict:
     else:
         materials = _table(facts["materials"], facts.get("material_count", 0))
         meshes = facts["meshes"]
-    doc = document(materials, [_mesh(m) for m in meshes],
-                   asset={"version": "2.0", "copyright": credit_line(name),
-                          "generator": "lutbake tests/gltf_assets.py from tests/fixtures/khronos_iridescence.json"},
-                   nodes=[{"mesh": k, **({"name": m["name"]} if "name" in m else {})} for k, m in enumerate(meshes)],
-                   scenes=[{"nodes": list(range(len(meshes)))}], scene=0)
+    doc = document(
+        materials,
+        [_mesh(m) for m in meshes],
+        asset={
+            "version": "2.0",
+            "copyright": credit_line(name),
+            "generator": "lutbake tests/gltf_assets.py from tests/fixtures/khronos_iridescence.json",
+        },
+        nodes=[{"mesh": k, **({"name": m["name"]} if "name" in m else {})} for k, m in enumerate(meshes)],
+        scenes=[{"nodes": list(range(len(meshes)))}],
+        scene=0,
+    )
     for key in ("textures", "samplers"):
         if key in facts:
             doc[key] = _table(facts[key])
@@ -47,7 +61,8 @@ def khronos_document(name: str) -> dict:
     if "variants" in facts:
         doc["extensions"] = {"KHR_materials_variants": {"variants": [{"name": v} for v in facts["variants"]]}}
     doc["extensionsUsed"] = facts.get("extensionsUsed") or sorted(
-        {e for m in materials for e in m.get("extensions", {})})
+        {e for m in materials for e in m.get("extensions", {})}
+    )
     return doc
 
 
@@ -100,8 +115,17 @@ def document(materials, meshes=None, **extra) -> dict:
     return {"asset": {"version": "2.0"}, "materials": materials, "meshes": meshes, **extra}
 
 
-def iridescent(ior=1.3, d_max=400.0, d_min=None, thickness_texture=False, base_ior=None, metallic=0.0,
-               colour=None, name=None, **keys) -> dict:
+def iridescent(
+    ior=1.3,
+    d_max=400.0,
+    d_min=None,
+    thickness_texture=False,
+    base_ior=None,
+    metallic=0.0,
+    colour=None,
+    name=None,
+    **keys,
+) -> dict:
     """A material with KHR_materials_iridescence (``keys`` go into the extension as they are)."""
     ext = {"iridescenceFactor": 1.0, "iridescenceIor": ior, "iridescenceThicknessMaximum": d_max, **keys}
     if d_min is not None:
@@ -143,8 +167,11 @@ def _sphere(stacks: int = 24, slices: int = 48):
     normals = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], -1).reshape(-1, 3)
     uvs = np.stack([u, v], -1).reshape(-1, 2)
     row = slices + 1
-    quads = [(i * row + j, (i + 1) * row + j, i * row + j + 1, (i + 1) * row + j + 1)
-             for i in range(stacks) for j in range(slices)]
+    quads = [
+        (i * row + j, (i + 1) * row + j, i * row + j + 1, (i + 1) * row + j + 1)
+        for i in range(stacks)
+        for j in range(slices)
+    ]
     indices = np.array([(a, c, b, c, d, b) for a, b, c, d in quads], dtype=np.uint16).ravel()
     return normals.astype(np.float32), normals.astype(np.float32), uvs.astype(np.float32), indices
 
@@ -173,24 +200,33 @@ def stand_in(doc: dict, folder: Path, name: str) -> Path:
     (folder / f"{name}.bin").write_bytes(b"".join(blobs))
     views = [{"buffer": 0, "byteOffset": int(o), "byteLength": len(b)} for o, b in zip(offsets, blobs)]
     count = len(positions)
-    accessors = [{"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3",
-                  "min": [-1, -1, -1], "max": [1, 1, 1]},
-                 {"bufferView": 1, "componentType": 5126, "count": count, "type": "VEC3"},
-                 {"bufferView": 2, "componentType": 5126, "count": count, "type": "VEC2"},
-                 {"bufferView": 3, "componentType": 5123, "count": len(indices), "type": "SCALAR"}]
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": count, "type": "VEC3", "min": [-1, -1, -1], "max": [1, 1, 1]},
+        {"bufferView": 1, "componentType": 5126, "count": count, "type": "VEC3"},
+        {"bufferView": 2, "componentType": 5126, "count": count, "type": "VEC2"},
+        {"bufferView": 3, "componentType": 5123, "count": len(indices), "type": "SCALAR"},
+    ]
     textures = doc.get("textures", [])
     images = max([t.get("source", 0) for t in textures] + [-1]) + 1
     for i in range(images):
         _gradient_png(folder / f"{name}-image{i}.png", i)
     used = [i for i, m in enumerate(doc["materials"]) if "KHR_materials_iridescence" in m.get("extensions", {})]
     attributes = {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2, "TEXCOORD_1": 2}
-    out = {"asset": doc["asset"], "materials": doc["materials"],
-           "textures": [{"source": t.get("source", 0), **({"sampler": t["sampler"]} if "sampler" in t else {})}
-                        for t in textures],
-           "samplers": doc.get("samplers", []), "images": [{"uri": f"{name}-image{i}.png"} for i in range(images)],
-           "buffers": [{"uri": f"{name}.bin", "byteLength": int(offsets[-1])}], "bufferViews": views,
-           "accessors": accessors,
-           "meshes": [{"primitives": [{"attributes": attributes, "indices": 3, "material": i}]} for i in used],
-           "nodes": [{"mesh": k} for k in range(len(used))], "scenes": [{"nodes": list(range(len(used)))}],
-           "scene": 0, "extensionsUsed": doc.get("extensionsUsed", [])}
+    out = {
+        "asset": doc["asset"],
+        "materials": doc["materials"],
+        "textures": [
+            {"source": t.get("source", 0), **({"sampler": t["sampler"]} if "sampler" in t else {})} for t in textures
+        ],
+        "samplers": doc.get("samplers", []),
+        "images": [{"uri": f"{name}-image{i}.png"} for i in range(images)],
+        "buffers": [{"uri": f"{name}.bin", "byteLength": int(offsets[-1])}],
+        "bufferViews": views,
+        "accessors": accessors,
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": 3, "material": i}]} for i in used],
+        "nodes": [{"mesh": k} for k in range(len(used))],
+        "scenes": [{"nodes": list(range(len(used)))}],
+        "scene": 0,
+        "extensionsUsed": doc.get("extensionsUsed", []),
+    }
     return write_gltf(folder / f"{name}.gltf", out)

@@ -15,10 +15,10 @@ import numpy as np
 from lutbake.physics.colorimetry import colorimetry
 
 LONG = np.longdouble
-U_LONG = float(np.finfo(LONG).eps) / 2    # 2^-64 on x86-64 (80-bit)
+U_LONG = float(np.finfo(LONG).eps) / 2  # 2^-64 on x86-64 (80-bit)
 U_DOUBLE = float(np.finfo(float).eps) / 2
 NODES = 32
-BAND_NM = (360, 830)                      # the colour weights' 1 nm table spans it
+BAND_NM = (360, 830)  # the colour weights' 1 nm table spans it
 
 
 @functools.lru_cache(maxsize=4)
@@ -26,11 +26,13 @@ def gauss_legendre(nodes=NODES):
     """(nodes, weights) of Gauss–Legendre on [−1, 1] and 2π, from mpmath at 40 digits (Newton on the
     Legendre recurrence), each rounded once to long double."""
     with mp.workdps(40):
-        def legendre(t):   # P_n(t), P_{n−1}(t)
+
+        def legendre(t):  # P_n(t), P_{n−1}(t)
             p0, p1 = mp.mpf(1), t
             for k in range(2, nodes + 1):
                 p0, p1 = p1, ((2 * k - 1) * t * p1 - (k - 1) * p0) / k
             return p1, p0
+
         x, omega = [], []
         for i in range(nodes):
             t = mp.cos(mp.pi * (i + 0.75) / (nodes + 0.5))
@@ -80,7 +82,7 @@ class BandRule:
         m, h = (LONG(a) + LONG(b)) / 2, (LONG(b) - LONG(a)) / 2
         self.nm = (m[:, None] + h[:, None] * x).ravel()
         h_omega = (h[:, None] * omega).ravel()
-        table = colorimetry("cie1931", "rec709").rgb_table                    # (3, 471): 360 … 830 nm
+        table = colorimetry("cie1931", "rec709").rgb_table  # (3, 471): 360 … 830 nm
         j = np.minimum(np.floor(self.nm), BAND_NM[1] - 1).astype(int)
         y0, y1 = table[:, j - BAND_NM[0]].astype(LONG), table[:, j + 1 - BAND_NM[0]].astype(LONG)
         w = y0 + (y1 - y0) * (self.nm - j)

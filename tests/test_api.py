@@ -88,23 +88,39 @@ def test_library_use_changes_no_process_state(tmp_path):
     temp.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("OCL_ICD_VENDORS", "LUTBAKE_DEVICE")}
     env.update(TMPDIR=str(temp), PYTHONPATH=str(ROOT), MPLBACKEND="svg")  # a report must not switch it
-    proc = subprocess.run([sys.executable, "-c", _PROBE, str(tmp_path)], env=env, capture_output=True,
-                          text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, "-c", _PROBE, str(tmp_path)], env=env, capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr
     seen = json.loads(proc.stdout)
-    assert seen == {"imported_by_import": [], "handlers_kept": True, "matplotlib_backend": "svg", "icd_env": None,
-                    "device": seen["device"], "temp": []}
+    assert seen == {
+        "imported_by_import": [],
+        "handlers_kept": True,
+        "matplotlib_backend": "svg",
+        "icd_env": None,
+        "device": seen["device"],
+        "temp": [],
+    }
     assert (tmp_path / "x.exr").is_file()
 
 
-@pytest.mark.parametrize("call, message", [
-    (lambda: lutbake.FilmPoints.build(thickness_nm=100.0, cos_theta=1.0, eta3=1.5),
-     "eta2 is missing: give eta2 or film"),
-    (lambda: lutbake.FilmPoints.build(film="SiO2", opd_nm=100.0, cos_theta=1.0, eta3=1.5),
-     "opd_nm needs a constant eta2; with film give thickness_nm"),
-    (lambda: lutbake.bake_lut(lutbake.default_specs()["lutbake-eta2-1.50"], "lut.txt"),
-     "out_path 'lut.txt' must end in .exr"),
-])
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (
+            lambda: lutbake.FilmPoints.build(thickness_nm=100.0, cos_theta=1.0, eta3=1.5),
+            "eta2 is missing: give eta2 or film",
+        ),
+        (
+            lambda: lutbake.FilmPoints.build(film="SiO2", opd_nm=100.0, cos_theta=1.0, eta3=1.5),
+            "opd_nm needs a constant eta2; with film give thickness_nm",
+        ),
+        (
+            lambda: lutbake.bake_lut(lutbake.default_specs()["lutbake-eta2-1.50"], "lut.txt"),
+            "out_path 'lut.txt' must end in .exr",
+        ),
+    ],
+)
 def test_library_errors_name_parameters_not_flags(call, message, tmp_path, monkeypatch):
     """The library speaks Python names; the command line shows the same line with its flags
     (tests/cli/test_hostile.py checks the CLI's side)."""
@@ -115,19 +131,31 @@ def test_library_errors_name_parameters_not_flags(call, message, tmp_path, monke
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("old, names", [
-    ("plan", ["Axis", "BakeSpec"]), ("points", ["FilmPoints"]), ("reference", ["reference_colour", "reference_rgb"]),
-    ("bake", ["BakeResult", "default_specs"]), ("sample", ["Atlas", "Lut"]), ("report", ["report_lut", "write_report"]),
-    ("scene_toml", ["load_scene"]), ("gltf_scene", ["load_gltf_scene"]), ("scene_plan", ["plan_scene"]),
-    ("scene_bake", ["bake_scene"]), ("check", ["run_checks"]),
-])
+@pytest.mark.parametrize(
+    "old, names",
+    [
+        ("plan", ["Axis", "BakeSpec"]),
+        ("points", ["FilmPoints"]),
+        ("reference", ["reference_colour", "reference_rgb"]),
+        ("bake", ["BakeResult", "default_specs"]),
+        ("sample", ["Atlas", "Lut"]),
+        ("report", ["report_lut", "write_report"]),
+        ("scene_toml", ["load_scene"]),
+        ("gltf_scene", ["load_gltf_scene"]),
+        ("scene_plan", ["plan_scene"]),
+        ("scene_bake", ["bake_scene"]),
+        ("check", ["run_checks"]),
+    ],
+)
 def test_public_names_keep_their_former_import_paths(old, names):
     """`from lutbake.plan import Axis` (the flat layout's paths) gives the same objects, with a warning naming
     the new path; run in a fresh process so the warning is not already spent."""
-    script = (f"import warnings; warnings.simplefilter('error')\n"
-              f"try:\n    import lutbake.{old}\nexcept DeprecationWarning as w:\n    print(w)\n"
-              f"warnings.simplefilter('ignore')\nimport lutbake, lutbake.{old} as m\n"
-              f"print(all(getattr(m, n) is getattr(lutbake, n) for n in {names!r}))")
+    script = (
+        f"import warnings; warnings.simplefilter('error')\n"
+        f"try:\n    import lutbake.{old}\nexcept DeprecationWarning as w:\n    print(w)\n"
+        f"warnings.simplefilter('ignore')\nimport lutbake, lutbake.{old} as m\n"
+        f"print(all(getattr(m, n) is getattr(lutbake, n) for n in {names!r}))"
+    )
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=ROOT)
     warning, same = out.stdout.strip().splitlines()
     assert warning.startswith(f"lutbake.{old} is lutbake.") and same == "True", out.stderr

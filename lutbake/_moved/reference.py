@@ -4,6 +4,10 @@ import warnings
 
 from lutbake.spectral.reference import reference_colour, reference_rgb
 
-__all__ = ['reference_colour', 'reference_rgb']
+__all__ = ["reference_colour", "reference_rgb"]
 
-warnings.warn("lutbake.reference is lutbake.spectral.reference (the modules moved into subpackages by stage)", DeprecationWarning, stacklevel=2)
+warnings.warn(
+    "lutbake.reference is lutbake.spectral.reference (the modules moved into subpackages by stage)",
+    DeprecationWarning,
+    stacklevel=2,
+)

@@ -4,6 +4,10 @@ import warnings
 
 from lutbake.quality.report import report_lut, write_report
 
-__all__ = ['report_lut', 'write_report']
+__all__ = ["report_lut", "write_report"]
 
-warnings.warn("lutbake.report is lutbake.quality.report (the modules moved into subpackages by stage)", DeprecationWarning, stacklevel=2)
+warnings.warn(
+    "lutbake.report is lutbake.quality.report (the modules moved into subpackages by stage)",
+    DeprecationWarning,
+    stacklevel=2,
+)

@@ -4,6 +4,10 @@ import warnings
 
 from lutbake.lut.sample import Atlas, Lut
 
-__all__ = ['Atlas', 'Lut']
+__all__ = ["Atlas", "Lut"]
 
-warnings.warn("lutbake.sample is lutbake.lut.sample (the modules moved into subpackages by stage)", DeprecationWarning, stacklevel=2)
+warnings.warn(
+    "lutbake.sample is lutbake.lut.sample (the modules moved into subpackages by stage)",
+    DeprecationWarning,
+    stacklevel=2,
+)

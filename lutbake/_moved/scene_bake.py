@@ -4,6 +4,10 @@ import warnings
 
 from lutbake.scene.bake import bake_scene
 
-__all__ = ['bake_scene']
+__all__ = ["bake_scene"]
 
-warnings.warn("lutbake.scene_bake is lutbake.scene.bake (the modules moved into subpackages by stage)", DeprecationWarning, stacklevel=2)
+warnings.warn(
+    "lutbake.scene_bake is lutbake.scene.bake (the modules moved into subpackages by stage)",
+    DeprecationWarning,
+    stacklevel=2,
+)

@@ -4,6 +4,10 @@ import warnings
 
 from lutbake.scene.plan import plan_scene
 
-__all__ = ['plan_scene']
+__all__ = ["plan_scene"]
 
-warnings.warn("lutbake.scene_plan is lutbake.scene.plan (the modules moved into subpackages by stage)", DeprecationWarning, stacklevel=2)
+warnings.warn(
+    "lutbake.scene_plan is lutbake.scene.plan (the modules moved into subpackages by stage)",
+    DeprecationWarning,
+    stacklevel=2,
+)

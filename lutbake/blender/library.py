@@ -25,29 +25,43 @@ from pathlib import Path
 import numpy as np
 
 from lutbake.blender.nodes import BLENDER_SPACES, OSL_MATERIALS, SceneReads, SliceRead, read_manifest
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.errors import ParameterError
+from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
 from lutbake.modes.exact import include_fields as exact_fields
-from lutbake.tables.lutfile import atomic_path, shader_template
-from lutbake.physics.materials import material
-from lutbake.physics.points import FilmPoints
 from lutbake.modes.runtime.accuracy import truth
 from lutbake.modes.runtime.files import include_fields as runtime_fields
 from lutbake.modes.runtime.files import read_runtime_table
 from lutbake.modes.runtime.model import runtime_colour
-from lutbake.lut.sample import Atlas, Lut
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.materials import material
+from lutbake.physics.points import FilmPoints
+from lutbake.tables.lutfile import atomic_path, shader_template
 
-__all__ = ["BLENDER_ENV", "RENDER_TOLERANCE", "BlenderError", "find_blender", "write_library", "render_probes",
-           "verify_library", "verify_osl", "osl_script", "osl_probe_points", "probe_points", "lutbake_probes",
-           "blender_thin_film_probes"]
+__all__ = [
+    "BLENDER_ENV",
+    "RENDER_TOLERANCE",
+    "BlenderError",
+    "find_blender",
+    "write_library",
+    "render_probes",
+    "verify_library",
+    "verify_osl",
+    "osl_script",
+    "osl_probe_points",
+    "probe_points",
+    "lutbake_probes",
+    "blender_thin_film_probes",
+]
 
 BLENDER_ENV = "LUTBAKE_BLENDER"
-RENDER_TOLERANCE = 1e-3      # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
+RENDER_TOLERANCE = 1e-3  # |ΔRGB| a render may differ from `lutbake sample` (issue 25's bound)
 _SCRIPTS = Path(__file__).parent
-_INSTALL = ("a Blender executable on PATH, or --blender PATH (a Blender executable, or a Python 3.11 with the "
-            "bpy module: python3.11 -m venv .venv-blender && .venv-blender/bin/pip install bpy==5.0.1), or "
-            f"${BLENDER_ENV}")
+_INSTALL = (
+    "a Blender executable on PATH, or --blender PATH (a Blender executable, or a Python 3.11 with the "
+    "bpy module: python3.11 -m venv .venv-blender && .venv-blender/bin/pip install bpy==5.0.1), or "
+    f"${BLENDER_ENV}"
+)
 
 
 class BlenderError(RuntimeError):
@@ -62,8 +76,9 @@ def find_blender(explicit=None) -> str:
         raise ParameterError("no Blender found: need {what}", what=_INSTALL)
     path = shutil.which(chosen)
     if path is None:
-        raise ParameterError("{blender} {chosen} is not an executable file: need {what}", chosen=repr(chosen),
-                             what=_INSTALL)
+        raise ParameterError(
+            "{blender} {chosen} is not an executable file: need {what}", chosen=repr(chosen), what=_INSTALL
+        )
     return path
 
 
@@ -71,8 +86,17 @@ def _command(blender: str, script: str, args: list) -> list:
     """A Python with bpy runs the script itself; a Blender executable runs it headless on an empty file."""
     if Path(blender).name.startswith("python"):
         return [blender, str(_SCRIPTS / script), *args]
-    return [blender, "--background", "--factory-startup", "--python-exit-code", "1",
-            "--python", str(_SCRIPTS / script), "--", *args]
+    return [
+        blender,
+        "--background",
+        "--factory-startup",
+        "--python-exit-code",
+        "1",
+        "--python",
+        str(_SCRIPTS / script),
+        "--",
+        *args,
+    ]
 
 
 def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> float:
@@ -82,12 +106,14 @@ def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> flo
         done = subprocess.run(_command(blender, script, args), capture_output=True, text=True, timeout=timeout_s)
     except subprocess.TimeoutExpired:
         raise BlenderError(f"{script} did not finish in {timeout_s:g} s") from None
-    if done.returncode == 2:   # the script's own one-line input error
+    if done.returncode == 2:  # the script's own one-line input error
         raise ParameterError("{detail}", detail=done.stderr.strip().splitlines()[-1].removeprefix("lutbake: error: "))
     if done.returncode != 0:
         lines = [line for line in (done.stderr + done.stdout).splitlines() if line.strip()]
-        raise BlenderError(f"Blender ({blender}) failed running {script} (exit {done.returncode}): "
-                           f"{lines[-1] if lines else 'no output'}")
+        raise BlenderError(
+            f"Blender ({blender}) failed running {script} (exit {done.returncode}): "
+            f"{lines[-1] if lines else 'no output'}"
+        )
     return time.perf_counter() - start
 
 
@@ -133,7 +159,7 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None, ru
     out.parent.mkdir(parents=True, exist_ok=True)
     args = [str(Path(manifest).absolute())] if manifest is not None else []
     with atomic_path(out) as tmp, tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
-        blend = tmp.with_name(tmp.name + ".blend")   # Blender saves only to a name ending in .blend
+        blend = tmp.with_name(tmp.name + ".blend")  # Blender saves only to a name ending in .blend
         for kind, text in scripts.items():
             (Path(folder) / f"lutbake_{kind}.osl").write_text(text)
             args += ["--osl", str(Path(folder) / f"lutbake_{kind}.osl")]
@@ -143,8 +169,14 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None, ru
         finally:
             blend.unlink(missing_ok=True)
     groups = {r.material: scene.group_name(r.material) for r in scene.reads} if scene else {}
-    return {"library": str(out), "groups": groups, "working_space": BLENDER_SPACES[scene.space] if scene else None,
-            "osl_materials": {kind: _osl_material(kind) for kind in scripts}, "blender": exe, "seconds": seconds}
+    return {
+        "library": str(out),
+        "groups": groups,
+        "working_space": BLENDER_SPACES[scene.space] if scene else None,
+        "osl_materials": {kind: _osl_material(kind) for kind in scripts},
+        "blender": exe,
+        "seconds": seconds,
+    }
 
 
 def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
@@ -161,16 +193,19 @@ def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.
     (equal channels) lutbake_iridescence with its one index, which the OSL script must equal there."""
     out = runtime_colour(table, cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)
     grey = (eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)
-    out[grey] = runtime_colour(table, cos_theta[grey], thickness_nm[grey], 1.0, eta2[grey], eta3[grey, 0],
-                               kappa3[grey, 0])
+    out[grey] = runtime_colour(
+        table, cos_theta[grey], thickness_nm[grey], 1.0, eta2[grey], eta3[grey, 0], kappa3[grey, 0]
+    )
     return out
 
 
 # Per OSL kind: the table reader, the template fields of its shader sources, and what the script computes
 # at probes with η1 = 1 and η3, κ3 (n, 3) per channel.
-_OSL_KINDS = {"exact": (read_exact_table, exact_fields, _exact_expected),
-              "runtime": (read_runtime_table, runtime_fields, _runtime_expected)}
-_OSL_PARAMETER = {"exact": "exact", "runtime": "runtime_table"}   # write_library's parameter of each kind
+_OSL_KINDS = {
+    "exact": (read_exact_table, exact_fields, _exact_expected),
+    "runtime": (read_runtime_table, runtime_fields, _runtime_expected),
+}
+_OSL_PARAMETER = {"exact": "exact", "runtime": "runtime_table"}  # write_library's parameter of each kind
 
 
 def _osl_material(kind: str) -> str:
@@ -183,7 +218,7 @@ def osl_script(kind: str, table) -> str:
     not such a table."""
     read, fields, _ = _OSL_KINDS[kind]
     path = Path(table).absolute()
-    if not path.is_file():   # before OpenEXR, which prints its own line about it
+    if not path.is_file():  # before OpenEXR, which prints its own line about it
         raise ParameterError(f"{{{_OSL_PARAMETER[kind]}}} {{table}} is not a file", table=repr(str(table)))
     meta = read(path).meta
     return shader_template(f"{kind}.osl.in").substitute({**fields(meta, path.name), "table_path": str(path)})
@@ -202,6 +237,7 @@ def render_probes(job: dict, blender=None) -> dict:
 
 # --- verify: a library's renders against lutbake sample --------------------------------------------
 
+
 @dataclass
 class Probes:
     """Probe points of one material (arrays of equal length) and what ``lutbake sample`` returns there."""
@@ -211,7 +247,7 @@ class Probes:
     thickness_nm: np.ndarray
     eta3: np.ndarray | None
     kappa3: np.ndarray | None
-    expected: np.ndarray | None   # None where only the points are needed
+    expected: np.ndarray | None  # None where only the points are needed
 
 
 def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
@@ -220,10 +256,12 @@ def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
     κ3 over the LUT's ranges and past them. Expected values: the atlas sampler, or the LUT's linear
     rule (what the node groups compute: docs/blender.md)."""
     rng = np.random.default_rng(seed)
-    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03 ** 0.5, 1.0, n - 2) ** 2])
+    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03**0.5, 1.0, n - 2) ** 2])
     lo, hi = read.thickness_nm
     pad = 0.05 * (hi - lo)
-    thickness = np.concatenate([[max(lo - pad, 0.0), hi + pad], rng.uniform(lo, hi, n - 2)]) if hi > lo else np.full(n, lo)
+    thickness = (
+        np.concatenate([[max(lo - pad, 0.0), hi + pad], rng.uniform(lo, hi, n - 2)]) if hi > lo else np.full(n, lo)
+    )
     table_path = scene.folder / read.image
     if isinstance(read, SliceRead):
         atlas = Atlas.load(table_path)
@@ -233,16 +271,24 @@ def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
     e, k = read.axes[2:]
     eta3 = rng.uniform(e["min"] - 0.05 * (e["max"] - e["min"]), e["max"] + 0.05 * (e["max"] - e["min"]), n)
     kappa3 = rng.uniform(k["min"], k["max"] + 0.05 * (k["max"] - k["min"]), n)
-    pts = FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, thickness_nm=thickness,
-                           eta3=eta3, kappa3=kappa3)
+    pts = FilmPoints.build(
+        eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, thickness_nm=thickness, eta3=eta3, kappa3=kappa3
+    )
     return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
 
 
 def lutbake_probes(scene: SceneReads, library, probes: list, closure: str = "glossy", first: int = 0) -> tuple:
     """(job materials, job probes) rendering ``probes`` (one ``Probes`` per material of ``scene``) with the
     library's materials; probe material indices start at ``first``."""
-    materials = [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": scene.group_name(p.material),
-                  "closure": closure} for p in probes]
+    materials = [
+        {
+            "kind": "lutbake",
+            "library": str(Path(library).absolute()),
+            "material": scene.group_name(p.material),
+            "closure": closure,
+        }
+        for p in probes
+    ]
     return materials, [_probe(first + i, p, j) for i, p in enumerate(probes) for j in range(len(p.cos_theta))]
 
 
@@ -253,21 +299,36 @@ def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple:
     549 nm, a named base at 611/549/464 nm (exact.base_rgb, the dominant wavelengths of the Rec.709
     primaries, as exact.base_rgb; the principled base at 549 nm). Probe material indices start at ``first``."""
     n = len(points)
-    eta2 = (np.full(n, float(points.film.index(RGB_WAVELENGTHS_NM[1])[0])) if points.film is not None
-            else np.broadcast_to(points.eta2, n))
+    eta2 = (
+        np.full(n, float(points.film.index(RGB_WAVELENGTHS_NM[1])[0]))
+        if points.film is not None
+        else np.broadcast_to(points.eta2, n)
+    )
     if points.base is not None:
         eta_rgb, kappa_rgb = (np.broadcast_to(v, (n, 3)) for v in points.base.index(np.array(RGB_WAVELENGTHS_NM)))
     else:
-        eta_rgb, kappa_rgb = (np.repeat(np.broadcast_to(v, n)[:, None], 3, axis=1) for v in (points.eta3, points.kappa3))
+        eta_rgb, kappa_rgb = (
+            np.repeat(np.broadcast_to(v, n)[:, None], 3, axis=1) for v in (points.eta3, points.kappa3)
+        )
     cos_theta, thickness = np.broadcast_to(points.cos_theta, n), np.broadcast_to(points.thickness_nm, n)
-    probes = [{"material": first + int((kappa_rgb[i] > 0).any()), "cos_theta": float(cos_theta[i]),
-               "thickness_nm": float(thickness[i]), "eta2": float(eta2[i]), "eta3": float(eta_rgb[i, 1]),
-               "eta3_rgb": eta_rgb[i].tolist(), "kappa3_rgb": kappa_rgb[i].tolist()} for i in range(n)]
+    probes = [
+        {
+            "material": first + int((kappa_rgb[i] > 0).any()),
+            "cos_theta": float(cos_theta[i]),
+            "thickness_nm": float(thickness[i]),
+            "eta2": float(eta2[i]),
+            "eta3": float(eta_rgb[i, 1]),
+            "eta3_rgb": eta_rgb[i].tolist(),
+            "kappa3_rgb": kappa_rgb[i].tolist(),
+        }
+        for i in range(n)
+    ]
     return [{"kind": "principled"}, {"kind": "conductor"}], probes
 
 
-def verify_library(manifest, library, blender=None, engine: str = "CYCLES", closure: str = "glossy",
-                   n_points: int = 24) -> dict:
+def verify_library(
+    manifest, library, blender=None, engine: str = "CYCLES", closure: str = "glossy", n_points: int = 24
+) -> dict:
     """Render every material of ``library`` (written by ``write_library`` for ``manifest``) at
     ``n_points`` probes in ``engine`` and compare with ``lutbake sample``.
 
@@ -292,12 +353,21 @@ def verify_library(manifest, library, blender=None, engine: str = "CYCLES", clos
     by_material = {p.material: float(errors[i].max()) for i, p in enumerate(probes)}
     worst = float(errors.max())
     clamped = sum(int((p.expected < 0).any(axis=-1).sum()) for p in probes)
-    return {"engine": engine, "closure": closure, "blender": result["blender"], "points": n_points * len(probes),
-            "max_abs_rgb": worst, "max_half_ulps": float((errors / _half_ulp(expected)).max()),
-            "by_material": by_material, "negative_points": clamped,
-            "spread_max": float(max(result["spread"])),
-            "tolerance": RENDER_TOLERANCE, "ok": worst <= RENDER_TOLERANCE,
-            "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
+    return {
+        "engine": engine,
+        "closure": closure,
+        "blender": result["blender"],
+        "points": n_points * len(probes),
+        "max_abs_rgb": worst,
+        "max_half_ulps": float((errors / _half_ulp(expected)).max()),
+        "by_material": by_material,
+        "negative_points": clamped,
+        "spread_max": float(max(result["spread"])),
+        "tolerance": RENDER_TOLERANCE,
+        "ok": worst <= RENDER_TOLERANCE,
+        "render_seconds": result["render_seconds"],
+        "seconds": result["seconds"],
+    }
 
 
 def osl_probe_points(n_points: int, seed: int = 0) -> tuple:
@@ -307,9 +377,9 @@ def osl_probe_points(n_points: int, seed: int = 0) -> tuple:
     rng = np.random.default_rng(seed)
     films = (1.2, 1.6, 2.4)
     eta2 = np.repeat(films, -(-n_points // len(films)))[:n_points]
-    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03 ** 0.5, 1.0, n_points - 2) ** 2])
+    cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03**0.5, 1.0, n_points - 2) ** 2])
     thickness = np.concatenate([[0.0, 1000.0], rng.uniform(0.0, 1000.0, n_points - 2)])
-    metals = [np.array(material(name).index(np.array(RGB_WAVELENGTHS_NM))) for name in METALS]   # (2, 3) each
+    metals = [np.array(material(name).index(np.array(RGB_WAVELENGTHS_NM))) for name in METALS]  # (2, 3) each
     eta3, kappa3 = np.empty((n_points, 3)), np.empty((n_points, 3))
     for j in range(n_points):
         if j % 2:
@@ -329,25 +399,46 @@ def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed
     read, _, expected_colour = _OSL_KINDS[kind]
     cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
     expected = np.maximum(expected_colour(read(table), cos_theta, thickness, eta2, eta3, kappa3), 0.0)
-    probes = [{"cos_theta": float(cos_theta[j]), "thickness_nm": float(thickness[j]), "eta2": float(eta2[j]),
-               "eta3_rgb": eta3[j].tolist(), "kappa3_rgb": kappa3[j].tolist()} for j in range(n_points)]
-    job = {"engine": "CYCLES", "osl": True, "probes": probes,
-           "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": _osl_material(kind)}]}
+    probes = [
+        {
+            "cos_theta": float(cos_theta[j]),
+            "thickness_nm": float(thickness[j]),
+            "eta2": float(eta2[j]),
+            "eta3_rgb": eta3[j].tolist(),
+            "kappa3_rgb": kappa3[j].tolist(),
+        }
+        for j in range(n_points)
+    ]
+    job = {
+        "engine": "CYCLES",
+        "osl": True,
+        "probes": probes,
+        "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": _osl_material(kind)}],
+    }
     result = render_probes(job, blender)
     rgb = np.asarray(result["rgb"])
     errors = np.abs(rgb - expected)
     de = delta_e00(rgb, np.maximum(truth(cos_theta, thickness, eta2, eta3, kappa3), 0.0))
     dielectric = kappa3[:, 0] == 0
-    return {"engine": "CYCLES (OSL)", "material": _osl_material(kind), "blender": result["blender"],
-            "points": n_points, "max_abs_rgb": float(errors.max()), "spread_max": float(max(result["spread"])),
-            "de00_max_vs_truth": float(de.max()), "de00_max_dielectric_vs_truth": float(de[dielectric].max()),
-            "tolerance": RENDER_TOLERANCE, "ok": bool(errors.max() <= RENDER_TOLERANCE),
-            "render_seconds": result["render_seconds"], "seconds": result["seconds"]}
+    return {
+        "engine": "CYCLES (OSL)",
+        "material": _osl_material(kind),
+        "blender": result["blender"],
+        "points": n_points,
+        "max_abs_rgb": float(errors.max()),
+        "spread_max": float(max(result["spread"])),
+        "de00_max_vs_truth": float(de.max()),
+        "de00_max_dielectric_vs_truth": float(de[dielectric].max()),
+        "tolerance": RENDER_TOLERANCE,
+        "ok": bool(errors.max() <= RENDER_TOLERANCE),
+        "render_seconds": result["render_seconds"],
+        "seconds": result["seconds"],
+    }
 
 
 def _half_ulp(values):
     """The spacing of half floats at ``values`` (normal range; 2⁻²⁴ below it)."""
-    exponent = np.floor(np.log2(np.maximum(np.abs(values), 2.0 ** -14)))
+    exponent = np.floor(np.log2(np.maximum(np.abs(values), 2.0**-14)))
     return 2.0 ** (exponent - 10)
 
 

@@ -42,18 +42,41 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MANIFEST_FORMAT", "BLENDER_SPACES", "EXACT_MATERIAL", "RUNTIME_MATERIAL", "OSL_MATERIALS", "SliceRead",
-           "LutRead", "SceneReads", "read_manifest", "NumpyGraph", "NodeGraph", "slice_program", "lut_program",
-           "bilinear_program", "read_program", "evaluate", "build_library", "build_osl", "main"]
+__all__ = [
+    "MANIFEST_FORMAT",
+    "BLENDER_SPACES",
+    "EXACT_MATERIAL",
+    "RUNTIME_MATERIAL",
+    "OSL_MATERIALS",
+    "SliceRead",
+    "LutRead",
+    "SceneReads",
+    "read_manifest",
+    "NumpyGraph",
+    "NodeGraph",
+    "slice_program",
+    "lut_program",
+    "bilinear_program",
+    "read_program",
+    "evaluate",
+    "build_library",
+    "build_osl",
+    "main",
+]
 
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 # lutbake's working spaces (lutbake/io/names.py) as Blender's colour-management names.
-BLENDER_SPACES = {"rec709": "Linear Rec.709", "acescg": "ACEScg", "rec2020": "Linear Rec.2020",
-                  "p3": "Linear DCI-P3 D65"}
+BLENDER_SPACES = {
+    "rec709": "Linear Rec.709",
+    "acescg": "ACEScg",
+    "rec2020": "Linear Rec.2020",
+    "p3": "Linear DCI-P3 D65",
+}
 GROUP_PREFIX = "lutbake"
 
 
 # --- what the manifest asks for -------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class SliceRead:
@@ -61,7 +84,7 @@ class SliceRead:
     scanlines from the top; thickness range in nm (equal ends: one row)."""
 
     material: str
-    image: str            # file name, beside the manifest
+    image: str  # file name, beside the manifest
     rect: tuple
     thickness_nm: tuple
 
@@ -77,7 +100,7 @@ class LutRead:
 
     material: str
     image: str
-    axes: tuple           # four dicts: name, min, max, count, spacing
+    axes: tuple  # four dicts: name, min, max, count, spacing
     eta1: float
     eta2: float
     tiles_x: str = "eta3"  # the axis whose nodes lay the tiles along x (the header's packing; κ3 since v6)
@@ -94,7 +117,7 @@ class LutRead:
 
 @dataclass(frozen=True)
 class SceneReads:
-    name: str             # the manifest's stem: the scene's name in group names
+    name: str  # the manifest's stem: the scene's name in group names
     folder: Path
     space: str
     reads: tuple
@@ -112,11 +135,15 @@ def read_manifest(path) -> SceneReads:
     try:
         doc = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise ValueError(f"manifest {str(path)!r} is not JSON ({exc.__class__.__name__}): give the SCENE.json "
-                         "that `lutbake bake --scene` wrote") from None
+        raise ValueError(
+            f"manifest {str(path)!r} is not JSON ({exc.__class__.__name__}): give the SCENE.json "
+            "that `lutbake bake --scene` wrote"
+        ) from None
     if not isinstance(doc, dict) or (doc.get("format"), doc.get("format_version")) != MANIFEST_FORMAT:
-        raise ValueError(f"manifest {str(path)!r}: format is not {MANIFEST_FORMAT[0]!r} version {MANIFEST_FORMAT[1]} "
-                         "(the SCENE.json that `lutbake bake --scene` writes)")
+        raise ValueError(
+            f"manifest {str(path)!r}: format is not {MANIFEST_FORMAT[0]!r} version {MANIFEST_FORMAT[1]} "
+            "(the SCENE.json that `lutbake bake --scene` writes)"
+        )
     try:
         space = doc["settings"]["space"]
         if space not in BLENDER_SPACES:
@@ -158,6 +185,7 @@ def _read_of(folder: Path, name: str, entry: dict):
 
 
 # --- node programs: the maths of each read, once ---------------------------------------------------
+
 
 def bilinear_program(g, image: str, size: tuple, x, y):
     """Bilinear read at texel-space (x, y), y in scanlines from the top, measured between texel centres
@@ -215,9 +243,11 @@ def _warp(g, value, spacing: str, snell):
 
 def _axis_coordinate(g, value, axis: dict, snell):
     """Node coordinate f = clamp(u, 0, 1)·(N − 1) of ``value`` on ``axis`` (docs/lut-format.md, Axes)."""
-    if "corner" in axis:   # only the default LUTs zoom into the corner; scene and glTF bakes never do
-        raise ValueError(f"axis {axis['name']}: the grazing corner's zoom (LUT format v5) has no node graph; "
-                         "Blender reads scene and glTF bakes")
+    if "corner" in axis:  # only the default LUTs zoom into the corner; scene and glTF bakes never do
+        raise ValueError(
+            f"axis {axis['name']}: the grazing corner's zoom (LUT format v5) has no node graph; "
+            "Blender reads scene and glTF bakes"
+        )
     lo, hi = _warp(g, float(axis["min"]), axis["spacing"], snell), _warp(g, float(axis["max"]), axis["spacing"], snell)
     span = g.math("SUBTRACT", hi, lo)
     unit = g.clamp01(g.math("DIVIDE", g.math("SUBTRACT", _warp(g, value, axis["spacing"], snell), lo), span))
@@ -243,7 +273,7 @@ def lut_program(g, read: LutRead, size: tuple, cos_theta, thickness_nm, eta3, ka
     n_cos, n_opd = int(ax_cos["count"]), int(ax_opd["count"])
     corners = {}
     for da in (0, 1):
-        for db in (0, 1):   # x = tile column·N_cos + f_cos, y = tile row·N_opd + f_opd (layout.TileLayout)
+        for db in (0, 1):  # x = tile column·N_cos + f_cos, y = tile row·N_opd + f_opd (layout.TileLayout)
             eta3_node, kappa3_node = g.math("ADD", a, float(da)), g.math("ADD", b, float(db))
             column, row = (eta3_node, kappa3_node) if read.tiles_x == "eta3" else (kappa3_node, eta3_node)
             x = g.math("ADD", g.math("MULTIPLY", column, n_cos), f_cos)
@@ -264,15 +294,20 @@ def read_program(g, read, size: tuple, inputs: dict):
 # --- numpy: the programs evaluated (float64), for tests without Blender ---------------------------
 
 _NUMPY_OPS = {
-    "ADD": lambda a, b: a + b, "SUBTRACT": lambda a, b: a - b, "MULTIPLY": lambda a, b: a * b,
-    "DIVIDE": lambda a, b: a / b, "MINIMUM": lambda a, b: _np().minimum(a, b),
-    "MAXIMUM": lambda a, b: _np().maximum(a, b), "SQRT": lambda a, _: _np().sqrt(a),
+    "ADD": lambda a, b: a + b,
+    "SUBTRACT": lambda a, b: a - b,
+    "MULTIPLY": lambda a, b: a * b,
+    "DIVIDE": lambda a, b: a / b,
+    "MINIMUM": lambda a, b: _np().minimum(a, b),
+    "MAXIMUM": lambda a, b: _np().maximum(a, b),
+    "SQRT": lambda a, _: _np().sqrt(a),
     "FLOOR": lambda a, _: _np().floor(a),
 }
 
 
 def _np():
     import numpy
+
     return numpy
 
 
@@ -416,10 +451,15 @@ def _finish(graph: NodeGraph, group_out, result):
 
 
 def _bilinear_group(image: str, size: tuple, images: dict, subgroups: dict):
-    tree, group_in, group_out = _new_group(f"{GROUP_PREFIX} bilinear {image}",
-                                           {"X": (0.0, -1e9, 1e9), "Y": (0.0, -1e9, 1e9)}, ("Colour", "NodeSocketColor"))
-    tree.description = (f"Bilinear read of {image} at texel-space (X, Y), Y in EXR scanlines from the top: four "
-                        "Closest reads at texel centres and three lerps (exact on every engine)")
+    tree, group_in, group_out = _new_group(
+        f"{GROUP_PREFIX} bilinear {image}",
+        {"X": (0.0, -1e9, 1e9), "Y": (0.0, -1e9, 1e9)},
+        ("Colour", "NodeSocketColor"),
+    )
+    tree.description = (
+        f"Bilinear read of {image} at texel-space (X, Y), Y in EXR scanlines from the top: four "
+        "Closest reads at texel centres and three lerps (exact on every engine)"
+    )
     graph = NodeGraph(tree, images, subgroups)
     x, y = (_Out(group_in.outputs[name], 0) for name in ("X", "Y"))
     _finish(graph, group_out, bilinear_program(graph, image, size, x, y))
@@ -433,10 +473,15 @@ def _read_group(scene: SceneReads, read, images: dict, subgroups: dict):
         (e, k) = read.axes[2:]
         inputs.update({"Eta3": (0.5 * (e["min"] + e["max"]), 0.0, 100.0), "Kappa3": (float(k["min"]), 0.0, 100.0)})
     tree, group_in, group_out = _new_group(scene.group_name(read.material), inputs, ("Fresnel", "NodeSocketColor"))
-    rule = ("one bilinear read of its 2D slice" if isinstance(read, SliceRead)
-            else "the linear rule of its 4D LUT (lutbake sample --interpolation linear)")
-    tree.description = (f"Linear RGB Fresnel term of lutbake material {read.material!r} ({read.image}: {rule}). "
-                        f"Cos Theta: N·V (or V·H); thickness baked over {lo:g}-{hi:g} nm")
+    rule = (
+        "one bilinear read of its 2D slice"
+        if isinstance(read, SliceRead)
+        else "the linear rule of its 4D LUT (lutbake sample --interpolation linear)"
+    )
+    tree.description = (
+        f"Linear RGB Fresnel term of lutbake material {read.material!r} ({read.image}: {rule}). "
+        f"Cos Theta: N·V (or V·H); thickness baked over {lo:g}-{hi:g} nm"
+    )
     graph = NodeGraph(tree, images, subgroups)
     values = {name: _Out(group_in.outputs[name], 0) for name in read.inputs}
     image = images[read.image]
@@ -493,18 +538,21 @@ def _group_node(group):
         node = tree.nodes.new("ShaderNodeGroup")
         node.node_tree = group
         return node
+
     return add
 
 
 def _script_node(text):
     """An OSL Script node running ``text``; Cycles compiles it and makes its sockets (the scene's
     engine must be Cycles with OSL on)."""
+
     def add(tree):
         node = tree.nodes.new("ShaderNodeScript")
         node.mode, node.script = "INTERNAL", text
         if not node.inputs:
             raise RuntimeError(f"Cycles did not compile {text.name} (see Blender's messages above)")
         return node
+
     return add
 
 
@@ -542,10 +590,16 @@ RUNTIME_MATERIAL = f"{GROUP_PREFIX} runtime"
 # The OSL materials, by the script's file name (lutbake writes lutbake_exact.osl, lutbake_runtime.osl):
 # material name and asset description.
 OSL_MATERIALS = {
-    "lutbake_exact": (EXACT_MATERIAL, "Exact thin-film Fresnel term for any film and base (Cycles with Open "
-                                      "Shading Language on): lutbake's exact runtime mode"),
-    "lutbake_runtime": (RUNTIME_MATERIAL, "Thin-film Fresnel term for any film and base from lutbake's runtime "
-                                          "table (Cycles with Open Shading Language on): 24 texel reads, no loop"),
+    "lutbake_exact": (
+        EXACT_MATERIAL,
+        "Exact thin-film Fresnel term for any film and base (Cycles with Open "
+        "Shading Language on): lutbake's exact runtime mode",
+    ),
+    "lutbake_runtime": (
+        RUNTIME_MATERIAL,
+        "Thin-film Fresnel term for any film and base from lutbake's runtime "
+        "table (Cycles with Open Shading Language on): 24 texel reads, no loop",
+    ),
 }
 
 
@@ -556,8 +610,9 @@ def build_osl(osl_path) -> None:
 
     path = Path(osl_path)
     if path.stem not in OSL_MATERIALS:
-        raise ValueError(f"--osl {str(path)!r}: the file name must be one of "
-                         f"{', '.join(f'{stem}.osl' for stem in OSL_MATERIALS)}")
+        raise ValueError(
+            f"--osl {str(path)!r}: the file name must be one of {', '.join(f'{stem}.osl' for stem in OSL_MATERIALS)}"
+        )
     name, description = OSL_MATERIALS[path.stem]
     scene = bpy.context.scene
     scene.render.engine, scene.cycles.shading_system = "CYCLES", True
@@ -577,7 +632,13 @@ def _bundled_modules() -> None:
     executable has them there, the bpy module keeps them beside its scripts."""
     import bpy
 
-    folder = Path(bpy.utils.resource_path("LOCAL")) / "python" / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "site-packages"
+    folder = (
+        Path(bpy.utils.resource_path("LOCAL"))
+        / "python"
+        / "lib"
+        / f"python{sys.version_info[0]}.{sys.version_info[1]}"
+        / "site-packages"
+    )
     if folder.is_dir() and str(folder) not in sys.path:
         sys.path.append(str(folder))
 
@@ -588,13 +649,17 @@ def main(argv=None) -> int:
     import bpy
 
     if argv is None:
-        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+        argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
     parser = argparse.ArgumentParser(prog="nodes.py", description=__doc__.split("\n")[0])
     parser.add_argument("manifest", nargs="?", help="SCENE.json of a lutbake scene bake")
     parser.add_argument("--out", required=True, help="the .blend to write")
     parser.add_argument("--link", action="store_true", help="reference the EXRs by path instead of packing them")
-    parser.add_argument("--osl", action="append", default=[],
-                        help="lutbake_exact.osl or lutbake_runtime.osl (lutbake writes them for a table); repeatable")
+    parser.add_argument(
+        "--osl",
+        action="append",
+        default=[],
+        help="lutbake_exact.osl or lutbake_runtime.osl (lutbake writes them for a table); repeatable",
+    )
     args = parser.parse_args(argv)
     if args.manifest is None and not args.osl:
         parser.error("give a manifest, --osl, or both")

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import bpy
 
-CELL_PX = 4          # default pixels per probe along x and y; all but the outer ring are measured
+CELL_PX = 4  # default pixels per probe along x and y; all but the outer ring are measured
 PROPERTIES = ("thickness_nm", "eta2", "eta3", "kappa3", "eta3_rgb", "kappa3_rgb")
 
 
@@ -50,8 +50,13 @@ def _attribute(tree, name: str, output: str = "Fac"):
 
 # The reading node's inputs (a node group's, or the exact mode's Script node's) and the probe property
 # feeding each; a colour input (the Script node's per-channel η3, κ3) takes the property's _rgb vector.
-FED_INPUTS = {"Thickness (nm)": "thickness_nm", "Thickness": "thickness_nm", "Eta2": "eta2", "Eta3": "eta3",
-              "Kappa3": "kappa3"}
+FED_INPUTS = {
+    "Thickness (nm)": "thickness_nm",
+    "Thickness": "thickness_nm",
+    "Eta2": "eta2",
+    "Eta3": "eta3",
+    "Kappa3": "kappa3",
+}
 
 
 def lutbake_material(spec: dict):
@@ -66,7 +71,7 @@ def lutbake_material(spec: dict):
             per_channel = socket.type == "RGBA"
             prop = FED_INPUTS[socket.name] + ("_rgb" if per_channel else "")
             tree.links.new(_attribute(tree, prop, "Vector" if per_channel else "Fac"), socket)
-    if spec.get("closure", "glossy") == "emission":   # the group alone, without the engine's closure storage
+    if spec.get("closure", "glossy") == "emission":  # the group alone, without the engine's closure storage
         emission = tree.nodes.new("ShaderNodeEmission")
         tree.links.new(group.outputs[0], emission.inputs["Color"])
         tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
@@ -110,8 +115,12 @@ def glossy_material(spec: dict):
     return material
 
 
-MATERIALS = {"lutbake": lutbake_material, "principled": principled_material, "conductor": conductor_material,
-             "glossy": glossy_material}
+MATERIALS = {
+    "lutbake": lutbake_material,
+    "principled": principled_material,
+    "conductor": conductor_material,
+    "glossy": glossy_material,
+}
 
 
 def _plane(material):
@@ -134,7 +143,7 @@ def build_scene(job: dict):
         tilt = math.acos(probe["cos_theta"])
         obj.location = (i + 0.5 - n / 2, 0.0, 0.0)
         obj.rotation_euler = (tilt, 0.0, 0.0)
-        obj.scale = (1.0, 1.2 / probe["cos_theta"], 1.0)   # its projection overfills the cell in y
+        obj.scale = (1.0, 1.2 / probe["cos_theta"], 1.0)  # its projection overfills the cell in y
         for prop in PROPERTIES:
             if prop in probe:
                 obj[prop] = probe[prop]
@@ -175,7 +184,7 @@ def render(job: dict) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         scene.render.filepath = str(Path(folder) / "probes.exr")
         seconds = []
-        for _ in range(job.get("repeat", 1)):   # later renders reuse what the first compiled (EEVEE's shaders)
+        for _ in range(job.get("repeat", 1)):  # later renders reuse what the first compiled (EEVEE's shaders)
             start = time.perf_counter()
             bpy.ops.render.render(write_still=True)
             seconds.append(time.perf_counter() - start)
@@ -184,19 +193,28 @@ def render(job: dict) -> dict:
         pixels = [0.0] * (width * height * 4)
         image.pixels.foreach_get(pixels)
     rgb, spread, cell = [], [], job.get("cell_px", CELL_PX)
-    ring = int(0.05 * cell) + 1   # pixels wholly inside the plane, which spans 0.05–0.95 of its cell
+    ring = int(0.05 * cell) + 1  # pixels wholly inside the plane, which spans 0.05–0.95 of its cell
     for i in range(len(job["probes"])):
-        inner = [pixels[4 * (row * width + col): 4 * (row * width + col) + 3]
-                 for row in range(ring, cell - ring) for col in range(i * cell + ring, (i + 1) * cell - ring)]
+        inner = [
+            pixels[4 * (row * width + col) : 4 * (row * width + col) + 3]
+            for row in range(ring, cell - ring)
+            for col in range(i * cell + ring, (i + 1) * cell - ring)
+        ]
         rgb.append([sum(p[c] for p in inner) / len(inner) for c in range(3)])
         spread.append(max(max(p[c] for p in inner) - min(p[c] for p in inner) for c in range(3)))
-    return {"rgb": rgb, "spread": spread, "engine": job["engine"], "blender": bpy.app.version_string,
-            "render_seconds": seconds[0], "repeat_seconds": seconds[1:]}
+    return {
+        "rgb": rgb,
+        "spread": spread,
+        "engine": job["engine"],
+        "blender": bpy.app.version_string,
+        "render_seconds": seconds[0],
+        "repeat_seconds": seconds[1:],
+    }
 
 
 def main(argv=None) -> int:
     if argv is None:
-        argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+        argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
     job_path, result_path = argv
     result = render(json.loads(Path(job_path).read_text()))
     Path(result_path).write_text(json.dumps(result))

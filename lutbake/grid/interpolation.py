@@ -38,7 +38,7 @@ import numpy as np
 
 __all__ = ["cubic_taps", "mirrors_low_end"]
 
-_EVEN_SPACINGS = ("sqrt", "root4")   # value = lo + c·s² or lo + c·s⁴: even in the node coordinate s
+_EVEN_SPACINGS = ("sqrt", "root4")  # value = lo + c·s² or lo + c·s⁴: even in the node coordinate s
 
 
 def mirrors_low_end(spacing: str, lo: float, zoomed: bool = False) -> bool:
@@ -57,13 +57,13 @@ def cubic_taps(f, count: int, mirror_low: bool):
     """
     lower = np.clip(np.floor(f), 0, count - 2)
     t = f - lower
-    if count == 2:   # one cell: linear, on taps −1 … 2
+    if count == 2:  # one cell: linear, on taps −1 … 2
         return (lower - 1).astype(np.int64), np.stack([0.0 * t, 1.0 - t, t, 0.0 * t], axis=-1)
     t2, t3 = t * t, t * t * t
-    below = (-t3 + 2.0 * t2 - t) / 2.0          # node lower − 1
-    w0 = (3.0 * t3 - 5.0 * t2 + 2.0) / 2.0       # node lower
-    w1 = (-3.0 * t3 + 4.0 * t2 + t) / 2.0        # node lower + 1
-    above = (t3 - t2) / 2.0                      # node lower + 2
+    below = (-t3 + 2.0 * t2 - t) / 2.0  # node lower − 1
+    w0 = (3.0 * t3 - 5.0 * t2 + 2.0) / 2.0  # node lower
+    w1 = (-3.0 * t3 + 4.0 * t2 + t) / 2.0  # node lower + 1
+    above = (t3 - t2) / 2.0  # node lower + 2
     at_low, at_high = lower == 0, lower == count - 2
     if mirror_low:
         low = np.stack([w0, w1 + below, above, 0.0 * t], axis=-1)

@@ -29,9 +29,9 @@ import numpy as np
 
 __all__ = ["TileLayout", "TILE_ORDERS", "MAX_SIDE"]
 
-_CHUNK_CELLS = 1 << 20   # a band of rows holds about this many texels (the integrators' memory bound)
-TILE_ORDERS = ("eta3", "kappa3")   # the axis whose nodes lay the tiles along x
-MAX_SIDE = 4096   # texels a side nearly every WebGL2 device loads (docs/engines.md)
+_CHUNK_CELLS = 1 << 20  # a band of rows holds about this many texels (the integrators' memory bound)
+TILE_ORDERS = ("eta3", "kappa3")  # the axis whose nodes lay the tiles along x
+MAX_SIDE = 4096  # texels a side nearly every WebGL2 device loads (docs/engines.md)
 
 
 @dataclass(frozen=True)
@@ -90,7 +90,7 @@ class TileLayout:
         """``image`` (height, width, channels), packed by ``source`` (the same grid), packed by this layout."""
         along_x, along_y = source._tiles
         grid = image.reshape(along_y, self.n_opd, along_x, self.n_cos, -1)
-        if source.tiles_x != self.tiles_x:   # (tile_y, D, tile_x, cos) → the tile axes swapped
+        if source.tiles_x != self.tiles_x:  # (tile_y, D, tile_x, cos) → the tile axes swapped
             grid = grid.transpose(2, 1, 0, 3, 4)
         width, height = self.size
         return np.ascontiguousarray(grid.reshape(height, width, -1))
@@ -99,5 +99,14 @@ class TileLayout:
         """The header's record of this packing (lutfile checks a read header against it)."""
         width, height = self.size
         tiles_y = TILE_ORDERS[1 - TILE_ORDERS.index(self.tiles_x)]
-        return {"layout": "tiles", "width": width, "height": height, "tile_x": "cos_theta", "tile_y": "opd_nm",
-                "tiles_x": self.tiles_x, "tiles_y": tiles_y, "tile_width": self.n_cos, "tile_height": self.n_opd}
+        return {
+            "layout": "tiles",
+            "width": width,
+            "height": height,
+            "tile_x": "cos_theta",
+            "tile_y": "opd_nm",
+            "tiles_x": self.tiles_x,
+            "tiles_y": tiles_y,
+            "tile_width": self.n_cos,
+            "tile_height": self.n_opd,
+        }

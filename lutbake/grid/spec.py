@@ -30,16 +30,25 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.errors import ParameterError
-from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS
 from lutbake.grid.layout import _CHUNK_CELLS, TileLayout
-from lutbake.physics.points import FilmPoints, check_value
+from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS
+from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.physics.optics import normal_admittance, round_trip_amplitude
+from lutbake.physics.points import FilmPoints, check_value
 from lutbake.spectral.rules import DEFAULT_SAMPLES_PER_CYCLE, WAVENUMBER_SPAN_PER_NM, rule_ladder
 
-__all__ = ["Axis", "BakeSpec", "parse_axis", "axis_from_header", "AXIS_NAMES", "SPACINGS", "PRECISIONS",
-           "COMPUTE_PRECISIONS", "METHODS"]
+__all__ = [
+    "Axis",
+    "BakeSpec",
+    "parse_axis",
+    "axis_from_header",
+    "AXIS_NAMES",
+    "SPACINGS",
+    "PRECISIONS",
+    "COMPUTE_PRECISIONS",
+    "METHODS",
+]
 
 AXIS_NAMES = ("cos_theta", "opd_nm", "eta3", "kappa3")
 AXIS_UNITS = {"cos_theta": "1", "opd_nm": "nm", "eta3": "1", "kappa3": "1"}
@@ -60,11 +69,11 @@ MAX_CELLS = 2_000_000_000
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
-_BISECTIONS = 64          # Axis.from_unit with a corner: the base coordinate to 2^-64
-_NEWTON_STEPS = 60        # the uniform-root4 spacing's inverse: converged to rounding (monotone steps)
-CORNER_COS = 1e-5         # where a corner LUT evaluates its cos θ1 = 0 nodes: the limit along each node's curve
-SCREEN_CHUNK = 1 << 16   # texels capped_texels screens at once
-SERIES_CHUNK = 1 << 16   # columns (or pairs) integrate._series_chunks builds at once
+_BISECTIONS = 64  # Axis.from_unit with a corner: the base coordinate to 2^-64
+_NEWTON_STEPS = 60  # the uniform-root4 spacing's inverse: converged to rounding (monotone steps)
+CORNER_COS = 1e-5  # where a corner LUT evaluates its cos θ1 = 0 nodes: the limit along each node's curve
+SCREEN_CHUNK = 1 << 16  # texels capped_texels screens at once
+SERIES_CHUNK = 1 << 16  # columns (or pairs) integrate._series_chunks builds at once
 _MIB = 1 << 20
 # The memory model (``BakeSpec.memory``): what a bake holds, in bytes, item by item from the code that
 # allocates it, with per-item constants fitted to peak RSS measured by bench/bench_memory.py (a process
@@ -75,21 +84,21 @@ MEMORY = {
     # the running one's compiler, program and self-check, per runtime family (docs/devices.md#memory). A bake
     # measures it once its integrator is up; before that the largest stands for whichever will run.
     "runtime": {"numpy": 48 * _MIB, "opencl": {"pocl": 170 * _MIB, "intel": 270 * _MIB}},
-    "tables": 24 * _MIB,           # the closed form's Cauchy table (8.3 MB) on the host and the device
-    "column": 192,                 # per (cos θ, η3, κ3): the series and rule constants on the device (24 REAL)
-    "pair": 56,                    # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
-    "build": 1400,                 # per column of the chunk (2^16 at most) integrate._series_chunks builds and copies
-                                   # to the device at a time: the chunk and its temporaries (827 B traced)
-    "pair_table": 48 * _MIB,       # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
-    "plan_cell": 12,               # per cell of a band during the plan: the texels left and the series bounds
-    "probes": 30 * _MIB,           # the ground truth at the 48 probes (lutbake/spectral/reference.py) ...
+    "tables": 24 * _MIB,  # the closed form's Cauchy table (8.3 MB) on the host and the device
+    "column": 192,  # per (cos θ, η3, κ3): the series and rule constants on the device (24 REAL)
+    "pair": 56,  # per (cos θ, D): X and e^{i2πXν0} on the device, the plan's term counts, offsets
+    "build": 1400,  # per column of the chunk (2^16 at most) integrate._series_chunks builds and copies
+    # to the device at a time: the chunk and its temporaries (827 B traced)
+    "pair_table": 48 * _MIB,  # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
+    "plan_cell": 12,  # per cell of a band during the plan: the texels left and the series bounds
+    "probes": 30 * _MIB,  # the ground truth at the 48 probes (lutbake/spectral/reference.py) ...
     "probes_per_um": 0.52 * _MIB,  # ... and its growth with the thickest film D (finer rules)
     "flight_cell": {"series": 45, "direct": 80},  # per cell of the bands in flight (the one written, the next baking;
-                                                   # one where the image is one band): RGB float64 on the host and
-                                                   # the device, the lists of texels left (direct: levels)
-    "numpy_cell": 168,             # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
-    "numpy_chunk": 330,            # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
-    "screen": 750 << 16,           # capped_texels: one chunk of 2^16 texels screened and filtered
+    # one where the image is one band): RGB float64 on the host and
+    # the device, the lists of texels left (direct: levels)
+    "numpy_cell": 168,  # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
+    "numpy_chunk": 330,  # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
+    "screen": 750 << 16,  # capped_texels: one chunk of 2^16 texels screened and filtered
 }
 
 
@@ -152,7 +161,7 @@ class Axis:
             return np.sqrt(np.sqrt(np.maximum(v, 0.0)))
         if self.spacing == "uniform-root4":
             return (1.0 - ROOT4_WEIGHT) * v + ROOT4_WEIGHT * np.sqrt(np.sqrt(np.maximum(v, 0.0)))
-        if self.spacing in ADMITTANCE_SPACINGS:   # Y3² = (η3 − η1)(η3 + η1) + (η1 cos θ1)²: no cancellation
+        if self.spacing in ADMITTANCE_SPACINGS:  # Y3² = (η3 − η1)(η3 + η1) + (η1 cos θ1)²: no cancellation
             root = np.sqrt(np.maximum((v - inc[0]) * (v + inc[0]) + inc[1], 0.0))
             return root if self.spacing == "admittance" else np.sqrt(root)
         return v
@@ -162,13 +171,13 @@ class Axis:
             return w * w
         if self.spacing == "root4":
             return np.square(w * w)
-        if self.spacing == "uniform-root4":   # r = v^¼ solves (1 − g) r⁴ + g r = w, convex and increasing in
-            g = ROOT4_WEIGHT                    # r ≥ 0: Newton's steps from above converge monotonically
+        if self.spacing == "uniform-root4":  # r = v^¼ solves (1 − g) r⁴ + g r = w, convex and increasing in
+            g = ROOT4_WEIGHT  # r ≥ 0: Newton's steps from above converge monotonically
             r = np.maximum(np.sqrt(np.sqrt(np.maximum(w, 0.0) / (1.0 - g))), w / g)
             for _ in range(_NEWTON_STEPS):
-                r = r - ((1.0 - g) * r ** 4 + g * r - w) / (4.0 * (1.0 - g) * r ** 3 + g)
+                r = r - ((1.0 - g) * r**4 + g * r - w) / (4.0 * (1.0 - g) * r**3 + g)
             return np.square(r * r)
-        if self.spacing in ADMITTANCE_SPACINGS:   # η3 from η3² = Y3² − (η1 cos θ1)² + η1²
+        if self.spacing in ADMITTANCE_SPACINGS:  # η3 from η3² = Y3² − (η1 cos θ1)² + η1²
             y2 = w * w if self.spacing == "admittance" else np.square(w * w)
             return np.sqrt(np.maximum(y2 - inc[1] + inc[0] ** 2, 0.0))
         return w
@@ -251,8 +260,14 @@ class Axis:
         return text
 
     def describe(self) -> dict:
-        out = {"name": self.name, "unit": self.unit, "min": self.lo, "max": self.hi,
-               "count": self.count, "spacing": self.spacing}
+        out = {
+            "name": self.name,
+            "unit": self.unit,
+            "min": self.lo,
+            "max": self.hi,
+            "count": self.count,
+            "spacing": self.spacing,
+        }
         if self.corner:
             out["corner"] = {"nodes": self.corner[0], "scale": self.corner[1]}
         return out
@@ -274,23 +289,31 @@ def _ratio_h(a, b):
 def axis_from_header(record: dict) -> Axis:
     """The Axis a LUT header's axis record describes (``Axis.describe``'s inverse)."""
     corner = record.get("corner")
-    return Axis(record["name"], record["min"], record["max"], record["count"], record["spacing"],
-                (corner["nodes"], corner["scale"]) if corner else ())
+    return Axis(
+        record["name"],
+        record["min"],
+        record["max"],
+        record["count"],
+        record["spacing"],
+        (corner["nodes"], corner["scale"]) if corner else (),
+    )
 
 
 def parse_axis(name: str, text: str) -> Axis:
     """Parse 'A:B:N', 'A:B:N:SPACING' or 'A:B:N:SPACING:CORNER_NODES:CORNER_SCALE' into a validated Axis."""
     parts = text.split(":")
     if len(parts) not in (3, 4, 6):
-        raise ParameterError(f"{{{name}}} {{text}} is not A:B:N, A:B:N:SPACING or A:B:N:SPACING:NODES:SCALE",
-                             text=repr(text))
+        raise ParameterError(
+            f"{{{name}}} {{text}} is not A:B:N, A:B:N:SPACING or A:B:N:SPACING:NODES:SCALE", text=repr(text)
+        )
     try:
         lo, hi = float(parts[0]), float(parts[1])
         count = int(parts[2])
         corner = (int(parts[4]), float(parts[5])) if len(parts) == 6 else ()
     except ValueError:
-        raise ParameterError(f"{{{name}}} {{text}}: A, B and SCALE must be numbers, N and NODES integers",
-                             text=repr(text)) from None
+        raise ParameterError(
+            f"{{{name}}} {{text}}: A, B and SCALE must be numbers, N and NODES integers", text=repr(text)
+        ) from None
     spacing = parts[3] if len(parts) >= 4 else "uniform"
     return validate_axis(Axis(name, lo, hi, count, spacing, corner))
 
@@ -304,14 +327,19 @@ def validate_axis(axis: Axis) -> Axis:
         except ValueError as exc:
             raise ParameterError(field + ": {detail}", detail=str(exc)) from None
     if not axis.hi > axis.lo:
-        raise ParameterError(field + " range {range} is empty or reversed: need A < B",
-                             range=f"{axis.lo:g}:{axis.hi:g}")
+        raise ParameterError(
+            field + " range {range} is empty or reversed: need A < B", range=f"{axis.lo:g}:{axis.hi:g}"
+        )
     if not 2 <= axis.count <= MAX_COUNT:
-        raise ParameterError(field + " count {count} is not allowed: need 2 <= N <= {most}",
-                             count=axis.count, most=MAX_COUNT)
+        raise ParameterError(
+            field + " count {count} is not allowed: need 2 <= N <= {most}", count=axis.count, most=MAX_COUNT
+        )
     if axis.spacing not in SPACINGS:
-        raise ParameterError(field + " spacing {spacing} is not one of {allowed}", spacing=repr(axis.spacing),
-                             allowed=", ".join(SPACINGS))
+        raise ParameterError(
+            field + " spacing {spacing} is not one of {allowed}",
+            spacing=repr(axis.spacing),
+            allowed=", ".join(SPACINGS),
+        )
     if axis.spacing in ADMITTANCE_SPACINGS and axis.name != "eta3":
         raise ParameterError(field + f" spacing {axis.spacing!r} is allowed only on {{eta3}}")
     if axis.corner:
@@ -324,17 +352,22 @@ def _validate_corner(axis: Axis, field: str) -> None:
     (the base coordinate keeps a share), a finite scale > 0."""
     nodes, scale = axis.corner
     if axis.name not in CORNER_AXES:
-        raise ParameterError(field + " has no grazing corner: a corner zoom is allowed on {allowed}",
-                             allowed=", ".join(CORNER_AXES))
+        raise ParameterError(
+            field + " has no grazing corner: a corner zoom is allowed on {allowed}", allowed=", ".join(CORNER_AXES)
+        )
     if axis.name != "eta3" and axis.lo != 0.0:
         raise ParameterError(field + " corner zoom needs A = 0, got {lo}", lo=f"{axis.lo:g}")
     if not (isinstance(nodes, int) and 1 <= nodes <= axis.count - 2):
-        raise ParameterError(field + " corner nodes {nodes} is not allowed: need 1 <= nodes <= N - 2 = {most} "
-                             "(Axis.resized(N) keeps a zoom's share of the nodes)", nodes=repr(nodes),
-                             most=axis.count - 2)
+        raise ParameterError(
+            field + " corner nodes {nodes} is not allowed: need 1 <= nodes <= N - 2 = {most} "
+            "(Axis.resized(N) keeps a zoom's share of the nodes)",
+            nodes=repr(nodes),
+            most=axis.count - 2,
+        )
     if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
-        raise ParameterError(field + " corner scale {scale} is not allowed: need a finite number > 0",
-                             scale=repr(scale))
+        raise ParameterError(
+            field + " corner scale {scale} is not allowed: need a finite number > 0", scale=repr(scale)
+        )
 
 
 @dataclass(frozen=True)
@@ -402,14 +435,19 @@ class BakeSpec:
             validate_axis(axis)
         eta3 = self.axis["eta3"]
         if eta3.spacing in ADMITTANCE_SPACINGS and eta3.lo < self.eta1:
-            raise ParameterError("{eta3} " + eta3.spacing + " spacing needs A >= eta1 ({eta1}), got {lo}",
-                                 eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
+            raise ParameterError(
+                "{eta3} " + eta3.spacing + " spacing needs A >= eta1 ({eta1}), got {lo}",
+                eta1=f"{self.eta1:g}",
+                lo=f"{eta3.lo:g}",
+            )
         if eta3.corner and eta3.lo != self.eta1:
-            raise ParameterError("{eta3} corner zoom needs A = eta1 ({eta1}), got {lo}",
-                                 eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}")
+            raise ParameterError(
+                "{eta3} corner zoom needs A = eta1 ({eta1}), got {lo}", eta1=f"{self.eta1:g}", lo=f"{eta3.lo:g}"
+            )
         if self.has_corner and self.axis["cos_theta"].lo != 0.0:
-            raise ParameterError("{cos_theta} range must start at 0 under a corner zoom, got {lo}",
-                                 lo=f"{self.axis['cos_theta'].lo:g}")
+            raise ParameterError(
+                "{cos_theta} range must start at 0 under a corner zoom, got {lo}", lo=f"{self.axis['cos_theta'].lo:g}"
+            )
         if not 1.0 <= self.samples_per_cycle <= 64.0:
             raise ValueError(f"samples per cycle {self.samples_per_cycle:g} is outside [1, 64]")
         if self.cells > MAX_CELLS:
@@ -427,8 +465,7 @@ class BakeSpec:
     def cells(self) -> int:
         return math.prod(self.shape)
 
-    def memory(self, backend: str = "opencl", integrator: str = "series", runtime_bytes: int = None,
-               plan=None) -> dict:
+    def memory(self, backend: str = "opencl", integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
         """Estimated peak resident memory of baking this spec, bytes, by item (``MEMORY``): ``peak`` is the
         runtime, what persists through the bake, and the larger of its two phases (the plan with the probes
         beside it and the capped texels' screen; the bands), plus the whole image where the file's tiles
@@ -440,8 +477,8 @@ class BakeSpec:
         from lutbake.spectral.rules import MAX_WAVENUMBER_NODES
 
         n_cos, n_opd, n_eta3, n_kappa3 = self.shape
-        band = min(self.cells, max(_CHUNK_CELLS, self.image_size[0]))   # row_chunks: at least one image row
-        exr = band * 9 * (2 if self.precision == "half" else 4)         # stored, its planes and their bytes
+        band = min(self.cells, max(_CHUNK_CELLS, self.image_size[0]))  # row_chunks: at least one image row
+        exr = band * 9 * (2 if self.precision == "half" else 4)  # stored, its planes and their bytes
         probes = MEMORY["probes"] + MEMORY["probes_per_um"] * self.axis["opd_nm"].hi / 1000.0
         before_work = MEMORY["runtime"]["numpy"] if backend == "numpy" else max(MEMORY["runtime"]["opencl"].values())
         items = {"runtime": runtime_bytes or before_work}
@@ -459,9 +496,9 @@ class BakeSpec:
             plan = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
             if integrator == "direct":
                 plan += MEMORY["screen"]
-            in_flight = min(self.cells, 2 * band)   # bake.write_lut: band k written while band k + 1 bakes
+            in_flight = min(self.cells, 2 * band)  # bake.write_lut: band k written while band k + 1 bakes
             items["phases"] = max(plan, in_flight * MEMORY["flight_cell"][integrator] + exr)
-        if self.file_layout != self.layout:   # bake.write_lut re-tiles the whole image, as stored, in 3 copies
+        if self.file_layout != self.layout:  # bake.write_lut re-tiles the whole image, as stored, in 3 copies
             items["retile"] = self.cells * 9 * (2 if self.precision == "half" else 4)
         items["peak"] = sum(items.values())
         return items
@@ -471,12 +508,21 @@ class BakeSpec:
         any work. ``backend`` 'auto' takes the larger of the two paths' peaks (it may fall back to numpy)."""
         names = ("opencl", "numpy") if backend == "auto" else (backend,)
         peak = max(self.memory(name, integrator, runtime_bytes, plan)["peak"] for name in names)
-        return {"cells": self.cells, "output_bytes": self.cells * 3 * (2 if self.precision == "half" else 4),
-                "peak_memory_bytes": peak,
-                "seconds_estimate": {name: self.cells / rate for name, rate in _CELLS_PER_SECOND.items()}}
+        return {
+            "cells": self.cells,
+            "output_bytes": self.cells * 3 * (2 if self.precision == "half" else 4),
+            "peak_memory_bytes": peak,
+            "seconds_estimate": {name: self.cells / rate for name, rate in _CELLS_PER_SECOND.items()},
+        }
 
-    def check_budget(self, memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB, backend: str = "auto",
-                     integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+    def check_budget(
+        self,
+        memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+        backend: str = "auto",
+        integrator: str = "series",
+        runtime_bytes: int = None,
+        plan=None,
+    ) -> dict:
         """The budget, or ParameterError when ``memory_limit_gib`` is not a finite number > 0 or the
         estimated peak memory exceeds it."""
         try:
@@ -484,13 +530,19 @@ class BakeSpec:
         except (TypeError, ValueError):
             limit = float("nan")
         if not (math.isfinite(limit) and limit > 0):
-            raise ParameterError("{memory_limit_gib} {value} is not allowed: must be a finite number of GiB > 0",
-                                 value=repr(memory_limit_gib))
+            raise ParameterError(
+                "{memory_limit_gib} {value} is not allowed: must be a finite number of GiB > 0",
+                value=repr(memory_limit_gib),
+            )
         b = self.budget(backend, integrator, runtime_bytes, plan)
         if b["peak_memory_bytes"] > limit * (1 << 30):
-            raise ParameterError("grid {grid} needs about {need} GiB of memory, over the {limit} GiB limit: use "
-                                 "fewer nodes or raise {memory_limit_gib}", grid=" x ".join(map(str, self.shape)),
-                                 need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}", limit=f"{limit:g}")
+            raise ParameterError(
+                "grid {grid} needs about {need} GiB of memory, over the {limit} GiB limit: use "
+                "fewer nodes or raise {memory_limit_gib}",
+                grid=" x ".join(map(str, self.shape)),
+                need=f"{b['peak_memory_bytes'] / (1 << 30):.1f}",
+                limit=f"{limit:g}",
+            )
         return b
 
     @property
@@ -515,7 +567,7 @@ class BakeSpec:
             return cos_t
         axis = self.axis[name]
         v = np.array(np.broadcast_to(axis.values(cos_t, self.eta1), (axis.count, cos_t.size)))
-        if axis.corner:   # a zoom's cos θ1 axis starts at 0 (validated): its first column is the limit
+        if axis.corner:  # a zoom's cos θ1 axis starts at 0 (validated): its first column is the limit
             v[:, 0] = self._grazing_column(axis)
         return v
 
@@ -582,8 +634,9 @@ class BakeSpec:
         cos_t, opd, kappa3 = (self.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
         i_cos, i_opd, _, k_index = self.layout.nodes(np.arange(width), np.arange(y0, y1))
         kappa_rows = np.unique(k_index)
-        rt = round_trip_amplitude(self.eta1, self.eta2, self.eta3_columns()[None, :],
-                                  kappa3[kappa_rows][:, i_cos], cos_t[i_cos][None, :])
+        rt = round_trip_amplitude(
+            self.eta1, self.eta2, self.eta3_columns()[None, :], kappa3[kappa_rows][:, i_cos], cos_t[i_cos][None, :]
+        )
         rt_rows = rt[np.searchsorted(kappa_rows, k_index)]
         g2 = normal_admittance(self.eta2, 0.0, self.eta1, cos_t[i_cos]).real
         cycles = opd[i_opd][:, i_cos] * (g2 / self.eta2 * WAVENUMBER_SPAN_PER_NM)[None, :]
@@ -614,16 +667,20 @@ class BakeSpec:
         count, best, worst = 0, 0.0, tuple(np.empty(0) for _ in range(4))
         worst_bound = np.empty(0)
         for start in range(0, width * n_kappa3, SCREEN_CHUNK):
-            column = np.arange(start, min(start + SCREEN_CHUNK, width * n_kappa3))   # x major, κ3 minor
+            column = np.arange(start, min(start + SCREEN_CHUNK, width * n_kappa3))  # x major, κ3 minor
             x = column // n_kappa3
             i_cos = self.layout.nodes(x, 0)[0]
             cos_t, eta3, kappa3 = cos_nodes[i_cos], eta3_columns[x], kappa_nodes[column % n_kappa3, i_cos]
             cols = np.flatnonzero(self.truncation_estimate(cos_t, np.full(cos_t.shape, opd[-1, 0]), eta3, kappa3))
             step = max(1, SCREEN_CHUNK // n_opd)
             for c in range(0, cols.size, step):
-                sub = cols[c:c + step]
-                params = (np.repeat(cos_t[sub], n_opd), opd[:, i_cos[sub]].T.ravel(),
-                          np.repeat(eta3[sub], n_opd), np.repeat(kappa3[sub], n_opd))
+                sub = cols[c : c + step]
+                params = (
+                    np.repeat(cos_t[sub], n_opd),
+                    opd[:, i_cos[sub]].T.ravel(),
+                    np.repeat(eta3[sub], n_opd),
+                    np.repeat(kappa3[sub], n_opd),
+                )
                 bound = self.truncation_estimate(*params)
                 mask = bound > 0
                 if keep is not None and mask.any():
@@ -647,8 +704,12 @@ class BakeSpec:
         i_cos, i_opd, _, i_kappa3 = self.layout.nodes(np.arange(width)[None, :], np.arange(y0, y1)[:, None])
         shape = (y1 - y0, width)
         cos_t, opd, kappa3 = (self.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
-        return (np.broadcast_to(cos_t[i_cos], shape), np.broadcast_to(opd[i_opd, i_cos], shape),
-                np.broadcast_to(self.eta3_columns(), shape), np.broadcast_to(kappa3[i_kappa3, i_cos], shape))
+        return (
+            np.broadcast_to(cos_t[i_cos], shape),
+            np.broadcast_to(opd[i_opd, i_cos], shape),
+            np.broadcast_to(self.eta3_columns(), shape),
+            np.broadcast_to(kappa3[i_kappa3, i_cos], shape),
+        )
 
     def describe(self) -> dict:
         """The inputs that define the LUT (hashed into ``content_hash``)."""

@@ -18,16 +18,20 @@ import numpy as np
 
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.physics.points import FilmPoints
 from lutbake.io.progress import no_progress
+from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour, subset
 
 __all__ = ["truth_colours", "fast_colours"]
 
 _BATCH_POINTS = 2048
 # Any valid grid: evaluate() reads the spec's film, colour settings and ladder, never its axes.
-_ANY_AXES = (Axis("cos_theta", 0.0, 1.0, 2), Axis("opd_nm", 0.0, 1.0, 2), Axis("eta3", 1.0, 2.0, 2),
-             Axis("kappa3", 0.0, 1.0, 2))
+_ANY_AXES = (
+    Axis("cos_theta", 0.0, 1.0, 2),
+    Axis("opd_nm", 0.0, 1.0, 2),
+    Axis("eta3", 1.0, 2.0, 2),
+    Axis("kappa3", 0.0, 1.0, 2),
+)
 
 
 def _batches(n: int):
@@ -48,12 +52,14 @@ def truth_colours(points: FilmPoints, observer: str, space: str, progress=no_pro
 def fast_colours(points: FilmPoints, observer: str, space: str, backend="auto", progress=no_progress) -> tuple:
     """(RGB, XYZ, truncation bound) of constant-index points through the bake's integrator: ``backend``
     names one ('auto', 'opencl', 'numpy') or is one already made (integrate.backend)."""
-    from lutbake.physics.colorimetry import colorimetry
     from lutbake.integrate.opencl import backend as make_backend
+    from lutbake.physics.colorimetry import colorimetry
 
     if points.film or points.base:
-        raise ParameterError("{fast} takes constant indices ({eta2}, {eta3}, {kappa3}): named materials "
-                             "({film}, {base}) need the ground truth (omit {fast})")
+        raise ParameterError(
+            "{fast} takes constant indices ({eta2}, {eta3}, {kappa3}): named materials "
+            "({film}, {base}) need the ground truth (omit {fast})"
+        )
     integrator = make_backend(backend) if isinstance(backend, str) else backend
     n = len(points)
     rgb, bound = np.empty((n, 3)), np.zeros(n)

@@ -28,12 +28,11 @@ from lutbake.errors import OpenCLUnavailable
 from lutbake.io.signals import stop_signals_held
 from lutbake.io.usercache import pyopencl_caches_where_writable
 
-pyopencl_caches_where_writable()   # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
+pyopencl_caches_where_writable()  # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
 
-__all__ = ["Runtime", "runtime_of", "opencl_devices", "device_key", "device_label", "find_devices",
-           "find_device"]
+__all__ = ["Runtime", "runtime_of", "opencl_devices", "device_key", "device_label", "find_devices", "find_device"]
 
-SYSTEM_VENDORS = "/etc/OpenCL/vendors"   # the ICD loaders' vendor folder when no variable names one
+SYSTEM_VENDORS = "/etc/OpenCL/vendors"  # the ICD loaders' vendor folder when no variable names one
 FAMILIES = {"Portable Computing Language": ("pocl", "PoCL"), "Intel(R) OpenCL": ("intel", "Intel OpenCL")}
 
 
@@ -94,8 +93,12 @@ class Runtime:
 
 
 class _DlInfo(ctypes.Structure):
-    _fields_ = [("dli_fname", ctypes.c_char_p), ("dli_fbase", ctypes.c_void_p), ("dli_sname", ctypes.c_char_p),
-                ("dli_saddr", ctypes.c_void_p)]
+    _fields_ = [
+        ("dli_fname", ctypes.c_char_p),
+        ("dli_fbase", ctypes.c_void_p),
+        ("dli_sname", ctypes.c_char_p),
+        ("dli_saddr", ctypes.c_void_p),
+    ]
 
 
 def _library_of(platform):
@@ -106,7 +109,7 @@ def _library_of(platform):
         return None
     try:
         dladdr = ctypes.CDLL(None).dladdr
-    except (OSError, AttributeError):   # no dladdr in this C library
+    except (OSError, AttributeError):  # no dladdr in this C library
         return None
     dladdr.argtypes = [ctypes.c_void_p, ctypes.POINTER(_DlInfo)]
     table = ctypes.c_void_p.from_address(platform.int_ptr).value
@@ -133,11 +136,15 @@ def runtime_of(device) -> Runtime:
     if platform.int_ptr not in _RUNTIMES:
         name, version = platform.name.strip(), platform.version.strip()
         family, title = FAMILIES.get(name, (name.split()[0].lower() if name else "opencl", name))
-        pocl = re.search(r"PoCL (\S+)", version)   # 'OpenCL 3.0 PoCL 3.1+debian  Linux, …, LLVM 15.0.6, …'
+        pocl = re.search(r"PoCL (\S+)", version)  # 'OpenCL 3.0 PoCL 3.1+debian  Linux, …, LLVM 15.0.6, …'
         llvm = re.search(r"LLVM (\d[\w.]*)", version)
-        _RUNTIMES[platform.int_ptr] = Runtime(family, title, _origin(_library_of(platform)),
-                                              pocl[1] if pocl else device.driver_version.strip() or version,
-                                              llvm[1] if llvm and family == "pocl" else "")
+        _RUNTIMES[platform.int_ptr] = Runtime(
+            family,
+            title,
+            _origin(_library_of(platform)),
+            pocl[1] if pocl else device.driver_version.strip() or version,
+            llvm[1] if llvm and family == "pocl" else "",
+        )
     return _RUNTIMES[platform.int_ptr]
 
 
@@ -161,7 +168,7 @@ def opencl_devices() -> list:
         raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
     devices = []
     for platform in platforms:
-        with contextlib.suppress(cl.Error):   # a platform offering no device (PoCL with POCL_DEVICES=none)
+        with contextlib.suppress(cl.Error):  # a platform offering no device (PoCL with POCL_DEVICES=none)
             devices += platform.get_devices()
     return sorted(devices, key=_preference)
 

@@ -27,18 +27,42 @@ from importlib import resources
 
 import numpy as np
 
-from lutbake.integrate.devices import _every_runtime_registered, _opencl, device_key, device_label, find_device, find_devices, \
-    opencl_devices, runtime_of
 from lutbake.errors import OpenCLUnavailable, ParameterError
-from lutbake.spectral.fourier import (DEFAULT_SERIES_TOLERANCE, NU0_PER_NM, SERIES_BUDGET, series_coefficients, series_colour,
-                      weight_transform)
-from lutbake.physics.optics import film_reflectance, normal_admittance
 from lutbake.grid.spec import SERIES_CHUNK
+from lutbake.integrate.devices import (
+    _every_runtime_registered,
+    _opencl,
+    device_key,
+    device_label,
+    find_device,
+    find_devices,
+    opencl_devices,
+    runtime_of,
+)
+from lutbake.physics.optics import film_reflectance, normal_admittance
 from lutbake.physics.points import FilmPoints
+from lutbake.spectral.fourier import (
+    DEFAULT_SERIES_TOLERANCE,
+    NU0_PER_NM,
+    SERIES_BUDGET,
+    series_coefficients,
+    series_colour,
+    weight_transform,
+)
 from lutbake.spectral.reference import subset
 
-__all__ = ["NumpyBackend", "OpenCLBackend", "backend", "OpenCLUnavailable", "DeviceCannotRun", "opencl_devices",
-           "find_device", "device_key", "device_label", "self_check_error"]
+__all__ = [
+    "NumpyBackend",
+    "OpenCLBackend",
+    "backend",
+    "OpenCLUnavailable",
+    "DeviceCannotRun",
+    "opencl_devices",
+    "find_device",
+    "device_key",
+    "device_label",
+    "self_check_error",
+]
 
 
 class NumpyBackend:
@@ -46,7 +70,7 @@ class NumpyBackend:
 
     name = "numpy"
     device = "numpy / float64 (host CPU)"
-    _CELLS_X_NODES = 1 << 19   # (cell, node) pairs per optics call: ~310 bytes each (plan.MEMORY)
+    _CELLS_X_NODES = 1 << 19  # (cell, node) pairs per optics call: ~310 bytes each (plan.MEMORY)
 
     def bake_rows(self, spec, y0, y1):
         stacks = spec.texel_stacks(a.ravel() for a in spec.cell_params(y0, y1))
@@ -69,7 +93,7 @@ class NumpyBackend:
             cells = np.flatnonzero(levels == level)
             step = max(1, self._CELLS_X_NODES // rule.count)
             for s in range(0, cells.size, step):
-                i = cells[s:s + step]
+                i = cells[s : s + step]
                 refl = film_reflectance(subset(stack, i).as_column(), rule.wavelength_nm)[2]
                 out[i] = refl @ rule.weights.T
         return out
@@ -108,8 +132,10 @@ def _candidate_devices(selector=None):
             with _every_runtime_registered():
                 return [cl.create_some_context(interactive=False).devices[0]]
         except (cl.Error, RuntimeError, ValueError) as exc:  # pyopencl's words for a selector it cannot match
-            raise ValueError(f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} names no OpenCL device ({exc}): "
-                             "unset it, or give a platform:device index such as 0:0") from None
+            raise ValueError(
+                f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} names no OpenCL device ({exc}): "
+                "unset it, or give a platform:device index such as 0:0"
+            ) from None
     return opencl_devices()
 
 
@@ -120,16 +146,31 @@ def _kernel_defines() -> list:
     """The closed form's geometry (lutbake/spectral/poles.py) as build options: one statement of each constant."""
     from lutbake.spectral import poles
 
-    real = {"BAND_CENTRE": poles.BAND_CENTRE_NM, "BAND_HALF": poles.BAND_HALF_NM, "NEAR_RHO": poles.NEAR_RHO,
-            "BOUND_RHO": poles.BOUND_RHO, "WINDOW_LO": poles.WINDOW_NU_PER_NM[0],
-            "WINDOW_HI": poles.WINDOW_NU_PER_NM[1], "CAUCHY_SHALLOW": poles.SHALLOW_NM}
-    whole = {"MAX_NEAR": poles.MAX_NEAR_POLES, "MAX_WINDOW": poles.MAX_WINDOW, "CAUCHY_RE_MIN": int(poles.RE_MIN_NM),
-             "CAUCHY_RE_MAX": int(poles.RE_MAX_NM), "CAUCHY_NEAR_KNOTS": poles.NEAR_KNOTS,
-             "SHALLOW_DEGREE": poles.SHALLOW_DEGREE, "DEEP_DEGREE": poles.DEEP_DEGREE, "DEEP_LEVELS": poles.DEEP_LEVELS,
-             "KNOT_MIN": int(poles.WAVELENGTH_MIN_NM), "N_KNOTS": poles.N_KNOTS,
-             "CHEB_NODES": poles.CHEBYSHEV_DEGREE + 1}
-    return ([f"-D{name}=((REAL){value!r})" for name, value in real.items()]
-            + [f"-D{name}={value}" for name, value in whole.items()])
+    real = {
+        "BAND_CENTRE": poles.BAND_CENTRE_NM,
+        "BAND_HALF": poles.BAND_HALF_NM,
+        "NEAR_RHO": poles.NEAR_RHO,
+        "BOUND_RHO": poles.BOUND_RHO,
+        "WINDOW_LO": poles.WINDOW_NU_PER_NM[0],
+        "WINDOW_HI": poles.WINDOW_NU_PER_NM[1],
+        "CAUCHY_SHALLOW": poles.SHALLOW_NM,
+    }
+    whole = {
+        "MAX_NEAR": poles.MAX_NEAR_POLES,
+        "MAX_WINDOW": poles.MAX_WINDOW,
+        "CAUCHY_RE_MIN": int(poles.RE_MIN_NM),
+        "CAUCHY_RE_MAX": int(poles.RE_MAX_NM),
+        "CAUCHY_NEAR_KNOTS": poles.NEAR_KNOTS,
+        "SHALLOW_DEGREE": poles.SHALLOW_DEGREE,
+        "DEEP_DEGREE": poles.DEEP_DEGREE,
+        "DEEP_LEVELS": poles.DEEP_LEVELS,
+        "KNOT_MIN": int(poles.WAVELENGTH_MIN_NM),
+        "N_KNOTS": poles.N_KNOTS,
+        "CHEB_NODES": poles.CHEBYSHEV_DEGREE + 1,
+    }
+    return [f"-D{name}=((REAL){value!r})" for name, value in real.items()] + [
+        f"-D{name}={value}" for name, value in whole.items()
+    ]
 
 
 def _build(device, compute: str):
@@ -162,12 +203,19 @@ def _environment(**defaults):
 
 # Self-check stacks: stiff corners where runtimes have disagreed (grazing incidence over a
 # base matching the ambient, thick films, metals, evanescent films), R compared with numpy.
-_SELF_CHECK = np.array([
-    # cos θ1, D (nm), η3, κ3, λ (nm)
-    [1e-6, 0.0, 1.0, 1e-12, 550.0], [1e-6, 1e-9, 1.0, 1e-12, 400.0], [0.0, 500.0, 1.5, 0.0, 500.0],
-    [0.3, 1e5, 2.0, 3.0, 700.0], [1.0, 800.0, 1.0, 0.0, 450.0], [0.05, 4000.0, 0.2, 3.5, 610.0],
-    [0.7, 250.0, 1.5, 1e-9, 380.0], [1e-12, 1e4, 3.0, 100.0, 820.0],
-])
+_SELF_CHECK = np.array(
+    [
+        # cos θ1, D (nm), η3, κ3, λ (nm)
+        [1e-6, 0.0, 1.0, 1e-12, 550.0],
+        [1e-6, 1e-9, 1.0, 1e-12, 400.0],
+        [0.0, 500.0, 1.5, 0.0, 500.0],
+        [0.3, 1e5, 2.0, 3.0, 700.0],
+        [1.0, 800.0, 1.0, 0.0, 450.0],
+        [0.05, 4000.0, 0.2, 3.5, 610.0],
+        [0.7, 250.0, 1.5, 1e-9, 380.0],
+        [1e-12, 1e4, 3.0, 100.0, 820.0],
+    ]
+)
 SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
 # Nodes per work-item of stack_rgb: its few stiff points on the finest rules still spread over every core.
 _STACK_BLOCK = 256
@@ -175,7 +223,7 @@ _STACK_BLOCK = 256
 # PoCL builds a kernel's work-group function per distinct local size, which it picks per global size when
 # left to choose — ~0.2 s each, and a scene's trials and levels meet dozens of sizes.
 _LOCAL_SIZE = 64
-_STACK_TERMS = 18   # reals per (cos θ1, node) in stack_terms' output (STACK_TERMS in airy.cl)
+_STACK_TERMS = 18  # reals per (cos θ1, node) in stack_terms' output (STACK_TERMS in airy.cl)
 
 
 _SELF_CHECKED = {}
@@ -202,9 +250,16 @@ def self_check_error(backend) -> float:
         fast = backend.reflectance(stack, lam)
         ref = film_reflectance(stack, lam)[2]
         worst = max(worst, float(np.max(np.abs(fast - ref))))
-    grid = BakeSpec(eta2=1.5, compute=backend.compute, axes=(
-        Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 2000.0, 4), Axis("eta3", 1.0, 3.0, 2),
-        Axis("kappa3", 0.0, 4.0, 2)))
+    grid = BakeSpec(
+        eta2=1.5,
+        compute=backend.compute,
+        axes=(
+            Axis("cos_theta", 0.0, 1.0, 4),
+            Axis("opd_nm", 0.0, 2000.0, 4),
+            Axis("eta3", 1.0, 3.0, 2),
+            Axis("kappa3", 0.0, 4.0, 2),
+        ),
+    )
     expected = bake_rows_all(NumpyBackend(), grid)
     if getattr(backend, "integrator", "direct") == "series":
         stacks = grid.texel_stacks(np.ravel(p) for p in grid.cell_params(0, grid.image_size[1]))
@@ -231,16 +286,26 @@ def _why_not_built(device, exc) -> str:
     first = next((line for line in lines if "error" in line), lines[0])
     if "unknown target CPU" not in first:
         return first
-    return (f"cannot compile for this CPU: {first.removeprefix('error: ')} (LLVM {runtime_of(device).llvm or '?'} "
-            "does not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, "
-            "builds on such CPUs)")
+    return (
+        f"cannot compile for this CPU: {first.removeprefix('error: ')} (LLVM {runtime_of(device).llvm or '?'} "
+        "does not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, "
+        "builds on such CPUs)"
+    )
 
 
-KERNELS = {"direct_kernel": "bake_texels_direct", "series_kernel": "bake_rows_series",
-           "series_table_kernel": "bake_rows_series_table",
-           "closed_kernel": "bake_texels_closed", "pair_kernel": "pair_transform", "plan_kernel": "plan_rows",
-           "plan_closed_kernel": "plan_texels_closed", "max_kernel": "max_chunks",
-           "points_kernel": "reflectance_points", "stack_terms_kernel": "stack_terms", "stack_kernel": "stack_rgb"}
+KERNELS = {
+    "direct_kernel": "bake_texels_direct",
+    "series_kernel": "bake_rows_series",
+    "series_table_kernel": "bake_rows_series_table",
+    "closed_kernel": "bake_texels_closed",
+    "pair_kernel": "pair_transform",
+    "plan_kernel": "plan_rows",
+    "plan_closed_kernel": "plan_texels_closed",
+    "max_kernel": "max_chunks",
+    "points_kernel": "reflectance_points",
+    "stack_terms_kernel": "stack_terms",
+    "stack_kernel": "stack_rgb",
+}
 
 
 _DEVICE_STATE = {}
@@ -270,7 +335,7 @@ class SeriesStats:
     def __init__(self, texels=(0, 0, 0), bounds=(0.0, 0.0)):
         self.texels = list(texels)
         self.bounds = list(bounds)
-        self.shared_terms = 0   # Ŵ(mX) values the (cos θ, D) pairs share (0: the texels evaluate the table)
+        self.shared_terms = 0  # Ŵ(mX) values the (cos θ, D) pairs share (0: the texels evaluate the table)
 
     def add(self, counts, bounds):
         """Fold in per-group counts (groups, 3) and largest bounds (groups, 2)."""
@@ -282,8 +347,13 @@ class SeriesStats:
     direct_texels = property(lambda self: self.texels[2])
 
     def describe(self) -> dict:
-        return {"series_texels": self.texels[0], "closed_form_texels": self.texels[1], "direct_texels": self.texels[2],
-                "series_bound_rgb_max": self.bounds[0], "closed_form_bound_rgb_max": self.bounds[1]}
+        return {
+            "series_texels": self.texels[0],
+            "closed_form_texels": self.texels[1],
+            "direct_texels": self.texels[2],
+            "series_bound_rgb_max": self.bounds[0],
+            "closed_form_bound_rgb_max": self.bounds[1],
+        }
 
 
 def with_grazing_white(spec, y0: int, rows: np.ndarray) -> np.ndarray:
@@ -310,7 +380,7 @@ class PendingRows:
         return self._rows.astype(np.float64, copy=False)
 
 
-PAIR_TABLE_BYTES = 48 << 20   # most memory the pairs' shared Ŵ(mX) take (more: each texel evaluates the table)
+PAIR_TABLE_BYTES = 48 << 20  # most memory the pairs' shared Ŵ(mX) take (more: each texel evaluates the table)
 
 
 # Texels of a (cos θ, D) pair that share its Ŵ(mX) before a shared table pays (the table costs a pair
@@ -331,8 +401,8 @@ class _BakePlan:
         self.buffers = None
 
 
-_CHUNK = SERIES_CHUNK   # columns or pairs per step of _series_chunks: its temporaries stay bounded
-_COLUMN = 24   # REAL per column in the kernel's layout (COLUMN in airy.cl)
+_CHUNK = SERIES_CHUNK  # columns or pairs per step of _series_chunks: its temporaries stay bounded
+_COLUMN = 24  # REAL per column in the kernel's layout (COLUMN in airy.cl)
 
 
 def _series_shapes(spec) -> tuple:
@@ -352,19 +422,21 @@ def _series_chunks(spec, dtype=np.float64):
     """
     cos_t, opd, kappa3 = (spec.node_values(n) for n in ("cos_theta", "opd_nm", "kappa3"))
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
-    eta3 = spec.eta3_columns()                                   # (η3, cos θ) flattened
+    eta3 = spec.eta3_columns()  # (η3, cos θ) flattened
     wt = weight_transform(spec.observer, spec.space)
     (n_columns, _), (n_pairs, _) = _series_shapes(spec)
     for start in range(0, n_columns, _CHUNK):
         flat = np.arange(start, min(start + _CHUNK, n_columns))
         column, i_kappa3 = flat % (n_eta3 * n_cos), flat // (n_eta3 * n_cos)
-        co = series_coefficients(spec.eta1, spec.eta2, cos_t[column % n_cos], 0.0, eta3[column],
-                                 kappa3[i_kappa3, column % n_cos])
+        co = series_coefficients(
+            spec.eta1, spec.eta2, cos_t[column % n_cos], 0.0, eta3[column], kappa3[i_kappa3, column % n_cos]
+        )
         one_minus_q = np.where(co.in_scope, co.one_minus_q, -1.0)
         block = np.zeros((flat.size, _COLUMN), dtype)
         for p in (0, 1):
-            block[:, 6 * p:6 * p + 6] = np.stack([co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real,
-                                                  co.q[p].imag, one_minus_q[p]], -1)
+            block[:, 6 * p : 6 * p + 6] = np.stack(
+                [co.c0[p], co.k[p].real, co.k[p].imag, co.q[p].real, co.q[p].imag, one_minus_q[p]], -1
+            )
         block[:, 12:21] = _column_rule(co, wt.mass.max())
         yield 0, start, block
     cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, cos_t).clip(0)
@@ -386,7 +458,7 @@ def _column_rule(co, mass) -> np.ndarray:
         total = lead.sum(axis=0) * mass
         geometric = np.ceil(np.log(DEFAULT_SERIES_TOLERANCE / total) / np.log(q_abs.max(axis=0))) + 1
     geometric = np.where(total <= DEFAULT_SERIES_TOLERANCE, 0.0, np.where(q_abs.max(axis=0) == 0, 1.0, geometric))
-    geometric = np.nan_to_num(geometric, nan=SERIES_BUDGET, posinf=SERIES_BUDGET)   # evanescent: never used
+    geometric = np.nan_to_num(geometric, nan=SERIES_BUDGET, posinf=SERIES_BUDGET)  # evanescent: never used
     return np.stack([*lead, *q_abs, *np.nan_to_num(log_q, nan=0.0, neginf=-1e300), *k_abs, geometric], -1)
 
 
@@ -410,7 +482,7 @@ class OpenCLBackend:
         self.dtype = np.float64 if compute == "float64" else np.float32
         reasons = []
         for candidate in _candidate_devices(device):
-            self._static = self._series = self._plan = None   # buffers belong to one context
+            self._static = self._series = self._plan = None  # buffers belong to one context
             built = _device_kernels(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
                 reasons.append(str(built))
@@ -419,8 +491,10 @@ class OpenCLBackend:
             error = _self_check(self, candidate)
             if error <= SELF_CHECK_TOLERANCE[compute]:
                 return
-            reasons.append(f"{device_label(candidate)}: fails the self-check (|ΔR| {error:.2g} against numpy, "
-                           f"tolerance {SELF_CHECK_TOLERANCE[compute]:g})")
+            reasons.append(
+                f"{device_label(candidate)}: fails the self-check (|ΔR| {error:.2g} against numpy, "
+                f"tolerance {SELF_CHECK_TOLERANCE[compute]:g})"
+            )
         raise OpenCLUnavailable("; ".join(reasons) or "no OpenCL device found")
 
     def __getattr__(self, name):
@@ -440,8 +514,9 @@ class OpenCLBackend:
         most the device allows for that kernel where that is fewer."""
         cl = _opencl()
 
-        local = min(_LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE,
-                                                            self.ctx.devices[0]))
+        local = min(
+            _LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.ctx.devices[0])
+        )
         kernel(self.queue, (-(-n_items // local) * local,), (local,), *args, np.int32(n_items))
 
     def _static_buffers(self, spec):
@@ -457,11 +532,20 @@ class OpenCLBackend:
         cos2 = _signed_cos_theta2(spec.eta1, spec.eta2, cos_t)
         # The phase inputs go in as float-float pairs (exact in float64 mode: lo = 0). D and κ3 per
         # (node, cos θ1 node), row-major: the corner zoom moves them with the incidence.
-        arrays = [cos_t, *_split(cos2, self.dtype), *_split(opd.ravel(), self.dtype),
-                  spec.eta3_columns(), kappa3.ravel(), *_split(nu, self.dtype), weights]
+        arrays = [
+            cos_t,
+            *_split(cos2, self.dtype),
+            *_split(opd.ravel(), self.dtype),
+            spec.eta3_columns(),
+            kappa3.ravel(),
+            *_split(nu, self.dtype),
+            weights,
+        ]
         mf = cl.mem_flags
-        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR,
-                             hostbuf=np.ascontiguousarray(a, self.dtype)) for a in arrays]
+        buffers = [
+            cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+            for a in arrays
+        ]
         self._static = (key, (buffers, spec.ladder.counts[0]))
         return self._static[1]
 
@@ -474,20 +558,29 @@ class OpenCLBackend:
         wt = weight_transform(spec.observer, spec.space)
         mf = cl.mem_flags
         size = np.dtype(self.dtype).itemsize
-        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY, size=rows * width * size)
-                   for rows, width in _series_shapes(spec)]
-        for which, start, block in _series_chunks(spec, self.dtype):   # chunk by chunk: no host copy of the whole
+        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY, size=rows * width * size) for rows, width in _series_shapes(spec)]
+        for which, start, block in _series_chunks(spec, self.dtype):  # chunk by chunk: no host copy of the whole
             cl.enqueue_copy(self.queue, buffers[which], block, device_offset=start * block.shape[1] * size)
         key = ("fourier", spec.observer, spec.space)
         if key not in self._tables:
-            table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)   # (intervals, 3, 6, 2)
+            table = np.stack([wt.coefficients.real, wt.coefficients.imag], -1)  # (intervals, 3, 6, 2)
             tail = np.array([wt.mass.max(), wt.edge.max(), wt.variation.max()])
-            self._tables[key] = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
-                                 for a in (table, tail)]
+            self._tables[key] = [
+                cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+                for a in (table, tail)
+            ]
         table_buf, tail_buf = self._tables[key]
         real = self.dtype
-        args = [*buffers, table_buf, np.int32(wt.coefficients.shape[0]), real(wt.step_nm), tail_buf,
-                real(wt.interpolation_bound.max()), real(DEFAULT_SERIES_TOLERANCE), np.int32(SERIES_BUDGET)]
+        args = [
+            *buffers,
+            table_buf,
+            np.int32(wt.coefficients.shape[0]),
+            real(wt.step_nm),
+            tail_buf,
+            real(wt.interpolation_bound.max()),
+            real(DEFAULT_SERIES_TOLERANCE),
+            np.int32(SERIES_BUDGET),
+        ]
         self._series = (spec.content_hash, args)
         return args
 
@@ -503,10 +596,15 @@ class OpenCLBackend:
             return self._tables[key]
         table, rule = cauchy_table(*key[1:]), chebyshev_rule(*key[1:])
         arrays = [np.stack([t.real, t.imag], -1) for t in (table.shallow, table.deep)]
-        arrays += [np.concatenate([table.knot_a, table.knot_b]), np.concatenate([rule.wavelength_nm[None], rule.weights])]
+        arrays += [
+            np.concatenate([table.knot_a, table.knot_b]),
+            np.concatenate([rule.wavelength_nm[None], rule.weights]),
+        ]
         mf = cl.mem_flags
-        buffers = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
-                   for a in arrays]
+        buffers = [
+            cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+            for a in arrays
+        ]
         self._tables[key] = [*buffers, self.dtype(table.bound.max()), self.dtype(rule.mass.max())]
         return self._tables[key]
 
@@ -548,8 +646,16 @@ class OpenCLBackend:
             return [[cells, 0, 0]], [[series_bound, 0.0]]
         path, bound = np.empty(left, np.int8), np.empty(left, self.dtype)
         path_buf, bound_buf = (cl.Buffer(self.ctx, mf.WRITE_ONLY, a.nbytes) for a in (path, bound))
-        self._run(self.plan_closed_kernel, left, *self._band_args(spec, y0), *self._cauchy_buffers(spec), rest,
-                  rest_count, path_buf, bound_buf)
+        self._run(
+            self.plan_closed_kernel,
+            left,
+            *self._band_args(spec, y0),
+            *self._cauchy_buffers(spec),
+            rest,
+            rest_count,
+            path_buf,
+            bound_buf,
+        )
         cl.enqueue_copy(self.queue, path, path_buf)
         cl.enqueue_copy(self.queue, bound, bound_buf)
         closed, direct = np.bincount(path, minlength=3)[1:3]
@@ -568,7 +674,9 @@ class OpenCLBackend:
         if plan.buffers is None:
             mf = cl.mem_flags
             offset_buf = cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=plan.offsets)
-            table = cl.Buffer(self.ctx, mf.READ_WRITE, max(1, 6 * int(plan.offsets[-1])) * np.dtype(self.dtype).itemsize)
+            table = cl.Buffer(
+                self.ctx, mf.READ_WRITE, max(1, 6 * int(plan.offsets[-1])) * np.dtype(self.dtype).itemsize
+            )
             args = self._series_buffers(spec)
             self._run(self.pair_kernel, plan.offsets.size - 1, args[1], offset_buf, *args[2:5], table)
             plan.buffers = [offset_buf, table]
@@ -593,8 +701,12 @@ class OpenCLBackend:
             keep += self._direct(spec, y0, np.arange(cells, dtype=np.int32), spec.row_levels(y0, y1), out_buf)
         else:
             keep += self._series_passes(spec, y0, y1, out_buf)
-        return PendingRows(out, cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False), keep,
-                           lambda rows: with_grazing_white(spec, y0, rows))
+        return PendingRows(
+            out,
+            cl.enqueue_copy(self.queue, out, out_buf, is_blocking=False),
+            keep,
+            lambda rows: with_grazing_white(spec, y0, rows),
+        )
 
     def _series_passes(self, spec, y0, y1, out_buf) -> list:
         """Enqueue the series, the closed form at what it leaves and (where the plan expects any) the
@@ -605,16 +717,34 @@ class OpenCLBackend:
         cells = (y1 - y0) * spec.image_size[0]
         mf = cl.mem_flags
         lists = [cl.Buffer(self.ctx, mf.READ_WRITE, max(1, cells) * 4) for _ in range(2)]
-        counts = [cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32)) for _ in range(2)]
+        counts = [
+            cl.Buffer(self.ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=np.zeros(1, np.int32)) for _ in range(2)
+        ]
         keep = lists + counts
         if plan.offsets is not None:
-            self._run(self.series_kernel, cells, *self._band_args(spec, y0), *self._pair_table(spec, plan), out_buf,
-                      lists[0], counts[0])
+            self._run(
+                self.series_kernel,
+                cells,
+                *self._band_args(spec, y0),
+                *self._pair_table(spec, plan),
+                out_buf,
+                lists[0],
+                counts[0],
+            )
         else:
             self._run(self.series_table_kernel, cells, *self._band_args(spec, y0), out_buf, lists[0], counts[0])
         if plan.stats.closed_form_texels or plan.stats.direct_texels:
-            self._run(self.closed_kernel, cells, *self._band_args(spec, y0), *self._cauchy_buffers(spec),
-                      lists[0], counts[0], out_buf, lists[1], counts[1])
+            self._run(
+                self.closed_kernel,
+                cells,
+                *self._band_args(spec, y0),
+                *self._cauchy_buffers(spec),
+                lists[0],
+                counts[0],
+                out_buf,
+                lists[1],
+                counts[1],
+            )
         left = self._count(counts[1]) if plan.stats.direct_texels else 0
         if left:
             texels = np.empty(left, np.int32)
@@ -652,12 +782,26 @@ class OpenCLBackend:
         buffers, n_min = self._static_buffers(spec)
         n_cos, n_opd, _, _ = spec.shape
         mf = cl.mem_flags
-        texel_buf, level_buf = (cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
-                                for a in (texels.astype(np.int32), levels.astype(np.int32)))
+        texel_buf, level_buf = (
+            cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a))
+            for a in (texels.astype(np.int32), levels.astype(np.int32))
+        )
         real = self.dtype
-        self._run(self.direct_kernel, texels.size, *buffers, texel_buf, level_buf, real(spec.eta1), real(spec.eta2),
-                  np.int32(n_cos), np.int32(n_opd), np.int32(spec.image_size[0]), np.int32(y0), np.int32(n_min),
-                  out_buf)
+        self._run(
+            self.direct_kernel,
+            texels.size,
+            *buffers,
+            texel_buf,
+            level_buf,
+            real(spec.eta1),
+            real(spec.eta2),
+            np.int32(n_cos),
+            np.int32(n_opd),
+            np.int32(spec.image_size[0]),
+            np.int32(y0),
+            np.int32(n_min),
+            out_buf,
+        )
         return [texel_buf, level_buf]
 
     def evaluate(self, spec, stack: FilmPoints):
@@ -679,15 +823,25 @@ class OpenCLBackend:
         eta1 = float(np.ravel(stack.eta1)[0])
         stack.require("kernel", eta1=eta1)  # one ambient index per launch
         eta2, eta3, kappa3 = stack.indices(wavelength_nm)
-        cols = np.broadcast_arrays(stack.cos_theta, 2.0 * eta2 * stack.thickness_nm, eta2, eta3, kappa3,
-                                   np.asarray(wavelength_nm, np.float64))
+        cols = np.broadcast_arrays(
+            stack.cos_theta, 2.0 * eta2 * stack.thickness_nm, eta2, eta3, kappa3, np.asarray(wavelength_nm, np.float64)
+        )
         shape = cols[0].shape
         cos1, opd, e2, e3, k3, lam = (np.ravel(c) for c in cols)
-        arrays = [cos1, *_split(_signed_cos_theta2(eta1, e2, cos1), self.dtype), *_split(opd, self.dtype),
-                  e2, e3, k3, *_split(1.0 / lam, self.dtype)]
+        arrays = [
+            cos1,
+            *_split(_signed_cos_theta2(eta1, e2, cos1), self.dtype),
+            *_split(opd, self.dtype),
+            e2,
+            e3,
+            k3,
+            *_split(1.0 / lam, self.dtype),
+        ]
         mf = cl.mem_flags
-        bufs = [cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
-                for a in arrays]
+        bufs = [
+            cl.Buffer(self.ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=np.ascontiguousarray(a, self.dtype))
+            for a in arrays
+        ]
         out = np.empty(cos1.size, self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
         self._run(self.points_kernel, cos1.size, *bufs, self.dtype(eta1), out_buf)
@@ -712,16 +866,42 @@ class OpenCLBackend:
         cos2_hi, cos2_lo = (buffer(a) for a in _split(cos2, self.dtype))
         cos1, eta2_buf = buffer(cos_values), buffer(eta2)
         real = self.dtype
-        terms = cl.Buffer(self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize)
-        self._run(self.stack_terms_kernel, cos_values.size * rule.count, cos1, cos2_hi, eta2_buf, buffer(eta3),
-                  buffer(kappa3), real(eta1), real(thickness_nm.max()), np.int32(rule.count), terms)
+        terms = cl.Buffer(
+            self.ctx, mf.READ_WRITE, cos_values.size * rule.count * _STACK_TERMS * np.dtype(real).itemsize
+        )
+        self._run(
+            self.stack_terms_kernel,
+            cos_values.size * rule.count,
+            cos1,
+            cos2_hi,
+            eta2_buf,
+            buffer(eta3),
+            buffer(kappa3),
+            real(eta1),
+            real(thickness_nm.max()),
+            np.int32(rule.count),
+            terms,
+        )
         n_blocks = -(-rule.count // _STACK_BLOCK)
         out = np.empty((n_blocks, cos_index.size, 3), self.dtype)
         out_buf = cl.Buffer(self.ctx, mf.WRITE_ONLY, out.nbytes)
-        self._run(self.stack_kernel, out.size // 3, cos1, cos2_hi, cos2_lo, terms, buffer(cos_index, np.int32),
-                  *(buffer(a) for a in _split(thickness_nm, self.dtype)), eta2_buf,
-                  *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)), buffer(rule.weights),
-                  np.int32(rule.count), np.int32(_STACK_BLOCK), np.int32(cos_index.size), out_buf)
+        self._run(
+            self.stack_kernel,
+            out.size // 3,
+            cos1,
+            cos2_hi,
+            cos2_lo,
+            terms,
+            buffer(cos_index, np.int32),
+            *(buffer(a) for a in _split(thickness_nm, self.dtype)),
+            eta2_buf,
+            *(buffer(a) for a in _split(1.0 / rule.wavelength_nm, self.dtype)),
+            buffer(rule.weights),
+            np.int32(rule.count),
+            np.int32(_STACK_BLOCK),
+            np.int32(cos_index.size),
+            out_buf,
+        )
         cl.enqueue_copy(self.queue, out, out_buf)
         return out.astype(np.float64).sum(axis=0)
 
@@ -742,14 +922,20 @@ def backend(name: str = "auto", compute: str = "float64", integrator: str = "ser
     try:
         return OpenCLBackend(compute, integrator, device)
     except (OpenCLUnavailable, ImportError) as exc:
-        if chosen:   # a device the user named is not swapped for another path behind their back
-            raise DeviceCannotRun("{device} {selector} cannot run the kernel ({reason}): name another "
-                                  "(`lutbake devices` lists them) or omit it", selector=repr(chosen),
-                                  reason=exc) from None
+        if chosen:  # a device the user named is not swapped for another path behind their back
+            raise DeviceCannotRun(
+                "{device} {selector} cannot run the kernel ({reason}): name another "
+                "(`lutbake devices` lists them) or omit it",
+                selector=repr(chosen),
+                reason=exc,
+            ) from None
         if name == "opencl":
             raise
-        warnings.warn(f"OpenCL unavailable ({exc}); baking with the numpy path, which is much slower",
-                      RuntimeWarning, stacklevel=2)
+        warnings.warn(
+            f"OpenCL unavailable ({exc}); baking with the numpy path, which is much slower",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         return NumpyBackend()
 
 
@@ -768,13 +954,18 @@ def survey_devices(throughput_spec=None) -> list:
     rows = []
     for index, device in enumerate(devices):
         key, label = device_key(device, devices), device_label(device)
-        row = {"index": index, "key": key, "label": label, "default": key == default,
-               "runtime": dataclasses.asdict(runtime_of(device))}
+        row = {
+            "index": index,
+            "key": key,
+            "label": label,
+            "default": key == default,
+            "runtime": dataclasses.asdict(runtime_of(device)),
+        }
         for compute in ("float64", "float32"):
             try:
                 fast = OpenCLBackend(compute, device=str(index))
                 row[compute] = {"builds": True, "self_check_error": _self_check(fast, device)}
-            except OpenCLUnavailable as exc:   # one device tried: its reason, without its label
+            except OpenCLUnavailable as exc:  # one device tried: its reason, without its label
                 row[compute] = {"builds": False, "error": str(exc).removeprefix(f"{label}: ")}
         if throughput_spec is not None and row["float64"].get("builds"):
             fast = OpenCLBackend("float64", device=str(index))

@@ -39,8 +39,16 @@ from pathlib import Path
 from lutbake.io.documents import load_json
 from lutbake.io.signals import stop_signals_held
 
-__all__ = ["open_set", "FileSet", "sha256_file", "journal_path", "recover", "remove_stale_temporaries",
-           "pending_commit", "MAX_JOURNAL_BYTES"]
+__all__ = [
+    "open_set",
+    "FileSet",
+    "sha256_file",
+    "journal_path",
+    "recover",
+    "remove_stale_temporaries",
+    "pending_commit",
+    "MAX_JOURNAL_BYTES",
+]
 
 _TEMP = re.compile(r"^\..+\.tmp-(\d+)$")
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
@@ -147,16 +155,22 @@ def read_journal(journal: Path) -> list:
         members = doc["members"]
         _require(isinstance(members, list) and members, "members is not a non-empty list")
         for entry in members:
-            _require(isinstance(entry, list) and len(entry) == 3 and all(isinstance(v, str) for v in entry),
-                     "a member is not [temporary, final, sha256]")
+            _require(
+                isinstance(entry, list) and len(entry) == 3 and all(isinstance(v, str) for v in entry),
+                "a member is not [temporary, final, sha256]",
+            )
             tmp, final, digest = entry
             _require_plain(final, "final name")
-            _require(_TEMP.match(tmp) is not None and tmp.startswith(f".{final}.tmp-"),
-                     f"temporary {tmp!r} is not named after {final!r}")
+            _require(
+                _TEMP.match(tmp) is not None and tmp.startswith(f".{final}.tmp-"),
+                f"temporary {tmp!r} is not named after {final!r}",
+            )
             _require(_DIGEST.match(digest) is not None, f"digest of {final!r} is not 64 hex digits")
     except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise ValueError(f"commit journal {str(journal)!r} is not one lutbake wrote ({_reason(exc)}); it and the "
-                         "files it names were left as they are: remove it and bake again") from None
+        raise ValueError(
+            f"commit journal {str(journal)!r} is not one lutbake wrote ({_reason(exc)}); it and the "
+            "files it names were left as they are: remove it and bake again"
+        ) from None
     return members
 
 
@@ -185,13 +199,15 @@ def _roll_forward(folder: Path, entries, journal: Path) -> None:
         tmp, final = folder / tmp_name, folder / final_name
         if _regular(tmp):
             if sha256_file(tmp) != digest:
-                raise ValueError(f"{str(tmp)!r} changed after an interrupted commit: remove {str(journal)!r} "
-                                 "and bake again")
+                raise ValueError(
+                    f"{str(tmp)!r} changed after an interrupted commit: remove {str(journal)!r} and bake again"
+                )
             _test_stop()
             os.replace(tmp, final)
         elif not (_regular(final) and sha256_file(final) == digest):
-            raise ValueError(f"{str(final)!r} changed after an interrupted commit: remove {str(journal)!r} "
-                             "and bake again")
+            raise ValueError(
+                f"{str(final)!r} changed after an interrupted commit: remove {str(journal)!r} and bake again"
+            )
     _fsync_folder(folder)
 
 
@@ -210,8 +226,10 @@ def _require(ok: bool, why: str) -> None:
 
 def _require_plain(name, what: str) -> None:
     """``name`` is a plain file name: a string naming an entry of the folder itself."""
-    _require(isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name,
-             f"{what} {name!r} is not a plain file name")
+    _require(
+        isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name,
+        f"{what} {name!r} is not a plain file name",
+    )
 
 
 def _reason(exc: Exception) -> str:

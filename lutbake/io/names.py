@@ -21,7 +21,7 @@ SPACES = {
 
 INTERPOLATIONS = ("cubic", "linear")
 
-ADMITTANCE_SPACINGS = ("admittance", "sqrt-admittance")   # η3 only: nodes per cos θ1 node
+ADMITTANCE_SPACINGS = ("admittance", "sqrt-admittance")  # η3 only: nodes per cos θ1 node
 
 
 def shader_identifier(name: str) -> str:

@@ -13,8 +13,15 @@ import os
 import signal
 import sys
 
-__all__ = ["Interrupted", "STOP_SIGNALS", "exit_status", "interrupted_at_start_up", "raise_interrupted",
-           "set_handler", "stop_signals_held"]
+__all__ = [
+    "Interrupted",
+    "STOP_SIGNALS",
+    "exit_status",
+    "interrupted_at_start_up",
+    "raise_interrupted",
+    "set_handler",
+    "stop_signals_held",
+]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}

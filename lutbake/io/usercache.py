@@ -26,7 +26,7 @@ import numpy as np
 
 __all__ = ["cached_arrays", "pyopencl_caches_where_writable"]
 
-_HASH = "sha256"   # the member holding the SHA-256 of the other arrays
+_HASH = "sha256"  # the member holding the SHA-256 of the other arrays
 
 
 def _cache_home() -> Path:
@@ -53,7 +53,8 @@ def pyopencl_caches_where_writable() -> None:
     pyopencl is imported (it reads the variable once)."""
     home = _cache_home()
     if "PYOPENCL_NO_CACHE" not in os.environ and not all(
-            _usable_folder(home / name, 0o755) for name in ("pyopencl", "pytools")):
+        _usable_folder(home / name, 0o755) for name in ("pyopencl", "pytools")
+    ):
         os.environ["PYOPENCL_NO_CACHE"] = "1"
 
 

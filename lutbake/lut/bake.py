@@ -24,19 +24,28 @@ from pathlib import Path
 import numpy as np
 
 from lutbake import __version__
-from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
+from lutbake.errors import ParameterError
+from lutbake.grid.spec import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
 from lutbake.integrate.opencl import NumpyBackend, bake_rows_all
 from lutbake.integrate.opencl import backend as make_backend
-from lutbake.errors import ParameterError
 from lutbake.io.fileset import FileSet, open_set
-from lutbake.tables.lutfile import FORMAT, exr_rows, shader_includes
-from lutbake.grid.spec import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
 from lutbake.physics.points import FilmPoints
+from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
 from lutbake.spectral.reference import reference_colour
 from lutbake.spectral.rules import STENCIL_NODES
+from lutbake.tables.lutfile import FORMAT, exr_rows, shader_includes
 
-__all__ = ["BakeResult", "bake", "bake_set", "write_lut", "lut_members", "bake_array", "default_specs", "metadata",
-           "spectral_error"]
+__all__ = [
+    "BakeResult",
+    "bake",
+    "bake_set",
+    "write_lut",
+    "lut_members",
+    "bake_array",
+    "default_specs",
+    "metadata",
+    "spectral_error",
+]
 
 _PROBES = 48
 
@@ -125,9 +134,11 @@ def default_specs(precision: str = "half") -> dict:
     specs = {}
     for eta2 in _DIELECTRIC_COUNTS:
         specs[f"lutbake-eta2-{eta2:.2f}"] = BakeSpec(
-            eta2=eta2, axes=_dielectric_axes(*_DIELECTRIC_COUNTS[eta2]), precision=precision)
+            eta2=eta2, axes=_dielectric_axes(*_DIELECTRIC_COUNTS[eta2]), precision=precision
+        )
         specs[f"lutbake-eta2-{eta2:.2f}-metal"] = BakeSpec(
-            eta2=eta2, axes=_metal_axes(*_METAL_COUNTS[eta2]), precision=precision)
+            eta2=eta2, axes=_metal_axes(*_METAL_COUNTS[eta2]), precision=precision
+        )
     return specs
 
 
@@ -144,15 +155,21 @@ _CORNER = {"opd_nm": (24, 100.0), "eta3": (8, 1.0), "kappa3": (14, 0.3)}
 
 
 def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
-    return (Axis("cos_theta", 0.0, 1.0, n_cos, "uniform-root4"),
-            Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt", _CORNER["opd_nm"]),
-            Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance", _CORNER["eta3"]),
-            Axis("kappa3", 0.0, 2.0, n_kappa3, "sqrt", _CORNER["kappa3"]))
+    return (
+        Axis("cos_theta", 0.0, 1.0, n_cos, "uniform-root4"),
+        Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt", _CORNER["opd_nm"]),
+        Axis("eta3", 1.0, 3.0, n_eta3, "sqrt-admittance", _CORNER["eta3"]),
+        Axis("kappa3", 0.0, 2.0, n_kappa3, "sqrt", _CORNER["kappa3"]),
+    )
 
 
 def _metal_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
-    return (Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"), Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
-            Axis("eta3", 0.02, 4.0, n_eta3, "sqrt"), Axis("kappa3", 1.5, 9.0, n_kappa3, "root4"))
+    return (
+        Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"),
+        Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
+        Axis("eta3", 0.02, 4.0, n_eta3, "sqrt"),
+        Axis("kappa3", 1.5, 9.0, n_kappa3, "root4"),
+    )
 
 
 def _probe_points(spec: BakeSpec) -> FilmPoints:
@@ -187,7 +204,8 @@ def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
     (lutbake.spectral.fourier.series_colour) and only those on the direct path are counted and measured."""
     if direct_texels == 0:
         return 0, 0.0, 0.0
-    def direct(texels):   # float32 kernels have no closed form: what the series leaves is direct there
+
+    def direct(texels):  # float32 kernels have no closed form: what the series leaves is direct there
         path = series_colour(spec.texel_stacks(texels), spec.observer, spec.space, integrate=False).path
         return path == 2 if spec.compute == "float64" else path > 0
 
@@ -201,15 +219,23 @@ def integrator_metadata(spec: BakeSpec, series: dict) -> dict:
     from lutbake.spectral import poles
 
     wt = weight_transform(spec.observer, spec.space)
-    return {"rule": "fourier-series where in scope and within budget, else the poles' closed form where the film "
-                    "propagates and its bound is within the tolerance, else the direct spectral rule",
-            "series_tolerance_per_polarization": DEFAULT_SERIES_TOLERANCE, "series_budget_terms": SERIES_BUDGET,
-            "table_step_nm": wt.step_nm, "table_max_nm": wt.x_max_nm,
-            "table_interpolation_bound": float(wt.interpolation_bound.max()),
-            "closed_form": {"near_ellipse_rho": poles.NEAR_RHO, "bound_ellipse_rho": poles.BOUND_RHO,
-                            "chebyshev_degree": poles.CHEBYSHEV_DEGREE, "max_near_poles": poles.MAX_NEAR_POLES,
-                            "cauchy_table_bound": float(poles.cauchy_table(spec.observer, spec.space).bound.max())},
-            **series}
+    return {
+        "rule": "fourier-series where in scope and within budget, else the poles' closed form where the film "
+        "propagates and its bound is within the tolerance, else the direct spectral rule",
+        "series_tolerance_per_polarization": DEFAULT_SERIES_TOLERANCE,
+        "series_budget_terms": SERIES_BUDGET,
+        "table_step_nm": wt.step_nm,
+        "table_max_nm": wt.x_max_nm,
+        "table_interpolation_bound": float(wt.interpolation_bound.max()),
+        "closed_form": {
+            "near_ellipse_rho": poles.NEAR_RHO,
+            "bound_ellipse_rho": poles.BOUND_RHO,
+            "chebyshev_degree": poles.CHEBYSHEV_DEGREE,
+            "max_near_poles": poles.MAX_NEAR_POLES,
+            "cauchy_table_bound": float(poles.cauchy_table(spec.observer, spec.space).bound.max()),
+        },
+        **series,
+    }
 
 
 def _format_version(spec: BakeSpec) -> int:
@@ -237,11 +263,17 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
         "space": spec.space,
         "encoding": "linear",
         "method": spec.method,
-        "spectral": {"rule": f"wavenumber-lagrange{STENCIL_NODES}-product", "counts": spec.ladder.counts,
-                     "range_nm": [360.0, 830.0], "samples_per_cycle": spec.samples_per_cycle,
-                     "error_rgb_max": error_rgb_max, "error_probes": _PROBES,
-                     "capped_texels": capped[0], "truncation_bound_rgb": capped[1],
-                     "capped_error_rgb_max": capped[2]},
+        "spectral": {
+            "rule": f"wavenumber-lagrange{STENCIL_NODES}-product",
+            "counts": spec.ladder.counts,
+            "range_nm": [360.0, 830.0],
+            "samples_per_cycle": spec.samples_per_cycle,
+            "error_rgb_max": error_rgb_max,
+            "error_probes": _PROBES,
+            "capped_texels": capped[0],
+            "truncation_bound_rgb": capped[1],
+            "capped_error_rgb_max": capped[2],
+        },
         "precision": spec.precision,
         "interpolation": spec.interpolation,
         "compute": spec.compute,
@@ -249,9 +281,16 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
     } | ({"integrator": integrator_metadata(spec, series)} if series is not None else {})
 
 
-def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_cells=None,
-         integrator: str = "series", device=None,
-         memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> BakeResult:
+def bake(
+    spec: BakeSpec,
+    out_path,
+    backend: str = "auto",
+    on_band=None,
+    chunk_cells=None,
+    integrator: str = "series",
+    device=None,
+    memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set.
 
     The set (NAME.exr, NAME.json, NAME.glsl, NAME.hlsl) is committed as a unit: an interrupted or
@@ -298,8 +337,14 @@ def bake(spec: BakeSpec, out_path, backend: str = "auto", on_band=None, chunk_ce
     return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device)[0]
 
 
-def bake_set(jobs, set_name: str, backend: str = "auto", memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
-             integrator: str = "series", device=None) -> list:
+def bake_set(
+    jobs,
+    set_name: str,
+    backend: str = "auto",
+    memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+    integrator: str = "series",
+    device=None,
+) -> list:
     """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
     committed together or, when any bake fails or is interrupted, none is (lutbake/io/fileset.py).
 
@@ -324,14 +369,32 @@ def bake_set(jobs, set_name: str, backend: str = "auto", memory_limit_gib: float
         spec.check_budget(memory_limit_gib, backend, integrator)
         _check_writable(Path(path))
     with open_set(folders.pop(), set_name) as files:
-        return [write_lut(spec, Path(path), files, backend, integrator=integrator, device=device,
-                          memory_limit_gib=memory_limit_gib, **options)
-                for path, spec, options in jobs]
+        return [
+            write_lut(
+                spec,
+                Path(path),
+                files,
+                backend,
+                integrator=integrator,
+                device=device,
+                memory_limit_gib=memory_limit_gib,
+                **options,
+            )
+            for path, spec, options in jobs
+        ]
 
 
-def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "auto", on_band=None,
-              chunk_cells=None, integrator: str = "series", device=None,
-              memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB) -> BakeResult:
+def write_lut(
+    spec: BakeSpec,
+    out_path: Path,
+    files: FileSet,
+    backend: str = "auto",
+    on_band=None,
+    chunk_cells=None,
+    integrator: str = "series",
+    device=None,
+    memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
     the memory budget is checked again with the runtime's resident memory as measured."""
     start = time.perf_counter()
@@ -341,7 +404,7 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     integrator = make_backend(backend, spec.compute, integrator, device)
     runtime = resident_bytes()
     spec.check_budget(memory_limit_gib, integrator.name, path, runtime)
-    with ThreadPoolExecutor(1) as host:   # the probes' ground truth (numpy) while the device plans
+    with ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
         probes = host.submit(spectral_error, spec)
         plan = integrator.series_plan(spec)
         error = probes.result()
@@ -354,7 +417,7 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision) as exr:
         # band k is written while the device bakes band k + 1
         pending, retiled = None, spec.file_layout != spec.layout
-        held = []   # the bands, as stored, when the file's tiles run in another order than the integrators'
+        held = []  # the bands, as stored, when the file's tiles run in another order than the integrators'
         for band in [*chunks, None]:
             started = integrator.begin_rows(spec, *band) if band else None
             if pending is not None:
@@ -371,8 +434,9 @@ def write_lut(spec: BakeSpec, out_path: Path, files: FileSet, backend: str = "au
     files.temp(out_path.with_suffix(".json")).write_text(json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
     for suffix, text in shader_includes(meta, out_path.name).items():
         files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
-    return BakeResult(out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device,
-                      error, *capped)
+    return BakeResult(
+        out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device, error, *capped
+    )
 
 
 def resident_bytes(peak: bool = False) -> int:
@@ -396,8 +460,9 @@ def lut_members(out_path: Path) -> list:
 
 def bake_array(spec: BakeSpec, backend: str = "auto", integrator: str = "series", device=None) -> np.ndarray:
     """The whole image (height, width, 3) in float64, packed as the file is, in memory (tests, benchmarks)."""
-    return spec.file_layout.retile(bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec),
-                                   spec.layout)
+    return spec.file_layout.retile(
+        bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec), spec.layout
+    )
 
 
 def _check_writable(out_path: Path) -> None:
@@ -412,5 +477,8 @@ def _check_writable(out_path: Path) -> None:
         raise ParameterError("{out_path} folder {path} is not writable", path=repr(str(folder)))
     for member in lut_members(out_path):
         if member.is_dir():
-            raise ParameterError("{out_path} {path}: {member} is a folder, expected a file or nothing",
-                                 path=repr(str(out_path)), member=repr(str(member)))
+            raise ParameterError(
+                "{out_path} {path}: {member} is a folder, expected a file or nothing",
+                path=repr(str(out_path)),
+                member=repr(str(member)),
+            )

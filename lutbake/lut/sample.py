@@ -23,9 +23,9 @@ import numpy as np
 
 from lutbake.grid.interpolation import cubic_taps, mirrors_low_end
 from lutbake.grid.layout import TileLayout
-from lutbake.tables.lutfile import ATLAS_FORMAT, FORMAT, read_lut
 from lutbake.grid.spec import axis_from_header
 from lutbake.physics.points import FilmPoints
+from lutbake.tables.lutfile import ATLAS_FORMAT, FORMAT, read_lut
 
 __all__ = ["Lut", "Atlas", "load_table"]
 
@@ -77,9 +77,17 @@ class Lut:
     def in_memory(cls, spec, image) -> "Lut":
         """The LUT of ``spec`` whose texels are ``image`` (as stored, packed as the integrators pack it:
         ``spec.layout``), without a file: what tune scores."""
-        return cls({"axes": [a.describe() for a in spec.axes], "interpolation": spec.interpolation,
-                    "constants": {"eta1": spec.eta1, "eta2": spec.eta2}, "space": spec.space,
-                    "observer": spec.observer, "packing": spec.layout.packing()}, image)
+        return cls(
+            {
+                "axes": [a.describe() for a in spec.axes],
+                "interpolation": spec.interpolation,
+                "constants": {"eta1": spec.eta1, "eta2": spec.eta2},
+                "space": spec.space,
+                "observer": spec.observer,
+                "packing": spec.layout.packing(),
+            },
+            image,
+        )
 
     @property
     def axes(self) -> list:
@@ -114,8 +122,10 @@ class Lut:
     def node_coords(self, stack: FilmPoints) -> list:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
         values = self.coordinates(stack)
-        return [np.clip(axis.to_unit(v, values[0], self.eta1), 0.0, 1.0) * (axis.count - 1)
-                for axis, v in zip(self.axes, values)]
+        return [
+            np.clip(axis.to_unit(v, values[0], self.eta1), 0.0, 1.0) * (axis.count - 1)
+            for axis, v in zip(self.axes, values)
+        ]
 
     @property
     def interpolation(self) -> str:

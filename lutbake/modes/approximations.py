@@ -32,9 +32,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from lutbake.physics.colorimetry import colorimetry
 from lutbake.modes.exact import exact_mode_rgb
 from lutbake.modes.runtime.model import runtime_rgb
+from lutbake.physics.colorimetry import colorimetry
 
 __all__ = ["belcour_barla_rgb", "khr_iridescence_rgb", "APPROXIMATIONS"]
 
@@ -44,17 +44,21 @@ _POS = np.array([1.6810e06, 1.7953e06, 2.2084e06])
 _VAR = np.array([4.3278e09, 9.3046e09, 6.6121e09])
 _X2 = (9.7470e-14, 2.2399e06, 4.5282e09)
 _NORM = 1.0685e-7
-_XYZ_TO_REC709 = np.array([[3.2404542, -1.5371385, -0.4985314],
-                           [-0.9692660, 1.8760108, 0.0415560],
-                           [0.0556434, -0.2040259, 1.0572252]])
+_XYZ_TO_REC709 = np.array(
+    [[3.2404542, -1.5371385, -0.4985314], [-0.9692660, 1.8760108, 0.0415560], [0.0556434, -0.2040259, 1.0572252]]
+)
 
 
 def eval_sensitivity(opd_nm, shift):
     """XYZ (…, 3) of the fitted sensitivities at OPD (nm) and phase shift; (1, 1, 1) at 0."""
     opd, shift = np.broadcast_arrays(np.asarray(opd_nm, float), np.asarray(shift, float))
     phase = 2.0 * np.pi * opd * 1e-9
-    xyz = (_VAL * np.sqrt(2 * np.pi * _VAR) * np.cos(_POS * phase[..., None] + shift[..., None])
-           * np.exp(-_VAR * phase[..., None] ** 2))
+    xyz = (
+        _VAL
+        * np.sqrt(2 * np.pi * _VAR)
+        * np.cos(_POS * phase[..., None] + shift[..., None])
+        * np.exp(-_VAR * phase[..., None] ** 2)
+    )
     v, p, var = _X2
     xyz[..., 0] += v * np.sqrt(2 * np.pi * var) * np.cos(p * phase + shift) * np.exp(-var * phase**2)
     return xyz / _NORM
@@ -70,7 +74,7 @@ def _fresnel_dielectric(cos1, n1, n2):
     r_s = (n1 * cos1 - n2 * cos2) / (n1 * cos1 + n2 * cos2)
     with np.errstate(invalid="ignore", divide="ignore"):
         root = np.sqrt(np.maximum(sin2 - 1.0 / nr**2, 0.0)) / cos1
-    phi_tir = (2 * np.arctan(-nr**2 * root), 2 * np.arctan(-root))
+    phi_tir = (2 * np.arctan(-(nr**2) * root), 2 * np.arctan(-root))
     out = []
     for r, ph in zip((r_p, r_s), phi_tir):
         out.append((np.where(tir, 1.0, r**2), np.where(tir, ph, np.where(r < 0, np.pi, 0.0))))
@@ -87,12 +91,16 @@ def _fresnel_conductor(cos1, n1, n2, k_bw):
     e = n2**2 * (1 - k_bw**2) * cos1
     f = 2 * n2**2 * k_bw * cos1
     r_p = ((e - n1 * u) ** 2 + (f - n1 * v) ** 2) / ((e + n1 * u) ** 2 + (f + n1 * v) ** 2)
-    phi_p = np.arctan2(2 * n1 * n2**2 * cos1 * (2 * k_bw * u - (1 - k_bw**2) * v),
-                       (n2**2 * (1 + k_bw**2) * cos1) ** 2 - n1**2 * (u**2 + v**2))
+    phi_p = np.arctan2(
+        2 * n1 * n2**2 * cos1 * (2 * k_bw * u - (1 - k_bw**2) * v),
+        (n2**2 * (1 + k_bw**2) * cos1) ** 2 - n1**2 * (u**2 + v**2),
+    )
     dielectric = _fresnel_dielectric(cos1, n1, n2)
     conductor = k_bw > 0
-    return [(np.where(conductor, rc, rd), np.where(conductor, pc, pd))
-            for (rc, pc), (rd, pd) in zip(((r_p, phi_p), (r_s, phi_s)), dielectric)]
+    return [
+        (np.where(conductor, rc, rd), np.where(conductor, pc, pd))
+        for (rc, pc), (rd, pd) in zip(((r_p, phi_p), (r_s, phi_s)), dielectric)
+    ]
 
 
 def _to_space(xyz_e, space, observer):
@@ -108,8 +116,12 @@ def _to_space(xyz_e, space, observer):
 def _columns(stack, method: str):
     """(η1, η2, η3, κ3, cos θ1, D) of a constant-index stack, broadcast."""
     stack.require(method, film=None, base=None)
-    return np.broadcast_arrays(*(np.asarray(v, float) for v in (
-        stack.eta1, stack.eta2, stack.eta3, stack.kappa3, stack.cos_theta, stack.opd_nm)))
+    return np.broadcast_arrays(
+        *(
+            np.asarray(v, float)
+            for v in (stack.eta1, stack.eta2, stack.eta3, stack.kappa3, stack.cos_theta, stack.opd_nm)
+        )
+    )
 
 
 def belcour_barla_rgb(stack, space="rec709", observer="cie1931"):

@@ -35,21 +35,36 @@ import numpy as np
 from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.io.fileset import open_set
-from lutbake.spectral.fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
-from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
-from lutbake.tables.lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
 from lutbake.io.names import shader_comment
+from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
+from lutbake.spectral.fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
+from lutbake.tables.lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
 
-__all__ = ["TABLE_STEP_NM", "TABLE_TEXELS", "TABLE_WIDTH", "DEFAULT_TOLERANCE", "DEFAULT_MAX_TERMS",
-           "ExactTable", "ExactResult", "table_samples", "write_exact_table", "read_exact_table", "exact_colour",
-           "exact_includes", "include_fields", "RGB_WAVELENGTHS_NM", "METALS", "base_rgb"]
+__all__ = [
+    "TABLE_STEP_NM",
+    "TABLE_TEXELS",
+    "TABLE_WIDTH",
+    "DEFAULT_TOLERANCE",
+    "DEFAULT_MAX_TERMS",
+    "ExactTable",
+    "ExactResult",
+    "table_samples",
+    "write_exact_table",
+    "read_exact_table",
+    "exact_colour",
+    "exact_includes",
+    "include_fields",
+    "RGB_WAVELENGTHS_NM",
+    "METALS",
+    "base_rgb",
+]
 
-TABLE_STEP_NM = 2.0        # linear interpolation error of Ŵ ≤ 3.3e-6 at this step (measured; bound in the header)
-TABLE_TEXELS = 32768       # x from 0 to 65,534 nm: 64 terms of the thickest KHR film at normal incidence
-TABLE_WIDTH = 2048         # WebGL2 and OpenGL ES 3.0 guarantee textures this wide
-DEFAULT_TOLERANCE = 1e-4   # |ΔRGB| the truncation rule allows
-DEFAULT_MAX_TERMS = 64     # the shader's loop cap (a #define the engine may change)
-BAND_HALF_PER_NM = 0.5 * (1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM)   # ν_half: A's band, |ν − ν0|
+TABLE_STEP_NM = 2.0  # linear interpolation error of Ŵ ≤ 3.3e-6 at this step (measured; bound in the header)
+TABLE_TEXELS = 32768  # x from 0 to 65,534 nm: 64 terms of the thickest KHR film at normal incidence
+TABLE_WIDTH = 2048  # WebGL2 and OpenGL ES 3.0 guarantee textures this wide
+DEFAULT_TOLERANCE = 1e-4  # |ΔRGB| the truncation rule allows
+DEFAULT_MAX_TERMS = 64  # the shader's loop cap (a #define the engine may change)
+BAND_HALF_PER_NM = 0.5 * (1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM)  # ν_half: A's band, |ν − ν0|
 # Per-channel base indices for lutbake_exact_rgb: a named material's n, k at the dominant wavelengths
 # of the Rec.709 primaries (docs/engines.md measures what this costs against the dispersive truth).
 RGB_WAVELENGTHS_NM = (611.0, 549.0, 464.0)
@@ -88,9 +103,9 @@ class ExactTable:
 
 @dataclass
 class ExactResult:
-    values: np.ndarray   # (n, 3) linear RGB
-    terms: np.ndarray    # (n,) terms taken
-    bound: np.ndarray    # (n,) the rule's remainder bound where it stopped (> tolerance: capped or past the table)
+    values: np.ndarray  # (n, 3) linear RGB
+    terms: np.ndarray  # (n,) terms taken
+    bound: np.ndarray  # (n,) the rule's remainder bound where it stopped (> tolerance: capped or past the table)
 
 
 def base_rgb(name: str):
@@ -127,12 +142,16 @@ def _interpolation_bound(mass: np.ndarray) -> float:
     return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * BAND_HALF_PER_NM) ** 2 * mass.max())
 
 
-def table_metadata(observer: str, space: str, precision: str, exact: np.ndarray, stored: np.ndarray,
-                   tolerance: float, max_terms: int) -> dict:
+def table_metadata(
+    observer: str, space: str, precision: str, exact: np.ndarray, stored: np.ndarray, tolerance: float, max_terms: int
+) -> dict:
     """The header: ``exact`` the float64 samples, ``stored`` the image as written."""
     wt = weight_transform(observer, space)
-    digest = hashlib.sha256(json.dumps([__version__, observer, space, precision, TABLE_STEP_NM, TABLE_TEXELS,
-                                        repr(tolerance), max_terms]).encode())
+    digest = hashlib.sha256(
+        json.dumps(
+            [__version__, observer, space, precision, TABLE_STEP_NM, TABLE_TEXELS, repr(tolerance), max_terms]
+        ).encode()
+    )
     return {
         "format": EXACT_FORMAT,
         "format_version": EXACT_FORMAT_VERSION,
@@ -144,22 +163,37 @@ def table_metadata(observer: str, space: str, precision: str, exact: np.ndarray,
         "encoding": "linear",
         "precision": precision,
         "channels": ["R", "G", "B"],
-        "table": {"quantity": "demodulated colour-weight transform W_c(x) exp(-2 pi i nu0 x)",
-                  "step_nm": TABLE_STEP_NM, "texels": TABLE_TEXELS, "width": TABLE_WIDTH,
-                  "rows_per_part": TABLE_TEXELS // TABLE_WIDTH, "x_max_nm": TABLE_STEP_NM * (TABLE_TEXELS - 1),
-                  "nu0_per_nm": NU0_PER_NM, "layout": "real parts in scanlines [0, rows), imaginary parts in "
-                  "[rows, 2 rows); texel i at (i mod width, i div width)", "interpolation": "linear"},
+        "table": {
+            "quantity": "demodulated colour-weight transform W_c(x) exp(-2 pi i nu0 x)",
+            "step_nm": TABLE_STEP_NM,
+            "texels": TABLE_TEXELS,
+            "width": TABLE_WIDTH,
+            "rows_per_part": TABLE_TEXELS // TABLE_WIDTH,
+            "x_max_nm": TABLE_STEP_NM * (TABLE_TEXELS - 1),
+            "nu0_per_nm": NU0_PER_NM,
+            "layout": "real parts in scanlines [0, rows), imaginary parts in "
+            "[rows, 2 rows); texel i at (i mod width, i div width)",
+            "interpolation": "linear",
+        },
         # sup_{y ≥ x} |Ŵ_c(y)| ≤ min(mass, (edge + variation/(2πx))/(2πx)), largest channel's constants
         "tail": {"mass": float(wt.mass.max()), "edge": float(wt.edge.max()), "variation": float(wt.variation.max())},
-        "error": {"interpolation_bound": _interpolation_bound(wt.mass),
-                  "transform_bound": float(wt.interpolation_bound.max()),
-                  "storage_max": float(np.abs(_unpack(stored) - exact).max())},
+        "error": {
+            "interpolation_bound": _interpolation_bound(wt.mass),
+            "transform_bound": float(wt.interpolation_bound.max()),
+            "storage_max": float(np.abs(_unpack(stored) - exact).max()),
+        },
         "include": {"tolerance": tolerance, "max_terms": max_terms},
     }
 
 
-def write_exact_table(out_path, observer: str = "cie1931", space: str = "rec709", precision: str = "float",
-                      tolerance: float = DEFAULT_TOLERANCE, max_terms: int = DEFAULT_MAX_TERMS) -> dict:
+def write_exact_table(
+    out_path,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    precision: str = "float",
+    tolerance: float = DEFAULT_TOLERANCE,
+    max_terms: int = DEFAULT_MAX_TERMS,
+) -> dict:
     """Write NAME.exr, NAME.json, NAME.glsl and NAME.hlsl as one set; return the metadata."""
     from lutbake.lut.bake import _check_writable
 
@@ -200,8 +234,9 @@ def exact_mode(stack, space: str = "rec709", observer: str = "cie1931") -> Exact
     `sweep` score beside a LUT."""
     eta1, eta2 = float(np.ravel(stack.eta1)[0]), float(np.ravel(stack.eta2)[0])
     stack.require("exact mode", film=None, base=None, eta1=eta1, eta2=eta2)
-    cos_theta, thickness, eta3, kappa3 = (np.ravel(a) for a in np.broadcast_arrays(
-        stack.cos_theta, stack.thickness_nm, stack.eta3, stack.kappa3))
+    cos_theta, thickness, eta3, kappa3 = (
+        np.ravel(a) for a in np.broadcast_arrays(stack.cos_theta, stack.thickness_nm, stack.eta3, stack.kappa3)
+    )
     return exact_colour(stored_table(observer, space), cos_theta, thickness, eta1, eta2, eta3, kappa3)
 
 
@@ -213,13 +248,24 @@ def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
 def include_fields(meta: dict, table_name: str) -> dict:
     """The template fields of a Ŵ table's shader sources (exact.*.in): its constants and defaults."""
     table, tail = meta["table"], meta["tail"]
-    return {"table_name": shader_comment(table_name), "content_hash": meta["content_hash"], "space": meta["space"],
-            "observer": meta["observer"], "step": repr(table["step_nm"]), "width": table["width"],
-            "rows": table["rows_per_part"], "texels": table["texels"], "x_max": repr(table["x_max_nm"]),
-            "nu0": repr(table["nu0_per_nm"]), "mass": repr(tail["mass"]), "edge": repr(tail["edge"]),
-            "variation": repr(tail["variation"]), "tolerance": repr(meta["include"]["tolerance"]),
-            "band": repr(2.0 * np.pi * BAND_HALF_PER_NM),
-            "max_terms": meta["include"]["max_terms"]}
+    return {
+        "table_name": shader_comment(table_name),
+        "content_hash": meta["content_hash"],
+        "space": meta["space"],
+        "observer": meta["observer"],
+        "step": repr(table["step_nm"]),
+        "width": table["width"],
+        "rows": table["rows_per_part"],
+        "texels": table["texels"],
+        "x_max": repr(table["x_max_nm"]),
+        "nu0": repr(table["nu0_per_nm"]),
+        "mass": repr(tail["mass"]),
+        "edge": repr(tail["edge"]),
+        "variation": repr(tail["variation"]),
+        "tolerance": repr(meta["include"]["tolerance"]),
+        "band": repr(2.0 * np.pi * BAND_HALF_PER_NM),
+        "max_terms": meta["include"]["max_terms"],
+    }
 
 
 def exact_includes(meta: dict, table_name: str) -> dict:
@@ -244,8 +290,9 @@ def _channel_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> Series
     return SeriesCoefficients(**stack, x_nm=parts[0].x_nm, in_scope=parts[0].in_scope)
 
 
-def exact_colour(table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3,
-                 tolerance: float = None, max_terms: int = None) -> ExactResult:
+def exact_colour(
+    table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3, tolerance: float = None, max_terms: int = None
+) -> ExactResult:
     """RGB by the include's math in float64: η1, η2 scalars; the rest arrays (n,); η3, κ3 (n,) or (n, 3).
 
     The film must propagate (η2 ≥ η1 sin θ1, always so for a film in air)."""
@@ -259,11 +306,11 @@ def exact_colour(table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, k
     x = co.x_nm
     w0 = table.samples[:, 0].real
     phase = np.exp(2j * np.pi * NU0_PER_NM * x)[None, :, None]
-    power, ratio = co.k * phase, co.q * phase          # K e^{iθ} (q e^{iθ})^{m−1}: Ŵ(mX) = f(mX) e^{iθm}
+    power, ratio = co.k * phase, co.q * phase  # K e^{iθ} (q e^{iθ})^{m−1}: Ŵ(mX) = f(mX) e^{iθm}
     with np.errstate(divide="ignore", invalid="ignore"):
         geometric = np.where(co.k == 0, 0.0, np.abs(co.k) / co.one_minus_q)
         closed = np.where(co.k == 0, 0.0, co.k / (1.0 - co.q))
-    acc = np.where(x[None, :, None] == 0, closed * w0, 0.0)   # X = 0: Σ K q^{m−1} = K/(1 − q)
+    acc = np.where(x[None, :, None] == 0, closed * w0, 0.0)  # X = 0: Σ K q^{m−1} = K/(1 − q)
     terms = np.zeros(x.size, np.int64)
     bound = np.zeros(x.size)
     active = x > 0
@@ -273,7 +320,7 @@ def exact_colour(table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, k
         active &= (remainder > tolerance) & (m * x <= table.x_max_nm) & (m <= max_terms)
         if not active.any():
             break
-        f = table.demodulated(np.where(active, m * x, 0.0)).T          # (n, 3)
+        f = table.demodulated(np.where(active, m * x, 0.0)).T  # (n, 3)
         acc = acc + np.where(active[None, :, None], (power * f[None]).real, 0.0)
         power = power * ratio
         geometric = geometric * np.abs(co.q)
@@ -297,17 +344,17 @@ def _resummed_tail(table: ExactTable, x, terms, co: SeriesCoefficients, power) -
     tail_bound(x_M)/(1 − |q|): the tail is added where the first is smaller (per polarization and channel).
     ζ = (1 − q) − q(e^{iθ} − 1), the form the include computes without cancellation."""
     theta = 2.0 * np.pi * NU0_PER_NM * x
-    em1 = (-2.0 * np.sin(0.5 * theta) ** 2 + 1j * np.sin(theta))[None, :, None]   # e^{iθ} − 1
+    em1 = (-2.0 * np.sin(0.5 * theta) ** 2 + 1j * np.sin(theta))[None, :, None]  # e^{iθ} − 1
     z = co.q * (1.0 + em1)
     zeta = (1.0 - co.q) - co.q * em1
     x_m = (terms + 1) * x
     h = table.step_nm
     node = np.clip(np.floor(x_m / h + 0.5).astype(np.int64), 1, table.samples.shape[1] - 2)
     below, at, above = (table.samples[:, node + i].T[None] for i in (-1, 0, 1))
-    d1, d2 = (above - below) / (2.0 * h), (above - 2.0 * at + below) / h**2     # A', A'' at the node
-    off = (x_m - h * node)[None, :, None]                                       # x_M − node
+    d1, d2 = (above - below) / (2.0 * h), (above - 2.0 * at + below) / h**2  # A', A'' at the node
+    off = (x_m - h * node)[None, :, None]  # x_M − node
     step = x[None, :, None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):          # ζ = 0 only where K = 0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # ζ = 0 only where K = 0
         s0, s1, s2 = 1.0 / zeta, z / zeta**2, z * (1.0 + z) / zeta**3
         tail = (at + d1 * off + 0.5 * d2 * off**2) * s0 + (d1 + d2 * off) * step * s1 + 0.5 * d2 * step**2 * s2
         rho = 2.0 * np.pi * BAND_HALF_PER_NM * step / np.abs(zeta)

@@ -46,7 +46,6 @@ WAVELENGTH_MIN_NM = 360.0
 WAVELENGTH_MAX_NM = 830.0
 
 
-
 def _colour():
     """colour-science, imported only to fill the cache: it pulls in matplotlib (~2 s in all), which logs
     two warnings when the user's cache home cannot be written (it then uses a temporary folder)."""
@@ -65,8 +64,13 @@ def _colour():
 
 
 _WAVELENGTHS = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5, 1.0)
-_TABLE_SHAPES = {"cmf": (_WAVELENGTHS.size, 3), "illuminant": (_WAVELENGTHS.size,), "xyz_to_rgb": (3, 3),
-                 "rgb_to_xyz": (3, 3), "whitepoint_xy": (2,)}
+_TABLE_SHAPES = {
+    "cmf": (_WAVELENGTHS.size, 3),
+    "illuminant": (_WAVELENGTHS.size,),
+    "xyz_to_rgb": (3, 3),
+    "rgb_to_xyz": (3, 3),
+    "whitepoint_xy": (2,),
+}
 
 
 def _colour_science_tables(observer: str, space: str) -> dict:
@@ -81,10 +85,13 @@ def _read_colour_science(observer: str, space: str) -> dict:
     colour = _colour()
     colourspace = colour.RGB_COLOURSPACES[SPACES[space]]
     cmfs = colour.MSDS_CMFS[OBSERVERS[observer]]
-    return {"cmf": np.asarray(cmfs.values, float)[:, :3], "illuminant": _illuminant(colour, colourspace),
-            "xyz_to_rgb": np.asarray(colourspace.matrix_XYZ_to_RGB, float),
-            "rgb_to_xyz": np.asarray(colourspace.matrix_RGB_to_XYZ, float),
-            "whitepoint_xy": np.asarray(colourspace.whitepoint, float)}
+    return {
+        "cmf": np.asarray(cmfs.values, float)[:, :3],
+        "illuminant": _illuminant(colour, colourspace),
+        "xyz_to_rgb": np.asarray(colourspace.matrix_XYZ_to_RGB, float),
+        "rgb_to_xyz": np.asarray(colourspace.matrix_RGB_to_XYZ, float),
+        "whitepoint_xy": np.asarray(colourspace.whitepoint, float),
+    }
 
 
 def _illuminant(colour, colourspace) -> np.ndarray:
@@ -130,8 +137,7 @@ class Colorimetry:
         """Continuous w_c(λ) (3, …), linear between the 1 nm table entries."""
         table = self.rgb_table if basis == "rgb" else self.xyz_table
         lam = np.asarray(wavelength_nm, float)
-        return np.stack([np.interp(lam, self.wavelength_nm, row, left=0.0, right=0.0)
-                         for row in table])
+        return np.stack([np.interp(lam, self.wavelength_nm, row, left=0.0, right=0.0) for row in table])
 
     def rgb_to_xyz(self, rgb) -> np.ndarray:
         """Linear working-space RGB (…, 3) to XYZ (…, 3), Y of the white = 1."""
@@ -154,7 +160,7 @@ def delta_e00(rgb_a, rgb_b, observer: str = "cie1931", space: str = "rec709") ->
     """
     cm = colorimetry(observer, space)
     white = cm.rgb_to_xyz(np.ones(3))
-    white = white / white[1]   # CIELAB's reference white: the space's white chromaticity at Y = 1
+    white = white / white[1]  # CIELAB's reference white: the space's white chromaticity at Y = 1
     return _ciede2000(_lab(cm.rgb_to_xyz(rgb_a), white), _lab(cm.rgb_to_xyz(rgb_b), white))
 
 
@@ -162,8 +168,9 @@ def _lab(xyz, white) -> np.ndarray:
     """CIE 1976 L*a*b* (CIE 15), with the exact constants ε = 216/24389, κ = 24389/27."""
     t = np.asarray(xyz, float) / white
     f = np.where(t > 216.0 / 24389.0, np.cbrt(t), (24389.0 / 27.0 * t + 16.0) / 116.0)
-    return np.stack([116.0 * f[..., 1] - 16.0, 500.0 * (f[..., 0] - f[..., 1]), 200.0 * (f[..., 1] - f[..., 2])],
-                    axis=-1)
+    return np.stack(
+        [116.0 * f[..., 1] - 16.0, 500.0 * (f[..., 0] - f[..., 1]), 200.0 * (f[..., 1] - f[..., 2])], axis=-1
+    )
 
 
 def _ciede2000(lab1, lab2) -> np.ndarray:
@@ -183,11 +190,17 @@ def _ciede2000(lab1, lab2) -> np.ndarray:
     d_h = 2.0 * np.sqrt(chroma_product) * np.sin(np.radians(0.5 * dh))
     l_mean, cp_mean = 0.5 * (l1 + l2), 0.5 * (c1p + c2p)
     h_sum = h1p + h2p
-    h_mean = np.where(np.abs(h1p - h2p) <= 180.0, 0.5 * h_sum,
-                      np.where(h_sum < 360.0, 0.5 * (h_sum + 360.0), 0.5 * (h_sum - 360.0)))
+    h_mean = np.where(
+        np.abs(h1p - h2p) <= 180.0, 0.5 * h_sum, np.where(h_sum < 360.0, 0.5 * (h_sum + 360.0), 0.5 * (h_sum - 360.0))
+    )
     h_mean = np.where(chroma_product == 0, h_sum, h_mean)
-    t = (1.0 - 0.17 * np.cos(np.radians(h_mean - 30.0)) + 0.24 * np.cos(np.radians(2.0 * h_mean))
-         + 0.32 * np.cos(np.radians(3.0 * h_mean + 6.0)) - 0.20 * np.cos(np.radians(4.0 * h_mean - 63.0)))
+    t = (
+        1.0
+        - 0.17 * np.cos(np.radians(h_mean - 30.0))
+        + 0.24 * np.cos(np.radians(2.0 * h_mean))
+        + 0.32 * np.cos(np.radians(3.0 * h_mean + 6.0))
+        - 0.20 * np.cos(np.radians(4.0 * h_mean - 63.0))
+    )
     rotation = 30.0 * np.exp(-(((h_mean - 275.0) / 25.0) ** 2))
     r_c = 2.0 * np.sqrt(cp_mean**7 / (cp_mean**7 + 25.0**7))
     s_l = 1.0 + 0.015 * (l_mean - 50.0) ** 2 / np.sqrt(20.0 + (l_mean - 50.0) ** 2)

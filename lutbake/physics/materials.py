@@ -37,9 +37,23 @@ ALIASES = {
     "water": ("main", "H2O", "Hale"),
     "butanol": ("organic", "butanol", "Moutzouris-n"),
 }
-ALIASES.update({long: ALIASES[short] for long, short in (
-    ("iron", "Fe"), ("copper", "Cu"), ("silver", "Ag"), ("gold", "Au"), ("aluminium", "Al"),
-    ("titanium", "Ti"), ("chromium", "Cr"), ("silica", "SiO2"), ("titania", "TiO2"), ("hematite", "Fe2O3"))})
+ALIASES.update(
+    {
+        long: ALIASES[short]
+        for long, short in (
+            ("iron", "Fe"),
+            ("copper", "Cu"),
+            ("silver", "Ag"),
+            ("gold", "Au"),
+            ("aluminium", "Al"),
+            ("titanium", "Ti"),
+            ("chromium", "Cr"),
+            ("silica", "SiO2"),
+            ("titania", "TiO2"),
+            ("hematite", "Fe2O3"),
+        )
+    }
+)
 
 _CANONICAL = {k.lower(): k for k in ALIASES}  # `--base cu` finds Cu
 
@@ -74,8 +88,7 @@ class DispersiveMaterial:
     def index(self, wavelength_nm):
         lam_um = np.asarray(wavelength_nm, float) / 1000.0
         eta = _evaluate_n(self.entry.n, lam_um)
-        kappa = (_tabulated(self.entry.k, lam_um) if self.entry.k is not None
-                 else np.zeros_like(lam_um))
+        kappa = _tabulated(self.entry.k, lam_um) if self.entry.k is not None else np.zeros_like(lam_um)
         return eta, np.maximum(kappa, 0.0)
 
     @property
@@ -171,13 +184,11 @@ def _evaluate_n(model, lam_um):
         return 1 + model.c1 + sum(b / (c - lam**-2) for b, c in model.coefficients)
     if kind == "Herzberger":
         q = 1.0 / (l2 - 0.028)
-        return (model.c1 + model.c2 * q + model.c3 * q**2 + model.c4 * l2
-                + model.c5 * l2**2 + model.c6 * l2**3)
+        return model.c1 + model.c2 * q + model.c3 * q**2 + model.c4 * l2 + model.c5 * l2**2 + model.c6 * l2**3
     if kind == "Retro":
         p = model.c1 + model.c2 * l2 / (l2 - model.c3) + model.c4 * l2
         return np.sqrt((1 + 2 * p) / (1 - p))
     if kind == "Exotic":
-        n2 = (model.c1 + model.c2 / (l2 - model.c3)
-              + model.c4 * (lam - model.c5) / ((lam - model.c5) ** 2 + model.c6))
+        n2 = model.c1 + model.c2 / (l2 - model.c3) + model.c4 * (lam - model.c5) / ((lam - model.c5) ** 2 + model.c6)
         return np.sqrt(n2)
     raise ValueError(f"dispersion model {kind} is not supported")

@@ -28,13 +28,12 @@ import numpy as np
 from lutbake.physics.optics import fresnel_p, fresnel_s, normal_admittance
 from lutbake.physics.points import MAX_INDEX
 
-__all__ = ["MAPPINGS", "F0_MAX", "gltf_metal_reflectance", "conductor_reflectance", "conductor",
-           "reflectance_error"]
+__all__ = ["MAPPINGS", "F0_MAX", "gltf_metal_reflectance", "conductor_reflectance", "conductor", "reflectance_error"]
 
 MAPPINGS = ("fitted", "threejs")
 F0_MAX = {"fitted": 0.99, "threejs": ((MAX_INDEX - 1.0) / (MAX_INDEX + 1.0)) ** 2}
 _COS_GRID = np.linspace(0.0, 1.0, 1025)
-_ETA_STEPS = 256       # coarse search over the free parameter before golden-section refinement
+_ETA_STEPS = 256  # coarse search over the free parameter before golden-section refinement
 _GOLDEN_ITERATIONS = 40
 
 

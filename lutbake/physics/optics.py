@@ -106,8 +106,9 @@ def _exprel(x):
 
 def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
     """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each (indices resolved)."""
-    e1, e2, e3, k3, c1, d, lam = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (
-        eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm)))
+    e1, e2, e3, k3, c1, d, lam = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm))
+    )
     g1 = e1 * c1 + 0j
     g2 = normal_admittance(e2, 0.0, e1, c1)
     g3 = normal_admittance(e3, k3, e1, c1)
@@ -127,8 +128,10 @@ def _ratio(num, den):
     overflows to inf + nan·i when both are subnormal (cos θ1 ~ 1e-320)."""
     scale = np.maximum(np.abs(np.real(den)), np.abs(np.imag(den)))
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+
         def scaled(z):  # real divisions: numpy's complex path overflows here too
             return np.real(z) / scale + 1j * (np.imag(z) / scale)
+
         return scaled(num) / scaled(den)
 
 

@@ -18,12 +18,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from lutbake.physics.materials import material
 from lutbake.errors import ParameterError
+from lutbake.physics.materials import material
 from lutbake.physics.optics import opd_from_thickness, thickness_from_opd
 
-__all__ = ["FilmPoints", "check_value", "inside_domain", "read_csv_columns", "MAX_CSV_POINTS",
-           "MAX_CSV_LINE_BYTES", "dielectric_film", "CSV_COLUMNS"]
+__all__ = [
+    "FilmPoints",
+    "check_value",
+    "inside_domain",
+    "read_csv_columns",
+    "MAX_CSV_POINTS",
+    "MAX_CSV_LINE_BYTES",
+    "dielectric_film",
+    "CSV_COLUMNS",
+]
 
 # The per-point fields (the rest name materials).
 _COLUMNS = ("eta1", "eta2", "eta3", "kappa3", "cos_theta", "thickness_nm")
@@ -150,8 +158,12 @@ class FilmPoints:
                 differs = column != want
                 same, value = not differs.any(), float(column[differs].flat[0]) if differs.any() else None
             if not same:
-                raise ParameterError(f"{{{name}}} {{value}} differs from the {{owner}}'s {name} = {{want}}",
-                                     value=repr(value), owner=owner, want=repr(want))
+                raise ParameterError(
+                    f"{{{name}}} {{value}} differs from the {{owner}}'s {name} = {{want}}",
+                    value=repr(value),
+                    owner=owner,
+                    want=repr(want),
+                )
         return self
 
     @classmethod
@@ -159,13 +171,32 @@ class FilmPoints:
         """Stacks at LUT coordinates (cos θ1, D = 2·η2·d, η3, κ3) of the film η1 | η2, unchecked and
         broadcast without copies: for coordinates a validated spec or LUT produced (a bake's texels)."""
         eta1, eta2, cos_theta, opd_nm, eta3, kappa3 = np.broadcast_arrays(
-            *(np.asarray(v, float) for v in (eta1, eta2, cos_theta, opd_nm, eta3, kappa3)))
-        return cls(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta,
-                   thickness_nm=thickness_from_opd(opd_nm, eta2))
+            *(np.asarray(v, float) for v in (eta1, eta2, cos_theta, opd_nm, eta3, kappa3))
+        )
+        return cls(
+            eta1=eta1,
+            eta2=eta2,
+            eta3=eta3,
+            kappa3=kappa3,
+            cos_theta=cos_theta,
+            thickness_nm=thickness_from_opd(opd_nm, eta2),
+        )
 
     @classmethod
-    def build(cls, *, eta1=1.0, eta2=None, thickness_nm=None, opd_nm=None, cos_theta=None,
-              angle_deg=None, eta3=None, kappa3=0.0, film=None, base=None) -> "FilmPoints":
+    def build(
+        cls,
+        *,
+        eta1=1.0,
+        eta2=None,
+        thickness_nm=None,
+        opd_nm=None,
+        cos_theta=None,
+        angle_deg=None,
+        eta3=None,
+        kappa3=0.0,
+        film=None,
+        base=None,
+    ) -> "FilmPoints":
         """Validate and broadcast keyword columns (scalars or arrays)."""
         film_mat = dielectric_film(film) if film else None
         base_mat = material(base) if base else None
@@ -194,8 +225,7 @@ class FilmPoints:
         eta2_max = np.max(film_mat.index(np.array([360.0, 830.0]))[0]) if film_mat else cols["eta2"]
         check_value("opd_nm", 2.0 * eta2_max * cols["thickness_nm"])
         arrays = dict(zip(cols, np.broadcast_arrays(*cols.values())))
-        return cls(**{k: np.ascontiguousarray(v) for k, v in arrays.items()},
-                   film=film_mat, base=base_mat)
+        return cls(**{k: np.ascontiguousarray(v) for k, v in arrays.items()}, film=film_mat, base=base_mat)
 
     @classmethod
     def from_csv(cls, source, defaults=None, **given) -> "FilmPoints":
@@ -206,14 +236,17 @@ class FilmPoints:
         columns = read_csv_columns(source)
         repeated = [name for name in columns if name in given]
         if repeated:
-            raise ParameterError("points CSV column {column} and {%s} both give it: give one" % repeated[0],
-                                 column=repeated[0])
+            raise ParameterError(
+                "points CSV column {column} and {%s} both give it: give one" % repeated[0], column=repeated[0]
+            )
         values = {**(defaults or {}), **given, **columns}
         for named, replaced in (("film", ("eta2",)), ("base", ("eta3", "kappa3"))):
             clash = [name for name in replaced if name in columns]
             if values.get(named) and clash:
-                raise ValueError(f"points CSV column {clash[0]} conflicts with the {named} {values[named]!r}, whose "
-                                 "index it would replace: drop the column or the material")
+                raise ValueError(
+                    f"points CSV column {clash[0]} conflicts with the {named} {values[named]!r}, whose "
+                    "index it would replace: drop the column or the material"
+                )
         return cls.build(**values)
 
 
@@ -296,8 +329,10 @@ def dielectric_film(name: str):
     film = material(name)
     kappa = film.index(np.linspace(360.0, 830.0, 95))[1]
     if np.max(kappa) > MAX_FILM_KAPPA:
-        raise ValueError(f"film {name!r} absorbs (kappa up to {np.max(kappa):.3g} in 360-830 nm): the film "
-                         f"must be a dielectric with kappa <= {MAX_FILM_KAPPA:g}; use it as the base instead")
+        raise ValueError(
+            f"film {name!r} absorbs (kappa up to {np.max(kappa):.3g} in 360-830 nm): the film "
+            f"must be a dielectric with kappa <= {MAX_FILM_KAPPA:g}; use it as the base instead"
+        )
     return film
 
 

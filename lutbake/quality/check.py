@@ -13,20 +13,21 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, series_colour
-from lutbake.integrate.opencl import backend as make_backend, device_key
-from lutbake.physics.optics import film_reflectance, round_trip_amplitude
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.physics.points import FilmPoints
+from lutbake.integrate.opencl import backend as make_backend
+from lutbake.integrate.opencl import device_key
 from lutbake.io.progress import no_progress
+from lutbake.physics.optics import film_reflectance, round_trip_amplitude
+from lutbake.physics.points import FilmPoints
+from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, series_colour
 from lutbake.spectral.reference import reference_colour
 
 __all__ = ["CheckResult", "run_checks"]
 
-SPECTRAL_TOLERANCE = 1e-5   # the ladder's design target (spectral.RuleLadder)
+SPECTRAL_TOLERANCE = 1e-5  # the ladder's design target (spectral.RuleLadder)
 IDENTITY_TOLERANCE = 1e-9
 FLOAT32_TOLERANCE = 2e-5
-CAPPED_TOLERANCE = 1e-4     # past the node cap: the measured error a bake accepts without a warning
+CAPPED_TOLERANCE = 1e-4  # past the node cap: the measured error a bake accepts without a warning
 INCOHERENT_TOLERANCE = 2e-5  # D = 100 µm against the incoherent limit: measured 7.2e-6 (fringes 2 nm apart)
 # Every tolerance is below 2e-4 in RGB (0.2 ΔE00 on mid grey): an answer that far off fails every case
 # (tests/quality/test_stability.py builds one and checks that it does).
@@ -51,8 +52,12 @@ class CheckResult:
 
 
 def _spec(eta2, eta1=1.0, compute="float64"):
-    axes = (Axis("cos_theta", 0.0, 1.0, 2), Axis("opd_nm", 0.0, 1.0, 2), Axis("eta3", 1.0, 2.0, 2),
-            Axis("kappa3", 0.0, 1.0, 2))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 2),
+        Axis("opd_nm", 0.0, 1.0, 2),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
     return BakeSpec(eta2=eta2, eta1=eta1, axes=axes, compute=compute)
 
 
@@ -66,8 +71,11 @@ class _Paths:
         """The float64 backend, or its device's float32 build (numpy has one precision)."""
         if compute not in self._fast:
             first = self._fast["float64"]
-            self._fast[compute] = first if first.name == "numpy" else make_backend(
-                "opencl", compute, first.integrator, device_key(first.ctx.devices[0]))
+            self._fast[compute] = (
+                first
+                if first.name == "numpy"
+                else make_backend("opencl", compute, first.integrator, device_key(first.ctx.devices[0]))
+            )
         return self._fast[compute]
 
     def fast(self, eta1, eta2, cos_theta, opd_nm, eta3, kappa3, compute="float64"):
@@ -119,46 +127,111 @@ def _incoherent_limit(eta1, eta2, eta3, kappa3, cos_theta):
 def _high_finesse(paths):
     g = "high finesse"
     return [
-        _vs_truth(paths, g, "metal base κ3 = 10 at grazing (cos θ 0.02, D 3 µm)", (1.0, 1.5, 0.02, 3000.0, 1.2, 10.0),
-                  f"|r21·r23| = {float(round_trip_amplitude(1.0, 1.5, 1.2, 10.0, 0.02)):.4f}"),
+        _vs_truth(
+            paths,
+            g,
+            "metal base κ3 = 10 at grazing (cos θ 0.02, D 3 µm)",
+            (1.0, 1.5, 0.02, 3000.0, 1.2, 10.0),
+            f"|r21·r23| = {float(round_trip_amplitude(1.0, 1.5, 1.2, 10.0, 0.02)):.4f}",
+        ),
         # Total reflection at the base needs η3 < η1·sin θ1: a film in glass (η1 1.5) over air.
-        _vs_truth(paths, g, "near-total reflection at the base, κ3 = 1e-3 (η1 1.5, η3 1.0)",
-                  (1.5, 2.0, 0.3, 5000.0, 1.0, 1e-3)),
-        _vs_value(paths, g, "lossless total reflection at the base: R ≡ 1", (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
-                  1.0, IDENTITY_TOLERANCE, "every wavelength reflects totally"),
-        _vs_truth(paths, g, "total reflection at the top (η1 1.6 > η2 1.2): evanescent film",
-                  (1.6, 1.2, 0.3, 1000.0, 2.0, 0.5)),
+        _vs_truth(
+            paths,
+            g,
+            "near-total reflection at the base, κ3 = 1e-3 (η1 1.5, η3 1.0)",
+            (1.5, 2.0, 0.3, 5000.0, 1.0, 1e-3),
+        ),
+        _vs_value(
+            paths,
+            g,
+            "lossless total reflection at the base: R ≡ 1",
+            (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
+            1.0,
+            IDENTITY_TOLERANCE,
+            "every wavelength reflects totally",
+        ),
+        _vs_truth(
+            paths,
+            g,
+            "total reflection at the top (η1 1.6 > η2 1.2): evanescent film",
+            (1.6, 1.2, 0.3, 1000.0, 2.0, 0.5),
+        ),
     ]
 
 
 def _thick_films(paths):
     g = "thick films"
-    out = [_vs_truth(paths, g, f"D = {d / 1000:g} µm on glass", (1.0, 1.5, 0.8, d, 1.0, 0.0))
-           for d in (20000.0, 100000.0)]
+    out = [
+        _vs_truth(paths, g, f"D = {d / 1000:g} µm on glass", (1.0, 1.5, 0.8, d, 1.0, 0.0)) for d in (20000.0, 100000.0)
+    ]
     out.append(_vs_truth(paths, g, "D = 100 µm on a metal (η3 2, κ3 3)", (1.0, 1.5, 0.8, 100000.0, 2.0, 3.0)))
     limit = _incoherent_limit(1.0, 1.5, 1.0, 0.0, 0.8)
     truth, _ = paths.truth(1.0, 1.5, 0.8, 100000.0, 1.0, 0.0)
-    out.append(CheckResult(g, "D = 100 µm tends to the incoherent limit (ground truth)", float(truth[0, 1]),
-                           float(limit), float(np.max(np.abs(truth - limit))), INCOHERENT_TOLERANCE,
-                           "fringes 2 nm apart average out under the CMFs"))
+    out.append(
+        CheckResult(
+            g,
+            "D = 100 µm tends to the incoherent limit (ground truth)",
+            float(truth[0, 1]),
+            float(limit),
+            float(np.max(np.abs(truth - limit))),
+            INCOHERENT_TOLERANCE,
+            "fringes 2 nm apart average out under the CMFs",
+        )
+    )
     return out
 
 
 def _degenerate(paths):
     g = "degenerate stacks"
     out = [
-        _vs_value(paths, g, "d = 0: bare ambient|base interface", (1.0, 1.5, 0.7, 0.0, 2.0, 1.5),
-                  _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE),
-        _vs_value(paths, g, "D = 1e-9 nm: continuous with d = 0", (1.0, 1.5, 0.7, 1e-9, 2.0, 1.5),
-                  paths.fast(1.0, 1.5, 0.7, 0.0, 2.0, 1.5), IDENTITY_TOLERANCE),
-        _vs_value(paths, g, "η2 = η1: bare ambient|base interface", (1.0, 1.0, 0.7, 2000.0, 2.0, 1.5),
-                  _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE),
-        _vs_value(paths, g, "η3 = η2, κ3 = 0: bare ambient|film interface", (1.0, 1.5, 0.7, 2000.0, 1.5, 0.0),
-                  _grey(1.0, 1.5, 1.5, 0.0, 0.7), IDENTITY_TOLERANCE),
-        _vs_value(paths, g, "η3 = η2, κ3 = 1e-9: within 1e-8 of the bare interface", (1.0, 1.5, 0.7, 2000.0, 1.5, 1e-9),
-                  _grey(1.0, 1.5, 1.5, 0.0, 0.7), 1e-8),
-        _vs_value(paths, g, "κ3 = 0 vs 1e-12: continuous", (1.0, 1.5, 0.7, 2000.0, 2.0, 1e-12),
-                  paths.fast(1.0, 1.5, 0.7, 2000.0, 2.0, 0.0), IDENTITY_TOLERANCE),
+        _vs_value(
+            paths,
+            g,
+            "d = 0: bare ambient|base interface",
+            (1.0, 1.5, 0.7, 0.0, 2.0, 1.5),
+            _grey(1.0, 1.0, 2.0, 1.5, 0.7),
+            IDENTITY_TOLERANCE,
+        ),
+        _vs_value(
+            paths,
+            g,
+            "D = 1e-9 nm: continuous with d = 0",
+            (1.0, 1.5, 0.7, 1e-9, 2.0, 1.5),
+            paths.fast(1.0, 1.5, 0.7, 0.0, 2.0, 1.5),
+            IDENTITY_TOLERANCE,
+        ),
+        _vs_value(
+            paths,
+            g,
+            "η2 = η1: bare ambient|base interface",
+            (1.0, 1.0, 0.7, 2000.0, 2.0, 1.5),
+            _grey(1.0, 1.0, 2.0, 1.5, 0.7),
+            IDENTITY_TOLERANCE,
+        ),
+        _vs_value(
+            paths,
+            g,
+            "η3 = η2, κ3 = 0: bare ambient|film interface",
+            (1.0, 1.5, 0.7, 2000.0, 1.5, 0.0),
+            _grey(1.0, 1.5, 1.5, 0.0, 0.7),
+            IDENTITY_TOLERANCE,
+        ),
+        _vs_value(
+            paths,
+            g,
+            "η3 = η2, κ3 = 1e-9: within 1e-8 of the bare interface",
+            (1.0, 1.5, 0.7, 2000.0, 1.5, 1e-9),
+            _grey(1.0, 1.5, 1.5, 0.0, 0.7),
+            1e-8,
+        ),
+        _vs_value(
+            paths,
+            g,
+            "κ3 = 0 vs 1e-12: continuous",
+            (1.0, 1.5, 0.7, 2000.0, 2.0, 1e-12),
+            paths.fast(1.0, 1.5, 0.7, 2000.0, 2.0, 0.0),
+            IDENTITY_TOLERANCE,
+        ),
         _vs_truth(paths, g, "κ3 = 100", (1.0, 1.5, 0.7, 2000.0, 2.0, 100.0)),
         _vs_truth(paths, g, "η3 = 1 (film in air)", (1.0, 1.33, 0.7, 2000.0, 1.0, 0.0)),
     ]
@@ -167,18 +240,37 @@ def _degenerate(paths):
 
 def _angles(paths):
     g = "angles"
-    out = [_vs_value(paths, g, "cos θ = 0: total reflection", (1.0, 1.5, 0.0, 2000.0, 2.0, 1.0), 1.0, 1e-12,
-                     "RGB = Σ weights = 1 to rounding"),
-           _vs_truth(paths, g, "cos θ = 1e-12", (1.0, 1.5, 1e-12, 2000.0, 2.0, 1.0)),
-           _vs_truth(paths, g, "cos θ = 1 (normal incidence)", (1.0, 1.5, 1.0, 2000.0, 2.0, 1.0))]
+    out = [
+        _vs_value(
+            paths,
+            g,
+            "cos θ = 0: total reflection",
+            (1.0, 1.5, 0.0, 2000.0, 2.0, 1.0),
+            1.0,
+            1e-12,
+            "RGB = Σ weights = 1 to rounding",
+        ),
+        _vs_truth(paths, g, "cos θ = 1e-12", (1.0, 1.5, 1e-12, 2000.0, 2.0, 1.0)),
+        _vs_truth(paths, g, "cos θ = 1 (normal incidence)", (1.0, 1.5, 1.0, 2000.0, 2.0, 1.0)),
+    ]
     # Brewster at the base, tan θ2 = η3/η2, is reachable from the ambient for η3 = 1.2 < η2.
-    for label, theta, eta3 in (("ambient|film", np.arctan(1.5), 2.0),
-                               ("film|base", np.arcsin(1.5 * np.sin(np.arctan(1.2 / 1.5))), 1.2)):
+    for label, theta, eta3 in (
+        ("ambient|film", np.arctan(1.5), 2.0),
+        ("film|base", np.arcsin(1.5 * np.sin(np.arctan(1.2 / 1.5))), 1.2),
+    ):
         c = np.cos(theta + np.array([-1e-7, 1e-7]))
         rgb = paths.fast(1.0, 1.5, c, 800.0, eta3, 0.0)
-        out.append(CheckResult(g, f"Brewster's angle at the {label} interface: R continuous",
-                               float(rgb[0, 1]), float(rgb[1, 1]), float(np.max(np.abs(rgb[0] - rgb[1]))),
-                               1e-6, "r_p passes through 0; its phase jumps by π"))
+        out.append(
+            CheckResult(
+                g,
+                f"Brewster's angle at the {label} interface: R continuous",
+                float(rgb[0, 1]),
+                float(rgb[1, 1]),
+                float(np.max(np.abs(rgb[0] - rgb[1]))),
+                1e-6,
+                "r_p passes through 0; its phase jumps by π",
+            )
+        )
     return out
 
 
@@ -186,16 +278,26 @@ def _float32(paths):
     g = "float32 kernel"
     rng = np.random.default_rng(2026)
     n = 400
-    stacks = [(1.0, 1.5, rng.uniform(0, 1, n), rng.uniform(0, 20000, n), rng.uniform(1, 3, n), rng.uniform(0, 5, n)),
-              (1.0, 2.0, rng.uniform(0, 0.1, n), rng.uniform(15000, 20000, n), rng.uniform(1, 3, n),
-               rng.uniform(0, 10, n))]
+    stacks = [
+        (1.0, 1.5, rng.uniform(0, 1, n), rng.uniform(0, 20000, n), rng.uniform(1, 3, n), rng.uniform(0, 5, n)),
+        (1.0, 2.0, rng.uniform(0, 0.1, n), rng.uniform(15000, 20000, n), rng.uniform(1, 3, n), rng.uniform(0, 10, n)),
+    ]
     out = []
     for label, stack in zip(("random stacks, D ≤ 20 µm", "grazing, D 15–20 µm (Φ ≈ 1e3 rad)"), stacks):
         f64 = paths.fast(*stack)
         f32 = paths.fast(*stack, compute="float32")
         err = float(np.max(np.abs(f32 - f64)))
-        out.append(CheckResult(g, f"float32 vs float64: {label}", float(f32[0, 1]), float(f64[0, 1]), err,
-                               FLOAT32_TOLERANCE, "float-float phase, quarter-turn reduction"))
+        out.append(
+            CheckResult(
+                g,
+                f"float32 vs float64: {label}",
+                float(f32[0, 1]),
+                float(f64[0, 1]),
+                err,
+                FLOAT32_TOLERANCE,
+                "float-float phase, quarter-turn reduction",
+            )
+        )
     return out
 
 
@@ -208,16 +310,19 @@ def _truncation(paths):
     g = "truncation"
     spec = _spec(2.0)
     out = []
-    for label, stack in (("just past the cap (κ3 40, cos θ 0.05, D 20 µm)", (1.0, 2.0, 0.05, 20000.0, 2.5, 40.0)),
-                         ("far past the cap (κ3 100, cos θ 0.01, D 100 µm)", (1.0, 2.0, 0.01, 100000.0, 2.5, 100.0))):
+    for label, stack in (
+        ("just past the cap (κ3 40, cos θ 0.05, D 20 µm)", (1.0, 2.0, 0.05, 20000.0, 2.5, 40.0)),
+        ("far past the cap (κ3 100, cos θ 0.01, D 100 µm)", (1.0, 2.0, 0.01, 100000.0, 2.5, 100.0)),
+    ):
         params = [np.array([v]) for v in stack[2:]]
         level = int(spec.cell_levels(*params)[0])
         estimate = float(spec.truncation_estimate(*params)[0])
         result = _vs_truth(paths, g, label, stack, f"{spec.ladder.counts[level]} nodes")
         if estimate > 0:
             result.tolerance = min(estimate, CAPPED_TOLERANCE)
-            result.note += (f"; the bound the bake records: {estimate:.1e}"
-                            + ("" if estimate <= CAPPED_TOLERANCE else f", held to {CAPPED_TOLERANCE:g} instead"))
+            result.note += f"; the bound the bake records: {estimate:.1e}" + (
+                "" if estimate <= CAPPED_TOLERANCE else f", held to {CAPPED_TOLERANCE:g} instead"
+            )
         out.append(result)
     return out
 
@@ -236,27 +341,63 @@ def _fourier(paths):
         res = _series(*stack)
         expected = np.broadcast_to(np.asarray(expected, float), res.values.shape)
         err = float(np.max(np.abs(res.values - expected)))
-        out.append(CheckResult(g, name, float(res.values[0, 1]), float(expected[0, 1]), err, tolerance,
-                               f"{int(res.terms[0])} terms" + (f"; {note}" if note else "")))
+        out.append(
+            CheckResult(
+                g,
+                name,
+                float(res.values[0, 1]),
+                float(expected[0, 1]),
+                err,
+                tolerance,
+                f"{int(res.terms[0])} terms" + (f"; {note}" if note else ""),
+            )
+        )
 
     bare = (1.0, 1.5, 0.7, 0.0, 2.0, 1.5)
     case("X = 0: closed form C0 + 2 Re K/(1 − q)", bare, _grey(1.0, 1.0, 2.0, 1.5, 0.7), IDENTITY_TOLERANCE)
-    case("cos θ = 0 over a matched base (q → 1, K = 0): R = 1", (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0),
-         paths.truth(1.0, 1.5, 0.0, 1000.0, 1.0, 0.0)[0], 1e-12, "RGB = Σ weights")
-    case("lossless total reflection at the base: K = 0, C0 = 1", (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
-         paths.truth(1.5, 2.0, 0.3, 5000.0, 1.0, 0.0)[0], IDENTITY_TOLERANCE)
-    for label, stack in (("high finesse: metal κ3 10 at cos θ 0.05, D 3 µm", (1.0, 1.5, 0.05, 3000.0, 1.2, 10.0)),
-                         ("thick film: D = 20 µm on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 3.0))):
+    case(
+        "cos θ = 0 over a matched base (q → 1, K = 0): R = 1",
+        (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0),
+        paths.truth(1.0, 1.5, 0.0, 1000.0, 1.0, 0.0)[0],
+        1e-12,
+        "RGB = Σ weights",
+    )
+    case(
+        "lossless total reflection at the base: K = 0, C0 = 1",
+        (1.5, 2.0, 0.3, 5000.0, 1.0, 0.0),
+        paths.truth(1.5, 2.0, 0.3, 5000.0, 1.0, 0.0)[0],
+        IDENTITY_TOLERANCE,
+    )
+    for label, stack in (
+        ("high finesse: metal κ3 10 at cos θ 0.05, D 3 µm", (1.0, 1.5, 0.05, 3000.0, 1.2, 10.0)),
+        ("thick film: D = 20 µm on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 3.0)),
+    ):
         case(label, stack, paths.truth(*stack)[0], 1e-8)
     evanescent = _series(1.6, 1.2, 0.3, 1000.0, 2.0, 0.5)
-    out.append(CheckResult(g, "evanescent film: out of scope, left to the direct path",
-                           float(evanescent.terms[0]), -1.0, float(abs(evanescent.terms[0] + 1)), 0.0))
+    out.append(
+        CheckResult(
+            g,
+            "evanescent film: out of scope, left to the direct path",
+            float(evanescent.terms[0]),
+            -1.0,
+            float(abs(evanescent.terms[0] + 1)),
+            0.0,
+        )
+    )
     # With a loose tolerance the sum stops early: the bound it records must hold.
     stack = (1.0, 2.5, 0.05, 4000.0, 1.2, 20.0)
     res, truth = _series(*stack, tolerance=1e-4), paths.truth(*stack)[0]
-    out.append(CheckResult(g, "truncation: stopped at a 1e-4 bound, error within the recorded bound",
-                           float(res.values[0, 1]), float(truth[0, 1]), float(np.max(np.abs(res.values - truth))),
-                           float(res.bound[0]), f"{int(res.terms[0])} terms, |q| near 1"))
+    out.append(
+        CheckResult(
+            g,
+            "truncation: stopped at a 1e-4 bound, error within the recorded bound",
+            float(res.values[0, 1]),
+            float(truth[0, 1]),
+            float(np.max(np.abs(res.values - truth))),
+            float(res.bound[0]),
+            f"{int(res.terms[0])} terms, |q| near 1",
+        )
+    )
     return out
 
 

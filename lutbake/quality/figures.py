@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
+from lutbake.io.progress import no_progress
+from lutbake.lut.sample import Lut
 from lutbake.modes.approximations import APPROXIMATIONS
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.io.progress import no_progress
 from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Lut
 
 __all__ = ["MapPanel", "delta_e_map_panels", "delta_e_maps", "swatch_strips", "pareto_plot", "display_srgb"]
 
@@ -59,7 +59,9 @@ def _worst_slices(rep, count: int = 3) -> list:
 def _domain_title(lut: Lut, n_points: int) -> str:
     ax = {a.name: a for a in lut.axes}
     ranges = ", ".join(f"{name} [{a.lo:g}, {a.hi:g}]" for name, a in ax.items())
-    return f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst points (searched, and of {n_points} held out)"
+    return (
+        f"film η2 = {lut.eta2:g} over {ranges}; slices through the worst points (searched, and of {n_points} held out)"
+    )
 
 
 @dataclass
@@ -70,7 +72,7 @@ class MapPanel:
     kappa3: float
     stack: FilmPoints = field(repr=False)
     truth: np.ndarray = field(repr=False)
-    de00: np.ndarray = field(repr=False)   # (n, n): rows along D, columns along cos θ
+    de00: np.ndarray = field(repr=False)  # (n, n): rows along D, columns along cos θ
 
 
 def delta_e_map_panels(rep, n: int = 48, progress=no_progress) -> list:
@@ -78,8 +80,9 @@ def delta_e_map_panels(rep, n: int = 48, progress=no_progress) -> list:
     (η3, κ3) of the report's worst points (the searched maximum's first)."""
     lut = Lut.load(rep.path)
     ax = {a.name: a for a in lut.axes}
-    cos_t, opd = np.meshgrid(ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n),
-                             ax["opd_nm"].from_unit((np.arange(n) + 0.5) / n))
+    cos_t, opd = np.meshgrid(
+        ax["cos_theta"].from_unit((np.arange(n) + 0.5) / n), ax["opd_nm"].from_unit((np.arange(n) + 0.5) / n)
+    )
     panels, slices = [], _worst_slices(rep)
     for i, (eta3, kappa3) in enumerate(slices):
         progress(i, len(slices), f"figure: ΔE00 map at η3 {eta3:.3f}, κ3 {kappa3:.3f} ({n * n} truth points)")
@@ -105,14 +108,20 @@ def delta_e_maps(rep, panels: list, out_png: Path) -> Path:
         if (p.eta3, p.kappa3) == (worst["eta3"], worst["kappa3"]):
             a.plot(worst["cos_theta"], worst["opd_nm"], "x", color="cyan", ms=12, mew=2.5, label="searched max")
             a.legend(fontsize=8, loc="upper right")
-        a.set_title(f"η3 {p.eta3:.4f}, κ3 {p.kappa3:.4f}\nthis map: p99 {np.percentile(p.de00, 99):.2f}, "
-                    f"max {p.de00.max():.2f}", fontsize=10)
+        a.set_title(
+            f"η3 {p.eta3:.4f}, κ3 {p.kappa3:.4f}\nthis map: p99 {np.percentile(p.de00, 99):.2f}, "
+            f"max {p.de00.max():.2f}",
+            fontsize=10,
+        )
         a.set_xlabel("cos θ", fontsize=11)
     axes[0][0].set_ylabel("D = 2·η2·d (nm)", fontsize=11)
     fig.colorbar(im, ax=axes[0].tolist(), label="ΔE00 (one scale for all panels)")
-    fig.suptitle(f"{_domain_title(lut, len(rep.points))}\nsearched max ΔE00 {worst['de00_max']:.2f} at cos θ "
-                 f"{worst['cos_theta']:.4g}, D {worst['opd_nm']:.4g} nm, η3 {worst['eta3']:.4f}, κ3 "
-                 f"{worst['kappa3']:.4g}", fontsize=10)
+    fig.suptitle(
+        f"{_domain_title(lut, len(rep.points))}\nsearched max ΔE00 {worst['de00_max']:.2f} at cos θ "
+        f"{worst['cos_theta']:.4g}, D {worst['opd_nm']:.4g} nm, η3 {worst['eta3']:.4f}, κ3 "
+        f"{worst['kappa3']:.4g}",
+        fontsize=10,
+    )
     fig.savefig(out_png, dpi=90)
     return Path(out_png)
 
@@ -127,8 +136,9 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
         for cos_t in (0.9, 0.4):
             stack = _stack(lut, cos_t, opd, eta3, kappa3)
             strips = [("ground truth", _truth(lut, stack)), ("LUT", lut.sample(stack))]
-            strips += [(name, fn(stack, lut.meta["space"], lut.meta["observer"]))
-                       for name, fn in APPROXIMATIONS.items()]
+            strips += [
+                (name, fn(stack, lut.meta["space"], lut.meta["observer"])) for name, fn in APPROXIMATIONS.items()
+            ]
             rows.append((f"η3 {eta3:.2f} κ3 {kappa3:.2f} cos θ {cos_t}", strips))
     fig = _figure((10, 1.3 * len(rows)))
     axes = fig.subplots(len(rows), 1)
@@ -156,8 +166,14 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
         x = np.array([r[key] for r in luts])
         y = np.array([r["de00_p99"] for r in luts])
         for rule, colour, marker in (("cubic", "C0", "o"), ("linear", "C1", "s")):
-            a.scatter(x[reads == rule], y[reads == rule], c=colour, marker=marker, zorder=3,
-                      label=f"LUT, {rule} reads ({'256 texel reads' if rule == 'cubic' else '4 fetches'})")
+            a.scatter(
+                x[reads == rule],
+                y[reads == rule],
+                c=colour,
+                marker=marker,
+                zorder=3,
+                label=f"LUT, {rule} reads ({'256 texel reads' if rule == 'cubic' else '4 fetches'})",
+            )
         for (xv, yv), numbers in _coincident(x, y).items():
             a.annotate(",".join(numbers), (xv, yv), fontsize=8, xytext=(4, 2), textcoords="offset points")
         front = _pareto_front(x, y)
@@ -173,8 +189,11 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     a2.text(1.03, 1.0, key_text, transform=a2.transAxes, va="top", fontsize=8, family="monospace")
     d = doc["domain"]
     ranges = ", ".join(f"{a['name']} [{a['min']:g}, {a['max']:g}]" for a in d["axes"])
-    fig.suptitle(f"Error against cost: film η2 = {d['eta2']:g} over {ranges}; "
-                 f"{doc['points']} {doc['point_kind']} held-out points", fontsize=11)
+    fig.suptitle(
+        f"Error against cost: film η2 = {d['eta2']:g} over {ranges}; "
+        f"{doc['points']} {doc['point_kind']} held-out points",
+        fontsize=11,
+    )
     fig.savefig(out_png, dpi=90)
     return Path(out_png)
 

@@ -31,13 +31,26 @@ import numpy as np
 
 from lutbake.io.progress import no_progress
 
-__all__ = ["Trial", "Refinement", "refine", "tune", "uniform_points", "p99_bound", "bound_level",
-           "mixture_percentile", "TUNE_START_COUNTS", "POINT_KIND", "REPORT_POINTS"]
+__all__ = [
+    "Trial",
+    "Refinement",
+    "refine",
+    "tune",
+    "uniform_points",
+    "p99_bound",
+    "bound_level",
+    "mixture_percentile",
+    "TUNE_START_COUNTS",
+    "POINT_KIND",
+    "REPORT_POINTS",
+]
 
 TUNE_START_COUNTS = (8, 16, 4, 4)
-POINT_KIND = "uniform"  # sweep scores uniform points only (its variants' grids differ); `report` and tune add cell centres
-REPORT_POINTS = 1000    # `report`'s default held-out points: what a target must hold at
-_SEEDS_Z = 2.326        # one-sided 99 % normal quantile: a target holds at 99 % of a report's seeds
+POINT_KIND = (
+    "uniform"  # sweep scores uniform points only (its variants' grids differ); `report` and tune add cell centres
+)
+REPORT_POINTS = 1000  # `report`'s default held-out points: what a target must hold at
+_SEEDS_Z = 2.326  # one-sided 99 % normal quantile: a target holds at 99 % of a report's seeds
 
 
 def bound_level(report_points: int = REPORT_POINTS) -> float:
@@ -82,8 +95,13 @@ class Trial:
         return self.de00_p99 if self.gated is None else self.gated
 
     def row(self) -> dict:
-        return {"shape": "×".join(map(str, self.counts)), "de00_p99": self.de00_p99,
-                "de00_p99_bound": self.held, "bake_seconds": self.seconds, "bytes": self.bytes}
+        return {
+            "shape": "×".join(map(str, self.counts)),
+            "de00_p99": self.de00_p99,
+            "de00_p99_bound": self.held,
+            "bake_seconds": self.seconds,
+            "bytes": self.bytes,
+        }
 
 
 @dataclass
@@ -102,8 +120,17 @@ class Refinement:
         return self.best.counts
 
 
-def refine(measure, start, target: float, *, frozen=(), cap: int | None = None, max_rounds: int = 12,
-           progress=no_progress, on_round=None) -> Refinement:
+def refine(
+    measure,
+    start,
+    target: float,
+    *,
+    frozen=(),
+    cap: int | None = None,
+    max_rounds: int = 12,
+    progress=no_progress,
+    on_round=None,
+) -> Refinement:
     """Grow ``start`` counts with ``measure(counts, label) -> (Trial, artefact)`` until ``Trial.held`` (the
     p99, or the bound the measure gates on) ≤ ``target``.
 
@@ -157,13 +184,15 @@ def _scaled_counts(counts, axis: int, factor: float, cap) -> tuple:
 
 # --- tune: the engine over a 4D LUT's counts --------------------------------------------------
 
+
 def uniform_points(spec, n_points: int, seed: int):
     """Held-out points uniform over the domain of ``spec`` with their ground truth (lutbake/quality/report.py): what
     `sweep` scores every variant at (a cell centre of one grid is a node of another)."""
     from lutbake.quality.report import held_out_points
 
-    return held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed,
-                           centre_fraction=0.0)
+    return held_out_points(
+        spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed, centre_fraction=0.0
+    )
 
 
 def trial_lut(spec, counts, integrator) -> tuple:
@@ -185,26 +214,51 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
     from lutbake.quality.report import held_out_points, score
 
     n_centre = n_points // 2
-    uniform = held_out_points(spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points - n_centre,
-                              seed, centre_fraction=0.0, truth=truth)
+    uniform = held_out_points(
+        spec.axes,
+        spec.eta1,
+        spec.eta2,
+        spec.observer,
+        spec.space,
+        n_points - n_centre,
+        seed,
+        centre_fraction=0.0,
+        truth=truth,
+    )
 
     def measure(counts, label):
         lut, nbytes, seconds = trial_lut(spec, counts, integrator)
-        centres = held_out_points(lut.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre, seed,
-                                  centre_fraction=1.0, truth=truth)
-        de = np.concatenate([score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00
-                             for p in (uniform, centres)])
-        stats = {"de00_mean": float(de.mean()), "de00_p50": float(np.percentile(de, 50)),
-                 "de00_p95": float(np.percentile(de, 95)), "de00_p99": float(np.percentile(de, 99)),
-                 "de00_max_held_out": float(de.max())}
+        centres = held_out_points(
+            lut.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre, seed, centre_fraction=1.0, truth=truth
+        )
+        de = np.concatenate(
+            [score(label, lut.sample(p.stack), p, spec.space, spec.observer).de00 for p in (uniform, centres)]
+        )
+        stats = {
+            "de00_mean": float(de.mean()),
+            "de00_p50": float(np.percentile(de, 50)),
+            "de00_p95": float(np.percentile(de, 95)),
+            "de00_p99": float(np.percentile(de, 99)),
+            "de00_max_held_out": float(de.max()),
+        }
         return Trial(tuple(counts), stats["de00_p99"], nbytes, seconds, stats, p99_bound(de)), lut.image
 
     return measure
 
 
-def tune(spec, max_de: float, n_points: int = REPORT_POINTS, seed: int = 0, backend: str = "auto",
-         max_rounds: int = 12, progress=no_progress, on_round=None, start=TUNE_START_COUNTS, frozen=(),
-         search_budget: int = None) -> Refinement:
+def tune(
+    spec,
+    max_de: float,
+    n_points: int = REPORT_POINTS,
+    seed: int = 0,
+    backend: str = "auto",
+    max_rounds: int = 12,
+    progress=no_progress,
+    on_round=None,
+    start=TUNE_START_COUNTS,
+    frozen=(),
+    search_budget: int = None,
+) -> Refinement:
     """Smallest per-axis counts (greedy, ``refine``) that `report` finds within ``max_de`` at any seed:
     ``p99_bound`` of `report`'s kind of held-out points (``n_points``: half uniform, half at the trial
     grid's cell centres) ≤ ``max_de``, from ``start`` counts over the domain of ``spec``. Trials are
@@ -213,13 +267,20 @@ def tune(spec, max_de: float, n_points: int = REPORT_POINTS, seed: int = 0, back
     maximum is then searched (``search_budget`` evaluations, report.SEARCH_BUDGET by default) and put in
     its stats as ``worst_case`` and ``de00_max``."""
     from lutbake.integrate.opencl import backend as make_backend
-    from lutbake.quality.report import SEARCH_BUDGET, proxy_truth
     from lutbake.lut.sample import Lut
+    from lutbake.quality.report import SEARCH_BUDGET, proxy_truth
 
     integrator = make_backend(backend, spec.compute)
     truth = proxy_truth(Lut.in_memory(spec, None), backend)
-    result = refine(lut_measure(spec, n_points, seed, integrator, truth), start, max_de, frozen=frozen,
-                    max_rounds=max_rounds, progress=progress, on_round=on_round)
+    result = refine(
+        lut_measure(spec, n_points, seed, integrator, truth),
+        start,
+        max_de,
+        frozen=frozen,
+        max_rounds=max_rounds,
+        progress=progress,
+        on_round=on_round,
+    )
     progress(len(result.rounds), None, "searching the worst case of the counts found")
     worst = _searched(spec, result, n_points, seed, search_budget or SEARCH_BUDGET, backend)
     best = replace(result.best, stats={**result.best.stats, "de00_max": worst["de00_max"], "worst_case": worst})
@@ -228,8 +289,8 @@ def tune(spec, max_de: float, n_points: int = REPORT_POINTS, seed: int = 0, back
 
 def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, backend: str) -> dict:
     """report.search_max of the winning grid, from its held-out points."""
-    from lutbake.quality.report import held_out_points, proxy_truth, score, search_max
     from lutbake.lut.sample import Lut
+    from lutbake.quality.report import held_out_points, proxy_truth, score, search_max
 
     grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, result.counts)))
     lut = Lut.in_memory(grid, result.artefact)
@@ -241,9 +302,15 @@ def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, b
 def tune_document(spec, result: Refinement) -> dict:
     """`tune --json`: the target, the counts found and their axes, the best trial's statistics, the rounds."""
     axes = [a.resized(c).describe() for a, c in zip(spec.axes, result.counts)]
-    return {"target_de00_p99": result.target_de00_p99, "met": result.met, "counts": list(result.counts),
-            "axes": axes, "interpolation": spec.interpolation, "result": {**result.best.stats, **result.best.row()},
-            "point_kinds": "half uniform, half at centres of each trial grid's cells (as `report`)",
-            "gated_on": "de00_p99_bound: the 99.73th percentile, below which a fresh 1,000-point report's p99 "
-                        "stays at 99 % of seeds",
-            "rounds": [t.row() for t in result.rounds]}
+    return {
+        "target_de00_p99": result.target_de00_p99,
+        "met": result.met,
+        "counts": list(result.counts),
+        "axes": axes,
+        "interpolation": spec.interpolation,
+        "result": {**result.best.stats, **result.best.row()},
+        "point_kinds": "half uniform, half at centres of each trial grid's cells (as `report`)",
+        "gated_on": "de00_p99_bound: the 99.73th percentile, below which a fresh 1,000-point report's p99 "
+        "stays at 99 % of seeds",
+        "rounds": [t.row() for t in result.rounds],
+    }

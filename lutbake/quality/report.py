@@ -28,22 +28,39 @@ from pathlib import Path
 
 import numpy as np
 
+from lutbake.io.progress import no_progress
+from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.approximations import APPROXIMATIONS
+from lutbake.modes.runtime.costs import cost_rows, cost_table_html
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.io.progress import no_progress
-from lutbake.spectral.reference import reference_colour
-from lutbake.modes.runtime.costs import cost_rows, cost_table_html
-from lutbake.lut.sample import Atlas, Lut
 from lutbake.quality.worstcase import SearchAxis, find_worst
+from lutbake.spectral.reference import reference_colour
 
-__all__ = ["HeldOutPoints", "held_out_points", "ErrorStats", "score", "LutReport", "report_lut",
-           "write_report", "report_atlas", "REPORT_FILES", "search_max", "proxy_truth", "lut_stacks",
-           "singular_places", "corner_distance", "search_slice", "search_stacks", "SEARCH_BUDGET", "RESCORED"]
+__all__ = [
+    "HeldOutPoints",
+    "held_out_points",
+    "ErrorStats",
+    "score",
+    "LutReport",
+    "report_lut",
+    "write_report",
+    "report_atlas",
+    "REPORT_FILES",
+    "search_max",
+    "proxy_truth",
+    "lut_stacks",
+    "singular_places",
+    "corner_distance",
+    "search_slice",
+    "search_stacks",
+    "SEARCH_BUDGET",
+    "RESCORED",
+]
 
-SEARCH_BUDGET = 20000   # evaluations of each row's worst-case search (`report`)
-SLICE_SEARCH_BUDGET = 2000   # a scene atlas slice's: 2D, scored against the ground truth itself
-RESCORED = 10          # distinct local maxima of a search scored against the ground truth
+SEARCH_BUDGET = 20000  # evaluations of each row's worst-case search (`report`)
+SLICE_SEARCH_BUDGET = 2000  # a scene atlas slice's: 2D, scored against the ground truth itself
+RESCORED = 10  # distinct local maxima of a search scored against the ground truth
 
 
 @dataclass
@@ -58,8 +75,17 @@ class HeldOutPoints:
         return self.kind.size
 
 
-def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n_points: int,
-                    seed: int, centre_fraction: float = 0.5, truth=None) -> HeldOutPoints:
+def held_out_points(
+    axes,
+    eta1: float,
+    eta2: float,
+    observer: str,
+    space: str,
+    n_points: int,
+    seed: int,
+    centre_fraction: float = 0.5,
+    truth=None,
+) -> HeldOutPoints:
     """Uniform over the axes' domain, and a ``centre_fraction`` at centres of random cells of
     this grid (in node coordinates), where its interpolation error peaks, as float32 values (what a
     shader is given, ``shader_inputs``); their colour by ``truth`` (``stack -> RGB``; the ground truth,
@@ -69,8 +95,10 @@ def held_out_points(axes, eta1: float, eta2: float, observer: str, space: str, n
     uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in axes]
     units = np.column_stack([(rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1) for a in axes])
     centres = lut_stacks(axes, eta1, eta2, units)
-    coords = {a.name: np.concatenate([u, c]) for a, u, c in
-              zip(axes, uniform, (centres.cos_theta, centres.opd_nm, centres.eta3, centres.kappa3))}
+    coords = {
+        a.name: np.concatenate([u, c])
+        for a, u, c in zip(axes, uniform, (centres.cos_theta, centres.opd_nm, centres.eta3, centres.kappa3))
+    }
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
     stack = shader_inputs(FilmPoints.build(eta1=eta1, eta2=eta2, **coords))
     rgb = truth(stack) if truth else reference_colour(stack, observer, space).values
@@ -98,7 +126,7 @@ def singular_places(axes, eta1: float) -> dict:
         out["D → 0"] = {"opd_nm": 0.0}
     if cos_theta.lo == 0.0:
         out["cos θ → 0"] = {"cos_theta": 0.0}
-    if eta3.lo <= eta1 <= eta3.hi:   # an admittance spacing starts at η1 (lutbake/grid/spec.py): u = 0 at any cos θ1
+    if eta3.lo <= eta1 <= eta3.hi:  # an admittance spacing starts at η1 (lutbake/grid/spec.py): u = 0 at any cos θ1
         out["η3 → η1"] = {"eta3": float(eta3.to_unit(eta1, 1.0, eta1))}
     if kappa3.lo == 0.0:
         out["κ3 → 0"] = {"kappa3": 0.0}
@@ -114,16 +142,25 @@ def corner_distance(stack: FilmPoints, wavelength_nm: float = 550.0) -> np.ndarr
     of their ratios only, so every neighbourhood of the corner holds every value (R = 0 with no film over
     a matched base, R = 1 at grazing). ρ = max(Y1, |Y3|, φ(λ)·Y2 / 2) at ``wavelength_nm`` is the scale
     of that neighbourhood: no interpolated table is right for every ρ → 0 (docs/accuracy.md)."""
-    sin2 = stack.eta1 ** 2 * (1.0 - stack.cos_theta ** 2)
+    sin2 = stack.eta1**2 * (1.0 - stack.cos_theta**2)
     y1 = stack.eta1 * stack.cos_theta
-    y2 = np.sqrt(np.maximum(stack.eta2 ** 2 - sin2, 0.0))
+    y2 = np.sqrt(np.maximum(stack.eta2**2 - sin2, 0.0))
     y3 = np.abs(np.sqrt((stack.eta3 + 1j * stack.kappa3) ** 2 - sin2))
     phase = 2.0 * np.pi * stack.opd_nm * (y2 / stack.eta2) / wavelength_nm
     return np.maximum(np.maximum(y1, y3), 0.5 * phase * y2)
 
 
-def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SEARCH_BUDGET, seed: int = 0,
-               start_label: str = "held-out point", exclude=None) -> dict:
+def search_max(
+    read,
+    lut: Lut,
+    pts: HeldOutPoints,
+    de00,
+    proxy,
+    budget: int = SEARCH_BUDGET,
+    seed: int = 0,
+    start_label: str = "held-out point",
+    exclude=None,
+) -> dict:
     """The searched maximum of ΔE00 between ``read(stack)`` and the ground truth over ``lut``'s domain.
 
     ``proxy(stack)`` (RGB) stands in for the ground truth while searching; the search starts from the
@@ -139,13 +176,20 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
 
     def error(unit):
         stack = shader_inputs(lut_stacks(axes, lut.eta1, lut.eta2, unit))
-        with np.errstate(invalid="ignore", divide="ignore"):   # NaN (a 0/0 in an approximation) is the worst
+        with np.errstate(invalid="ignore", divide="ignore"):  # NaN (a 0/0 in an approximation) is the worst
             de = delta_e00(read(stack), proxy(stack), observer, space)
         return de if exclude is None else np.where(exclude(stack), 0.0, de)
 
     given = np.column_stack(lut.node_coords(pts.stack)) / (np.array([a.count for a in axes]) - 1.0)
-    worst = find_worst(error, tuple(SearchAxis(a.name, cells=a.count - 1) for a in axes), points=given,
-                       errors=de00, singular=singular_places(axes, lut.eta1), budget=budget, seed=seed)
+    worst = find_worst(
+        error,
+        tuple(SearchAxis(a.name, cells=a.count - 1) for a in axes),
+        points=given,
+        errors=de00,
+        singular=singular_places(axes, lut.eta1),
+        budget=budget,
+        seed=seed,
+    )
     found = worst.candidates[:RESCORED]
     how = [c.how().replace("given point", start_label, 1) for c in found]
     stack = shader_inputs(lut_stacks(axes, lut.eta1, lut.eta2, np.array([c.where for c in found])))
@@ -162,26 +206,49 @@ def search_max(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int = SE
     else:
         at, found_by = _point(pts.stack, held), f"{start_label} ({pts.kind[held]})"
         lut_rgb, truth_rgb = read(pts.stack)[held], pts.truth[held]
-    return {"de00_max": float(max(scored.max(), de00[held])), **at, "found_by": found_by,
-            "lut_rgb": lut_rgb.tolist(), "truth_rgb": truth_rgb.tolist(), "held_out_max": float(de00[held]),
-            "evaluations": worst.evaluations, "budget": budget,
-            "local_maxima": [{**_point(stack, i), "de00": float(scored[i]), "found_by": how[i],
-                              "lut_rgb": rgb[i].tolist(), "truth_rgb": truth[i].tolist()}
-                             for i in range(len(found))]}
+    return {
+        "de00_max": float(max(scored.max(), de00[held])),
+        **at,
+        "found_by": found_by,
+        "lut_rgb": lut_rgb.tolist(),
+        "truth_rgb": truth_rgb.tolist(),
+        "held_out_max": float(de00[held]),
+        "evaluations": worst.evaluations,
+        "budget": budget,
+        "local_maxima": [
+            {
+                **_point(stack, i),
+                "de00": float(scored[i]),
+                "found_by": how[i],
+                "lut_rgb": rgb[i].tolist(),
+                "truth_rgb": truth[i].tolist(),
+            }
+            for i in range(len(found))
+        ],
+    }
 
 
 def shader_inputs(stack: FilmPoints) -> FilmPoints:
     """The stacks at float32 values of cos θ1, D, η3 and κ3, as a shader receives them: near the grazing
     corner the search reaches ratios (η3 − η1 against cos² θ1) that float32 inputs cannot carry, and every
     path, the LUT's too, is scored against the truth at the inputs it can be given."""
-    return FilmPoints.texels(eta1=stack.eta1, eta2=stack.eta2, **{
-        name: np.asarray(getattr(stack, name), np.float32).astype(float)
-        for name in ("cos_theta", "opd_nm", "eta3", "kappa3")})
+    return FilmPoints.texels(
+        eta1=stack.eta1,
+        eta2=stack.eta2,
+        **{
+            name: np.asarray(getattr(stack, name), np.float32).astype(float)
+            for name in ("cos_theta", "opd_nm", "eta3", "kappa3")
+        },
+    )
 
 
 def _point(stack: FilmPoints, i: int) -> dict:
-    return {"cos_theta": float(stack.cos_theta[i]), "opd_nm": float(stack.opd_nm[i]),
-            "eta3": float(stack.eta3[i]), "kappa3": float(stack.kappa3[i])}
+    return {
+        "cos_theta": float(stack.cos_theta[i]),
+        "opd_nm": float(stack.opd_nm[i]),
+        "eta3": float(stack.eta3[i]),
+        "kappa3": float(stack.kappa3[i]),
+    }
 
 
 @dataclass
@@ -198,14 +265,22 @@ class ErrorStats:
     def summary(self) -> dict:
         de = self.de00
         searched = self.worst_case or {}
-        return {"name": self.name, "de00_mean": float(de.mean()), "de00_p50": float(np.percentile(de, 50)),
-                "de00_p95": float(np.percentile(de, 95)), "de00_p99": float(np.percentile(de, 99)),
-                "de00_max": searched.get("de00_max", float(de.max())), "rgb_abs_max": self.rgb_abs_max,
-                "ns_per_eval": self.seconds_per_eval * 1e9, "worst_case": self.worst_case}
+        return {
+            "name": self.name,
+            "de00_mean": float(de.mean()),
+            "de00_p50": float(np.percentile(de, 50)),
+            "de00_p95": float(np.percentile(de, 95)),
+            "de00_p99": float(np.percentile(de, 99)),
+            "de00_max": searched.get("de00_max", float(de.max())),
+            "rgb_abs_max": self.rgb_abs_max,
+            "ns_per_eval": self.seconds_per_eval * 1e9,
+            "worst_case": self.worst_case,
+        }
 
 
-def score(name: str, rgb: np.ndarray, pts: HeldOutPoints, space: str, observer: str,
-          seconds_per_eval: float = float("nan")) -> ErrorStats:
+def score(
+    name: str, rgb: np.ndarray, pts: HeldOutPoints, space: str, observer: str, seconds_per_eval: float = float("nan")
+) -> ErrorStats:
     de = np.nan_to_num(delta_e00(rgb, pts.truth, observer, space), nan=np.inf)
     return ErrorStats(name, de, float(np.max(np.abs(rgb - pts.truth))), seconds_per_eval)
 
@@ -224,7 +299,7 @@ class LutReport:
     lut: ErrorStats
     approximations: list
     worst: list
-    exact_mode_terms: dict = None   # the exact runtime mode's series terms per point, when scored
+    exact_mode_terms: dict = None  # the exact runtime mode's series terms per point, when scored
     search_budget: int = SEARCH_BUDGET
     seed: int = 0
 
@@ -236,27 +311,49 @@ class LutReport:
         if de00.max() <= worst["de00_max"]:
             return
         lut = Lut.load(self.path)
-        found = search_max(lut.sample, lut, HeldOutPoints(stack, np.full(len(stack), label), truth), de00,
-                           proxy_truth(lut), self.search_budget, self.seed, start_label=label)
+        found = search_max(
+            lut.sample,
+            lut,
+            HeldOutPoints(stack, np.full(len(stack), label), truth),
+            de00,
+            proxy_truth(lut),
+            self.search_budget,
+            self.seed,
+            start_label=label,
+        )
         self.lut.worst_case = {**found, "held_out_max": worst["held_out_max"]}
-        self.worst = sorted(self.worst + _searched_points(found), key=lambda w: -w["de00"])[:len(self.worst)]
+        self.worst = sorted(self.worst + _searched_points(found), key=lambda w: -w["de00"])[: len(self.worst)]
 
     def summary(self) -> dict:
         kinds, counts = np.unique(self.points.kind, return_counts=True)
-        out = {"lut": self.path, "content_hash": self.meta["content_hash"], "points": len(self.points),
-                "point_kinds": {str(k): int(c) for k, c in zip(kinds, counts)},
-                "eta2": self.meta["constants"]["eta2"], "axes": self.meta["axes"],
-                "space": self.meta["space"], "observer": self.meta["observer"],
-                "interpolation": self.meta.get("interpolation", "linear"),
-                "lut_error": self.lut.summary(), "approximations": [a.summary() for a in self.approximations],
-                "exact_mode_terms": self.exact_mode_terms, "worst_points": self.worst}
-        if self.approximations:   # every runtime path's error beside its cost (runtime/costs.py)
+        out = {
+            "lut": self.path,
+            "content_hash": self.meta["content_hash"],
+            "points": len(self.points),
+            "point_kinds": {str(k): int(c) for k, c in zip(kinds, counts)},
+            "eta2": self.meta["constants"]["eta2"],
+            "axes": self.meta["axes"],
+            "space": self.meta["space"],
+            "observer": self.meta["observer"],
+            "interpolation": self.meta.get("interpolation", "linear"),
+            "lut_error": self.lut.summary(),
+            "approximations": [a.summary() for a in self.approximations],
+            "exact_mode_terms": self.exact_mode_terms,
+            "worst_points": self.worst,
+        }
+        if self.approximations:  # every runtime path's error beside its cost (runtime/costs.py)
             out["runtime_paths"] = cost_rows(out, self.meta["packing"]["width"] * self.meta["packing"]["height"])
         return out
 
 
-def report_lut(path, n_points: int = 1000, seed: int = 0, approximations: bool = True,
-               progress=no_progress, search_budget: int = SEARCH_BUDGET) -> LutReport:
+def report_lut(
+    path,
+    n_points: int = 1000,
+    seed: int = 0,
+    approximations: bool = True,
+    progress=no_progress,
+    search_budget: int = SEARCH_BUDGET,
+) -> LutReport:
     """Score a LUT (and the approximations) at held-out points against the ground truth, and search
     each row's maximum over the whole domain.
 
@@ -327,27 +424,40 @@ def proxy_truth(lut: Lut, backend: str = "auto"):
     """``stack -> RGB`` by the bake's direct spectral rule at its default sampling, for the LUT's film
     (OpenCL, else numpy): the truth a worst-case search climbs, ~1e-6 from the ground truth in RGB at
     60,000 points/s (its maxima are then scored against the ground truth)."""
-    from lutbake.integrate.opencl import backend as make_backend
     from lutbake.grid.spec import BakeSpec
+    from lutbake.integrate.opencl import backend as make_backend
 
-    spec = BakeSpec(eta2=lut.eta2, eta1=lut.eta1, axes=tuple(lut.axes), space=lut.meta["space"],
-                    observer=lut.meta["observer"])
+    spec = BakeSpec(
+        eta2=lut.eta2, eta1=lut.eta1, axes=tuple(lut.axes), space=lut.meta["space"], observer=lut.meta["observer"]
+    )
     integrator = make_backend(backend)
     return lambda stack: integrator.evaluate(spec, stack)
 
 
 def _worst_points(pts: HeldOutPoints, rgb, stats: ErrorStats, count: int = 10) -> list:
     """The worst held-out points (LUT ``rgb`` there) and the search's local maxima, worst first."""
-    held = [{**_point(pts.stack, i), "kind": str(pts.kind[i]), "de00": float(stats.de00[i]),
-             "lut_rgb": rgb[i].tolist(), "truth_rgb": pts.truth[i].tolist()}
-            for i in np.argsort(-stats.de00, kind="stable")[:count]]
+    held = [
+        {
+            **_point(pts.stack, i),
+            "kind": str(pts.kind[i]),
+            "de00": float(stats.de00[i]),
+            "lut_rgb": rgb[i].tolist(),
+            "truth_rgb": pts.truth[i].tolist(),
+        }
+        for i in np.argsort(-stats.de00, kind="stable")[:count]
+    ]
     return sorted(held + _searched_points(stats.worst_case), key=lambda w: -w["de00"])[:count]
 
 
 def _searched_points(worst_case: dict) -> list:
     """A search's local maxima as worst points (kind ``searched: how it was found``)."""
-    return [{**{k: m[k] for k in ("cos_theta", "opd_nm", "eta3", "kappa3", "de00", "lut_rgb", "truth_rgb")},
-             "kind": f"searched: {m['found_by']}"} for m in worst_case["local_maxima"]]
+    return [
+        {
+            **{k: m[k] for k in ("cos_theta", "opd_nm", "eta3", "kappa3", "de00", "lut_rgb", "truth_rgb")},
+            "kind": f"searched: {m['found_by']}",
+        }
+        for m in worst_case["local_maxima"]
+    ]
 
 
 def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict:
@@ -356,12 +466,17 @@ def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict:
     from lutbake.modes.exact import exact_mode
 
     terms = exact_mode(pts.stack, space, observer).terms
-    return {"mean": float(terms.mean()), "p99": float(np.percentile(terms, 99)), "max": int(terms.max()),
-            "fetches_per_term": 4}
+    return {
+        "mean": float(terms.mean()),
+        "p99": float(np.percentile(terms, 99)),
+        "max": int(terms.max()),
+        "fetches_per_term": 4,
+    }
 
 
-def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0,
-                 search_budget: int = SLICE_SEARCH_BUDGET) -> dict:
+def report_atlas(
+    atlas: Atlas, path, n_points: int = 1000, seed: int = 0, search_budget: int = SLICE_SEARCH_BUDGET
+) -> dict:
     """Score each slice of a scene atlas, as stored, at held-out (cos θ, thickness) points against the
     ground truth of its film and base: half uniform, half at cell centres; each slice's max searched
     over its (√cos θ, thickness) node coordinates against the ground truth (``search_budget``)."""
@@ -381,8 +496,15 @@ def report_atlas(atlas: Atlas, path, n_points: int = 1000, seed: int = 0,
         slices.append({"materials": s["materials"], "rect": s["rect"], **_untimed(stats)})
     total = ErrorStats("atlas", np.concatenate(all_de), max(r["rgb_abs_max"] for r in slices))
     total.worst_case = max((r["worst_case"] for r in slices), key=lambda w: w["de00_max"])
-    return {"atlas": str(path), "scene_hash": atlas.meta["scene_hash"], "points": n_points * len(slices),
-            "space": space, "observer": observer, "lut_error": _untimed(total), "slices": slices}
+    return {
+        "atlas": str(path),
+        "scene_hash": atlas.meta["scene_hash"],
+        "points": n_points * len(slices),
+        "space": space,
+        "observer": observer,
+        "lut_error": _untimed(total),
+        "slices": slices,
+    }
 
 
 def search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, seed: int, proxy=None) -> dict:
@@ -392,21 +514,38 @@ def search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, see
     lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
 
     def stack_at(unit):
-        return FilmPoints.build(cos_theta=unit[:, 0] ** 2, thickness_nm=lo + (hi - lo) * unit[:, 1],
-                                **atlas.film_stack(material))
+        return FilmPoints.build(
+            cos_theta=unit[:, 0] ** 2, thickness_nm=lo + (hi - lo) * unit[:, 1], **atlas.film_stack(material)
+        )
 
     given = np.column_stack([np.sqrt(cos_t), (thickness - lo) / (hi - lo) if hi > lo else 0.0 * cos_t])
     places = {"cos θ → 0": {"cos_theta": 0.0}} | ({"d → 0": {"thickness_nm": 0.0}} if lo == 0.0 else {})
     axes = (SearchAxis("cos_theta", cells=w - 1), SearchAxis("thickness_nm", cells=max(h - 1, 1)))
-    found = search_stacks(stack_at, lambda stack: atlas.sample(material, stack), axes, given, de00, places, budget,
-                          seed, atlas.meta["space"], atlas.meta["observer"], proxy)
+    found = search_stacks(
+        stack_at,
+        lambda stack: atlas.sample(material, stack),
+        axes,
+        given,
+        de00,
+        places,
+        budget,
+        seed,
+        atlas.meta["space"],
+        atlas.meta["observer"],
+        proxy,
+    )
     at = found.pop("at")
-    return {"de00_max": found.pop("de00_max"), "cos_theta": float(at.cos_theta[0]),
-            "thickness_nm": float(at.thickness_nm[0]), **found}
+    return {
+        "de00_max": found.pop("de00_max"),
+        "cos_theta": float(at.cos_theta[0]),
+        "thickness_nm": float(at.thickness_nm[0]),
+        **found,
+    }
 
 
-def search_stacks(stack_at, read, axes, given, de00, places, budget: int, seed: int, space: str, observer: str,
-                  proxy=None) -> dict:
+def search_stacks(
+    stack_at, read, axes, given, de00, places, budget: int, seed: int, space: str, observer: str, proxy=None
+) -> dict:
     """The searched max of ΔE00 between ``read(stack)`` and the ground truth over the unit box of ``axes``
     (``stack_at(unit) -> FilmPoints``): from the ``given`` points (unit coordinates, ``de00`` their ΔE00),
     the box's corners and edges and the singular ``places`` (worstcase.find_worst), climbed against the
@@ -414,6 +553,7 @@ def search_stacks(stack_at, read, axes, given, de00, places, budget: int, seed: 
     and its distinct local maxima and worst given point then scored against the ground truth, the largest
     of which is the max (``held_out_max`` that point's). Returns ``de00_max``, ``at`` (the stack there),
     ``found_by``, ``held_out_max``, ``evaluations``, ``budget``."""
+
     def ground_truth(stack):
         return reference_colour(stack, observer, space).values
 
@@ -422,16 +562,21 @@ def search_stacks(stack_at, read, axes, given, de00, places, budget: int, seed: 
         return delta_e00(read(stack), truth(stack), observer, space)
 
     worst = find_worst(error, axes, points=given, errors=de00, singular=places, budget=budget, seed=seed)
-    found = worst.candidates[:RESCORED if proxy else 1]
+    found = worst.candidates[: RESCORED if proxy else 1]
     where = [c.where for c in found]
     how = [c.how().replace("given point", "held-out point", 1) for c in found]
-    if proxy:   # the worst given point too, so that the max is never below the points it started from
+    if proxy:  # the worst given point too, so that the max is never below the points it started from
         where, how = where + [given[int(np.argmax(de00))]], how + ["held-out point"]
     scored = error(np.array(where), ground_truth) if proxy else np.array([worst.value])
     best = int(np.argmax(scored))
-    return {"de00_max": float(scored[best]), "at": stack_at(np.asarray(where[best])[None]), "found_by": how[best],
-            "held_out_max": float(scored[-1] if proxy else np.max(de00)), "evaluations": worst.evaluations,
-            "budget": budget}
+    return {
+        "de00_max": float(scored[best]),
+        "at": stack_at(np.asarray(where[best])[None]),
+        "found_by": how[best],
+        "held_out_max": float(scored[-1] if proxy else np.max(de00)),
+        "evaluations": worst.evaluations,
+        "budget": budget,
+    }
 
 
 def _untimed(stats: ErrorStats) -> dict:
@@ -444,9 +589,10 @@ def _slice_held_out(s: dict, n_points: int, rng):
     th = s["axes"]["thickness_nm"]
     n_centre = n_points // 2
     u = np.concatenate([rng.uniform(0, 1, n_points - n_centre), (rng.integers(0, w - 1, n_centre) + 0.5) / (w - 1)])
-    v = np.concatenate([rng.uniform(0, 1, n_points - n_centre),
-                        (rng.integers(0, max(h - 1, 1), n_centre) + 0.5) / max(h - 1, 1)])
-    return u ** 2, th["min"] + (th["max"] - th["min"]) * v
+    v = np.concatenate(
+        [rng.uniform(0, 1, n_points - n_centre), (rng.integers(0, max(h - 1, 1), n_centre) + 0.5) / max(h - 1, 1)]
+    )
+    return u**2, th["min"] + (th["max"] - th["min"]) * v
 
 
 def gate(summary: dict, max_de) -> dict:
@@ -493,9 +639,9 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
     >>> summary["gate"]["passed"], sorted(p.name for p in Path("report").iterdir())
     (True, ['report.html', 'summary.json'])
     """
+    from lutbake.io.strictjson import dumps
     from lutbake.quality.figures import delta_e_map_panels, delta_e_maps, swatch_strips
     from lutbake.tables.lutfile import write_text_atomic
-    from lutbake.io.strictjson import dumps
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -504,8 +650,12 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
         panels = delta_e_map_panels(rep, progress=progress)
         for p in panels:
             rep.include_points(p.stack, p.truth, p.de00.ravel(), "map point")
-        figures.append(("ΔE00 of the LUT over (cos θ, D) at the (η3, κ3) of its worst points, the searched max marked",
-                        delta_e_maps(rep, panels, out / REPORT_FILES[2])))
+        figures.append(
+            (
+                "ΔE00 of the LUT over (cos θ, D) at the (η3, κ3) of its worst points, the searched max marked",
+                delta_e_maps(rep, panels, out / REPORT_FILES[2]),
+            )
+        )
         progress(0, None, "figure: swatch strips")
         figures.append(("Ground truth, LUT and approximations along D", swatch_strips(rep.path, out / REPORT_FILES[3])))
     summary = gate(rep.summary(), max_de)
@@ -517,31 +667,39 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
 
 def _html(summary: dict, figures) -> str:
     rows = [summary["lut_error"]] + summary["approximations"]
-    head = ("<tr><th>method</th><th>mean</th><th>p50</th><th>p95</th><th>p99</th><th>max (searched)</th>"
-            "<th>max |ΔRGB|</th><th>ns/eval (numpy)</th></tr>")
+    head = (
+        "<tr><th>method</th><th>mean</th><th>p50</th><th>p95</th><th>p99</th><th>max (searched)</th>"
+        "<th>max |ΔRGB|</th><th>ns/eval (numpy)</th></tr>"
+    )
     body = "".join(
-        f"<tr><td>{html.escape(r['name'])}</td>" + "".join(f"<td>{r[k]:.3f}</td>" for k in
-        ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max")) +
-        f"<td>{r['rgb_abs_max']:.2e}</td><td>{r['ns_per_eval']:.0f}</td></tr>" for r in rows)
+        f"<tr><td>{html.escape(r['name'])}</td>"
+        + "".join(f"<td>{r[k]:.3f}</td>" for k in ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max"))
+        + f"<td>{r['rgb_abs_max']:.2e}</td><td>{r['ns_per_eval']:.0f}</td></tr>"
+        for r in rows
+    )
     worst = "".join(
         f"<tr><td>{w['cos_theta']:.4g}</td><td>{w['opd_nm']:.4g}</td><td>{w['eta3']:.5g}</td><td>{w['kappa3']:.4g}</td>"
-        f"<td>{html.escape(w['kind'])}</td><td>{w['de00']:.3f}</td></tr>" for w in summary["worst_points"])
+        f"<td>{html.escape(w['kind'])}</td><td>{w['de00']:.3f}</td></tr>"
+        for w in summary["worst_points"]
+    )
     searched = summary["lut_error"]["worst_case"]
     figs = "".join(f"<h2>{html.escape(t)}</h2><img src='{f.name}' style='max-width:100%'>" for t, f in figures)
-    return (f"<!doctype html><html><head><meta charset='utf-8'><title>lutbake report</title>"
-            f"<style>body{{font-family:sans-serif;margin:2em}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>"
-            f"<h1>LUT error report</h1><p>{html.escape(summary['lut'])}: film η2 = {summary['eta2']:g}, "
-            f"{html.escape(_domain_text(summary['axes']))}; {html.escape(_points_text(summary))}, "
-            f"{summary['space']} / {summary['observer']}, ΔE00 against the ground truth.</p>{_gate_html(summary)}"
-            f"<p>mean, p50, p95 and p99 are statistics of the held-out points; max is each row's searched maximum "
-            f"over the whole domain ({searched['budget']} evaluations from the held-out points, the domain's corners "
-            f"and edges and the singular places D → 0, cos θ → 0, η3 → η1, κ3 → 0, its local maxima scored against "
-            f"the ground truth). The LUT's: {searched['de00_max']:.3f} at cos θ {searched['cos_theta']:.4g}, "
-            f"D {searched['opd_nm']:.4g} nm, η3 {searched['eta3']:.5g}, κ3 {searched['kappa3']:.4g} "
-            f"({html.escape(searched['found_by'])}); the held-out points' largest is {searched['held_out_max']:.3f}.</p>"
-            f"<table>{head}{body}</table>{cost_table_html(summary.get('runtime_paths'))}"
-            f"<h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
-            f"<th>η3</th><th>κ3</th><th>kind</th><th>ΔE00</th></tr>{worst}</table>{figs}</body></html>\n")
+    return (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>lutbake report</title>"
+        f"<style>body{{font-family:sans-serif;margin:2em}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>"
+        f"<h1>LUT error report</h1><p>{html.escape(summary['lut'])}: film η2 = {summary['eta2']:g}, "
+        f"{html.escape(_domain_text(summary['axes']))}; {html.escape(_points_text(summary))}, "
+        f"{summary['space']} / {summary['observer']}, ΔE00 against the ground truth.</p>{_gate_html(summary)}"
+        f"<p>mean, p50, p95 and p99 are statistics of the held-out points; max is each row's searched maximum "
+        f"over the whole domain ({searched['budget']} evaluations from the held-out points, the domain's corners "
+        f"and edges and the singular places D → 0, cos θ → 0, η3 → η1, κ3 → 0, its local maxima scored against "
+        f"the ground truth). The LUT's: {searched['de00_max']:.3f} at cos θ {searched['cos_theta']:.4g}, "
+        f"D {searched['opd_nm']:.4g} nm, η3 {searched['eta3']:.5g}, κ3 {searched['kappa3']:.4g} "
+        f"({html.escape(searched['found_by'])}); the held-out points' largest is {searched['held_out_max']:.3f}.</p>"
+        f"<table>{head}{body}</table>{cost_table_html(summary.get('runtime_paths'))}"
+        f"<h2>Worst points (LUT)</h2><table><tr><th>cos θ</th><th>D (nm)</th>"
+        f"<th>η3</th><th>κ3</th><th>kind</th><th>ΔE00</th></tr>{worst}</table>{figs}</body></html>\n"
+    )
 
 
 def _domain_text(axes) -> str:
@@ -559,5 +717,7 @@ def _gate_html(summary: dict) -> str:
     g = summary["gate"]
     verdict = "PASS" if g["passed"] else "FAIL"
     colour = "#070" if g["passed"] else "#b00"
-    return (f"<p style='font-size:1.3em;color:{colour}'><b>Gate {verdict}</b>: p99 ΔE00 "
-            f"{summary['lut_error']['de00_p99']:.3f} {'≤' if g['passed'] else '>'} {g['max_de00_p99']:g}</p>")
+    return (
+        f"<p style='font-size:1.3em;color:{colour}'><b>Gate {verdict}</b>: p99 ΔE00 "
+        f"{summary['lut_error']['de00_p99']:.3f} {'≤' if g['passed'] else '>'} {g['max_de00_p99']:g}</p>"
+    )

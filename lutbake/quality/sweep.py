@@ -15,18 +15,18 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from lutbake.modes.approximations import APPROXIMATIONS
-from lutbake.lut.bake import bake
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import BakeSpec
 from lutbake.io.progress import no_progress
+from lutbake.lut.bake import bake
+from lutbake.lut.sample import Lut
+from lutbake.modes.approximations import APPROXIMATIONS
 from lutbake.quality.refine import POINT_KIND, uniform_points
 from lutbake.quality.report import proxy_truth, score, search_max
-from lutbake.lut.sample import Lut
 
 __all__ = ["sweep", "variants", "SWEEP_SEARCH_BUDGET"]
 
-SWEEP_SEARCH_BUDGET = 5000   # evaluations of each row's worst-case search
+SWEEP_SEARCH_BUDGET = 5000  # evaluations of each row's worst-case search
 
 
 def _scaled(spec: BakeSpec, factors) -> BakeSpec:
@@ -44,14 +44,19 @@ def variants(spec: BakeSpec) -> dict:
     with η3 on the admittance spacing, the default before sqrt-admittance); spectral sampling, storage
     and compute precision. (`sweep` scores a cubic variant's file by linear reads too.)"""
     out = {f"res×{f:g}": _scaled(spec, (f,) * 4) for f in (0.5, 1.0, 2.0)}
-    out.update({"uniform grid": _spaced(spec, ("uniform",) * 4),
-                "√ grid": _spaced(spec, ("sqrt", "uniform", "uniform", "sqrt"))})
-    if spec.axes[2].lo >= spec.eta1:   # the admittance spacings are defined from η3 = η1 up
+    out.update(
+        {
+            "uniform grid": _spaced(spec, ("uniform",) * 4),
+            "√ grid": _spaced(spec, ("sqrt", "uniform", "uniform", "sqrt")),
+        }
+    )
+    if spec.axes[2].lo >= spec.eta1:  # the admittance spacings are defined from η3 = η1 up
         out["admittance grid"] = _spaced(spec, ("sqrt", "uniform", "admittance", "sqrt"))
     out.update({"(cos,D)×2": _scaled(spec, (2, 2, 1, 1)), "(η3,κ3)×2": _scaled(spec, (1, 1, 2, 2))})
     out.update({f"spc {s:g}": replace(spec, samples_per_cycle=s) for s in (1.0, 2.0, 4.0)})
     out["half" if spec.precision == "float" else "float"] = replace(
-        spec, precision="half" if spec.precision == "float" else "float")
+        spec, precision="half" if spec.precision == "float" else "float"
+    )
     out["compute float32"] = replace(spec, compute="float32")
     return out
 
@@ -72,12 +77,32 @@ def _measure(name, spec, folder, pts, backend, proxy, budget) -> list:
     seconds = time.perf_counter() - start
     lut = Lut.load(path)
     shape = "×".join(str(a.count) for a in spec.axes)
-    common = {"kind": "lut", "shape": shape, "precision": spec.precision, "compute": spec.compute,
-              "samples_per_cycle": spec.samples_per_cycle, "bake_seconds": seconds, "bytes": path.stat().st_size}
+    common = {
+        "kind": "lut",
+        "shape": shape,
+        "precision": spec.precision,
+        "compute": spec.compute,
+        "samples_per_cycle": spec.samples_per_cycle,
+        "bake_seconds": seconds,
+        "bytes": path.stat().st_size,
+    }
     reads = [spec.interpolation] + (["linear"] if spec.interpolation == "cubic" else [])
-    return [{**_scored(name if rule == spec.interpolation else f"{name} linear reads",
-                       lambda stack, rule=rule: lut.sample(stack, None, rule), lut, pts, spec, proxy, budget),
-             **common, "interpolation": rule} for rule in reads]
+    return [
+        {
+            **_scored(
+                name if rule == spec.interpolation else f"{name} linear reads",
+                lambda stack, rule=rule: lut.sample(stack, None, rule),
+                lut,
+                pts,
+                spec,
+                proxy,
+                budget,
+            ),
+            **common,
+            "interpolation": rule,
+        }
+        for rule in reads
+    ]
 
 
 def _approximation_rows(spec, pts, proxy, budget):
@@ -89,31 +114,54 @@ def _approximation_rows(spec, pts, proxy, budget):
         start = time.perf_counter()
         fn(pts.stack, spec.space, spec.observer)
         seconds = (time.perf_counter() - start) / len(pts)
-        rows.append({**_scored(name, lambda stack, fn=fn: fn(stack, spec.space, spec.observer), lut, pts, spec,
-                               proxy, budget, seconds), "kind": "approximation"})
+        rows.append(
+            {
+                **_scored(
+                    name,
+                    lambda stack, fn=fn: fn(stack, spec.space, spec.observer),
+                    lut,
+                    pts,
+                    spec,
+                    proxy,
+                    budget,
+                    seconds,
+                ),
+                "kind": "approximation",
+            }
+        )
     return rows
 
 
-def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend: str = "auto",
-          progress=no_progress, search_budget: int = SWEEP_SEARCH_BUDGET) -> dict:
+def sweep(
+    spec: BakeSpec,
+    out_dir,
+    n_points: int = 1000,
+    seed: int = 0,
+    backend: str = "auto",
+    progress=no_progress,
+    search_budget: int = SWEEP_SEARCH_BUDGET,
+) -> dict:
     """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
 
     ``progress(done, total, note)`` is called before each step (truth, each variant, plot); each row's
     max is searched with ``search_budget`` evaluations."""
+    from lutbake.io.strictjson import dumps
     from lutbake.quality.figures import pareto_plot
     from lutbake.tables.lutfile import write_text_atomic
-    from lutbake.io.strictjson import dumps
 
     out = Path(out_dir)
     grid = variants(spec)  # every variant validated before anything is written
     for path in (out / "sweep.json", out / "pareto.png"):
         if out.exists() and not out.is_dir() or path.is_dir():
-            raise ParameterError("{out_dir} {out}: {path} cannot be written (a file or folder is in the way)",
-                                 out=repr(str(out)), path=repr(str(path)))
+            raise ParameterError(
+                "{out_dir} {out}: {path} cannot be written (a file or folder is in the way)",
+                out=repr(str(out)),
+                path=repr(str(path)),
+            )
     total = len(grid) + 2
     progress(0, total, f"ground truth at {n_points} uniform points")
     pts = uniform_points(spec, n_points, seed)
-    proxy = proxy_truth(Lut.in_memory(spec, None), backend)   # one stand-in truth for every row's search
+    proxy = proxy_truth(Lut.in_memory(spec, None), backend)  # one stand-in truth for every row's search
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
@@ -121,8 +169,15 @@ def sweep(spec: BakeSpec, out_dir, n_points: int = 1000, seed: int = 0, backend:
             rows += _measure(name, v, tmp, pts, backend, proxy, search_budget)
     progress(total - 1, total, "approximations and Pareto plot")
     rows += _approximation_rows(spec, pts, proxy, search_budget)
-    doc = {"domain": spec.describe(), "points": n_points, "point_kind": POINT_KIND, "seed": seed,
-           "search_budget": search_budget, "rows": rows, "figure": "pareto.png"}
+    doc = {
+        "domain": spec.describe(),
+        "points": n_points,
+        "point_kind": POINT_KIND,
+        "seed": seed,
+        "search_budget": search_budget,
+        "rows": rows,
+        "figure": "pareto.png",
+    }
     out.mkdir(parents=True, exist_ok=True)
     pareto_plot(doc, out / "pareto.png")
     write_text_atomic(out / "sweep.json", dumps(doc) + "\n")

@@ -39,10 +39,10 @@ __all__ = ["SearchAxis", "Candidate", "WorstCase", "find_worst"]
 
 # Shares of the budget for the starts; the rest (at least 40 %) refines.
 _EDGE_SHARE, _SINGULAR_SHARE, _RANDOM_SHARE, _NEAR_SHARE = 0.15, 0.15, 0.1, 0.2
-_NEAR_PLACES, _NEAR_CELLS = 32, 2   # scatter around the best places, within 2 cells on every axis
-_UNGRIDDED_CELLS = 8          # cell width assumed on an axis without a grid
-_FINAL_STEP_CELLS = 1e-4      # compass steps stop below this fraction of a cell
-_STEPS_PER_START = 50         # compass iterations a start is expected to take (sizes each batch)
+_NEAR_PLACES, _NEAR_CELLS = 32, 2  # scatter around the best places, within 2 cells on every axis
+_UNGRIDDED_CELLS = 8  # cell width assumed on an axis without a grid
+_FINAL_STEP_CELLS = 1e-4  # compass steps stop below this fraction of a cell
+_STEPS_PER_START = 50  # compass iterations a start is expected to take (sizes each batch)
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ class WorstCase:
     candidates: list
     evaluations: int
     budget: int
-    starts: dict   # start kind → how many were evaluated
+    starts: dict  # start kind → how many were evaluated
 
     @property
     def best(self) -> Candidate:
@@ -127,13 +127,28 @@ class WorstCase:
 
     def describe(self) -> dict:
         """JSON-ready: the worst error, where, how it was found and what the search cost."""
-        return {"value": self.value, "where_unit": self.where_named, "found_by": self.best.how(),
-                "start_value": self.best.start_value, "evaluations": self.evaluations, "budget": self.budget,
-                "starts": dict(self.starts)}
+        return {
+            "value": self.value,
+            "where_unit": self.where_named,
+            "found_by": self.best.how(),
+            "start_value": self.best.start_value,
+            "evaluations": self.evaluations,
+            "budget": self.budget,
+            "starts": dict(self.starts),
+        }
 
 
-def find_worst(error, axes, *, points=None, errors=None, singular=None, budget: int = 20000, seed: int = 0,
-               max_candidates: int = 10) -> WorstCase:
+def find_worst(
+    error,
+    axes,
+    *,
+    points=None,
+    errors=None,
+    singular=None,
+    budget: int = 20000,
+    seed: int = 0,
+    max_candidates: int = 10,
+) -> WorstCase:
     """Search for the largest value of ``error`` over the unit box of ``axes``.
 
     Parameters
@@ -181,11 +196,16 @@ def find_worst(error, axes, *, points=None, errors=None, singular=None, budget: 
     counter = _Counter(error, budget)
     corners = _corners(axes)
     if len(corners) > budget // 2:
-        raise ValueError(f"budget {budget} is too small: the box's {len(corners)} corners need at least "
-                         f"{2 * len(corners)} evaluations")
-    pools = [("corner", corners), *_edges(axes, int(_EDGE_SHARE * budget)),
-             *_singular_faces(axes, singular or {}, int(_SINGULAR_SHARE * budget), rng),
-             ("random", _snap(axes, rng.uniform(size=(int(_RANDOM_SHARE * budget), len(axes)))))]
+        raise ValueError(
+            f"budget {budget} is too small: the box's {len(corners)} corners need at least "
+            f"{2 * len(corners)} evaluations"
+        )
+    pools = [
+        ("corner", corners),
+        *_edges(axes, int(_EDGE_SHARE * budget)),
+        *_singular_faces(axes, singular or {}, int(_SINGULAR_SHARE * budget), rng),
+        ("random", _snap(axes, rng.uniform(size=(int(_RANDOM_SHARE * budget), len(axes))))),
+    ]
     starts, values, kinds = [], [], []
     if points is not None and len(points):
         given = np.asarray(points, float).reshape(-1, len(axes))
@@ -250,7 +270,7 @@ def _edges(axes, share: int) -> list:
     the free axis, thinned evenly when the edges would take more than ``share`` evaluations."""
     free = [i for i, a in enumerate(axes) if not a.discrete]
     per_axis = {i: axes[i].cells or _UNGRIDDED_CELLS for i in free}
-    others = {i: _corners(axes[:i] + axes[i + 1:]) for i in free}
+    others = {i: _corners(axes[:i] + axes[i + 1 :]) for i in free}
     total = sum(per_axis[i] * len(others[i]) for i in free)
     thin = min(1.0, share / total) if total else 1.0
     out = []
@@ -269,13 +289,12 @@ def _singular_faces(axes, singular: dict, share: int, rng) -> list:
     for name, at in singular.items():
         unknown = set(at) - set(index)
         if unknown:
-            raise ValueError(f"singular place {name!r} names axis {sorted(unknown)[0]!r}: allowed "
-                             f"{', '.join(index)}")
+            raise ValueError(f"singular place {name!r} names axis {sorted(unknown)[0]!r}: allowed {', '.join(index)}")
     faces = []
     for r in range(1, len(singular) + 1):
         for combo in itertools.combinations(singular.items(), r):
             fixed = {index[a]: u for _, at in combo for a, u in at.items()}
-            if sum(len(at) for _, at in combo) == len(fixed):   # no axis fixed twice
+            if sum(len(at) for _, at in combo) == len(fixed):  # no axis fixed twice
                 faces.append((" & ".join(name for name, _ in combo), fixed))
     out = []
     for name, fixed in faces:
@@ -356,7 +375,7 @@ def _compass(counter, axes, u, e):
     width = np.array([a.cell_width for a in axes])
     step = np.tile(0.5 * width, (len(u), 1))
     steps = np.zeros(len(u), int)
-    active = np.isfinite(e)   # an infinite error cannot improve
+    active = np.isfinite(e)  # an infinite error cannot improve
     directions = np.concatenate([np.eye(len(axes))[free], -np.eye(len(axes))[free]])
     while active.any():
         rows = np.flatnonzero(active)

@@ -18,18 +18,18 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from lutbake.tables.atlas import ERROR_KEYS, atlas_header, atlas_includes, pack_atlas, slice_entry
-from lutbake.lut.bake import lut_members
-from lutbake.io.documents import load_json, read_text
 from lutbake.errors import ParameterError
-from lutbake.io.fileset import open_set, sha256_file
-from lutbake.tables.lutfile import warn_texture_size, write_atlas
-from lutbake.io.progress import no_progress
-from lutbake.scene.model import Scene
-from lutbake.scene.cache import SceneCache
 from lutbake.integrate.opencl import backend as make_backend
+from lutbake.io.documents import load_json, read_text
+from lutbake.io.fileset import open_set, sha256_file
+from lutbake.io.progress import no_progress
+from lutbake.lut.bake import lut_members
+from lutbake.scene.cache import SceneCache
 from lutbake.scene.jobs import refine_slice, tuned_lut
+from lutbake.scene.model import Scene
 from lutbake.scene.plan import ScenePlan, plan_scene
+from lutbake.tables.atlas import ERROR_KEYS, atlas_header, atlas_includes, pack_atlas, slice_entry
+from lutbake.tables.lutfile import warn_texture_size, write_atlas
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
 
@@ -52,8 +52,10 @@ class SceneResult:
 
 def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict:
     """Role -> path of every file of the scene's set (4D LUTs by job id)."""
-    paths = {role: out / f"{scene.stem}{suffix}" for role, suffix in
-             (("manifest", ".json"), ("glsl", ".glsl"), ("hlsl", ".hlsl"))}
+    paths = {
+        role: out / f"{scene.stem}{suffix}"
+        for role, suffix in (("manifest", ".json"), ("glsl", ".glsl"), ("hlsl", ".hlsl"))
+    }
     if any(j.kind == "slice" for j in plan.jobs):
         paths["atlas"] = out / f"{scene.stem}.exr"
     for job in plan.jobs:
@@ -69,19 +71,25 @@ def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) 
     inputs = {Path(p).resolve(): p for p in (scene.path, *scene.inputs)}
     for path in outputs.values():
         if path.is_dir():
-            raise ParameterError("{out_dir} {out}: {path} is a folder, expected a file or nothing",
-                                 out=repr(str(out)), path=repr(str(path)))
+            raise ParameterError(
+                "{out_dir} {out}: {path} is a folder, expected a file or nothing",
+                out=repr(str(out)),
+                path=repr(str(path)),
+            )
         if path.resolve() in inputs:
-            raise ParameterError("{out_dir} {out}: the bake would overwrite its input {path}: choose another folder",
-                                 out=repr(str(out)), path=repr(str(inputs[path.resolve()])))
+            raise ParameterError(
+                "{out_dir} {out}: the bake would overwrite its input {path}: choose another folder",
+                out=repr(str(out)),
+                path=repr(str(inputs[path.resolve()])),
+            )
     cache = out / ".lutbake-cache"
     if cache.exists() and not cache.is_dir():
-        raise ParameterError("{out_dir} {out}: {path} is a file, expected the cache folder",
-                             out=repr(str(out)), path=repr(str(cache)))
+        raise ParameterError(
+            "{out_dir} {out}: {path} is a file, expected the cache folder", out=repr(str(out)), path=repr(str(cache))
+        )
 
 
-def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto",
-               progress=no_progress) -> SceneResult:
+def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto", progress=no_progress) -> SceneResult:
     """Bake what ``scene`` needs into ``out_dir`` as one file set.
 
     Slices go into one atlas (NAME.exr, .json manifest, .glsl/.hlsl includes with the material table);
@@ -135,10 +143,16 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ParameterError("{out_dir} folder {out} cannot be created: {why}", out=repr(str(out)),
-                             why=exc.strerror or type(exc).__name__) from None
-    scene_hash = scene.hash_of([job.hash for job in plan.jobs], [m.name for m in scene.materials],
-                               *([] if scene.source is None else [scene.source]))
+        raise ParameterError(
+            "{out_dir} folder {out} cannot be created: {why}",
+            out=repr(str(out)),
+            why=exc.strerror or type(exc).__name__,
+        ) from None
+    scene_hash = scene.hash_of(
+        [job.hash for job in plan.jobs],
+        [m.name for m in scene.materials],
+        *([] if scene.source is None else [scene.source]),
+    )
     outputs = scene_outputs(out, scene, plan)
     with open_set(out, f"scene-{scene.stem}") as files:
         unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
@@ -150,20 +164,31 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else scene.stem)
         if slices:
             jobs, rects = [job for job, _, _ in slices], atlas["rects"]
-            write_atlas(files.temp(outputs["atlas"]), atlas, atlas_header(scene, scene_hash, jobs, rects),
-                        scene.precision)
+            write_atlas(
+                files.temp(outputs["atlas"]), atlas, atlas_header(scene, scene_hash, jobs, rects), scene.precision
+            )
             for (job, _, record), rect in zip(slices, rects):
-                entries.update({name: slice_entry(job, record, rect, atlas, outputs["atlas"].name)
-                                for name in job.materials})
+                entries.update(
+                    {name: slice_entry(job, record, rect, atlas, outputs["atlas"].name) for name in job.materials}
+                )
         manifest = _manifest(scene, scene_hash, entries)
         for lang, text in atlas_includes(manifest, atlas).items():
             files.temp(outputs[lang]).write_text(text)
-        manifest["files"] = {p.name: sha256_file(files.members.get(p, p))
-                             for p in outputs.values() if p != outputs["manifest"]}
+        manifest["files"] = {
+            p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
+        }
         files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
         written = sorted(files.members)
-    return SceneResult(out, written, run.computed, run.reused, False, time.perf_counter() - start,
-                       _unmet(manifest["materials"]), run.device)
+    return SceneResult(
+        out,
+        written,
+        run.computed,
+        run.reused,
+        False,
+        time.perf_counter() - start,
+        _unmet(manifest["materials"]),
+        run.device,
+    )
 
 
 class _JobRun:
@@ -218,15 +243,26 @@ class _JobRun:
 
 
 def _lut_entry(job, record: dict) -> dict:
-    return {"kind": "lut", "job": job.id, "file": f"{job.id}.exr", "counts": record["counts"],
-            **{k: record[k] for k in ERROR_KEYS}, **{k: record[k] for k in ("path_scoring",) if k in record},
-            "sample": "lutbake_sample (docs/lut-format.md)"}
+    return {
+        "kind": "lut",
+        "job": job.id,
+        "file": f"{job.id}.exr",
+        "counts": record["counts"],
+        **{k: record[k] for k in ERROR_KEYS},
+        **{k: record[k] for k in ("path_scoring",) if k in record},
+        "sample": "lutbake_sample (docs/lut-format.md)",
+    }
 
 
 def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:
-    manifest = {"format": MANIFEST_FORMAT, "format_version": 1, "scene": scene.file_name,
-                "scene_hash": scene_hash, "settings": scene.settings_key(),
-                "materials": {m.name: entries[m.name] for m in scene.materials}}
+    manifest = {
+        "format": MANIFEST_FORMAT,
+        "format_version": 1,
+        "scene": scene.file_name,
+        "scene_hash": scene_hash,
+        "settings": scene.settings_key(),
+        "materials": {m.name: entries[m.name] for m in scene.materials},
+    }
     if scene.source is not None:
         manifest["source"] = scene.source
     return manifest
@@ -248,8 +284,11 @@ def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | N
     try:
         manifest = load_json(read_text(manifest_path, "manifest", _MAX_MANIFEST_BYTES), str(manifest_path))
         files = manifest["files"]
-        if (manifest["manifest_hash"] != _manifest_hash(manifest) or manifest["scene_hash"] != scene_hash
-                or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)):
+        if (
+            manifest["manifest_hash"] != _manifest_hash(manifest)
+            or manifest["scene_hash"] != scene_hash
+            or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)
+        ):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
         return _unmet(manifest["materials"]) if fresh else None
@@ -259,5 +298,8 @@ def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | N
 
 def _unmet(entries: dict) -> dict:
     """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
-    return {name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
-            for name, e in entries.items() if not e["target_met"]}
+    return {
+        name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
+        for name, e in entries.items()
+        if not e["target_met"]
+    }

@@ -82,8 +82,12 @@ def _record(path: Path) -> dict:
     info = load_json(read_text(path, "cache record", MAX_RECORD_BYTES), str(path))
     info["counts"] = [int(c) for c in info["counts"]]
     errors = (float(info[k]) for k in ("de00_p99", "de00_p99_bound", "de00_max"))
-    if (not all(np.isfinite(e) for e in errors) or not isinstance(info["target_met"], bool)
-            or not isinstance(info["worst_case"], dict) or not isinstance(info["sha256"], str)):
+    if (
+        not all(np.isfinite(e) for e in errors)
+        or not isinstance(info["target_met"], bool)
+        or not isinstance(info["worst_case"], dict)
+        or not isinstance(info["sha256"], str)
+    ):
         raise ValueError("cache record")
     return info
 

@@ -25,24 +25,33 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.tables.atlas import slice_header
-from lutbake.lut.bake import write_lut
 from lutbake.integrate.batch import fast_colours
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.io.fileset import FileSet, sha256_file
+from lutbake.lut.bake import write_lut
+from lutbake.lut.sample import Atlas
+from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.refine import REPORT_POINTS, Trial, bound_level, mixture_percentile, p99_bound, refine, trial_lut, tune
+from lutbake.quality.refine import (
+    REPORT_POINTS,
+    Trial,
+    bound_level,
+    mixture_percentile,
+    p99_bound,
+    refine,
+    trial_lut,
+    tune,
+)
 from lutbake.quality.report import SLICE_SEARCH_BUDGET, search_slice, search_stacks
-from lutbake.lut.sample import Atlas
+from lutbake.quality.worstcase import SearchAxis
 from lutbake.scene.plan import MAX_SLICE_COUNT, SCORED_POINTS, SceneJob
 from lutbake.scene.slices import integrate_slice, slice_colour, slice_grid
-from lutbake.quality.worstcase import SearchAxis
+from lutbake.tables.atlas import slice_header
 
 __all__ = ["uniform_points", "refine_slice", "tuned_lut"]
 
 _LUT_MAX_ROUNDS = 6
-_SEARCH_STARTS = 100    # the worst scored points of each kind a searched max starts from (with the box's own)
+_SEARCH_STARTS = 100  # the worst scored points of each kind a searched max starts from (with the box's own)
 _LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
 
 
@@ -63,7 +72,7 @@ class _ScoredSlice:
     atlas: Atlas
     de00_uniform: np.ndarray
     de00_centres: np.ndarray
-    centres: tuple   # (cos θ, thickness) of every cell centre, in the order of de00_centres
+    centres: tuple  # (cos θ, thickness) of every cell centre, in the order of de00_centres
 
 
 def _slice_measure(job: SceneJob, stack, uniform, integrator):
@@ -76,13 +85,15 @@ def _slice_measure(job: SceneJob, stack, uniform, integrator):
     def measure(counts, label):
         values = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space)
         header = {**slice_header(job, [0, 0, counts[0], counts[1]]), "materials": ["slice"]}
-        atlas = Atlas({"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]},
-                      values.astype(stored))
+        atlas = Atlas(
+            {"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]}, values.astype(stored)
+        )
         cos_c, d_c = (g.ravel() for g in np.meshgrid(*slice_grid(counts, job.thickness_nm, centres=True)))
         centre_truth = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space, centres=True)
         de_u = delta_e00(atlas.sample("slice", pts), truth, s.observer, s.space)
-        de_c = delta_e00(atlas.sample("slice", stack.points(cos_c, d_c)), centre_truth.reshape(-1, 3), s.observer,
-                         s.space)
+        de_c = delta_e00(
+            atlas.sample("slice", stack.points(cos_c, d_c)), centre_truth.reshape(-1, 3), s.observer, s.space
+        )
         p99 = mixture_percentile([de_u, de_c], 99.0)
         bound = mixture_percentile([de_u, de_c], bound_level(REPORT_POINTS))
         scored = _ScoredSlice(values, atlas, de_u, de_c, (cos_c, d_c))
@@ -98,15 +109,21 @@ def refine_slice(job: SceneJob, integrator) -> tuple:
     stack = job.stack()  # one stack: it keeps what it learns about its materials' spectra
     uniform = uniform_points(job, stack, integrator)
     frozen = (1,) if job.fixed_thickness else ()
-    result = refine(_slice_measure(job, stack, uniform, integrator), job.counts, s.max_de, frozen=frozen,
-                    cap=MAX_SLICE_COUNT)
+    result = refine(
+        _slice_measure(job, stack, uniform, integrator), job.counts, s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT
+    )
     best = result.artefact
     worst = _searched_slice(job, stack, uniform, best, integrator)
-    record = {"counts": list(result.counts), "de00_p99": result.best.de00_p99,
-              "de00_p99_bound": result.best.held, "target_met": result.met, "de00_max": worst["de00_max"],
-              "worst_case": worst,
-              "scored_points": {"uniform": len(best.de00_uniform), "cell_centres": len(best.de00_centres)},
-              "constant_index_de00_p99": _constant_index_error(job, uniform, integrator)}
+    record = {
+        "counts": list(result.counts),
+        "de00_p99": result.best.de00_p99,
+        "de00_p99_bound": result.best.held,
+        "target_met": result.met,
+        "de00_max": worst["de00_max"],
+        "worst_case": worst,
+        "scored_points": {"uniform": len(best.de00_uniform), "cell_centres": len(best.de00_centres)},
+        "constant_index_de00_p99": _constant_index_error(job, uniform, integrator),
+    }
     return best.values, record
 
 
@@ -134,9 +151,15 @@ def _constant_index_error(job: SceneJob, uniform, integrator) -> float | None:
     if not isinstance(film, str) and not isinstance(base, str):
         return None
     pts, truth = uniform
-    eta3, kappa3 = ((float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base)
-    approx_pts = FilmPoints.build(eta1=job.scene.eta1, eta2=job.film_index_550(), cos_theta=pts.cos_theta,
-                                  thickness_nm=pts.thickness_nm, eta3=eta3, kappa3=kappa3)
+    eta3, kappa3 = (float(v) for v in material(base).index(550.0)) if isinstance(base, str) else base
+    approx_pts = FilmPoints.build(
+        eta1=job.scene.eta1,
+        eta2=job.film_index_550(),
+        cos_theta=pts.cos_theta,
+        thickness_nm=pts.thickness_nm,
+        eta3=eta3,
+        kappa3=kappa3,
+    )
     approx = fast_colours(approx_pts, job.scene.observer, job.scene.space, integrator)[0]  # the kernel
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
@@ -150,21 +173,53 @@ def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrato
     frozen = (1,) if job.fixed_thickness else ()
     if "base_path" in job.key:
         points = _PathPoints.build(spec, job.key["base_path"], integrator)
-        result = refine(_path_measure(spec, points, integrator), job.counts, job.scene.max_de, frozen=frozen,
-                        max_rounds=_LUT_MAX_ROUNDS)
+        result = refine(
+            _path_measure(spec, points, integrator),
+            job.counts,
+            job.scene.max_de,
+            frozen=frozen,
+            max_rounds=_LUT_MAX_ROUNDS,
+        )
         worst = points.searched(result.artefact, integrator)
     else:
-        result = tune(spec, job.scene.max_de, n_points=SCORED_POINTS["lut"], seed=0, backend=backend,
-                      max_rounds=_LUT_MAX_ROUNDS, start=job.counts, frozen=frozen, search_budget=_LUT_SEARCH_BUDGET)
+        result = tune(
+            spec,
+            job.scene.max_de,
+            n_points=SCORED_POINTS["lut"],
+            seed=0,
+            backend=backend,
+            max_rounds=_LUT_MAX_ROUNDS,
+            start=job.counts,
+            frozen=frozen,
+            search_budget=_LUT_SEARCH_BUDGET,
+        )
         worst = result.best.stats["worst_case"]
     axes = tuple(a.resized(c) for a, c in zip(spec.axes, result.counts))
     write_lut(replace(spec, axes=axes), path, files, backend)
     scoring = {"path_scoring": result.best.stats} if "base_path" in job.key else {}
-    return {"counts": list(result.counts), "de00_p99": result.best.de00_p99, "de00_p99_bound": result.best.held,
-            "target_met": result.met, "de00_max": worst["de00_max"],
-            "worst_case": {k: worst[k] for k in ("de00_max", "cos_theta", "opd_nm", "eta3", "kappa3", "found_by",
-                                                 "held_out_max", "evaluations", "budget")},
-            **scoring, "sha256": sha256_file(files.members[path])}
+    return {
+        "counts": list(result.counts),
+        "de00_p99": result.best.de00_p99,
+        "de00_p99_bound": result.best.held,
+        "target_met": result.met,
+        "de00_max": worst["de00_max"],
+        "worst_case": {
+            k: worst[k]
+            for k in (
+                "de00_max",
+                "cos_theta",
+                "opd_nm",
+                "eta3",
+                "kappa3",
+                "found_by",
+                "held_out_max",
+                "evaluations",
+                "budget",
+            )
+        },
+        **scoring,
+        "sha256": sha256_file(files.members[path]),
+    }
 
 
 @dataclass
@@ -178,7 +233,7 @@ class _PathPoints:
     spec: object
     path: dict
     single: FilmPoints
-    single_at: np.ndarray   # the single stacks' positions along the path (node units)
+    single_at: np.ndarray  # the single stacks' positions along the path (node units)
     channels: list
     truth_single: np.ndarray
     truth_channels: np.ndarray
@@ -193,15 +248,20 @@ class _PathPoints:
             return _path_stack(spec, path, cos_t, opd, at)
 
         single_at = rng.uniform(0.0, top * max(path["channel_reach"]), n)
-        single, channels = along(single_at), [along(rng.uniform(0.0, top * reach, n)) for reach in path["channel_reach"]]
+        single, channels = (
+            along(single_at),
+            [along(rng.uniform(0.0, top * reach, n)) for reach in path["channel_reach"]],
+        )
         truth = lambda stack: integrator.evaluate(spec, stack)  # noqa: E731 - the bake's direct rule
         return cls(spec, path, single, single_at, channels, truth(single), _composed(truth, channels))
 
     def errors(self, lut) -> tuple:
         """ΔE00 of ``lut`` at the single-base points and at the per-channel composed points."""
         space, observer = self.spec.space, self.spec.observer
-        return (delta_e00(lut.sample(self.single), self.truth_single, observer, space),
-                delta_e00(_composed(lut.sample, self.channels), self.truth_channels, observer, space))
+        return (
+            delta_e00(lut.sample(self.single), self.truth_single, observer, space),
+            delta_e00(_composed(lut.sample, self.channels), self.truth_channels, observer, space),
+        )
 
     def searched(self, lut, integrator) -> dict:
         """The max along the path (one base for every channel) over (√cos θ, D, position along the path),
@@ -212,27 +272,52 @@ class _PathPoints:
         top = len(self.path["eta3"]) - 1.0
 
         def stack_at(unit):
-            return _path_stack(self.spec, self.path, cos_axis.from_unit(unit[:, 0]), opd_axis.from_unit(unit[:, 1]),
-                               unit[:, 2] * top)
+            return _path_stack(
+                self.spec, self.path, cos_axis.from_unit(unit[:, 0]), opd_axis.from_unit(unit[:, 1]), unit[:, 2] * top
+            )
 
         starts = np.argsort(-de)[:_SEARCH_STARTS]
-        at = np.column_stack([cos_axis.to_unit(self.single.cos_theta), opd_axis.to_unit(self.single.opd_nm),
-                              self.single_at / top])[starts]
-        axes = (SearchAxis("cos_theta", cells=cos_axis.count - 1), SearchAxis("opd_nm", cells=opd_axis.count - 1),
-                SearchAxis("base_path", cells=int(top)))
+        at = np.column_stack(
+            [cos_axis.to_unit(self.single.cos_theta), opd_axis.to_unit(self.single.opd_nm), self.single_at / top]
+        )[starts]
+        axes = (
+            SearchAxis("cos_theta", cells=cos_axis.count - 1),
+            SearchAxis("opd_nm", cells=opd_axis.count - 1),
+            SearchAxis("base_path", cells=int(top)),
+        )
         places = {"cos θ → 0": {"cos_theta": 0.0}} | ({"D → 0": {"opd_nm": 0.0}} if opd_axis.lo == 0.0 else {})
-        found = search_stacks(stack_at, lut.sample, axes, at, de[starts], places, _LUT_SEARCH_BUDGET, 0,
-                              self.spec.space, self.spec.observer, lambda stack: integrator.evaluate(self.spec, stack))
+        found = search_stacks(
+            stack_at,
+            lut.sample,
+            axes,
+            at,
+            de[starts],
+            places,
+            _LUT_SEARCH_BUDGET,
+            0,
+            self.spec.space,
+            self.spec.observer,
+            lambda stack: integrator.evaluate(self.spec, stack),
+        )
         stack = found.pop("at")
-        return {"de00_max": found.pop("de00_max"), **{k: float(getattr(stack, k)[0]) for k in
-                                                      ("cos_theta", "opd_nm", "eta3", "kappa3")}, **found}
+        return {
+            "de00_max": found.pop("de00_max"),
+            **{k: float(getattr(stack, k)[0]) for k in ("cos_theta", "opd_nm", "eta3", "kappa3")},
+            **found,
+        }
 
 
 def _path_stack(spec, path: dict, cos_theta, opd_nm, at) -> FilmPoints:
     """Film stacks of ``spec``'s film whose base lies at position ``at`` (node units) along ``path``."""
     nodes = np.arange(len(path["eta3"]))
-    return FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=cos_theta, opd_nm=opd_nm,
-                            eta3=np.interp(at, nodes, path["eta3"]), kappa3=np.interp(at, nodes, path["kappa3"]))
+    return FilmPoints.build(
+        eta1=spec.eta1,
+        eta2=spec.eta2,
+        cos_theta=cos_theta,
+        opd_nm=opd_nm,
+        eta3=np.interp(at, nodes, path["eta3"]),
+        kappa3=np.interp(at, nodes, path["kappa3"]),
+    )
 
 
 def _composed(colour, stacks) -> np.ndarray:
@@ -251,8 +336,10 @@ def _path_measure(spec, points: _PathPoints, integrator):
     def measure(counts, label):
         lut, nbytes, seconds = trial_lut(spec, counts, integrator)
         single, channels = points.errors(lut)
-        stats = {kind: {"de00_p99": float(np.percentile(de, 99)), "de00_p99_bound": p99_bound(de)}
-                 for kind, de in (("single_base", single), ("per_channel", channels))}
+        stats = {
+            kind: {"de00_p99": float(np.percentile(de, 99)), "de00_p99_bound": p99_bound(de)}
+            for kind, de in (("single_base", single), ("per_channel", channels))
+        }
         p99 = max(k["de00_p99"] for k in stats.values())
         gated = max(stats["single_base"]["de00_p99_bound"], stats["per_channel"]["de00_p99"])
         return Trial(tuple(counts), p99, nbytes, seconds, stats, gated), lut

@@ -41,7 +41,6 @@ class SceneMaterial:
     origin: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
     base_path: tuple | None = None  # ranged bases only: (η3 nodes, κ3 nodes, channel reach) the engine reads
 
-
     @property
     def base_is_range(self) -> bool:
         return isinstance(self.base, tuple) and isinstance(self.base[0], tuple)
@@ -50,8 +49,9 @@ class SceneMaterial:
         """Everything the material's pixels depend on (materials equal here share a slice)."""
         key = {"film": self.film, "thickness_nm": list(self.thickness_nm), "base": json.loads(json.dumps(self.base))}
         if self.base_path is not None:
-            key["base_path"] = dict(zip(("eta3", "kappa3", "channel_reach"),
-                                        ([float(v) for v in nodes] for nodes in self.base_path)))
+            key["base_path"] = dict(
+                zip(("eta3", "kappa3", "channel_reach"), ([float(v) for v in nodes] for nodes in self.base_path))
+            )
         return key
 
     def where(self, key: str) -> str:
@@ -85,8 +85,13 @@ class Scene:
         return Path(self.path).stem
 
     def settings_key(self) -> dict:
-        return {"space": self.space, "observer": self.observer, "eta1": self.eta1,
-                "precision": self.precision, "max_de": self.max_de}
+        return {
+            "space": self.space,
+            "observer": self.observer,
+            "eta1": self.eta1,
+            "precision": self.precision,
+            "max_de": self.max_de,
+        }
 
     def hash_of(self, *parts) -> str:
         from lutbake import __version__
@@ -101,10 +106,12 @@ def check_material_names(names, error) -> None:
     seen = {}
     for name in names:
         if not MATERIAL_NAME.fullmatch(name):
-            raise error(name, f"material name {name!r} is not allowed: use 1-64 ASCII letters, digits, '-' or "
-                              "'_', starting with a letter")
+            raise error(
+                name,
+                f"material name {name!r} is not allowed: use 1-64 ASCII letters, digits, '-' or "
+                "'_', starting with a letter",
+            )
         ident = shader_ident(name)
         if ident in seen:
-            raise error(name, f"material names {seen[ident]!r} and {name!r} both become {ident} in shaders: "
-                              "rename one")
+            raise error(name, f"material names {seen[ident]!r} and {name!r} both become {ident} in shaders: rename one")
         seen[ident] = name

@@ -17,8 +17,8 @@ from functools import cached_property
 
 import numpy as np
 
-from lutbake.physics.materials import material
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.physics.materials import material
 from lutbake.physics.points import MAX_OPD_NM, FilmPoints
 from lutbake.quality.refine import TUNE_START_COUNTS
 from lutbake.quality.report import RESCORED
@@ -33,8 +33,10 @@ MAX_SLICE_COUNT = 256  # per slice axis: 256 × 256 texels, 384 KiB in half
 # along a base path, this many of each kind). The bound held at them is what a 1,000-point `report` needs.
 SCORED_POINTS = {"slice": 1000, "lut": 1000}
 # What a job is refined to: part of its content hash, so a cache entry refined by another rule is recomputed.
-SCORING = ("report p99 at 99 % of seeds: bound_level of report's population; along a base path the "
-           "single-base bound and the per-channel p99")
+SCORING = (
+    "report p99 at 99 % of seeds: bound_level of report's population; along a base path the "
+    "single-base bound and the per-channel p99"
+)
 _VISIBLE_NM = np.linspace(360.0, 830.0, 95)
 # truth_rate samples at most this many jobs: a plan of 10^5 materials is timed in a fraction of a second.
 _RATE_JOBS = 8
@@ -44,7 +46,7 @@ _RATE_JOBS = 8
 class SceneJob:
     """A 2D (cos θ, thickness) slice or a 4D LUT serving one or more materials."""
 
-    kind: str                 # "slice" or "lut"
+    kind: str  # "slice" or "lut"
     key: dict
     materials: list
     scene: Scene = field(repr=False)
@@ -88,8 +90,12 @@ class SceneJob:
         eta2 = float(self.key["film"])
         d_lo, d_hi = _widen(*(2 * eta2 * t for t in self.thickness_nm))
         (e_lo, e_hi), (k_lo, k_hi) = (_widen(*r) for r in self.key["base"])
-        axes = (Axis("cos_theta", 0.0, 1.0, 32, "sqrt"), Axis("opd_nm", d_lo, d_hi, 128),
-                Axis("eta3", e_lo, e_hi, 16), Axis("kappa3", k_lo, k_hi, 16, "sqrt"))
+        axes = (
+            Axis("cos_theta", 0.0, 1.0, 32, "sqrt"),
+            Axis("opd_nm", d_lo, d_hi, 128),
+            Axis("eta3", e_lo, e_hi, 16),
+            Axis("kappa3", k_lo, k_hi, 16, "sqrt"),
+        )
         s = self.scene
         return BakeSpec(eta2=eta2, eta1=s.eta1, axes=axes, space=s.space, observer=s.observer, precision=s.precision)
 
@@ -108,8 +114,13 @@ class ScenePlan:
         measured ``seconds_per_truth_point`` (``truth_rate``), each job's ground-truth seconds."""
         rows = []
         for job in self.jobs:
-            row = {"id": job.id, "kind": job.kind, "materials": job.materials, "counts": list(job.counts),
-                   "bytes_start": job.bytes_estimate()}
+            row = {
+                "id": job.id,
+                "kind": job.kind,
+                "materials": job.materials,
+                "counts": list(job.counts),
+                "bytes_start": job.bytes_estimate(),
+            }
             if job.kind == "slice":
                 row["axes"] = {"cos_theta": [0.0, 1.0, "sqrt"], "thickness_nm": job.key["thickness_nm"]}
                 row["bytes_max"] = job.bytes_estimate((MAX_SLICE_COUNT, 1 if job.fixed_thickness else MAX_SLICE_COUNT))
@@ -121,8 +132,13 @@ class ScenePlan:
         from lutbake.lut.bake import default_specs
 
         generic = next(iter(default_specs().values())).cells * (6 if self.scene.precision == "half" else 12)
-        return {"scene": self.scene.file_name, "settings": self.scene.settings_key(), "jobs": rows,
-                "bytes_start_total": sum(r["bytes_start"] for r in rows), "generic_4d_bytes": generic}
+        return {
+            "scene": self.scene.file_name,
+            "settings": self.scene.settings_key(),
+            "jobs": rows,
+            "bytes_start_total": sum(r["bytes_start"] for r in rows),
+            "generic_4d_bytes": generic,
+        }
 
 
 def _initial_counts(job: SceneJob) -> tuple:
@@ -183,9 +199,11 @@ def _check_optical_path(job: SceneJob, m: SceneMaterial) -> None:
     eta2 = job.film_index_max()
     opd = 2.0 * eta2 * job.thickness_nm[1]
     if opd > MAX_OPD_NM:
-        raise ValueError(f"{m.where('thickness_nm')}: the optical path 2·η2·d reaches {opd:g} nm (η2 {eta2:g}, d "
-                         f"{job.thickness_nm[1]:g} nm): at most {MAX_OPD_NM:g} nm is allowed, so d <= "
-                         f"{MAX_OPD_NM / (2.0 * eta2):g} nm for this film")
+        raise ValueError(
+            f"{m.where('thickness_nm')}: the optical path 2·η2·d reaches {opd:g} nm (η2 {eta2:g}, d "
+            f"{job.thickness_nm[1]:g} nm): at most {MAX_OPD_NM:g} nm is allowed, so d <= "
+            f"{MAX_OPD_NM / (2.0 * eta2):g} nm for this film"
+        )
 
 
 def _truth_points(job: SceneJob) -> int:
@@ -208,11 +226,17 @@ def truth_rate(plan: ScenePlan, points: int = 16) -> float:
             pts = job.stack().points(cos_t, d)
         else:
             (e_lo, e_hi), (k_lo, k_hi) = job.key["base"]
-            pts = FilmPoints.build(eta1=job.scene.eta1, eta2=float(job.key["film"]), cos_theta=cos_t,
-                                   thickness_nm=d, eta3=rng.uniform(e_lo, e_hi, n), kappa3=rng.uniform(k_lo, k_hi, n))
+            pts = FilmPoints.build(
+                eta1=job.scene.eta1,
+                eta2=float(job.key["film"]),
+                cos_theta=cos_t,
+                thickness_nm=d,
+                eta3=rng.uniform(e_lo, e_hi, n),
+                kappa3=rng.uniform(k_lo, k_hi, n),
+            )
         reference_colour(pts, job.scene.observer, job.scene.space)
 
-    jobs = plan.jobs[::max(1, -(-len(plan.jobs) // _RATE_JOBS))]  # spread over the plan
+    jobs = plan.jobs[:: max(1, -(-len(plan.jobs) // _RATE_JOBS))]  # spread over the plan
     for job in jobs:
         sample(job, 2)
     start = time.perf_counter()

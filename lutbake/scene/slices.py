@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.materials import material
 from lutbake.physics.optics import normal_admittance, round_trip_amplitude
-from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.points import MAX_INDEX, MAX_OPD_NM, FilmPoints
 from lutbake.spectral.reference import spectral_reflectance, subset
 from lutbake.spectral.rules import WAVENUMBER_SPAN_PER_NM, rule_ladder
@@ -81,11 +81,12 @@ def slice_grid(counts, thickness_nm, centres: bool = False) -> tuple:
         u, v = (np.arange(n_cos - 1) + 0.5) / (n_cos - 1), (np.arange(n_d - 1) + 0.5) / max(n_d - 1, 1)
     else:
         u, v = np.linspace(0.0, 1.0, n_cos), np.linspace(0.0, 1.0, n_d)
-    return u ** 2, (lo + (hi - lo) * v) if n_d > 1 else np.array([float(lo)])
+    return u**2, (lo + (hi - lo) * v) if n_d > 1 else np.array([float(lo)])
 
 
-def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observer: str, space: str,
-                    centres: bool = False) -> np.ndarray:
+def integrate_slice(
+    stack: SliceStack, counts, thickness_nm, integrator, observer: str, space: str, centres: bool = False
+) -> np.ndarray:
     """RGB (n_thickness, n_cos, 3) in float64 on the slice grid, or with ``centres`` at its cells'
     centres (max(n_thickness − 1, 1), n_cos − 1, 3) (``slice_grid``; the module docstring gives the path)."""
     cos_t, thickness = slice_grid(counts, thickness_nm, centres)
@@ -96,15 +97,17 @@ def integrate_slice(stack: SliceStack, counts, thickness_nm, integrator, observe
     return rgb.reshape(thickness.size, cos_t.size, 3)
 
 
-def slice_colour(stack: SliceStack, points: FilmPoints, thickness_nm, integrator, observer: str,
-                 space: str) -> np.ndarray:
+def slice_colour(
+    stack: SliceStack, points: FilmPoints, thickness_nm, integrator, observer: str, space: str
+) -> np.ndarray:
     """RGB (P, 3) of ``stack`` at any ``points`` of its slice (thickness within ``thickness_nm``) by the
     direct quadrature, each point at its fringe level and at least the slice's material floor: what a
     slice's interpolation error is scored against (≤ DISPERSIVE_TOLERANCE from the ground truth, tests)."""
     key = (tuple(thickness_nm), observer, space)
     if key not in stack.material_levels:
-        stack.material_levels[key] = (_material_level(stack, thickness_nm, integrator, stack.ladder(observer, space))
-                                      if stack.dispersive else 0)
+        stack.material_levels[key] = (
+            _material_level(stack, thickness_nm, integrator, stack.ladder(observer, space)) if stack.dispersive else 0
+        )
     return _direct_per_wavelength(stack, points, stack.material_levels[key], integrator, observer, space)
 
 
@@ -136,8 +139,9 @@ def _kernel_tile(stack, cos_t, thickness, integrator, observer, space) -> np.nda
     kappa3_axis, i_kappa3 = _pinned_axis("kappa3", float(stack.base[1]), np.inf)
     cos_axis, columns = _grid_axis("cos_theta", cos_t, 1.0, "sqrt")
     opd_axis, rows = _grid_axis("opd_nm", 2.0 * eta2 * thickness, MAX_OPD_NM)
-    spec = BakeSpec(eta2=eta2, eta1=stack.eta1, axes=(cos_axis, opd_axis, eta3_axis, kappa3_axis),
-                    observer=observer, space=space)
+    spec = BakeSpec(
+        eta2=eta2, eta1=stack.eta1, axes=(cos_axis, opd_axis, eta3_axis, kappa3_axis), observer=observer, space=space
+    )
     # Only the rows of the base's κ3 node (at most 2 × 256 × 256 cells), then its η3 tile's columns.
     layout = spec.layout
     (x0, y0), (x1, y1) = layout.texel(0, 0, i_eta3, i_kappa3), layout.texel(0, 0, i_eta3 + 1, i_kappa3 + 1)
@@ -145,8 +149,9 @@ def _kernel_tile(stack, cos_t, thickness, integrator, observer, space) -> np.nda
     return band[rows, x0:x1][:, columns]
 
 
-def _direct_per_wavelength(stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str,
-                           space: str) -> np.ndarray:
+def _direct_per_wavelength(
+    stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str, space: str
+) -> np.ndarray:
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
     ladder = stack.ladder(observer, space)

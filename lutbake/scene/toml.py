@@ -11,8 +11,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.io.documents import load_toml, read_text
+from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.physics.materials import material
 from lutbake.physics.points import check_value, dielectric_film, inside_domain
 from lutbake.scene.model import Scene, SceneMaterial, check_material_names
@@ -111,7 +111,9 @@ def load_scene(path) -> Scene:
     unknown = set(doc) - {"scene", "materials"}
     if unknown:
         key = sorted(unknown)[0]
-        raise ValueError(f"{path}:{_top_line(loc, key)}: unknown table or key {key!r}: allowed [scene], [materials.NAME]")
+        raise ValueError(
+            f"{path}:{_top_line(loc, key)}: unknown table or key {key!r}: allowed [scene], [materials.NAME]"
+        )
     settings = doc.get("scene", {})
     _no_unknown(loc, "scene", settings, _SCENE_KEYS)
     space = _choice(loc, "scene", "space", settings.get("space", "rec709"), SPACES)
@@ -121,8 +123,10 @@ def load_scene(path) -> Scene:
     max_de = _number(loc, "scene", "max_de", settings.get("max_de", 1.0), "max_de")
     materials = doc.get("materials", {})
     if not isinstance(materials, dict):
-        raise ValueError(f"{path}:{_top_line(loc, 'materials')}: materials must be tables [materials.NAME], "
-                         f"not {type(materials).__name__}")
+        raise ValueError(
+            f"{path}:{_top_line(loc, 'materials')}: materials must be tables [materials.NAME], "
+            f"not {type(materials).__name__}"
+        )
     if not materials:
         raise loc.error("scene", None, "no materials: add at least one [materials.NAME] table")
     check_material_names(materials, lambda name, message: loc.error(f"materials.{name}", None, message))
@@ -154,9 +158,9 @@ def _choice(loc, table, key, value, allowed):
 def _number(loc, table, key, value, domain):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise loc.error(table, key, f"{table}.{key} = {value!r} is not a number")
-    if not inside_domain(domain, value):   # a scalar test: an array per value cost 10x (10^5 materials)
+    if not inside_domain(domain, value):  # a scalar test: an array per value cost 10x (10^5 materials)
         try:
-            check_value(domain, value)   # the same test; raises naming the value and what is allowed
+            check_value(domain, value)  # the same test; raises naming the value and what is allowed
         except ValueError as exc:
             raise loc.error(table, key, f"{table}.{key}: {exc}") from None
     return float(value)
@@ -192,8 +196,11 @@ def _material(loc, name, body) -> SceneMaterial:
         if key not in body:
             raise loc.error(table, None, f"{table} is missing the field {key!r}")
     film = body["film"]
-    film = (_named(loc, table, "film", film, dielectric_film) if isinstance(film, str)
-            else _number(loc, table, "film", film, "eta2"))
+    film = (
+        _named(loc, table, "film", film, dielectric_film)
+        if isinstance(film, str)
+        else _number(loc, table, "film", film, "eta2")
+    )
     thickness = _range_or_number(loc, table, "thickness_nm", body["thickness_nm"], "thickness_nm")
     base = body["base"]
     if isinstance(base, str):
@@ -209,8 +216,9 @@ def _material(loc, name, body) -> SceneMaterial:
         kappa3 = _range_or_number(loc, table, "kappa3", base.get("kappa3", 0.0), "kappa3")
         ranged = eta3[0] != eta3[1] or kappa3[0] != kappa3[1]
         if ranged and isinstance(film, str):
-            raise loc.error(table, "film", f"{table}: a named (dispersive) film needs a fixed base, "
-                                            "not eta3/kappa3 ranges")
+            raise loc.error(
+                table, "film", f"{table}: a named (dispersive) film needs a fixed base, not eta3/kappa3 ranges"
+            )
         base = (eta3, kappa3) if ranged else (eta3[0], kappa3[0])
     else:
         base = (_number(loc, table, "base", base, "eta3"), 0.0)

@@ -28,21 +28,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from lutbake.physics.optics import _stack_terms, normal_admittance
-from lutbake.io.usercache import cached_arrays
 
-__all__ = ["WeightTransform", "weight_transform", "SeriesCoefficients", "series_coefficients",
-           "SeriesResult", "series_colour", "series_plan", "PATHS", "NU0_PER_NM", "TABLE_STEP_NM", "TABLE_MAX_NM", "SERIES_BUDGET",
-           "DEFAULT_SERIES_TOLERANCE"]
+__all__ = [
+    "WeightTransform",
+    "weight_transform",
+    "SeriesCoefficients",
+    "series_coefficients",
+    "SeriesResult",
+    "series_colour",
+    "series_plan",
+    "PATHS",
+    "NU0_PER_NM",
+    "TABLE_STEP_NM",
+    "TABLE_MAX_NM",
+    "SERIES_BUDGET",
+    "DEFAULT_SERIES_TOLERANCE",
+]
 
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
 NU_MAX_PER_NM = 1.0 / WAVELENGTH_MIN_NM
-NU0_PER_NM = 0.5 * (NU_MIN_PER_NM + NU_MAX_PER_NM)   # demodulation: centre of the support in ν
+NU0_PER_NM = 0.5 * (NU_MIN_PER_NM + NU_MAX_PER_NM)  # demodulation: centre of the support in ν
 TABLE_STEP_NM = 25.0
 TABLE_MAX_NM = 4.0e5
-DEFAULT_SERIES_TOLERANCE = 1e-9   # per polarization: truncation bound on the dropped terms
-SERIES_BUDGET = 512               # most terms a texel's series may take before the direct path is cheaper
+DEFAULT_SERIES_TOLERANCE = 1e-9  # per polarization: truncation bound on the dropped terms
+SERIES_BUDGET = 512  # most terms a texel's series may take before the direct path is cheaper
 _NODES_PER_RADIAN = 3.0
 _X_BLOCK = 512
 
@@ -58,9 +70,9 @@ class WeightTransform:
 
     step_nm: float
     coefficients: np.ndarray
-    mass: np.ndarray          # ∫|w_c| dλ: |Ŵ_c(x)| ≤ mass_c for every x
-    edge: np.ndarray          # |w̃_c| at both ends of the ν support (the 1/x term)
-    variation: np.ndarray     # |w̃_c'| at both ends + total variation of w̃_c' (the 1/x² term)
+    mass: np.ndarray  # ∫|w_c| dλ: |Ŵ_c(x)| ≤ mass_c for every x
+    edge: np.ndarray  # |w̃_c| at both ends of the ν support (the 1/x term)
+    variation: np.ndarray  # |w̃_c'| at both ends + total variation of w̃_c' (the 1/x² term)
     interpolation_bound: np.ndarray  # per channel: sup |table − Ŵ_c| (a priori)
 
     @property
@@ -75,7 +87,7 @@ class WeightTransform:
         s = x / self.step_nm
         k = np.minimum(s.astype(np.int64), self.coefficients.shape[0] - 1)
         t = (s - k)[None]
-        c = np.moveaxis(self.coefficients[k], (-2, -1), (0, 1))   # (3, 6, *x.shape)
+        c = np.moveaxis(self.coefficients[k], (-2, -1), (0, 1))  # (3, 6, *x.shape)
         value = c[:, 5]
         for j in range(4, -1, -1):
             value = value * t + c[:, j]
@@ -116,12 +128,12 @@ def _demodulated_samples(weights, nu, step_nm, count):
     (one rounding per factor, so no error builds up along the table).
     """
     dnu = 2j * np.pi * (nu - NU0_PER_NM)
-    columns = np.concatenate([weights, weights * dnu, weights * dnu**2]).T   # (nodes, 9)
+    columns = np.concatenate([weights, weights * dnu, weights * dnu**2]).T  # (nodes, 9)
     steps = np.exp(np.outer(step_nm * np.arange(_X_BLOCK), dnu))
     out = np.empty((count, 9), complex)
     for s in range(0, count, _X_BLOCK):
         n = min(_X_BLOCK, count - s)
-        out[s:s + n] = (steps[:n] * np.exp(s * step_nm * dnu)) @ columns
+        out[s : s + n] = (steps[:n] * np.exp(s * step_nm * dnu)) @ columns
     return out.T.reshape(3, 3, count)
 
 
@@ -131,11 +143,15 @@ def _hermite_coefficients(f, h):
     d0, d1 = h * f[1][:, :-1], h * f[1][:, 1:]
     s0, s1 = h * h * f[2][:, :-1], h * h * f[2][:, 1:]
     dv = v1 - v0
-    c = [v0, d0, 0.5 * s0,
-         10 * dv - 6 * d0 - 4 * d1 - 1.5 * s0 + 0.5 * s1,
-         -15 * dv + 8 * d0 + 7 * d1 + 1.5 * s0 - s1,
-         6 * dv - 3 * d0 - 3 * d1 - 0.5 * s0 + 0.5 * s1]
-    return np.stack(c, axis=-1).transpose(1, 0, 2)   # (N, 3, 6)
+    c = [
+        v0,
+        d0,
+        0.5 * s0,
+        10 * dv - 6 * d0 - 4 * d1 - 1.5 * s0 + 0.5 * s1,
+        -15 * dv + 8 * d0 + 7 * d1 + 1.5 * s0 - s1,
+        6 * dv - 3 * d0 - 3 * d1 - 0.5 * s0 + 0.5 * s1,
+    ]
+    return np.stack(c, axis=-1).transpose(1, 0, 2)  # (N, 3, 6)
 
 
 def _decay_constants(table_nm, table):
@@ -159,23 +175,29 @@ def _decay_constants(table_nm, table):
     inside = (turn > nu_lo) & (turn < nu_hi)
     mid = np.where(inside, turn, nu_lo)
     within = np.abs(slope(mid) - slope(nu_lo)) + np.abs(slope(nu_hi) - slope(mid))
-    jumps = np.abs(slope(nu_lo)[:, :-1] - slope(nu_hi)[:, 1:])   # panel k's left end meets panel k+1's right
+    jumps = np.abs(slope(nu_lo)[:, :-1] - slope(nu_hi)[:, 1:])  # panel k's left end meets panel k+1's right
     ends = np.abs(slope(nu_lo)[:, -1]) + np.abs(slope(nu_hi)[:, 0])
     edge = np.abs(table[:, 0]) * table_nm[0] ** 2 + np.abs(table[:, -1]) * table_nm[-1] ** 2
     return edge, ends + within.sum(axis=1) + jumps.sum(axis=1)
 
 
 @functools.lru_cache(maxsize=8)
-def weight_transform(observer: str = "cie1931", space: str = "rec709", basis: str = "rgb",
-                     step_nm: float = TABLE_STEP_NM, x_max_nm: float = TABLE_MAX_NM) -> WeightTransform:
+def weight_transform(
+    observer: str = "cie1931",
+    space: str = "rec709",
+    basis: str = "rgb",
+    step_nm: float = TABLE_STEP_NM,
+    x_max_nm: float = TABLE_MAX_NM,
+) -> WeightTransform:
     """Tabulate Ŵ_c on [0, x_max] at ``step_nm`` (cached per process)."""
     cm = colorimetry(observer, space)
     lam, quad = _panel_nodes(x_max_nm)
     weights = cm.sensitivity(lam, basis) * quad
     n = int(np.ceil(x_max_nm / step_nm))
     key = b"".join([weights.tobytes(), lam.tobytes(), np.float64(step_nm).tobytes(), np.int64(n).tobytes()])
-    f = cached_arrays("fourier", key, {"f": (3, 3, n + 1)},
-                      lambda: {"f": _demodulated_samples(weights, 1.0 / lam, step_nm, n + 1)})["f"]
+    f = cached_arrays(
+        "fourier", key, {"f": (3, 3, n + 1)}, lambda: {"f": _demodulated_samples(weights, 1.0 / lam, step_nm, n + 1)}
+    )["f"]
     table = cm.rgb_table if basis == "rgb" else cm.xyz_table
     edge, variation = _decay_constants(cm.wavelength_nm, table)
     # f is band-limited to |ν − ν0| ≤ ν_half: |f⁽⁶⁾| ≤ (2πν_half)⁶ ∫|w|, and the
@@ -190,11 +212,11 @@ def weight_transform(observer: str = "cie1931", space: str = "rec709", basis: st
 class SeriesCoefficients:
     """Per texel and polarization (leading axis s, p): the series' constants."""
 
-    c0: np.ndarray       # (2, n) real
-    k: np.ndarray        # (2, n) complex
-    q: np.ndarray        # (2, n) complex
+    c0: np.ndarray  # (2, n) real
+    k: np.ndarray  # (2, n) complex
+    q: np.ndarray  # (2, n) complex
     one_minus_q: np.ndarray  # (2, n) 1 − |q| > 0 (without cancellation)
-    x_nm: np.ndarray     # (n,) X = D·cos θ2
+    x_nm: np.ndarray  # (n,) X = D·cos θ2
     in_scope: np.ndarray  # (n,) film propagating (cos θ2 > 0)
 
 
@@ -228,8 +250,9 @@ def series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> SeriesCo
         out["q"].append(q)
         out["one_minus_q"].append(one_q2 / (1 + np.abs(q)))
     x_nm = np.asarray(opd_nm, float) * np.where(in_scope, g2.real, 0.0) / eta2
-    return SeriesCoefficients(*(np.array(out[key]) for key in ("c0", "k", "q", "one_minus_q")),
-                              x_nm=x_nm, in_scope=in_scope)
+    return SeriesCoefficients(
+        *(np.array(out[key]) for key in ("c0", "k", "q", "one_minus_q")), x_nm=x_nm, in_scope=in_scope
+    )
 
 
 def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms):
@@ -240,8 +263,12 @@ def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms):
     return np.sum(geometric, axis=0) * wt.tail_bound((terms + 1) * co.x_nm)
 
 
-def series_plan(co: SeriesCoefficients, wt: WeightTransform, tolerance: float = DEFAULT_SERIES_TOLERANCE,
-                budget: int = SERIES_BUDGET):
+def series_plan(
+    co: SeriesCoefficients,
+    wt: WeightTransform,
+    tolerance: float = DEFAULT_SERIES_TOLERANCE,
+    budget: int = SERIES_BUDGET,
+):
     """Terms M per texel for the series, or −1 for the direct quadrature.
 
     The rule: the texel is in scope (propagating film) and its remainder
@@ -259,34 +286,42 @@ def series_plan(co: SeriesCoefficients, wt: WeightTransform, tolerance: float = 
     ok = co.in_scope & (_remainder(co, wt, cap) <= tolerance)
     closed = co.in_scope & (co.x_nm == 0)
     lo, hi = np.zeros(n), np.where(ok & ~closed, cap, 0.0)
-    while np.any(lo < hi):   # smallest M in [0, cap] meeting the bound (the bound falls with M)
+    while np.any(lo < hi):  # smallest M in [0, cap] meeting the bound (the bound falls with M)
         mid = np.floor(0.5 * (lo + hi))
         meets = _remainder(co, wt, mid) <= tolerance
         hi, lo = np.where(meets, mid, hi), np.where(meets, lo, mid + 1)
     return np.where(ok | closed, hi, -1).astype(np.int64)
 
 
-PATHS = ("series", "closed-form", "direct")   # SeriesResult.path codes 0, 1, 2
+PATHS = ("series", "closed-form", "direct")  # SeriesResult.path codes 0, 1, 2
 
 
 @dataclass
 class SeriesResult:
-    values: np.ndarray   # (n, 3); NaN where the texel takes the direct path
-    terms: np.ndarray    # (n,) M where the series is summed, else −1
-    bound: np.ndarray    # (n,) enforced a-priori |ΔRGB| bound (0 for direct texels)
-    path: np.ndarray     # (n,) index into PATHS
+    values: np.ndarray  # (n, 3); NaN where the texel takes the direct path
+    terms: np.ndarray  # (n,) M where the series is summed, else −1
+    bound: np.ndarray  # (n,) enforced a-priori |ΔRGB| bound (0 for direct texels)
+    path: np.ndarray  # (n,) index into PATHS
 
 
-def series_colour(stack, observer="cie1931", space="rec709", basis="rgb", tolerance=DEFAULT_SERIES_TOLERANCE,
-                  budget=SERIES_BUDGET, integrate: bool = True) -> SeriesResult:
+def series_colour(
+    stack,
+    observer="cie1931",
+    space="rec709",
+    basis="rgb",
+    tolerance=DEFAULT_SERIES_TOLERANCE,
+    budget=SERIES_BUDGET,
+    integrate: bool = True,
+) -> SeriesResult:
     """RGB of film stacks of constant indices (points.FilmPoints, flat fields) in float64: by the series
     where its rule allows, else by the poles' closed form (lutbake/spectral/poles.py) where the film propagates
     and that form's bound is within ``tolerance`` per polarization, else left to the direct path (NaN).
     ``integrate=False``: the rule's outcome alone (``values`` None, no integration)."""
     stack.require("series", film=None, base=None)
     wt = weight_transform(observer, space, basis)
-    co = series_coefficients(stack.eta1, stack.eta2, np.asarray(stack.cos_theta, float), stack.opd_nm, stack.eta3,
-                             stack.kappa3)
+    co = series_coefficients(
+        stack.eta1, stack.eta2, np.asarray(stack.cos_theta, float), stack.opd_nm, stack.eta3, stack.kappa3
+    )
     terms = series_plan(co, wt, tolerance, budget)
     values, bound = _series_sum(co, wt, terms) if integrate else (None, np.where(terms >= 0, np.nan, 0.0))
     path = np.where(terms >= 0, 0, 2)
@@ -314,7 +349,7 @@ def _series_sum(co: SeriesCoefficients, wt: WeightTransform, terms):
     with np.errstate(divide="ignore", invalid="ignore"):
         closed = np.where(co.k == 0, 0.0, co.k / (1 - co.q))
     zero = co.x_nm == 0
-    acc = np.where(zero, closed, 0.0)[..., None] * w0   # (2, n, 3)
+    acc = np.where(zero, closed, 0.0)[..., None] * w0  # (2, n, 3)
     power = np.ones_like(co.q)
     for m in range(1, int(terms.max(initial=0)) + 1):
         active = np.flatnonzero(terms >= m)

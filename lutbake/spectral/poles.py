@@ -45,21 +45,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from lutbake.io.usercache import cached_arrays
+from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 
-__all__ = ["CauchyTable", "cauchy_table", "ChebyshevRule", "chebyshev_rule", "ClosedForm", "closed_form",
-           "bernstein_rho", "NEAR_RHO", "BOUND_RHO", "CHEBYSHEV_DEGREE", "MAX_NEAR_POLES", "MAX_WINDOW", "DEEP_LIMIT_NM",
-           "WINDOW_NU_PER_NM"]
+__all__ = [
+    "CauchyTable",
+    "cauchy_table",
+    "ChebyshevRule",
+    "chebyshev_rule",
+    "ClosedForm",
+    "closed_form",
+    "bernstein_rho",
+    "NEAR_RHO",
+    "BOUND_RHO",
+    "CHEBYSHEV_DEGREE",
+    "MAX_NEAR_POLES",
+    "MAX_WINDOW",
+    "DEEP_LIMIT_NM",
+    "WINDOW_NU_PER_NM",
+]
 
 BAND_CENTRE_NM = 0.5 * (WAVELENGTH_MIN_NM + WAVELENGTH_MAX_NM)
 BAND_HALF_NM = 0.5 * (WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM)
-NEAR_RHO = 3.0             # poles inside this Bernstein ellipse of the band are subtracted
-BOUND_RHO = 2.5            # the ellipse on which |h| is bounded (inside E_3, outside the band)
-CHEBYSHEV_DEGREE = 40      # 41 nodes: ρ^{−n} = 1.2e-16 at ρ = 2.5
-MAX_NEAR_POLES = 32        # more (films thicker than ~6 µm) go to the direct quadrature
-MAX_WINDOW = 256           # poles enumerated per texel at most (X up to ~25 µm; more: direct quadrature)
-N_KNOTS = int(WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM) + 1   # the 1 nm samples of the weights
+NEAR_RHO = 3.0  # poles inside this Bernstein ellipse of the band are subtracted
+BOUND_RHO = 2.5  # the ellipse on which |h| is bounded (inside E_3, outside the band)
+CHEBYSHEV_DEGREE = 40  # 41 nodes: ρ^{−n} = 1.2e-16 at ρ = 2.5
+MAX_NEAR_POLES = 32  # more (films thicker than ~6 µm) go to the direct quadrature
+MAX_WINDOW = 256  # poles enumerated per texel at most (X up to ~25 µm; more: direct quadrature)
+N_KNOTS = int(WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM) + 1  # the 1 nm samples of the weights
 # Table geometry: Re P in [200, 990) nm covers E_3 ([203, 987]); depth below 1 nm is "shallow" (knots
 # within L of P exact), deeper cells are levels 2^ℓ ≤ Im P < 2^{ℓ+1} nm up to 512 nm (E_3 reaches 313).
 RE_MIN_NM, RE_MAX_NM = 200.0, 990.0
@@ -67,7 +80,7 @@ SHALLOW_NM = 1.0
 NEAR_KNOTS = 4
 SHALLOW_DEGREE, DEEP_DEGREE = 16, 22
 DEEP_LEVELS = 9
-DEEP_LIMIT_NM = SHALLOW_NM * 2.0 ** DEEP_LEVELS
+DEEP_LIMIT_NM = SHALLOW_NM * 2.0**DEEP_LEVELS
 # Poles p_n with Re p_n in this window (1/nm) are enumerated: it holds every pole inside E_3
 # (Re p ∈ [1.9e-4, 4.93e-3]); the tail outside it is bounded in closed form (_far_tail).
 WINDOW_NU_PER_NM = (-2e-3, 8e-3)
@@ -117,7 +130,7 @@ class CauchyTable:
 
     def _shallow(self, P):
         j = np.floor(P.real).astype(np.int64)
-        coef = self.shallow[j - int(RE_MIN_NM)]                       # (n, 3, d + 1)
+        coef = self.shallow[j - int(RE_MIN_NM)]  # (n, 3, d + 1)
         out = _horner(coef, P - (j + 0.5))
         for offset in range(1 - NEAR_KNOTS, NEAR_KNOTS + 1):
             k = j + offset
@@ -142,7 +155,7 @@ def _horner(coef, u):
 
 def _deep_levels():
     """(columns, first cell) of each deep level: two rows of cells 2^ℓ/2 nm wide."""
-    cols = [int(np.ceil((RE_MAX_NM - RE_MIN_NM) / (0.5 * SHALLOW_NM * 2.0 ** l))) for l in range(DEEP_LEVELS)]
+    cols = [int(np.ceil((RE_MAX_NM - RE_MIN_NM) / (0.5 * SHALLOW_NM * 2.0**l))) for l in range(DEEP_LEVELS)]
     first = np.concatenate([[0], np.cumsum([2 * c for c in cols])])
     return np.array(cols), first
 
@@ -152,7 +165,7 @@ def deep_cell(P):
     P = np.asarray(P, complex)
     cols, first = _deep_levels()
     level = np.clip(np.floor(np.log2(P.imag / SHALLOW_NM)).astype(np.int64), 0, DEEP_LEVELS - 1)
-    depth = SHALLOW_NM * 2.0 ** level
+    depth = SHALLOW_NM * 2.0**level
     width = 0.5 * depth
     row = (P.imag >= 1.5 * depth).astype(np.int64)
     col = np.clip(np.floor((P.real - RE_MIN_NM) / width).astype(np.int64), 0, cols[level] - 1)
@@ -162,7 +175,7 @@ def deep_cell(P):
 
 def _knots(table):
     """(a, b, constant) of Γ = constant + Σ_k (a_k + b_k P) log(k − P) for a (3, 471) table at 1 nm."""
-    slope = np.diff(table, axis=1)                                  # per panel [k, k + 1)
+    slope = np.diff(table, axis=1)  # per panel [k, k + 1)
     intercept = table[:, :-1] - slope * np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)
     zero = np.zeros((3, 1))
     slope_pad, intercept_pad = np.hstack([zero, slope, zero]), np.hstack([zero, intercept, zero])
@@ -178,17 +191,17 @@ def _taylor(a, b, knots, centres, use, degree, radius):
     With d = k − c and u = P − c, log(k − P) = log d − Σ_m (u/d)^m/m (the branch P in the upper half
     plane sees: arg d = −π for knots left of a real centre), so the coefficient of u^m is
     −Σ_k [(a_k + b_k c)/(m d^m) + b_k/((m − 1) d^{m−1})] (m ≥ 2): sums over knots as matrix products."""
-    diff = knots[None, :] - centres[:, None]                                   # (C, K)
+    diff = knots[None, :] - centres[:, None]  # (C, K)
     if np.all(np.imag(centres) == 0):
         log0 = np.log(np.abs(diff)) - 1j * np.pi * (np.real(diff) < 0)
     else:
         log0 = np.log(diff.astype(complex))
     inverse = np.where(use, 1.0 / diff, 0.0)
 
-    def knot_sum(weights, values):                                             # (3, K) real × (C, K) → (3, C)
+    def knot_sum(weights, values):  # (3, K) real × (C, K) → (3, C)
         return (np.ascontiguousarray(values) @ weights.T.astype(complex)).T
 
-    def alpha_sum(values):                                                     # Σ_k (a_k + b_k c) values
+    def alpha_sum(values):  # Σ_k (a_k + b_k c) values
         return knot_sum(a, values) + centres[None, :] * knot_sum(b, values)
 
     logs = np.where(use, log0, 0.0)
@@ -199,10 +212,10 @@ def _taylor(a, b, knots, centres, use, degree, radius):
     for m in range(2, degree + 1):
         coef[..., m] = -alpha_sum(power) / m - knot_sum(b, previous) / (m - 1)
         previous, power = power, power * inverse
-    t = radius * np.abs(inverse)                                               # 0 where not used
+    t = radius * np.abs(inverse)  # 0 where not used
     tail_a = t ** (degree + 1) / ((degree + 1) * (1 - t))
     tail_b = radius * t**degree / (degree * (1 - t))
-    alpha = np.abs(a[:, None, :] + b[:, None, :] * centres[None, :, None])    # |a_k + b_k c|, (3, C, K)
+    alpha = np.abs(a[:, None, :] + b[:, None, :] * centres[None, :, None])  # |a_k + b_k c|, (3, C, K)
     bound = (alpha * tail_a[None]).sum(axis=2) + np.abs(b) @ tail_b.T
     return coef.transpose(1, 0, 2), bound.max(axis=1)
 
@@ -220,9 +233,15 @@ def _build_tables(table) -> dict:
         for row in range(2):
             centres = RE_MIN_NM + (np.arange(cols[level]) + 0.5) * 0.5 * depth + 1j * depth * (1.25 + 0.5 * row)
             start = first[level] + row * cols[level]
-            deep[start:start + cols[level]], b_cells = _taylor(
-                a, b, knots, centres, np.ones((centres.size, knots.size), bool), DEEP_DEGREE,
-                float(np.hypot(0.25 * depth, 0.25 * depth)))
+            deep[start : start + cols[level]], b_cells = _taylor(
+                a,
+                b,
+                knots,
+                centres,
+                np.ones((centres.size, knots.size), bool),
+                DEEP_DEGREE,
+                float(np.hypot(0.25 * depth, 0.25 * depth)),
+            )
             bound = np.maximum(bound, b_cells)
     shallow[:, :, 0] += constant
     deep[:, :, 0] += constant
@@ -243,12 +262,16 @@ def cauchy_table(observer: str = "cie1931", space: str = "rec709", basis: str = 
     cm = colorimetry(observer, space)
     table = cm.rgb_table if basis == "rgb" else cm.xyz_table
     n_deep = int(_deep_levels()[1][-1])
-    shapes = {"a": (3, table.shape[1]), "b": (3, table.shape[1]), "constant": (3,),
-              "shallow": (int(RE_MAX_NM - RE_MIN_NM), 3, SHALLOW_DEGREE + 1), "deep": (n_deep, 3, DEEP_DEGREE + 1),
-              "bound": (3,)}
+    shapes = {
+        "a": (3, table.shape[1]),
+        "b": (3, table.shape[1]),
+        "constant": (3,),
+        "shallow": (int(RE_MAX_NM - RE_MIN_NM), 3, SHALLOW_DEGREE + 1),
+        "deep": (n_deep, 3, DEEP_DEGREE + 1),
+        "bound": (3,),
+    }
     arrays = cached_arrays("cauchy", _construction_digest() + table.tobytes(), shapes, lambda: _build_tables(table))
-    return CauchyTable(arrays["a"], arrays["b"], arrays["constant"], arrays["shallow"], arrays["deep"],
-                       arrays["bound"])
+    return CauchyTable(arrays["a"], arrays["b"], arrays["constant"], arrays["shallow"], arrays["deep"], arrays["bound"])
 
 
 @dataclass(frozen=True)
@@ -258,12 +281,13 @@ class ChebyshevRule:
 
     wavelength_nm: np.ndarray
     weights: np.ndarray
-    mass: np.ndarray       # ∫ |w_c| dλ
+    mass: np.ndarray  # ∫ |w_c| dλ
 
 
 @functools.lru_cache(maxsize=8)
-def chebyshev_rule(observer: str = "cie1931", space: str = "rec709", basis: str = "rgb",
-                   degree: int = CHEBYSHEV_DEGREE) -> ChebyshevRule:
+def chebyshev_rule(
+    observer: str = "cie1931", space: str = "rec709", basis: str = "rgb", degree: int = CHEBYSHEV_DEGREE
+) -> ChebyshevRule:
     """Product-integration weights: the Chebyshev moments μ_k = ∫ w_c T_k dλ by Gauss–Legendre on
     every 1 nm panel (exact: w_c is linear there), then the discrete Chebyshev transform."""
     cm = colorimetry(observer, space)
@@ -272,12 +296,14 @@ def chebyshev_rule(observer: str = "cie1931", space: str = "rec709", basis: str 
     lam = (np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)[:, None] + 0.5 * (gx[None] + 1.0)).ravel()
     weighted = cm.sensitivity(lam, basis) * np.tile(0.5 * gw, int(WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM))
     t = np.arccos(np.clip((lam - BAND_CENTRE_NM) / BAND_HALF_NM, -1.0, 1.0))
-    moments = weighted @ np.cos(np.outer(t, np.arange(degree + 1)))          # (3, degree + 1)
+    moments = weighted @ np.cos(np.outer(t, np.arange(degree + 1)))  # (3, degree + 1)
     halve = np.ones(degree + 1)
     halve[[0, -1]] = 0.5
-    basis_at_nodes = np.cos(np.outer(np.arccos(x), np.arange(degree + 1)))   # T_k(x_i)
+    basis_at_nodes = np.cos(np.outer(np.arccos(x), np.arange(degree + 1)))  # T_k(x_i)
     weights = (2.0 / degree) * halve[None, :] * ((moments * halve[None, :]) @ basis_at_nodes.T)
-    return ChebyshevRule(BAND_CENTRE_NM + BAND_HALF_NM * x, weights, _mass(cm.rgb_table if basis == "rgb" else cm.xyz_table))
+    return ChebyshevRule(
+        BAND_CENTRE_NM + BAND_HALF_NM * x, weights, _mass(cm.rgb_table if basis == "rgb" else cm.xyz_table)
+    )
 
 
 def _mass(table) -> np.ndarray:
@@ -315,7 +341,7 @@ def _node_values(k_over_q, X, P_near, R_near, near, lam, reference):
     node's nearest near pole P* (or ``reference``, a pole, where none is near), so no rounding of the
     phase 2πX/λ is amplified near a pole: q z = e^{iθ}, θ = 2πX (P* − λ)/(λ P*) exactly, and
     f − R*/(λ − P*) = (K/q) [−1 − (1/(e^{iθ} − 1) − 1/(iθ)) + P*/(i2πX)]."""
-    dist = np.where(near[:, None, :], np.abs(P_near[:, None, :] - lam[None, :, None]), np.inf)   # (n, nodes, W)
+    dist = np.where(near[:, None, :], np.abs(P_near[:, None, :] - lam[None, :, None]), np.inf)  # (n, nodes, W)
     nearest = np.argmin(dist, axis=2)
     has_near = np.isfinite(np.take_along_axis(dist, nearest[..., None], 2)[..., 0])
     star = np.where(has_near, np.take_along_axis(P_near, nearest, 1), reference[:, None])
@@ -348,7 +374,7 @@ def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709", in
     start = 0
     while start < n:
         # a chunk whose pole windows × nodes stay within 2^18 values
-        width = _window_width(q[start:start + 4096], X[start:start + 4096])
+        width = _window_width(q[start : start + 4096], X[start : start + 4096])
         end = start + max(1, min(4096, (1 << 18) // ((CHEBYSHEV_DEGREE + 1) * max(1, width))))
         part = slice(start, end)
         integral[part], bound[part], count[part] = _closed_form(k[part], q[part], X[part], observer, space, integrate)
@@ -391,12 +417,14 @@ def _closed_form(k, q, X, observer, space, integrate):
         explicit = np.where(far, np.abs(R) / gap, 0.0).sum(axis=1)
     M = np.abs(k / (1 - q)) + explicit + _far_tail(X, k_over_q)
     R_near = np.where(near, R, 0.0)
-    bound = (rule.mass.max() * 4 * M * BOUND_RHO ** (-CHEBYSHEV_DEGREE) / (BOUND_RHO - 1)
-             + np.abs(R_near).sum(axis=1) * table.bound.max())
+    bound = (
+        rule.mass.max() * 4 * M * BOUND_RHO ** (-CHEBYSHEV_DEGREE) / (BOUND_RHO - 1)
+        + np.abs(R_near).sum(axis=1) * table.bound.max()
+    )
     bound = np.where(ok, bound, np.inf)
     if not integrate:
         return 0.0, bound, count
-    P_near = np.where(near, P, 1j * BAND_HALF_NM + BAND_CENTRE_NM)      # a harmless placeholder
+    P_near = np.where(near, P, 1j * BAND_HALF_NM + BAND_CENTRE_NM)  # a harmless placeholder
     integral = np.einsum("cnw,nw->nc", table(P_near), R_near)
     # the reference pole for texels without a near pole: the window's pole closest to the band's centre
     closest = np.argmin(np.where(valid, np.abs(1.0 / np.where(valid, P, 1.0) - 1.0 / BAND_CENTRE_NM), np.inf), 1)

@@ -51,15 +51,22 @@ def _integrate(points: FilmPoints, rule) -> np.ndarray:
     step = max(1, _CELLS_PER_CHUNK // rule.count)
     for start in range(0, len(points), step):
         part = subset(points, slice(start, start + step))
-        out[start:start + step] = spectral_reflectance(part, rule.wavelength_nm)[2] @ rule.weights.T
+        out[start : start + step] = spectral_reflectance(part, rule.wavelength_nm)[2] @ rule.weights.T
     return out
 
 
 def subset(points: FilmPoints, index) -> FilmPoints:
     """The points at ``index`` (a slice or an index array)."""
-    return FilmPoints(eta1=points.eta1[index], eta2=points.eta2[index], eta3=points.eta3[index],
-                      kappa3=points.kappa3[index], cos_theta=points.cos_theta[index],
-                      thickness_nm=points.thickness_nm[index], film=points.film, base=points.base)
+    return FilmPoints(
+        eta1=points.eta1[index],
+        eta2=points.eta2[index],
+        eta3=points.eta3[index],
+        kappa3=points.kappa3[index],
+        cos_theta=points.cos_theta[index],
+        thickness_nm=points.thickness_nm[index],
+        film=points.film,
+        base=points.base,
+    )
 
 
 def _rule(nodes_per_nm: int, observer: str, space: str, basis: str) -> SpectralRule:
@@ -70,8 +77,13 @@ def _rule(nodes_per_nm: int, observer: str, space: str, basis: str) -> SpectralR
     return SpectralRule(rules[0].wavelength_nm, np.vstack([r.weights for r in rules]), basis)
 
 
-def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str = "rec709",
-                     basis: str = "rgb", tolerance: float = DEFAULT_TOLERANCE) -> ReferenceResult:
+def reference_colour(
+    points: FilmPoints,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    basis: str = "rgb",
+    tolerance: float = DEFAULT_TOLERANCE,
+) -> ReferenceResult:
     """Integrate each point until successive refinements agree to ``tolerance`` in every channel.
 
     Parameters
@@ -121,8 +133,9 @@ def reference_colour(points: FilmPoints, observer: str = "cie1931", space: str =
     return ReferenceResult(values, needed, converged)
 
 
-def reference_rgb(stack: FilmPoints, observer: str = "cie1931", space: str = "rec709",
-                  tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
+def reference_rgb(
+    stack: FilmPoints, observer: str = "cie1931", space: str = "rec709", tolerance: float = DEFAULT_TOLERANCE
+) -> np.ndarray:
     """Ground-truth linear RGB of film stacks: the converged spectral integral.
 
     Parameters

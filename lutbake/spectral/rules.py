@@ -26,10 +26,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from lutbake.io.usercache import cached_arrays
+from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 
-__all__ = ["SpectralRule", "RuleLadder", "panel_rule", "wavenumber_rule", "rule_ladder", "WAVENUMBER_SPAN_PER_NM", "DEFAULT_SAMPLES_PER_CYCLE", "MAX_WAVENUMBER_NODES"]
+__all__ = [
+    "SpectralRule",
+    "RuleLadder",
+    "panel_rule",
+    "wavenumber_rule",
+    "rule_ladder",
+    "WAVENUMBER_SPAN_PER_NM",
+    "DEFAULT_SAMPLES_PER_CYCLE",
+    "MAX_WAVENUMBER_NODES",
+]
 
 WAVENUMBER_SPAN_PER_NM = 1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM
 DEFAULT_SAMPLES_PER_CYCLE = 3.0
@@ -38,7 +47,7 @@ STENCIL_NODES = 8
 _MIN_WAVENUMBER_NODES = 16
 MAX_WAVENUMBER_NODES = 16384
 _PROJECTION_NODES = 8
-MIN_PANEL_NODES = 4   # a knotted rule's narrowest panel: cubic interpolation there
+MIN_PANEL_NODES = 4  # a knotted rule's narrowest panel: cubic interpolation there
 _GAUSS_LEGENDRE = np.polynomial.legendre.leggauss(_PROJECTION_NODES)
 
 
@@ -56,8 +65,7 @@ class SpectralRule:
 
 
 @functools.lru_cache(maxsize=64)
-def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec709",
-               basis: str = "rgb") -> SpectralRule:
+def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec709", basis: str = "rgb") -> SpectralRule:
     """Composite Gauss–Legendre rule, ``nodes_per_nm`` nodes on each 1 nm panel."""
     x, w = np.polynomial.legendre.leggauss(int(nodes_per_nm))
     left = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)
@@ -68,8 +76,9 @@ def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec70
 
 
 @functools.lru_cache(maxsize=64)
-def wavenumber_rule(count: int, observer: str = "cie1931", space: str = "rec709",
-                    basis: str = "rgb", knots_nm: tuple = ()) -> SpectralRule:
+def wavenumber_rule(
+    count: int, observer: str = "cie1931", space: str = "rec709", basis: str = "rgb", knots_nm: tuple = ()
+) -> SpectralRule:
     """Uniform-wavenumber nodes with product-integration weights of local degree-7 interpolation.
 
     ``knots_nm``: wavelengths where R(λ) has a kink (a material table's samples: linear between
@@ -84,25 +93,37 @@ def wavenumber_rule(count: int, observer: str = "cie1931", space: str = "rec709"
         cuts = []
     edges_nm = [WAVELENGTH_MIN_NM, *cuts, WAVELENGTH_MAX_NM]
     step = WAVENUMBER_SPAN_PER_NM / (count - 1)
-    panels = [(lo, hi, max(MIN_PANEL_NODES, int(np.ceil((1.0 / lo - 1.0 / hi) / step)) + 1) if cuts else count)
-              for lo, hi in zip(edges_nm[:-1], edges_nm[1:])]
+    panels = [
+        (lo, hi, max(MIN_PANEL_NODES, int(np.ceil((1.0 / lo - 1.0 / hi) / step)) + 1) if cuts else count)
+        for lo, hi in zip(edges_nm[:-1], edges_nm[1:])
+    ]
     size = sum(n for _, _, n in panels)
     cm = colorimetry(observer, space)
     # Built once per machine (up to ~0.1 s per rule): keyed by the sensitivity table, the panels and
     # this module's construction code, so a changed table or construction never reads a stale entry.
-    key = b"|".join([_construction_digest(), (cm.rgb_table if basis == "rgb" else cm.xyz_table).tobytes(),
-                     np.asarray(panels, float).tobytes()])
+    key = b"|".join(
+        [
+            _construction_digest(),
+            (cm.rgb_table if basis == "rgb" else cm.xyz_table).tobytes(),
+            np.asarray(panels, float).tobytes(),
+        ]
+    )
     rows = 3 * len(basis.split("+"))
-    rule = cached_arrays("wavenumber-rule", key, {"wavelength_nm": (size,), "weights": (rows, size)},
-                         lambda: _panel_rule_arrays(panels, observer, space, basis))
+    rule = cached_arrays(
+        "wavenumber-rule",
+        key,
+        {"wavelength_nm": (size,), "weights": (rows, size)},
+        lambda: _panel_rule_arrays(panels, observer, space, basis),
+    )
     name = f"wavenumber-lagrange{STENCIL_NODES}-{count}" + (f"-{len(panels)}-panels" if cuts else "")
     return SpectralRule(rule["wavelength_nm"], rule["weights"], name)
 
 
 @functools.lru_cache(maxsize=1)
 def _construction_digest() -> bytes:
-    source = "".join(inspect.getsource(f) for f in (_panel_rule_arrays, _product_weights, _projection_points,
-                                                    _lagrange_stencils))
+    source = "".join(
+        inspect.getsource(f) for f in (_panel_rule_arrays, _product_weights, _projection_points, _lagrange_stencils)
+    )
     constants = (STENCIL_NODES, _PROJECTION_NODES, MIN_PANEL_NODES)
     return hashlib.sha256(f"{source}{constants}".encode()).digest()
 
@@ -163,7 +184,7 @@ class RuleLadder:
     samples_per_cycle: float
     observer: str = "cie1931"
     space: str = "rec709"
-    knots_nm: tuple = ()   # kinks of the materials' spectra (wavenumber_rule), none for constant indices
+    knots_nm: tuple = ()  # kinks of the materials' spectra (wavenumber_rule), none for constant indices
 
     @property
     def counts(self) -> list:
@@ -202,8 +223,12 @@ class RuleLadder:
         return np.where(needed > MAX_WAVENUMBER_NODES, np.clip(bound, _HARMONIC_TOLERANCE, 1.0), 0.0)
 
 
-def rule_ladder(samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE, observer: str = "cie1931",
-                space: str = "rec709", knots_nm: tuple = ()) -> RuleLadder:
+def rule_ladder(
+    samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    knots_nm: tuple = (),
+) -> RuleLadder:
     return RuleLadder(float(samples_per_cycle), observer, space, tuple(knots_nm))
 
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.tables.lutfile import ATLAS_FORMAT, shader_ident, shader_template
 from lutbake.io.names import shader_comment
+from lutbake.tables.lutfile import ATLAS_FORMAT, shader_ident, shader_template
 
 __all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_includes", "ERROR_KEYS"]
 
@@ -21,10 +21,14 @@ __all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_i
 ERROR_KEYS = ("de00_p99", "de00_p99_bound", "target_met", "de00_max", "worst_case")
 
 _ATLAS_LINES = {
-    "glsl": ("const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
-             "// {name}: 4D LUT {file} (sample it with {stem}.glsl)"),
-    "hlsl": ("static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
-             "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)"),
+    "glsl": (
+        "const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
+        "// {name}: 4D LUT {file} (sample it with {stem}.glsl)",
+    ),
+    "hlsl": (
+        "static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
+        "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)",
+    ),
 }
 
 
@@ -37,7 +41,7 @@ def pack_atlas(slices) -> dict:
     image = np.zeros((height, width, 3))
     rects, y = [], 0
     for v in slices:
-        image[y:y + v.shape[0], :v.shape[1]] = v
+        image[y : y + v.shape[0], : v.shape[1]] = v
         rects.append([0, y, v.shape[1], v.shape[0]])
         y += v.shape[0]
     return {"width": width, "height": height, "rects": rects, "image": image}
@@ -48,18 +52,32 @@ def slice_header(job, rect) -> dict:
     it by material name."""
     x0, y0, w, h = rect
     lo, hi = job.key["thickness_nm"]
-    return {"id": job.id, "rect": list(rect), "materials": job.materials,
-            "axes": {"cos_theta": {"min": 0.0, "max": 1.0, "count": w, "spacing": "sqrt"},
-                     "thickness_nm": {"min": lo, "max": hi, "count": h, "spacing": "uniform"}},
-            "film": job.key["film"], "base": job.key["base"]}
+    return {
+        "id": job.id,
+        "rect": list(rect),
+        "materials": job.materials,
+        "axes": {
+            "cos_theta": {"min": 0.0, "max": 1.0, "count": w, "spacing": "sqrt"},
+            "thickness_nm": {"min": lo, "max": hi, "count": h, "spacing": "uniform"},
+        },
+        "film": job.key["film"],
+        "base": job.key["base"],
+    }
 
 
 def atlas_header(scene, scene_hash: str, jobs, rects) -> dict:
     """The atlas EXR's metadata: the scene's settings and one ``slice_header`` per slice job."""
-    return {"format": ATLAS_FORMAT, "format_version": 1, "scene_hash": scene_hash,
-            "space": scene.space, "observer": scene.observer, "encoding": "linear",
-            "precision": scene.precision, "eta1": scene.eta1,
-            "slices": [slice_header(j, rect) for j, rect in zip(jobs, rects)]}
+    return {
+        "format": ATLAS_FORMAT,
+        "format_version": 1,
+        "scene_hash": scene_hash,
+        "space": scene.space,
+        "observer": scene.observer,
+        "encoding": "linear",
+        "precision": scene.precision,
+        "eta1": scene.eta1,
+        "slices": [slice_header(j, rect) for j, rect in zip(jobs, rects)],
+    }
 
 
 def slice_entry(job, record: dict, rect, atlas: dict, exr_name: str) -> dict:
@@ -68,10 +86,16 @@ def slice_entry(job, record: dict, rect, atlas: dict, exr_name: str) -> dict:
     searched max and where."""
     x0, y0, w, h = rect
     entry = {k: v for k, v in slice_header(job, rect).items() if k not in ("id", "materials")}
-    return {"kind": "slice", "job": job.id, "file": exr_name, **entry,
-            "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
-            **{k: record[k] for k in ERROR_KEYS}, "constant_index_de00_p99": record["constant_index_de00_p99"],
-            "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)"}
+    return {
+        "kind": "slice",
+        "job": job.id,
+        "file": exr_name,
+        **entry,
+        "uv_rect": [x0 / atlas["width"], y0 / atlas["height"], (x0 + w) / atlas["width"], (y0 + h) / atlas["height"]],
+        **{k: record[k] for k in ERROR_KEYS},
+        "constant_index_de00_p99": record["constant_index_de00_p99"],
+        "sample": "lutbake_atlas_sample(atlas, LUTBAKE_<SCENE>_<MATERIAL>, cos_theta, thickness_nm)",
+    }
 
 
 def atlas_includes(manifest: dict, atlas: dict) -> dict:
@@ -88,12 +112,23 @@ def _atlas_include(manifest: dict, atlas: dict, lang: str) -> str:
     for name, e in manifest["materials"].items():
         if e["kind"] == "slice":
             th = e["axes"]["thickness_nm"]
-            lines.append(slice_line.format(ident=shader_ident(f"{scene}_{name}"), size=size,
-                                           rect=", ".join(str(float(v)) for v in e["rect"]),
-                                           thick=f"{float(th['min'])}, {float(th['max'])}"))
+            lines.append(
+                slice_line.format(
+                    ident=shader_ident(f"{scene}_{name}"),
+                    size=size,
+                    rect=", ".join(str(float(v)) for v in e["rect"]),
+                    thick=f"{float(th['min'])}, {float(th['max'])}",
+                )
+            )
         else:
-            lines.append(lut_line.format(name=shader_comment(name), file=shader_comment(e["file"]),
-                                         stem=shader_comment(Path(e["file"]).stem)))
+            lines.append(
+                lut_line.format(
+                    name=shader_comment(name), file=shader_comment(e["file"]), stem=shader_comment(Path(e["file"]).stem)
+                )
+            )
     return shader_template(f"atlas.{lang}.in").substitute(
-        scene=shader_comment(manifest["scene"]), scene_hash=manifest["scene_hash"][:16],
-        atlas=shader_comment(f"{scene}.exr"), materials="\n".join(lines))
+        scene=shader_comment(manifest["scene"]),
+        scene_hash=manifest["scene_hash"][:16],
+        atlas=shader_comment(f"{scene}.exr"),
+        materials="\n".join(lines),
+    )

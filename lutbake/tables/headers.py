@@ -24,8 +24,8 @@ import struct
 import numpy as np
 
 from lutbake.grid.layout import TILE_ORDERS, TileLayout
-from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from lutbake.grid.spec import AXIS_UNITS, CORNER_AXES
+from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from lutbake.physics.points import inside_domain
 
 __all__ = ["exr_header", "check_structure", "check_metadata", "MAX_ATTRIBUTE_BYTES"]
@@ -84,7 +84,7 @@ def _channels(data: bytes) -> dict:
         end = data.index(b"\0", at)
         name = data[at:end].decode("latin-1")
         _need(end + 17 <= len(data), "channel list cut short")
-        kind, _, xs, ys = struct.unpack("<iB3xii", data[end + 1:end + 17])
+        kind, _, xs, ys = struct.unpack("<iB3xii", data[end + 1 : end + 17])
         out[name] = (_PIXEL_TYPES.get(kind, str(kind)), xs, ys)
         at = end + 17
     return out
@@ -95,15 +95,20 @@ def check_structure(header: dict) -> dict:
     naming what is not (see the module docstring)."""
     attributes, flags = header["attributes"], header["flags"]
     _need(not flags & (_TILED | _DEEP | _MULTIPART), "not a single-part scanline image")
-    for name, kind, size in (("channels", "chlist", None), ("compression", "compression", 1),
-                             ("dataWindow", "box2i", 16)):
+    for name, kind, size in (
+        ("channels", "chlist", None),
+        ("compression", "compression", 1),
+        ("dataWindow", "box2i", 16),
+    ):
         found, value = attributes.get(name, ("", b""))
         _need(found == kind and (size is None or len(value) == size), f"no {name} attribute of type {kind}")
     channels = _channels(attributes["channels"][1])
     _need(sorted(channels) == ["B", "G", "R"], f"channels {', '.join(sorted(channels)) or 'none'}, expected R, G, B")
     kinds = {kind for kind, _, _ in channels.values()}
-    _need(len(kinds) == 1 and kinds <= set(_PIXEL_BYTES),
-          f"channel types {', '.join(sorted(kinds))}: R, G, B must all be HALF or all FLOAT")
+    _need(
+        len(kinds) == 1 and kinds <= set(_PIXEL_BYTES),
+        f"channel types {', '.join(sorted(kinds))}: R, G, B must all be HALF or all FLOAT",
+    )
     _need(all(xs == ys == 1 for _, xs, ys in channels.values()), "subsampled channels")
     x0, y0, x1, y1 = struct.unpack("<4i", attributes["dataWindow"][1])
     _need(x0 == y0 == 0 and x1 >= 0 and y1 >= 0, f"data window ({x0}, {y0})–({x1}, {y1}) is not at the origin")
@@ -112,8 +117,10 @@ def check_structure(header: dict) -> dict:
     _need(compression in _COMPRESSIONS, f"compression {compression} (readers take NO, RLE, ZIPS or ZIP)")
     name, ratio = _COMPRESSIONS[compression]
     declared = width * height * 3 * _PIXEL_BYTES[pixel]
-    _need(declared <= header["size"] * ratio,
-          f"its data window of {width} x {height} texels cannot fit in {header['size']:,} bytes of {name} data")
+    _need(
+        declared <= header["size"] * ratio,
+        f"its data window of {width} x {height} texels cannot fit in {header['size']:,} bytes of {name} data",
+    )
     kind, text = attributes.get("lutbake.metadata", ("", b""))
     _need(kind == "string", "no lutbake.metadata")
     try:
@@ -129,11 +136,13 @@ def _need(ok: bool, why: str) -> None:
 
 # --- metadata: one schema per format (docs/lut-format.md); the ValueError's message is the field ---------
 
+
 def check_metadata(meta: dict, structure: dict) -> None:
     """Raise ValueError(field) when ``meta`` (its format already known) breaks its schema or does not
     describe the image ``structure`` declares."""
     {"lutbake-lut": _check_lut, "lutbake-atlas": _check_atlas, "lutbake-exact": _check_exact}[meta["format"]](
-        meta, structure)
+        meta, structure
+    )
     _need(meta["precision"] == {"HALF": "half", "FLOAT": "float"}[structure["pixel"]], "precision (channel type)")
 
 
@@ -146,25 +155,30 @@ def _check_lut(meta: dict, shape: dict) -> None:
     eta1 = _domain(_at(constants, "eta1", "constants"), "eta1", "constants.eta1")
     _domain(_at(constants, "eta2", "constants"), "eta2", "constants.eta2")
     axes = _at(meta, "axes")
-    _need(isinstance(axes, list) and len(axes) == 4 and all(isinstance(a, dict) for a in axes)
-          and [a.get("name") for a in axes] == list(AXIS_UNITS), "axes")
+    _need(
+        isinstance(axes, list)
+        and len(axes) == 4
+        and all(isinstance(a, dict) for a in axes)
+        and [a.get("name") for a in axes] == list(AXIS_UNITS),
+        "axes",
+    )
     for i, axis in enumerate(axes):
         _axis(axis, f"axes[{i}]", meta["format_version"], eta1)
     if meta["format_version"] >= 3:
         _choice(meta, "interpolation", INTERPOLATIONS)
     packing = _dict(meta, "packing")
-    orders = TILE_ORDERS if meta["format_version"] >= 6 else TILE_ORDERS[:1]   # κ3 along x since v6
+    orders = TILE_ORDERS if meta["format_version"] >= 6 else TILE_ORDERS[:1]  # κ3 along x since v6
     _need(packing.get("tiles_x") in orders, "packing.tiles_x")
     expected = TileLayout(*(a["count"] for a in axes), tiles_x=packing["tiles_x"]).packing()
     for key, value in expected.items():
         _need(packing.get(key) == value, f"packing.{key}")
     _need((shape["width"], shape["height"]) == (expected["width"], expected["height"]), "packing (image size)")
     _spectral(_dict(meta, "spectral"))
-    if "integrator" in meta:   # since the Fourier-series integrator
+    if "integrator" in meta:  # since the Fourier-series integrator
         _integrator(_dict(meta, "integrator"))
 
 
-_ADMITTANCE_SINCE = dict(zip(ADMITTANCE_SPACINGS, (2, 4)))   # η3 spacing → first format version with it
+_ADMITTANCE_SINCE = dict(zip(ADMITTANCE_SPACINGS, (2, 4)))  # η3 spacing → first format version with it
 
 
 def _axis(axis: dict, field: str, version: int, eta1: float) -> None:
@@ -174,11 +188,19 @@ def _axis(axis: dict, field: str, version: int, eta1: float) -> None:
     _need(hi > lo, f"{field}.max")
     _integer(_at(axis, "count", field), f"{field}.count", 2, 1 << 24)
     spacing = _at(axis, "spacing", field)
-    _need(spacing in ("uniform", "sqrt") or spacing == "root4" and version >= 3
-          or spacing == "uniform-root4" and version >= 5
-          or spacing in _ADMITTANCE_SINCE and name == "eta3" and version >= _ADMITTANCE_SINCE[spacing]
-          and lo >= eta1, f"{field}.spacing")
-    if "corner" in axis:   # format v5: the grazing corner's zoom (plan.Axis)
+    _need(
+        spacing in ("uniform", "sqrt")
+        or spacing == "root4"
+        and version >= 3
+        or spacing == "uniform-root4"
+        and version >= 5
+        or spacing in _ADMITTANCE_SINCE
+        and name == "eta3"
+        and version >= _ADMITTANCE_SINCE[spacing]
+        and lo >= eta1,
+        f"{field}.spacing",
+    )
+    if "corner" in axis:  # format v5: the grazing corner's zoom (plan.Axis)
         corner = _dict(axis, "corner", field)
         _need(version >= 5 and name in CORNER_AXES and lo == (eta1 if name == "eta3" else 0.0), f"{field}.corner")
         _integer(_at(corner, "nodes", f"{field}.corner"), f"{field}.corner.nodes", 1, axis["count"] - 2)
@@ -192,19 +214,28 @@ def _spectral(spectral: dict) -> None:
     for count in counts:
         _integer(count, "spectral.counts", 1, 1 << 24)
     span = _at(spectral, "range_nm", "spectral")
-    _need(isinstance(span, list) and len(span) == 2 and _number(span[0], "spectral.range_nm")
-          < _number(span[1], "spectral.range_nm"), "spectral.range_nm")
+    _need(
+        isinstance(span, list)
+        and len(span) == 2
+        and _number(span[0], "spectral.range_nm") < _number(span[1], "spectral.range_nm"),
+        "spectral.range_nm",
+    )
     _number(_at(spectral, "samples_per_cycle", "spectral"), "spectral.samples_per_cycle", positive=True)
     _number(_at(spectral, "error_rgb_max", "spectral"), "spectral.error_rgb_max", low=0.0)
     _integer(_at(spectral, "error_probes", "spectral"), "spectral.error_probes", 0)
-    if "capped_texels" in spectral:   # since the truncation measurement (docs/stability.md)
+    if "capped_texels" in spectral:  # since the truncation measurement (docs/stability.md)
         _integer(spectral["capped_texels"], "spectral.capped_texels", 0)
         for key in ("truncation_bound_rgb", "capped_error_rgb_max"):
             _number(_at(spectral, key, "spectral"), f"spectral.{key}", low=0.0)
 
 
-_INTEGRATOR_NUMBERS = ("series_bound_rgb_max", "series_tolerance_per_polarization", "table_step_nm", "table_max_nm",
-                       "table_interpolation_bound")
+_INTEGRATOR_NUMBERS = (
+    "series_bound_rgb_max",
+    "series_tolerance_per_polarization",
+    "table_step_nm",
+    "table_max_nm",
+    "table_interpolation_bound",
+)
 
 
 def _integrator(integrator: dict) -> None:
@@ -213,13 +244,19 @@ def _integrator(integrator: dict) -> None:
         _integer(_at(integrator, key, "integrator"), f"integrator.{key}", 0)
     for key in _INTEGRATOR_NUMBERS:
         _number(_at(integrator, key, "integrator"), f"integrator.{key}", low=0.0)
-    if "closed_form_texels" in integrator:   # since the poles' closed form (docs/spectral.md)
+    if "closed_form_texels" in integrator:  # since the poles' closed form (docs/spectral.md)
         _integer(integrator["closed_form_texels"], "integrator.closed_form_texels", 0)
-        _number(_at(integrator, "closed_form_bound_rgb_max", "integrator"), "integrator.closed_form_bound_rgb_max",
-                low=0.0)
+        _number(
+            _at(integrator, "closed_form_bound_rgb_max", "integrator"), "integrator.closed_form_bound_rgb_max", low=0.0
+        )
         closed = _dict(integrator, "closed_form", "integrator")
-        for key in ("near_ellipse_rho", "bound_ellipse_rho", "cauchy_table_bound", "chebyshev_degree",
-                    "max_near_poles"):
+        for key in (
+            "near_ellipse_rho",
+            "bound_ellipse_rho",
+            "cauchy_table_bound",
+            "chebyshev_degree",
+            "max_near_poles",
+        ):
             _number(_at(closed, key, "integrator.closed_form"), f"integrator.closed_form.{key}", low=0.0)
 
 
@@ -248,10 +285,14 @@ def _slice(s: dict, field: str, shape: dict, names: set) -> None:
         names.add(m)
     axes = _dict(s, "axes", field)
     cos, th = _dict(axes, "cos_theta", f"{field}.axes"), _dict(axes, "thickness_nm", f"{field}.axes")
-    _need((cos.get("min"), cos.get("max"), cos.get("count"), cos.get("spacing")) == (0.0, 1.0, w, "sqrt"),
-          f"{field}.axes.cos_theta")
-    lo, hi = (_domain(_at(th, k, f"{field}.axes.thickness_nm"), "thickness_nm", f"{field}.axes.thickness_nm.{k}")
-              for k in ("min", "max"))
+    _need(
+        (cos.get("min"), cos.get("max"), cos.get("count"), cos.get("spacing")) == (0.0, 1.0, w, "sqrt"),
+        f"{field}.axes.cos_theta",
+    )
+    lo, hi = (
+        _domain(_at(th, k, f"{field}.axes.thickness_nm"), "thickness_nm", f"{field}.axes.thickness_nm.{k}")
+        for k in ("min", "max")
+    )
     _need(hi >= lo and th.get("count") == h and th.get("spacing") == "uniform", f"{field}.axes.thickness_nm")
     film, base = _at(s, "film", field), _at(s, "base", field)
     if isinstance(film, str):
@@ -280,8 +321,10 @@ def _check_exact(meta: dict, shape: dict) -> None:
     for key in ("quantity", "layout"):
         _text(_at(table, key, "table"), f"table.{key}")
     _need((shape["width"], shape["height"]) == (width, 2 * rows), "table (image size)")
-    for block, keys in (("tail", ("mass", "edge", "variation")),
-                        ("error", ("interpolation_bound", "transform_bound", "storage_max"))):
+    for block, keys in (
+        ("tail", ("mass", "edge", "variation")),
+        ("error", ("interpolation_bound", "transform_bound", "storage_max")),
+    ):
         values = _dict(meta, block)
         for key in keys:
             _number(_at(values, key, block), f"{block}.{key}", low=0.0)
@@ -336,14 +379,25 @@ def _is_hex(value, digits: int) -> bool:
 
 
 def _number(value, field: str, low=None, positive=False) -> float:
-    _need(isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
-          and (low is None or value >= low) and (not positive or value > 0), field)
+    _need(
+        isinstance(value, (int, float))
+        and not isinstance(value, bool)
+        and bool(np.isfinite(value))
+        and (low is None or value >= low)
+        and (not positive or value > 0),
+        field,
+    )
     return float(value)
 
 
 def _integer(value, field: str, low=None, high=None) -> int:
-    _need(isinstance(value, int) and not isinstance(value, bool) and (low is None or value >= low)
-          and (high is None or value <= high), field)
+    _need(
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and (low is None or value >= low)
+        and (high is None or value <= high),
+        field,
+    )
     return value
 
 

@@ -30,18 +30,33 @@ from pathlib import Path
 
 import numpy as np
 
+from lutbake.grid.interpolation import mirrors_low_end
+from lutbake.grid.spec import ROOT4_WEIGHT
 from lutbake.io import fileset
 from lutbake.io.documents import load_json
 from lutbake.io.fileset import temporary_for
-from lutbake.tables.headers import check_metadata, check_structure, exr_header
-from lutbake.grid.interpolation import mirrors_low_end
 from lutbake.io.names import ADMITTANCE_SPACINGS, shader_comment
-from lutbake.grid.spec import ROOT4_WEIGHT
 from lutbake.io.names import shader_identifier as shader_ident
+from lutbake.tables.headers import check_metadata, check_structure, exr_header
 
-__all__ = ["FORMAT", "ATLAS_FORMAT", "EXACT_FORMAT", "FORMAT_VERSION", "EXACT_FORMAT_VERSION", "exr_rows", "exr_stream", "read_lut",
-           "write_atlas", "write_text_atomic", "atomic_path", "shader_includes",
-           "shader_ident", "shader_template", "flat_attributes", "MAX_TEXTURE_SIZE"]
+__all__ = [
+    "FORMAT",
+    "ATLAS_FORMAT",
+    "EXACT_FORMAT",
+    "FORMAT_VERSION",
+    "EXACT_FORMAT_VERSION",
+    "exr_rows",
+    "exr_stream",
+    "read_lut",
+    "write_atlas",
+    "write_text_atomic",
+    "atomic_path",
+    "shader_includes",
+    "shader_ident",
+    "shader_template",
+    "flat_attributes",
+    "MAX_TEXTURE_SIZE",
+]
 
 FORMAT = "lutbake-lut"
 ATLAS_FORMAT = "lutbake-atlas"  # a scene's 2D slices (lutbake/tables/atlas.py, write_atlas)
@@ -90,8 +105,9 @@ def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
         elif isinstance(value, list) and value and isinstance(value[0], dict):
             for i, item in enumerate(value):
                 label = item.get("name", item.get("id", str(i)))
-                out.update(flat_attributes({k: v for k, v in item.items() if k not in ("name", "id")},
-                                           f"{name}.{label}"))
+                out.update(
+                    flat_attributes({k: v for k, v in item.items() if k not in ("name", "id")}, f"{name}.{label}")
+                )
         else:
             out[name] = value if isinstance(value, str) else json.dumps(value)
     return out
@@ -155,20 +171,25 @@ def read_lut(path, formats=(FORMAT,)):
     one of ``formats`` (a version this reader knows), validated against the schema of docs/lut-format.md
     before its pixels are read (lutbake/tables/headers.py); ValueError names the file and the field."""
     path = Path(path)
-    if not path.is_file():   # also refuses FIFOs and devices, which could block a read forever
+    if not path.is_file():  # also refuses FIFOs and devices, which could block a read forever
         raise ValueError(f"LUT {str(path)!r} does not exist or is not a file")
     journal = fileset.pending_commit(path)
     if journal is not None:
-        raise ValueError(f"{str(path)!r} is mid-commit ({journal.name}: a bake was interrupted or is running): "
-                         "bake it again")
+        raise ValueError(
+            f"{str(path)!r} is mid-commit ({journal.name}: a bake was interrupted or is running): bake it again"
+        )
     try:
         structure = check_structure(exr_header(path))
     except (OSError, ValueError, struct.error) as exc:
         raise ValueError(f"{str(path)!r} is not a lutbake EXR: {exc}") from None
     meta = load_json(structure["metadata"], f"{str(path)!r}: lutbake.metadata")
-    if (not isinstance(meta, dict) or not isinstance(meta.get("format"), str) or meta["format"] not in formats
-            or not _integer(meta.get("format_version"))
-            or meta["format_version"] not in _READABLE_VERSIONS[meta["format"]]):
+    if (
+        not isinstance(meta, dict)
+        or not isinstance(meta.get("format"), str)
+        or meta["format"] not in formats
+        or not _integer(meta.get("format_version"))
+        or meta["format_version"] not in _READABLE_VERSIONS[meta["format"]]
+    ):
         known = " or ".join(f"{f} v{'/'.join(map(str, _READABLE_VERSIONS[f]))}" for f in formats)
         raise ValueError(f"{str(path)!r} is not a {known} file")
     try:
@@ -260,13 +281,21 @@ def shader_includes(meta: dict, lut_name: str) -> dict:
         "max": ", ".join(_shader_float(a["max"]) for a in axes),
         "count": ", ".join(_shader_float(a["count"]) for a in axes),
         "sqrt": ", ".join("1.0" if a["spacing"] in ("sqrt", "sqrt-admittance") else "0.0" for a in axes),
-        "root4": ", ".join("1.0" if a["spacing"] == "root4" else _shader_float(ROOT4_WEIGHT)
-                           if a["spacing"] == "uniform-root4" else "0.0" for a in axes),
-        "mirror": ", ".join("1.0" if mirrors_low_end(a["spacing"], a["min"], any("corner" in b for b in axes))
-                            else "0.0" for a in axes),
+        "root4": ", ".join(
+            "1.0"
+            if a["spacing"] == "root4"
+            else _shader_float(ROOT4_WEIGHT)
+            if a["spacing"] == "uniform-root4"
+            else "0.0"
+            for a in axes
+        ),
+        "mirror": ", ".join(
+            "1.0" if mirrors_low_end(a["spacing"], a["min"], any("corner" in b for b in axes)) else "0.0" for a in axes
+        ),
         "admittance": "1.0" if axes[2]["spacing"] in ADMITTANCE_SPACINGS else "0.0",
-        "corner_share": ", ".join(_shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0"
-                                  for a in axes),
+        "corner_share": ", ".join(
+            _shader_float(a["corner"]["nodes"] / (a["count"] - 1)) if "corner" in a else "0.0" for a in axes
+        ),
         "corner_scale": ", ".join(_shader_float(a["corner"]["scale"]) if "corner" in a else "1.0" for a in axes),
         "tiles_x_kappa3": "1.0" if meta["packing"]["tiles_x"] == "kappa3" else "0.0",
         "interpolation": meta.get("interpolation", "linear"),
@@ -282,8 +311,11 @@ def shader_template(name: str) -> string.Template:
 def warn_texture_size(width: int, height: int, name: str) -> None:
     """Warn when an image exceeds what many GPUs load (docs/engines.md: texture size)."""
     if max(width, height) > MAX_TEXTURE_SIZE:
-        warnings.warn(f"{name}: {width}×{height} texels exceeds {MAX_TEXTURE_SIZE} in a dimension; many "
-                      f"GPUs cannot load it (WebGL2 guarantees 2048, mobile GPUs 4096)", stacklevel=2)
+        warnings.warn(
+            f"{name}: {width}×{height} texels exceeds {MAX_TEXTURE_SIZE} in a dimension; many "
+            f"GPUs cannot load it (WebGL2 guarantees 2048, mobile GPUs 4096)",
+            stacklevel=2,
+        )
 
 
 def _shader_float(value) -> str:

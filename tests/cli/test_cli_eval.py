@@ -25,8 +25,9 @@ def test_eval_json_matches_the_library():
 
 
 def test_eval_at_one_wavelength_gives_fresnel_for_bare_glass():
-    out = run("eval", "--eta2", "1.5", "--opd", "0", "--cos-theta", "1", "--eta3", "1.5",
-              "--wavelength", "550", "--json")
+    out = run(
+        "eval", "--eta2", "1.5", "--opd", "0", "--cos-theta", "1", "--eta3", "1.5", "--wavelength", "550", "--json"
+    )
     row = json.loads(out.stdout)["points"][0]
     assert row["R"] == pytest.approx(0.04, abs=1e-15) and row["Rs"] == pytest.approx(row["Rp"])
 
@@ -47,17 +48,23 @@ def test_named_materials_on_the_command_line():
     assert json.loads(out.stdout)["points"][0]["base"] == "Fe"
 
 
-@pytest.mark.parametrize("args, named", [
-    (["--eta2", "0", "--thickness", "1", "--cos-theta", "1", "--eta3", "1"], "eta2 = 0.0"),
-    (["--eta2", "1.5", "--thickness", "1", "--cos-theta", "1", "--eta3", "1", "--kappa3", "-0.1"], "kappa3 = -0.1"),
-    (["--eta2", "1.5", "--thickness", "-5", "--cos-theta", "1", "--eta3", "1"], "thickness_nm = -5.0"),
-    (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1.5", "--eta3", "1"], "cos_theta = 1.5"),
-    (["--eta2", "nan", "--thickness", "5", "--cos-theta", "1", "--eta3", "1"], "eta2 = nan"),
-    (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--base", "unobtainium"], "unobtainium"),
-    (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--eta3", "1", "--wavelength", "900"], "wavelength_nm"),
-    (["--eta2", "1.5", "--cos-theta", "1", "--eta3", "1"], "thickness_nm or opd_nm"),
-    (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--eta3", "1", "--space", "srgb"], "--space"),
-])
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--eta2", "0", "--thickness", "1", "--cos-theta", "1", "--eta3", "1"], "eta2 = 0.0"),
+        (["--eta2", "1.5", "--thickness", "1", "--cos-theta", "1", "--eta3", "1", "--kappa3", "-0.1"], "kappa3 = -0.1"),
+        (["--eta2", "1.5", "--thickness", "-5", "--cos-theta", "1", "--eta3", "1"], "thickness_nm = -5.0"),
+        (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1.5", "--eta3", "1"], "cos_theta = 1.5"),
+        (["--eta2", "nan", "--thickness", "5", "--cos-theta", "1", "--eta3", "1"], "eta2 = nan"),
+        (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--base", "unobtainium"], "unobtainium"),
+        (
+            ["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--eta3", "1", "--wavelength", "900"],
+            "wavelength_nm",
+        ),
+        (["--eta2", "1.5", "--cos-theta", "1", "--eta3", "1"], "thickness_nm or opd_nm"),
+        (["--eta2", "1.5", "--thickness", "5", "--cos-theta", "1", "--eta3", "1", "--space", "srgb"], "--space"),
+    ],
+)
 def test_bad_input_exits_2_with_one_line(args, named):
     out = run("eval", *args)
     assert out.returncode == 2
@@ -66,12 +73,15 @@ def test_bad_input_exits_2_with_one_line(args, named):
     assert len(lines) == 1 and named in lines[0]
 
 
-@pytest.mark.parametrize("text, named", [
-    ("eta2,opd_nm,cos_theta,eta3\n1.5,0,1\n", "line 2 has 3 fields"),
-    ("eta2,opd_nm,cos_theta,eta3\n1.5,zero,1,1\n", "opd_nm = 'zero'"),
-    ("eta2,opd_nm,cosine,eta3\n1.5,0,1,1\n", "column 'cosine'"),
-    ("eta2,opd_nm,cos_theta,eta3\n", "at least one data row"),
-])
+@pytest.mark.parametrize(
+    "text, named",
+    [
+        ("eta2,opd_nm,cos_theta,eta3\n1.5,0,1\n", "line 2 has 3 fields"),
+        ("eta2,opd_nm,cos_theta,eta3\n1.5,zero,1,1\n", "opd_nm = 'zero'"),
+        ("eta2,opd_nm,cosine,eta3\n1.5,0,1,1\n", "column 'cosine'"),
+        ("eta2,opd_nm,cos_theta,eta3\n", "at least one data row"),
+    ],
+)
 def test_malformed_csv_exits_2(tmp_path, text, named):
     csv = tmp_path / "bad.csv"
     csv.write_text(text)

@@ -9,23 +9,24 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import default_luts, node_parses
-from lutbake.integrate.batch import fast_colours, truth_colours
+
 from lutbake.cli import cli
-from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
+from lutbake.integrate.batch import fast_colours, truth_colours
 from lutbake.io.strictjson import dumps
-from lutbake.quality.refine import tune
 from lutbake.lut.bake import default_specs
+from lutbake.physics.points import FilmPoints
+from lutbake.quality.refine import tune
+from lutbake.spectral.reference import reference_colour
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY_AXES = ["--cos-theta", "0:1:4", "--opd", "0:600:6", "--eta3", "1:2:2", "--kappa3", "0:1:2"]
 
 
 def run(*args, stdin=None, cwd=None):
-    return subprocess.run([sys.executable, "-m", "lutbake", *args], capture_output=True, text=True,
-                          input=stdin, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "lutbake", *args], capture_output=True, text=True, input=stdin, cwd=cwd
+    )
 
 
 @pytest.fixture(scope="module")
@@ -55,9 +56,20 @@ def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
         ["plan", "--scene", str(ROOT / "examples" / "soap-bubble.toml")],
         ["bake", "--eta2", "1.33", *TINY_AXES, "--out", str(tmp_path / "b.exr")],
         ["report", str(tiny_lut), "--points", "20", "--max-de", "1", "--search-budget", "200"],
-        ["sweep", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--out", str(tmp_path / "sweep"), "--search-budget", "200"],
+        [
+            "sweep",
+            "--eta2",
+            "1.33",
+            *TINY_AXES,
+            "--points",
+            "10",
+            "--out",
+            str(tmp_path / "sweep"),
+            "--search-budget",
+            "200",
+        ],
         ["tune", "--eta2", "1.33", *TINY_AXES, "--points", "10", "--max-de", "50", "--search-budget", "200"],
-    ]   # and `check`: tests/quality/test_stability.py parses the one run of it the suite makes
+    ]  # and `check`: tests/quality/test_stability.py parses the one run of it the suite makes
     for args in commands:
         out = run(*args, "--json")
         assert out.returncode in (0, 1), (args, out.stderr)
@@ -70,8 +82,11 @@ def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
 
 
 def test_closed_pipe_exits_0_without_a_traceback():
-    proc = subprocess.Popen([sys.executable, "-m", "lutbake", "inspect", str(default_luts() / "lutbake-eta2-1.33.exr")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lutbake", "inspect", str(default_luts() / "lutbake-eta2-1.33.exr")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     proc.stdout.close()  # the reader is gone before the first write, as after `| head -1`
     assert proc.wait(timeout=120) == 0
     assert proc.stderr.read() == b""
@@ -102,21 +117,47 @@ def test_materials_are_listed_and_found_in_any_case():
     assert json.loads(lower.stdout) == json.loads(canonical.stdout)
 
 
-@pytest.mark.parametrize("args, named", [
-    (["eval", "--eta2", "1.3", "--film", "water", "--thickness", "100", "--angle", "0", "--eta3", "1.5"],
-     "--eta2 cannot be combined with --film"),
-    (["eval", "--eta2", "1.3", "--thickness", "100", "--angle", "0", "--eta3", "1.5", "--base", "Fe"],
-     "--eta3 cannot be combined with --base"),
-    (["bake", "--scene", "examples/soap-bubble.toml", "--eta2", "1.3", "--out", "x"],
-     "--eta2 cannot be combined with --scene"),
-    (["bake", "--scene", "examples/soap-bubble.toml", "--opd", "0:100:8", "--out", "x"],
-     "--opd cannot be combined with --scene"),
-    (["bake", "--eta2", "1.3", "--force", "--out", "x.exr"], "--force applies to --scene"),
-    (["bake", "--base", "Cu"], "lutbake bake --scene"),
-    (["bake", "--quiet", "--progress", "--eta2", "1.3", "--out", "x.exr"], "--quiet and --progress"),
-    (["eval", "--eta2", "1.3", "--thickness", "1", "--angle", "0", "--eta3", "1", "--fast", "--wavelength", "500"],
-     "--fast"),
-])
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (
+            ["eval", "--eta2", "1.3", "--film", "water", "--thickness", "100", "--angle", "0", "--eta3", "1.5"],
+            "--eta2 cannot be combined with --film",
+        ),
+        (
+            ["eval", "--eta2", "1.3", "--thickness", "100", "--angle", "0", "--eta3", "1.5", "--base", "Fe"],
+            "--eta3 cannot be combined with --base",
+        ),
+        (
+            ["bake", "--scene", "examples/soap-bubble.toml", "--eta2", "1.3", "--out", "x"],
+            "--eta2 cannot be combined with --scene",
+        ),
+        (
+            ["bake", "--scene", "examples/soap-bubble.toml", "--opd", "0:100:8", "--out", "x"],
+            "--opd cannot be combined with --scene",
+        ),
+        (["bake", "--eta2", "1.3", "--force", "--out", "x.exr"], "--force applies to --scene"),
+        (["bake", "--base", "Cu"], "lutbake bake --scene"),
+        (["bake", "--quiet", "--progress", "--eta2", "1.3", "--out", "x.exr"], "--quiet and --progress"),
+        (
+            [
+                "eval",
+                "--eta2",
+                "1.3",
+                "--thickness",
+                "1",
+                "--angle",
+                "0",
+                "--eta3",
+                "1",
+                "--fast",
+                "--wavelength",
+                "500",
+            ],
+            "--fast",
+        ),
+    ],
+)
 def test_conflicting_flags_are_refused_with_one_line(tmp_path, args, named):
     out = run(*args, cwd=ROOT)
     assert out.returncode == 2, out.stderr
@@ -130,14 +171,32 @@ def test_sample_does_not_advertise_named_materials():
 
 
 def test_every_option_has_help_text():
-    missing = [f"{name} {p.opts[0]}" for name, cmd in cli.commands.items() for p in cmd.params
-               if p.param_type_name == "option" and not p.hidden and not p.help]
+    missing = [
+        f"{name} {p.opts[0]}"
+        for name, cmd in cli.commands.items()
+        for p in cmd.params
+        if p.param_type_name == "option" and not p.hidden and not p.help
+    ]
     assert missing == []
 
 
 def test_bake_progress_advances_band_by_band(tmp_path):
-    out = run("bake", "--eta2", "1.33", "--cos-theta", "0:1:8", "--opd", "0:3000:64", "--eta3", "1:3:4",
-              "--kappa3", "0:5:4", "--out", str(tmp_path / "p.exr"), "--progress")
+    out = run(
+        "bake",
+        "--eta2",
+        "1.33",
+        "--cos-theta",
+        "0:1:8",
+        "--opd",
+        "0:3000:64",
+        "--eta3",
+        "1:3:4",
+        "--kappa3",
+        "0:5:4",
+        "--out",
+        str(tmp_path / "p.exr"),
+        "--progress",
+    )
     assert out.returncode == 0, out.stderr
     counts = [int(line.split("] ")[1].split("/")[0]) for line in out.stderr.splitlines() if "] " in line]
     assert counts[0] == 0 and counts[-1] == 256
@@ -167,8 +226,13 @@ def test_report_says_which_points_it_scores_and_shows_the_gate(tiny_lut):
 
 
 def _random_points(rng, n):
-    return FilmPoints.build(eta2=rng.choice([1.33, 2.0], n), thickness_nm=rng.uniform(0, 1500, n),
-                            cos_theta=rng.uniform(0, 1, n), eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+    return FilmPoints.build(
+        eta2=rng.choice([1.33, 2.0], n),
+        thickness_nm=rng.uniform(0, 1500, n),
+        cos_theta=rng.uniform(0, 1, n),
+        eta3=rng.uniform(1, 3, n),
+        kappa3=rng.uniform(0, 5, n),
+    )
 
 
 def test_fast_batch_path_matches_the_per_point_ground_truth(rng):

@@ -17,8 +17,19 @@ import pytest
 
 from lutbake import cli
 
-TINY = ["--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2",
-        "--backend", "numpy", "--quiet"]
+TINY = [
+    "--cos-theta",
+    "0:1:4",
+    "--opd",
+    "0:1000:4",
+    "--eta3",
+    "1:2:2",
+    "--kappa3",
+    "0:1:2",
+    "--backend",
+    "numpy",
+    "--quiet",
+]
 CASE_SECONDS = 120
 
 
@@ -34,15 +45,50 @@ def _with_axis(flag, value):
 
 SIZES = {
     "count 1e20": (_with_axis("--cos-theta", "0:1:99999999999999999999"), {2}),
-    "counts 2^32 x 2^32": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:4294967296", "--opd", "0:1:4294967296",
-                            "--out", "x.exr"], {2}),
-    "count 2.5e8 under the old cell limit": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:250000000",
-                                             "--opd", "0:1000:2", "--eta3", "1:2:2", "--kappa3", "0:1:2",
-                                             "--out", "x.exr"], {2}),
-    "peak memory over the budget": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:4000000", "--opd", "0:1000:2",
-                                     "--eta3", "1:2:100", "--kappa3", "0:1:2", "--out", "x.exr"], {2}),
-    "cells over the limit": (["bake", "--eta2", "1.5", "--cos-theta", "0:1:10000", "--opd", "0:1000:10000",
-                              "--out", "x.exr"], {2}),
+    "counts 2^32 x 2^32": (
+        ["bake", "--eta2", "1.5", "--cos-theta", "0:1:4294967296", "--opd", "0:1:4294967296", "--out", "x.exr"],
+        {2},
+    ),
+    "count 2.5e8 under the old cell limit": (
+        [
+            "bake",
+            "--eta2",
+            "1.5",
+            "--cos-theta",
+            "0:1:250000000",
+            "--opd",
+            "0:1000:2",
+            "--eta3",
+            "1:2:2",
+            "--kappa3",
+            "0:1:2",
+            "--out",
+            "x.exr",
+        ],
+        {2},
+    ),
+    "peak memory over the budget": (
+        [
+            "bake",
+            "--eta2",
+            "1.5",
+            "--cos-theta",
+            "0:1:4000000",
+            "--opd",
+            "0:1000:2",
+            "--eta3",
+            "1:2:100",
+            "--kappa3",
+            "0:1:2",
+            "--out",
+            "x.exr",
+        ],
+        {2},
+    ),
+    "cells over the limit": (
+        ["bake", "--eta2", "1.5", "--cos-theta", "0:1:10000", "--opd", "0:1000:10000", "--out", "x.exr"],
+        {2},
+    ),
     "opd 1e308": (_with_axis("--opd", "0:1e308:16"), {2}),
     "opd inf": (_with_axis("--opd", "0:inf:16"), {2}),
     "count 1": (_with_axis("--eta3", "1:2:1"), {2}),
@@ -64,22 +110,50 @@ SIZES = {
 
 EVALS = {
     "eval eta2 1e308": (["eval", "--eta2", "1e308", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5"], {2}),
-    "eval eta3 kappa3 1e308": (["eval", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--eta3", "1e308",
-                                "--kappa3", "1e308"], {2}),
-    "eval eta1 1e-300": (["eval", "--eta1", "1e-300", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1",
-                          "--eta3", "1.5"], {2}),
+    "eval eta3 kappa3 1e308": (
+        ["eval", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--eta3", "1e308", "--kappa3", "1e308"],
+        {2},
+    ),
+    "eval eta1 1e-300": (
+        ["eval", "--eta1", "1e-300", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5"],
+        {2},
+    ),
     "eval absorbing film": (["eval", "--film", "Ag", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5"], {2}),
-    "eval unknown film": (["eval", "--film", "unobtainium", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5"],
-                          {2}),
-    "eval thickness 1e300": (["eval", "--eta2", "1.3", "--thickness", "1e300", "--cos-theta", "1", "--eta3", "1.5"],
-                             {2}),
-    "eval optical path past the bound": (["eval", "--eta2", "4", "--thickness", "1e5", "--cos-theta", "1", "--eta3",
-                                          "1.5"], {2}),
+    "eval unknown film": (
+        ["eval", "--film", "unobtainium", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5"],
+        {2},
+    ),
+    "eval thickness 1e300": (
+        ["eval", "--eta2", "1.3", "--thickness", "1e300", "--cos-theta", "1", "--eta3", "1.5"],
+        {2},
+    ),
+    "eval optical path past the bound": (
+        ["eval", "--eta2", "4", "--thickness", "1e5", "--cos-theta", "1", "--eta3", "1.5"],
+        {2},
+    ),
     "eval angle 91": (["eval", "--eta2", "1.3", "--thickness", "300", "--angle", "91", "--eta3", "1.5"], {2}),
-    "eval wavelength 100": (["eval", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5",
-                             "--wavelength", "100"], {2}),
-    "eval at the domain corner": (["eval", "--eta1", "0.01", "--eta2", "10", "--thickness", "100", "--cos-theta",
-                                   "0", "--eta3", "10", "--kappa3", "1000"], {0}),
+    "eval wavelength 100": (
+        ["eval", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--eta3", "1.5", "--wavelength", "100"],
+        {2},
+    ),
+    "eval at the domain corner": (
+        [
+            "eval",
+            "--eta1",
+            "0.01",
+            "--eta2",
+            "10",
+            "--thickness",
+            "100",
+            "--cos-theta",
+            "0",
+            "--eta3",
+            "10",
+            "--kappa3",
+            "1000",
+        ],
+        {0},
+    ),
     "eval valid": (["eval", "--film", "TiO2", "--thickness", "300", "--cos-theta", "0.5", "--base", "Cu"], {0}),
 }
 
@@ -141,11 +215,25 @@ def _random_scene(rng) -> str:
     """A scene with each field drawn from valid and hostile values."""
     films = ["1.33", "1.5", '"water"', '"SiO2"', '"Ag"', '"Fe2O3"', "0", "-1", "1e300", "true", '"nosuch"', "[1, 2]"]
     thick = ["300", "[100, 400]", "0", "-5", "1e300", "[400, 100]", "[1, 2, 3]", '"thin"', "nan", "inf"]
-    bases = ["1.0", '"Cu"', "{ eta3 = 2.7, kappa3 = 2.8 }", "{ kappa3 = 1 }", "{ eta3 = 0 }", '"nosuch"',
-             "{ eta3 = 1.5, colour = 1 }", "{ eta3 = 1e308, kappa3 = 1e308 }", "[]"]
+    bases = [
+        "1.0",
+        '"Cu"',
+        "{ eta3 = 2.7, kappa3 = 2.8 }",
+        "{ kappa3 = 1 }",
+        "{ eta3 = 0 }",
+        '"nosuch"',
+        "{ eta3 = 1.5, colour = 1 }",
+        "{ eta3 = 1e308, kappa3 = 1e308 }",
+        "[]",
+    ]
     names = ["soap", "a-b", "a_b", "STEEL", "steel", '"ü"', '""', "x1"]
-    settings = ["", "[scene]\nmax_de = 1e-300\n", "[scene]\neta1 = 1e-300\n", "[scene]\nprecision = 'double'\n",
-                "[scene]\nobserver = 'cie1964'\n"]
+    settings = [
+        "",
+        "[scene]\nmax_de = 1e-300\n",
+        "[scene]\neta1 = 1e-300\n",
+        "[scene]\nprecision = 'double'\n",
+        "[scene]\nobserver = 'cie1964'\n",
+    ]
     body = rng.choice(settings)
     for name in rng.choice(names, rng.integers(1, 3), replace=False):
         body += _mat(name, rng.choice(films), rng.choice(thick), rng.choice(bases))
@@ -153,8 +241,10 @@ def _random_scene(rng) -> str:
 
 
 def _tree(folder: Path) -> dict:
-    return {str(p.relative_to(folder)): (hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir")
-            for p in sorted(folder.rglob("*"))}
+    return {
+        str(p.relative_to(folder)): (hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir")
+        for p in sorted(folder.rglob("*"))
+    }
 
 
 class _Timeout(Exception):
@@ -185,7 +275,7 @@ def run_case(argv, folder: Path, capfd, monkeypatch, expected, check_unchanged=T
     assert rc in (0, 1, 2), (argv, rc, err)
     assert rc in expected, (argv, rc, err)
     assert "Traceback" not in err + out
-    assert not re.search(r"\bnan\b", out.lower()), out   # a word: "illuminant" contains n-a-n
+    assert not re.search(r"\bnan\b", out.lower()), out  # a word: "illuminant" contains n-a-n
     if rc == 2:
         assert len(err.strip().splitlines()) == 1, err
         assert err.startswith("lutbake: error: ")
@@ -244,13 +334,18 @@ def test_fuzzed_scenes(seed, tmp_path, capfd, monkeypatch):
 
 # --- headers: tampered and foreign LUTs ------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def good_lut(tmp_path_factory):
-    from lutbake.lut.bake import bake
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.lut.bake import bake
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 1000.0, 4), Axis("eta3", 1.0, 2.0, 2),
-            Axis("kappa3", 0.0, 1.0, 2))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 4),
+        Axis("opd_nm", 0.0, 1000.0, 4),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
     path = tmp_path_factory.mktemp("lut") / "good.exr"
     bake(BakeSpec(eta2=1.5, axes=axes), path, "numpy")
     return path
@@ -284,6 +379,7 @@ def _axis(field, value, index=1):
     def edit(m, im):
         m["axes"][index][field] = value
         return m, im
+
     return edit
 
 
@@ -304,18 +400,35 @@ HEADERS = {
     "1x1 image": lambda m, im: (m, im[:1, :1]),
     "eta2 negative": lambda m, im: ({**m, "constants": {"eta1": 1.0, "eta2": -1.0}}, im),
     "NaN texels": lambda m, im: (m, np.full_like(im, np.nan)),
-    "format version 7": lambda m, im: ({**m, "format_version": 7}, im),   # one past what this reader knows
-    "admittance on kappa3": lambda m, im: ({**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]}, im),
-    "root4 in a v2 file": lambda m, im: ({**m, "format_version": 2, "axes": [
-        {**m["axes"][0], "spacing": "root4"}, *m["axes"][1:]]}, im),
-    "admittance in a v1 file": lambda m, im: ({**m, "format_version": 1, "axes": [
-        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]}, im),
-    "sqrt-admittance in a v3 file": lambda m, im: ({**m, "format_version": 3, "axes": [
-        *m["axes"][:2], {**m["axes"][2], "spacing": "sqrt-admittance"}, m["axes"][3]]}, im),
-    "sqrt-admittance on opd": lambda m, im: ({**m, "axes": [
-        m["axes"][0], {**m["axes"][1], "spacing": "sqrt-admittance"}, *m["axes"][2:]]}, im),
-    "admittance below eta1": lambda m, im: ({**m, "axes": [
-        *m["axes"][:2], {**m["axes"][2], "spacing": "admittance", "min": 0.5}, m["axes"][3]]}, im),
+    "format version 7": lambda m, im: ({**m, "format_version": 7}, im),  # one past what this reader knows
+    "admittance on kappa3": lambda m, im: (
+        {**m, "axes": [*m["axes"][:3], {**m["axes"][3], "spacing": "admittance"}]},
+        im,
+    ),
+    "root4 in a v2 file": lambda m, im: (
+        {**m, "format_version": 2, "axes": [{**m["axes"][0], "spacing": "root4"}, *m["axes"][1:]]},
+        im,
+    ),
+    "admittance in a v1 file": lambda m, im: (
+        {**m, "format_version": 1, "axes": [*m["axes"][:2], {**m["axes"][2], "spacing": "admittance"}, m["axes"][3]]},
+        im,
+    ),
+    "sqrt-admittance in a v3 file": lambda m, im: (
+        {
+            **m,
+            "format_version": 3,
+            "axes": [*m["axes"][:2], {**m["axes"][2], "spacing": "sqrt-admittance"}, m["axes"][3]],
+        },
+        im,
+    ),
+    "sqrt-admittance on opd": lambda m, im: (
+        {**m, "axes": [m["axes"][0], {**m["axes"][1], "spacing": "sqrt-admittance"}, *m["axes"][2:]]},
+        im,
+    ),
+    "admittance below eta1": lambda m, im: (
+        {**m, "axes": [*m["axes"][:2], {**m["axes"][2], "spacing": "admittance", "min": 0.5}, m["axes"][3]]},
+        im,
+    ),
     "spectral counts empty": lambda m, im: ({**m, "spectral": {**m["spectral"], "counts": []}}, im),
 }
 
@@ -328,8 +441,11 @@ def test_hostile_headers(name, command, good_lut, tmp_path, capfd, monkeypatch):
     meta, image = read_lut(good_lut)
     meta, image = _tamper(meta, image.astype(np.float32), HEADERS[name])
     write_exr(tmp_path / "bad.exr", json.dumps(meta), image)
-    extra = {"inspect": [], "report": ["--points", "10", "--no-approximations"],
-             "sample": ["--cos-theta", "0.5", "--opd", "100", "--eta3", "1.5"]}[command]
+    extra = {
+        "inspect": [],
+        "report": ["--points", "10", "--no-approximations"],
+        "sample": ["--cos-theta", "0.5", "--opd", "100", "--eta3", "1.5"],
+    }[command]
     _, _, err = run_case([command, "bad.exr", *extra], tmp_path, capfd, monkeypatch, {2})
     assert "bad.exr" in err
 
@@ -354,6 +470,7 @@ def test_hostile_lut_files(name, good_lut, tmp_path, capfd, monkeypatch):
 
 
 # --- paths -----------------------------------------------------------------------------------------
+
 
 def test_member_path_that_is_a_folder_keeps_the_old_set(tmp_path, capfd, monkeypatch):
     """The issue's mkdir lut.glsl case: exit 2 and the η2 1.5 set stays whole (no mixed set)."""
@@ -380,19 +497,22 @@ def test_scene_output_in_the_way_writes_nothing(member, tmp_path, capfd, monkeyp
     assert member in err
 
 
-@pytest.mark.parametrize("argv", [
-    ["bake", "--scene", "s.toml", "--out", "f.txt"],
-    ["bake", "--scene", "s.toml", "--out", "T.exr"],
-    ["bake", "--scene", "missing.toml", "--out", "T"],
-    ["bake", "--scene", ".", "--out", "T"],
-    ["bake", "--eta2", "1.5", *TINY, "--out", "f.txt/x.exr"],
-    ["bake", "--eta2", "1.5", *TINY, "--out", "x.txt"],
-    ["bake", "--eta2", "1.5", *TINY, "--out", "nowhere/x.exr"],
-    ["bake", "--out", "f.txt"],
-    ["sweep", "--eta2", "1.5", "--opd", "0:1e308:16", "--out", "S"],
-    ["sweep", "--eta2", "1.5", "--eta3", "1:2:1", "--out", "S"],
-    ["sweep", "--eta2", "1.5", *TINY[:8], "--out", "f.txt"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["bake", "--scene", "s.toml", "--out", "f.txt"],
+        ["bake", "--scene", "s.toml", "--out", "T.exr"],
+        ["bake", "--scene", "missing.toml", "--out", "T"],
+        ["bake", "--scene", ".", "--out", "T"],
+        ["bake", "--eta2", "1.5", *TINY, "--out", "f.txt/x.exr"],
+        ["bake", "--eta2", "1.5", *TINY, "--out", "x.txt"],
+        ["bake", "--eta2", "1.5", *TINY, "--out", "nowhere/x.exr"],
+        ["bake", "--out", "f.txt"],
+        ["sweep", "--eta2", "1.5", "--opd", "0:1e308:16", "--out", "S"],
+        ["sweep", "--eta2", "1.5", "--eta3", "1:2:1", "--out", "S"],
+        ["sweep", "--eta2", "1.5", *TINY[:8], "--out", "f.txt"],
+    ],
+)
 def test_hostile_paths(argv, tmp_path, capfd, monkeypatch):
     (tmp_path / "s.toml").write_text(_SCENE_OK)
     (tmp_path / "f.txt").write_text("a file")
@@ -402,13 +522,18 @@ def test_hostile_paths(argv, tmp_path, capfd, monkeypatch):
 
 # --- budgets ---------------------------------------------------------------------------------------
 
+
 def test_cells_are_exact_integers_checked_before_work():
     """2^24 × 2^24 × 2 × 2 overflows int64 arithmetic nowhere: the limit sees the exact count."""
     from lutbake.grid.spec import MAX_COUNT, Axis, BakeSpec
 
-    axes = (Axis("cos_theta", 0.0, 1.0, MAX_COUNT), Axis("opd_nm", 0.0, 1.0, MAX_COUNT),
-            Axis("eta3", 1.0, 2.0, 2), Axis("kappa3", 0.0, 1.0, 2))
-    with pytest.raises(ValueError, match=f"grid of {4 * MAX_COUNT ** 2} cells exceeds"):
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, MAX_COUNT),
+        Axis("opd_nm", 0.0, 1.0, MAX_COUNT),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
+    with pytest.raises(ValueError, match=f"grid of {4 * MAX_COUNT**2} cells exceeds"):
         BakeSpec(eta2=1.5, axes=axes)
 
 

@@ -21,13 +21,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from lutbake.tables import lutfile
+from test_hostile import TINY, run_case, write_exr
 
 from lutbake.io import usercache
 from lutbake.io.fileset import MAX_JOURNAL_BYTES, sha256_file
+from lutbake.tables import lutfile
 from lutbake.tables.lutfile import read_lut
-from test_hostile import TINY, run_case, write_exr
 
 CASE_SECONDS = 60
 BAKE = ["bake", "--eta2", "1.5", *TINY, "--out"]
@@ -57,8 +56,16 @@ def _digests(folder: Path) -> dict:
 
 def run_cli(args, cwd: Path, env=None, stdin=subprocess.DEVNULL, **popen):
     """The CLI in a fresh process; (exit code, stdout, stderr), failing past CASE_SECONDS."""
-    proc = subprocess.run([sys.executable, "-m", "lutbake.cli", *args], cwd=cwd, env={**os.environ, **(env or {})},
-                          stdin=stdin, capture_output=True, text=True, timeout=CASE_SECONDS, **popen)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", *args],
+        cwd=cwd,
+        env={**os.environ, **(env or {})},
+        stdin=stdin,
+        capture_output=True,
+        text=True,
+        timeout=CASE_SECONDS,
+        **popen,
+    )
     return proc.returncode, proc.stdout, proc.stderr
 
 
@@ -84,6 +91,7 @@ def _outside(work: Path) -> dict:
 
 
 # --- journals: validated before trust ---------------------------------------------------------------
+
 
 def _journal_doc(final="x.exr", tmp=None, digest="0" * 64, set_name="x.exr"):
     return {"set": set_name, "members": [[tmp or f".{final}.tmp-1", final, digest]]}
@@ -115,6 +123,7 @@ def _random_journal(rng) -> str:
     finals = ["x.exr", "../victim.txt", "/etc/passwd", "a/b", "..", "", "x\0y", 7, None]
     tmps = [".x.exr.tmp-1", "x.exr", "../.x.exr.tmp-1", "", 3.5, ".y.tmp-2"]
     digests = ["0" * 64, "g" * 64, "0" * 10, "", None, ["0"]]
+
     def pick(values):
         return values[int(rng.integers(len(values)))]
 
@@ -194,21 +203,27 @@ def test_a_journaled_temporary_that_changed_is_not_renamed(whole_set, sandbox, c
 
 # --- EXR headers: structure first, then every metadata key, before any pixel is read ----------------
 
+
 @pytest.fixture(scope="module")
 def good_files(tmp_path_factory):
     """A tiny LUT, a one-material scene atlas and an exact table, baked once."""
-    from lutbake.scene.bake import bake_scene
+    from lutbake.grid.spec import Axis, BakeSpec
     from lutbake.lut.bake import bake
     from lutbake.modes.exact import write_exact_table
-    from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.scene.bake import bake_scene
     from lutbake.scene.toml import load_scene
 
     folder = tmp_path_factory.mktemp("good")
-    axes = (Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 1000.0, 4), Axis("eta3", 1.0, 2.0, 2),
-            Axis("kappa3", 0.0, 1.0, 2))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 4),
+        Axis("opd_nm", 0.0, 1000.0, 4),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
     bake(BakeSpec(eta2=1.5, axes=axes), folder / "lut.exr", "numpy")
-    (folder / "s.toml").write_text("[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = [200, 300]\n"
-                                   "base = 1.0\n")
+    (folder / "s.toml").write_text(
+        "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = [200, 300]\nbase = 1.0\n"
+    )
     bake_scene(load_scene(folder / "s.toml"), folder / "scene", backend="numpy")
     write_exact_table(folder / "exact.exr")
     return {"lut": folder / "lut.exr", "atlas": folder / "scene" / "s.exr", "exact": folder / "exact.exr"}
@@ -233,8 +248,15 @@ def _retyped(value):
 
 # Keys older files go without (format versions before the truncation measurement, the Fourier-series
 # integrator or the interpolation key; an atlas slice's id): removing one may leave a valid header.
-_OPTIONAL = {"integrator", "interpolation", "capped_texels", "truncation_bound_rgb", "capped_error_rgb_max", "id",
-             "closed_form_texels"}
+_OPTIONAL = {
+    "integrator",
+    "interpolation",
+    "capped_texels",
+    "truncation_bound_rgb",
+    "capped_error_rgb_max",
+    "id",
+    "closed_form_texels",
+}
 FORMATS = (lutfile.FORMAT, lutfile.ATLAS_FORMAT, lutfile.EXACT_FORMAT)
 
 
@@ -303,24 +325,24 @@ def _patched(data: bytes, name: str, kind: str, value: bytes) -> bytes:
     """``data`` (an EXR) with attribute ``name``'s value replaced by ``value`` (same size)."""
     key = name.encode() + b"\0" + kind.encode() + b"\0"
     at = data.index(key) + len(key)
-    (size,) = struct.unpack("<i", data[at:at + 4])
+    (size,) = struct.unpack("<i", data[at : at + 4])
     assert len(value) == size
-    return data[:at + 4] + value + data[at + 4 + size:]
+    return data[: at + 4] + value + data[at + 4 + size :]
 
 
 def _channel_types(data: bytes, pixel_type: int, only=None) -> bytes:
     """Every (or ``only`` one) channel of the chlist set to ``pixel_type`` (0 UINT, 1 HALF, 2 FLOAT)."""
     key = b"channels\0chlist\0"
     at = data.index(key) + len(key)
-    (size,) = struct.unpack("<i", data[at:at + 4])
-    chlist = bytearray(data[at + 4:at + 4 + size])
+    (size,) = struct.unpack("<i", data[at : at + 4])
+    chlist = bytearray(data[at + 4 : at + 4 + size])
     pos = 0
     while chlist[pos] != 0:
         end = chlist.index(0, pos)
         if only is None or chlist[pos:end].decode() == only:
-            chlist[end + 1:end + 5] = struct.pack("<i", pixel_type)
+            chlist[end + 1 : end + 5] = struct.pack("<i", pixel_type)
         pos = end + 17
-    return data[:at + 4] + bytes(chlist) + data[at + 4 + size:]
+    return data[: at + 4] + bytes(chlist) + data[at + 4 + size :]
 
 
 STRUCTURES = {
@@ -330,10 +352,10 @@ STRUCTURES = {
     "PIZ compression": lambda d: _patched(d, "compression", "compression", bytes([4])),
     "unknown compression 99": lambda d: _patched(d, "compression", "compression", bytes([99])),
     "data window of 12000 x 12000 in a small file": lambda d: _patched(
-        d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)),
+        d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)
+    ),
     "data window of 2^31 - 1": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 2**31 - 1, 7)),
-    "data window off the origin": lambda d: _patched(
-        d, "dataWindow", "box2i", struct.pack("<4i", 3, 0, 10, 7)),
+    "data window off the origin": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 3, 0, 10, 7)),
     "data window reversed": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, -5, 7)),
     "tiled flag": lambda d: d[:4] + struct.pack("<I", struct.unpack("<I", d[4:8])[0] | 0x200) + d[8:],
     "multi-part flag": lambda d: d[:4] + struct.pack("<I", struct.unpack("<I", d[4:8])[0] | 0x1000) + d[8:],
@@ -349,14 +371,14 @@ STRUCTURES = {
 def _emptied(data: bytes, key: bytes) -> bytes:
     """The attribute starting with ``key`` (name, type) given size 0 and no value."""
     at = data.index(key) + len(key)
-    (size,) = struct.unpack("<i", data[at:at + 4])
-    return data[:at] + struct.pack("<i", 0) + data[at + 4 + size:]
+    (size,) = struct.unpack("<i", data[at : at + 4])
+    return data[:at] + struct.pack("<i", 0) + data[at + 4 + size :]
 
 
 def _oversized(data: bytes) -> bytes:
     key = b"lutbake.metadata\0string\0"
     at = data.index(key) + len(key)
-    return data[:at] + struct.pack("<i", 2**30) + data[at + 4:]
+    return data[:at] + struct.pack("<i", 2**30) + data[at + 4 :]
 
 
 @pytest.mark.parametrize("name", list(STRUCTURES))
@@ -368,8 +390,9 @@ def test_exr_structure_is_checked_before_pixels_are_allocated(name, good_files, 
 
 
 @pytest.mark.parametrize("kind", ["lut", "atlas"])
-def test_a_small_file_declaring_a_huge_image_is_refused_before_allocation(kind, good_files, tmp_path, capfd,
-                                                                         monkeypatch):
+def test_a_small_file_declaring_a_huge_image_is_refused_before_allocation(
+    kind, good_files, tmp_path, capfd, monkeypatch
+):
     """Metadata and data window agree on 12000 x 12000 float texels (1.7 GB) in a file of a few kB: only
     the compression's worst-case ratio can tell, before OpenEXR allocates the image."""
     meta, image = read_lut(good_files[kind], formats=FORMATS)
@@ -381,7 +404,9 @@ def test_a_small_file_declaring_a_huge_image_is_refused_before_allocation(kind, 
         meta["slices"][0]["rect"] = [0, 0, 12000, 12000]
         meta["slices"][0]["axes"]["cos_theta"]["count"] = meta["slices"][0]["axes"]["thickness_nm"]["count"] = 12000
     _write_like(tmp_path / "small.exr", image, meta)
-    data = _patched((tmp_path / "small.exr").read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999))
+    data = _patched(
+        (tmp_path / "small.exr").read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)
+    )
     (tmp_path / "bad.exr").write_bytes(data)
     monkeypatch.setattr(lutfile, "_read_pixels", _never_read)
     _, _, err = run_case(["inspect", "bad.exr"], tmp_path, capfd, monkeypatch, {2})
@@ -409,7 +434,7 @@ HEADER_VALUES = {
     "content hash not hex": lambda m: m.update(content_hash="not a hash"),
     "channels GBR": lambda m: m.update(channels=["G", "B", "R"]),
     "precision half over FLOAT channels": lambda m: m.update(precision="half"),
-    "metadata nested 10,000 deep": lambda m: None,   # the text is built below: json.dumps would recurse
+    "metadata nested 10,000 deep": lambda m: None,  # the text is built below: json.dumps would recurse
     "corner zoom in a version 4 file": lambda m: m["axes"][1].update(corner={"nodes": 1, "scale": 30.0}),
     "uniform-root4 in a version 4 file": lambda m: m["axes"][0].update(spacing="uniform-root4"),
     "corner zoom on cos_theta": lambda m: _v5(m, 0, {"nodes": 1, "scale": 1.0}),
@@ -418,8 +443,10 @@ HEADER_VALUES = {
     "corner without scale": lambda m: _v5(m, 3, {"nodes": 1}),
     "corner a list": lambda m: _v5(m, 2, [1, 1.0]),
     "corner on eta3 not from eta1": lambda m: (_v5(m, 2, {"nodes": 1, "scale": 1.0}), m["axes"][2].update(min=1.2)),
-    "tiles by kappa3 in a version 5 file": lambda m: (m.update(format_version=5),
-                                                      m["packing"].update(tiles_x="kappa3", tiles_y="eta3")),
+    "tiles by kappa3 in a version 5 file": lambda m: (
+        m.update(format_version=5),
+        m["packing"].update(tiles_x="kappa3", tiles_y="eta3"),
+    ),
     "tiles by cos_theta": lambda m: (m.update(format_version=6), m["packing"].update(tiles_x="cos_theta")),
     "tiles along y by the axis along x": lambda m: (m.update(format_version=6), m["packing"].update(tiles_y="eta3")),
 }
@@ -439,8 +466,11 @@ def test_lut_header_values_are_checked(name, good_files, tmp_path, capfd, monkey
     if name == "metadata nested 10,000 deep":
         text = text[:-1] + ', "nested": ' + "[" * 10_000 + "]" * 10_000 + "}"
     write_exr(tmp_path / "bad.exr", text, image.astype(np.float32))
-    for command in (["inspect"], ["sample", "--cos-theta", "0.5", "--opd", "100", "--eta3", "1.5"],
-                    ["report", "--points", "10", "--no-approximations"]):
+    for command in (
+        ["inspect"],
+        ["sample", "--cos-theta", "0.5", "--opd", "100", "--eta3", "1.5"],
+        ["report", "--points", "10", "--no-approximations"],
+    ):
         _, _, err = run_case([*command, "bad.exr"], tmp_path, capfd, monkeypatch, {2})
         assert "bad.exr" in err
 
@@ -462,8 +492,11 @@ def test_atlas_header_values_are_checked(name, good_files, tmp_path, capfd, monk
     meta, image = read_lut(good_files["atlas"], formats=(lutfile.ATLAS_FORMAT,))
     ATLAS_VALUES[name](meta)
     _write_like(tmp_path / "bad.exr", image, meta)
-    for command in (["inspect"], ["sample", "--material", "soap", "--thickness", "250", "--angle", "30"],
-                    ["report", "--points", "10"]):
+    for command in (
+        ["inspect"],
+        ["sample", "--material", "soap", "--thickness", "250", "--angle", "30"],
+        ["report", "--points", "10"],
+    ):
         _, _, err = run_case([*command, "bad.exr"], tmp_path, capfd, monkeypatch, {2})
         assert "bad.exr" in err
 
@@ -475,6 +508,7 @@ def test_valid_files_of_every_format_still_read(good_files):
 
 
 # --- the user cache: nothing in it trusted --------------------------------------------------------------
+
 
 def _entry(folder: Path, kind="t", key=b"k"):
     return folder / f"{kind}-{hashlib.sha256(key).hexdigest()[:24]}.npz"
@@ -493,7 +527,7 @@ def test_user_cache_entries_are_checked_before_use(tmp_path, monkeypatch):
 
     assert np.array_equal(usercache.cached_arrays("t", b"k", {"a": (2, 3)}, build)["a"], built["a"])
     path = _entry(tmp_path)
-    assert usercache.cached_arrays("t", b"k", {"a": (2, 3)}, build) and len(calls) == 1   # reused
+    assert usercache.cached_arrays("t", b"k", {"a": (2, 3)}, build) and len(calls) == 1  # reused
     header = {"descr": "<f8", "fortran_order": False, "shape": (10**12,)}
     import io
     import zipfile
@@ -512,7 +546,7 @@ def test_user_cache_entries_are_checked_before_use(tmp_path, monkeypatch):
         got = usercache.cached_arrays("t", b"k", {"a": (2, 3)}, build)
         assert np.array_equal(got["a"], built["a"]), damage
     assert len(calls) == 4
-    assert usercache._load(path, {"a": (2, 3)}) is not None   # the last rebuild was stored again
+    assert usercache._load(path, {"a": (2, 3)}) is not None  # the last rebuild was stored again
 
 
 def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch):
@@ -522,7 +556,7 @@ def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch):
     got = usercache.cached_arrays("t", b"k", {"a": (1,)}, lambda: {"a": np.ones(1)})
     assert got["a"][0] == 1.0
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "ro"))
-    monkeypatch.setattr(os, "access", lambda path, mode: False)   # a read-only folder, even for root
+    monkeypatch.setattr(os, "access", lambda path, mode: False)  # a read-only folder, even for root
     assert usercache._folder() is None
     assert usercache.cached_arrays("t", b"k", {"a": (1,)}, lambda: {"a": np.ones(1)})["a"][0] == 1.0
 
@@ -532,7 +566,9 @@ def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch):
 CSV_CASES = {
     "a 200 kB field": ("eta2,thickness_nm,cos_theta,eta3\n1.3," + "3" * 200_000 + ",1,1.5\n", "over 4,096 bytes"),
     "a quoted field over lines past the csv field limit": (
-        "eta2,thickness_nm,cos_theta,eta3\n1.3,\"" + ("3" * 4000 + "\n") * 40 + "\",1,1.5\n", "line"),
+        'eta2,thickness_nm,cos_theta,eta3\n1.3,"' + ("3" * 4000 + "\n") * 40 + '",1,1.5\n',
+        "line",
+    ),
     "a 100,000-column header": (",".join(["eta2"] * 100_000) + "\n", "over 4,096 bytes"),
     "800 repeated columns within the line bound": (",".join(["eta2"] * 800) + "\n1\n", "appears twice"),
     "NUL bytes": ("eta2,thickness_nm\x00\n1,2\n", "NUL"),
@@ -542,8 +578,12 @@ CSV_CASES = {
     "kappa3 column with --base": ("eta2,thickness_nm,cos_theta,kappa3\n1.3,300,1,0\n", "conflicts with the base"),
     "eta2 column and --eta2": ("eta2,thickness_nm,cos_theta,eta3\n1.3,300,1,1.5\n", "both give it"),
 }
-_CSV_FLAGS = {"eta2 column with --film": ["--film", "water"], "eta3 column with --base": ["--base", "Cu"],
-              "kappa3 column with --base": ["--base", "Cu"], "eta2 column and --eta2": ["--eta2", "1.4"]}
+_CSV_FLAGS = {
+    "eta2 column with --film": ["--film", "water"],
+    "eta3 column with --base": ["--base", "Cu"],
+    "kappa3 column with --base": ["--base", "Cu"],
+    "eta2 column and --eta2": ["--eta2", "1.4"],
+}
 
 
 @pytest.mark.parametrize("name", list(CSV_CASES))
@@ -582,8 +622,9 @@ def test_points_from_streams(source, sandbox):
     else:
         rc, out, err = run_cli(args, sandbox)
     assert_verdict(rc, out, err, {2})
-    assert {"/dev/zero": "over 4,096 bytes", "closed stdin": "stdin is closed",
-            "empty stdin": "needs a header row"}[source] in err
+    assert {"/dev/zero": "over 4,096 bytes", "closed stdin": "stdin is closed", "empty stdin": "needs a header row"}[
+        source
+    ] in err
 
 
 def test_sample_takes_a_lut_s_film_as_a_default_not_a_conflict(good_files, sandbox, capfd, monkeypatch):
@@ -595,9 +636,10 @@ def test_sample_takes_a_lut_s_film_as_a_default_not_a_conflict(good_files, sandb
 
 # --- outputs never overwrite an input ----------------------------------------------------------------
 
+
 @pytest.mark.parametrize("how", ["same name", "hard link"])
 def test_report_refuses_to_overwrite_the_lut_it_reads(how, good_files, sandbox, capfd, monkeypatch):
-    lut = sandbox / "summary.json"   # a LUT under the name report writes its summary to
+    lut = sandbox / "summary.json"  # a LUT under the name report writes its summary to
     if how == "same name":
         lut.write_bytes(good_files["lut"].read_bytes())
         argv = ["report", "summary.json", "--out", ".", "--points", "10"]
@@ -612,14 +654,16 @@ def test_report_refuses_to_overwrite_the_lut_it_reads(how, good_files, sandbox, 
 
 # --- names that reach shader source --------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("name", ["nl\n#error injected\n.exr", "ü.exr", "back\\slash\\.exr", "tab\tand\rcr.exr"])
 def test_file_names_reach_shaders_escaped_and_stay_intact_elsewhere(name, sandbox, capfd, monkeypatch, tmp_path):
     from test_shaders import GLSL_MAIN, HLSL_MAIN, LUT_CALL, compile_shader
 
     run_case([*BAKE, name], sandbox, capfd, monkeypatch, {0})
     out = sandbox / name
-    assert sorted(p.name for p in sandbox.iterdir()) == sorted(out.with_suffix(s).name
-                                                              for s in (".exr", ".glsl", ".hlsl", ".json"))
+    assert sorted(p.name for p in sandbox.iterdir()) == sorted(
+        out.with_suffix(s).name for s in (".exr", ".glsl", ".hlsl", ".json")
+    )
     for hlsl in (False, True):
         text = out.with_suffix(".hlsl" if hlsl else ".glsl").read_text()
         assert text.isascii() and not any(line.startswith("#error") for line in text.splitlines())
@@ -634,29 +678,42 @@ def test_file_names_reach_shaders_escaped_and_stay_intact_elsewhere(name, sandbo
 def test_a_non_ascii_scene_file_name_makes_identifiers_glslang_accepts(sandbox, capfd, monkeypatch, tmp_path):
     from test_shaders import ATLAS_CALL, GLSL_MAIN, compile_shader
 
-    (sandbox / "stål.toml").write_text("[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = 300\n"
-                                       "base = 1.0\n")
-    run_case(["bake", "--scene", "stål.toml", "--out", "T", "--backend", "numpy", "--quiet"], sandbox, capfd,
-             monkeypatch, {0})
+    (sandbox / "stål.toml").write_text(
+        "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = 300\nbase = 1.0\n"
+    )
+    run_case(
+        ["bake", "--scene", "stål.toml", "--out", "T", "--backend", "numpy", "--quiet"],
+        sandbox,
+        capfd,
+        monkeypatch,
+        {0},
+    )
     text = (sandbox / "T" / "stål.glsl").read_text()
     assert text.isascii() and "LUTBAKE_ST_UE5_L_SOAP" in text
     shader = tmp_path / "s.frag"
-    shader.write_text("#version 450\n" + text + GLSL_MAIN.replace(
-        "CALL", ATLAS_CALL[False].format(ident="LUTBAKE_ST_UE5_L_SOAP")))
+    shader.write_text(
+        "#version 450\n" + text + GLSL_MAIN.replace("CALL", ATLAS_CALL[False].format(ident="LUTBAKE_ST_UE5_L_SOAP"))
+    )
     compiled = compile_shader(shader, False)
     assert compiled.returncode == 0 and "reserved" not in compiled.stdout, compiled.stdout
 
 
 # --- the default set: one transaction ------------------------------------------------------------------
 
+
 def _tiny_jobs(folder: Path, eta1=1.0, prefix="lut"):
     """Three tiny LUTs (films η2 1.33, 1.5, 2.0 under ``eta1``) for bake_set."""
     from lutbake.grid.spec import Axis, BakeSpec
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 1000.0, 4), Axis("eta3", 1.1, 2.0, 2),
-            Axis("kappa3", 0.0, 1.0, 2))
-    return [(folder / f"{prefix}-{eta2}.exr", BakeSpec(eta2=eta2, eta1=eta1, axes=axes), {})
-            for eta2 in (1.33, 1.5, 2.0)]
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 4),
+        Axis("opd_nm", 0.0, 1000.0, 4),
+        Axis("eta3", 1.1, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
+    return [
+        (folder / f"{prefix}-{eta2}.exr", BakeSpec(eta2=eta2, eta1=eta1, axes=axes), {}) for eta2 in (1.33, 1.5, 2.0)
+    ]
 
 
 def test_a_set_of_luts_failing_at_its_last_lut_commits_none(tmp_path, monkeypatch):
@@ -694,18 +751,23 @@ def test_a_set_killed_in_its_journal_window_rolls_forward_whole(tmp_path):
     import lutbake.lut.bake
 
     lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path), "set", "numpy")
-    script = ("import sys; from pathlib import Path; sys.path[:0] = ['tests', 'tests/cli']; import lutbake.lut.bake, "
-              f"test_hostile_files as t; lutbake.lut.bake.bake_set(t._tiny_jobs(Path({str(tmp_path)!r}), 1.1), 'set', "
-              "'numpy')")
-    proc = subprocess.Popen([sys.executable, "-c", script], cwd=Path(__file__).resolve().parents[2],
-                            env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"})
+    script = (
+        "import sys; from pathlib import Path; sys.path[:0] = ['tests', 'tests/cli']; import lutbake.lut.bake, "
+        f"test_hostile_files as t; lutbake.lut.bake.bake_set(t._tiny_jobs(Path({str(tmp_path)!r}), 1.1), 'set', "
+        "'numpy')"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script],
+        cwd=Path(__file__).resolve().parents[2],
+        env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"},
+    )
     from test_fileset import _kill_at
 
-    _kill_at(proc, 5)   # the journal and the first LUT's four renames pass; killed before the second LUT's
+    _kill_at(proc, 5)  # the journal and the first LUT's four renames pass; killed before the second LUT's
     assert (tmp_path / ".set.commit").exists()
     sidecars = [json.loads(p.with_suffix(".json").read_text())["constants"]["eta1"] for p in _exrs(tmp_path)]
-    assert sidecars == [1.1, 1.0, 1.0]   # a mixed folder while the journal is there
-    lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path, prefix="other")[:1], "other", "numpy")   # the next writer
+    assert sidecars == [1.1, 1.0, 1.0]  # a mixed folder while the journal is there
+    lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path, prefix="other")[:1], "other", "numpy")  # the next writer
     assert [read_lut(p)[0]["constants"]["eta1"] for p in _exrs(tmp_path)] == [1.1, 1.1, 1.1]
 
 
@@ -715,12 +777,35 @@ def _exrs(folder):
 
 # --- signals: stop within a second, exit 128 + signal, leave nothing --------------------------------------
 
+
 def _bake_until_rows(folder: Path):
     """A bake several seconds long on the numpy path, returned once it reports its first band of rows."""
-    proc = subprocess.Popen([sys.executable, "-m", "lutbake.cli", "bake", "--eta2", "1.33", "--cos-theta", "0:1:24",
-                             "--opd", "0:3000:96", "--eta3", "1:3:8", "--kappa3", "0:2:8", "--backend", "numpy",
-                             "--progress", "--out", "x.exr"], cwd=folder, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "bake",
+            "--eta2",
+            "1.33",
+            "--cos-theta",
+            "0:1:24",
+            "--opd",
+            "0:3000:96",
+            "--eta3",
+            "1:3:8",
+            "--kappa3",
+            "0:2:8",
+            "--backend",
+            "numpy",
+            "--progress",
+            "--out",
+            "x.exr",
+        ],
+        cwd=folder,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     seen, deadline = b"", time.monotonic() + CASE_SECONDS
     while b"rows" not in seen:
         ready, _, _ = select.select([proc.stderr], [], [], max(deadline - time.monotonic(), 0))
@@ -740,9 +825,11 @@ def test_a_stop_signal_ends_a_bake_at_once_and_leaves_nothing(signum, status, sa
     _, err = proc.communicate(timeout=CASE_SECONDS)
     waited = time.monotonic() - start
     assert proc.returncode == status, err
-    assert waited < 5.0, waited   # measured 0.03–0.12 s at load 2–9 on 2 cores; 5 s leaves room for CI
-    assert b"Traceback" not in err and err.decode().strip().splitlines()[-1] in ("lutbake: terminated",
-                                                                                 "lutbake: interrupted")
+    assert waited < 5.0, waited  # measured 0.03–0.12 s at load 2–9 on 2 cores; 5 s leaves room for CI
+    assert b"Traceback" not in err and err.decode().strip().splitlines()[-1] in (
+        "lutbake: terminated",
+        "lutbake: interrupted",
+    )
     assert list(sandbox.iterdir()) == []
 
 
@@ -750,12 +837,16 @@ def test_sigterm_inside_the_journal_window_finishes_the_commit(tmp_path):
     """SIGTERM delivered while the writer stands between two renames is held until the set is whole: exit
     143 with the new set and no journal (without the held signals: exit 143 with a journal and a mixed set)."""
     assert run_cli([*BAKE, "x.exr"], tmp_path)[0] == 0
-    proc = subprocess.Popen([sys.executable, "-m", "lutbake.cli", "bake", "--eta2", "1.33", *TINY, "--out", "x.exr"],
-                            cwd=tmp_path, env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"},
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lutbake.cli", "bake", "--eta2", "1.33", *TINY, "--out", "x.exr"],
+        cwd=tmp_path,
+        env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     from test_fileset import _wait_stopped
 
-    for stop in range(3):   # the journal and the first rename pass; stopped before the second
+    for stop in range(3):  # the journal and the first rename pass; stopped before the second
         _wait_stopped(proc)
         if stop < 2:
             os.kill(proc.pid, signal.SIGCONT)
@@ -765,11 +856,14 @@ def test_sigterm_inside_the_journal_window_finishes_the_commit(tmp_path):
         time.sleep(0.05)
     assert proc.returncode == 143
     assert not (tmp_path / ".x.exr.commit").exists()
-    assert {json.loads((tmp_path / "x.json").read_text())["constants"]["eta2"],
-            read_lut(tmp_path / "x.exr")[0]["constants"]["eta2"]} == {1.33}
+    assert {
+        json.loads((tmp_path / "x.json").read_text())["constants"]["eta2"],
+        read_lut(tmp_path / "x.exr")[0]["constants"]["eta2"],
+    } == {1.33}
 
 
 # --- the process environment ------------------------------------------------------------------------
+
 
 def test_environment_cases(good_files, sandbox, tmp_path):
     """PYOPENCL_CTX naming nothing, --backend opencl with no OpenCL platform, XDG_CACHE_HOME a file,
@@ -784,23 +878,58 @@ def test_environment_cases(good_files, sandbox, tmp_path):
     # device (POCL_DEVICES names none).
     no_opencl = {"OCL_ICD_VENDORS": str(no_vendors), "POCL_DEVICES": "none"}
     cases = [
-        ({"PYOPENCL_CTX": "garbage"}, ["bake", "--eta2", "1.5", *TINY[:8], "--quiet", "--out", "a.exr"], {2},
-         "PYOPENCL_CTX='garbage'"),
-        (no_opencl, ["bake", "--eta2", "1.5", *TINY[:8], "--backend", "opencl", "--out", "b.exr"], {2},
-         "--backend auto or numpy"),
-        (no_opencl, ["eval", "--fast", "--backend", "opencl", "--eta2", "1.3", "--thickness", "300", "--angle", "0",
-                     "--eta3", "1.5"], {2}, "--backend auto or numpy"),
-        ({"XDG_CACHE_HOME": str(tmp_path / "cache-file"), "LUTBAKE_CACHE_DIR": ""},
-         ["bake", "--eta2", "1.5", *TINY[:8], "--quiet", "--out", "c.exr"], {0}, ""),
+        (
+            {"PYOPENCL_CTX": "garbage"},
+            ["bake", "--eta2", "1.5", *TINY[:8], "--quiet", "--out", "a.exr"],
+            {2},
+            "PYOPENCL_CTX='garbage'",
+        ),
+        (
+            no_opencl,
+            ["bake", "--eta2", "1.5", *TINY[:8], "--backend", "opencl", "--out", "b.exr"],
+            {2},
+            "--backend auto or numpy",
+        ),
+        (
+            no_opencl,
+            [
+                "eval",
+                "--fast",
+                "--backend",
+                "opencl",
+                "--eta2",
+                "1.3",
+                "--thickness",
+                "300",
+                "--angle",
+                "0",
+                "--eta3",
+                "1.5",
+            ],
+            {2},
+            "--backend auto or numpy",
+        ),
+        (
+            {"XDG_CACHE_HOME": str(tmp_path / "cache-file"), "LUTBAKE_CACHE_DIR": ""},
+            ["bake", "--eta2", "1.5", *TINY[:8], "--quiet", "--out", "c.exr"],
+            {0},
+            "",
+        ),
     ]
     for env, args, expected, message in cases:
         before = _outside(sandbox)
         rc, out, err = run_cli(args, sandbox, env=env)
         assert_verdict(rc, out, err, expected)
         assert message in err and _outside(sandbox) == before
-        assert "cache" not in err.lower() and "matplotlib" not in err.lower(), err   # no noise from the cache home
-    closed = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", lut], cwd=sandbox, stderr=subprocess.PIPE,
-                            text=True, timeout=CASE_SECONDS, preexec_fn=lambda: os.close(1))   # `inspect good.exr >&-`
+        assert "cache" not in err.lower() and "matplotlib" not in err.lower(), err  # no noise from the cache home
+    closed = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "inspect", lut],
+        cwd=sandbox,
+        stderr=subprocess.PIPE,
+        text=True,
+        timeout=CASE_SECONDS,
+        preexec_fn=lambda: os.close(1),
+    )  # `inspect good.exr >&-`
     assert closed.returncode == 0 and closed.stderr == "", closed.stderr
 
 

@@ -14,19 +14,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import default_luts
-from lutbake.physics.colorimetry import delta_e00
+from test_engine import ENGINE, ROOT, require_engine
+
 from lutbake.modes.exact import METALS, base_rgb, exact_colour, read_exact_table
-from lutbake.tables.lutfile import read_lut
+from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
-from test_engine import ENGINE, ROOT, require_engine
+from lutbake.tables.lutfile import read_lut
 
 sys.path.insert(0, str(ROOT / "docs"))
 import make_dropin  # noqa: E402  (the side-by-side page of docs/engines.md)
 
-TABLE = make_dropin.EXACT_TABLE   # written by this lutbake on this machine (make_dropin.write_exact_table)
+TABLE = make_dropin.EXACT_TABLE  # written by this lutbake on this machine (make_dropin.write_exact_table)
 PER_BASE = 250
 RGB_CALL = "lutbake_exact_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
 SCALAR_CALL = "lutbake_exact(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
@@ -46,7 +46,7 @@ def khr_points(seed=14):
     eta3, kappa3 = np.empty((n, 3)), np.zeros((n, 3))
     dielectric = name == "dielectric"
     eta3[dielectric] = rng.uniform(1.0, 2.5, dielectric.sum())[:, None]
-    eta3[np.flatnonzero(dielectric)[:8]] = 1.0   # the bare-ambient base: the hardest dielectric
+    eta3[np.flatnonzero(dielectric)[:8]] = 1.0  # the bare-ambient base: the hardest dielectric
     for metal in METALS:
         eta3[name == metal], kappa3[name == metal] = base_rgb(metal)
     f32 = [np.float32(v).astype(float) for v in (cos, thickness, eta2, eta3, kappa3)]
@@ -70,8 +70,14 @@ def ground_truth(cos, thickness, eta2, eta3, kappa3):
     one_index = (eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)
     for c in range(3):
         at = np.arange(cos.size) if c == 0 else np.flatnonzero(~one_index)
-        pts = FilmPoints.build(eta1=1.0, eta2=eta2[at], cos_theta=cos[at], thickness_nm=thickness[at],
-                               eta3=eta3[at, c], kappa3=kappa3[at, c])
+        pts = FilmPoints.build(
+            eta1=1.0,
+            eta2=eta2[at],
+            cos_theta=cos[at],
+            thickness_nm=thickness[at],
+            eta3=eta3[at, c],
+            kappa3=kappa3[at, c],
+        )
         values = reference_colour(pts).values
         out[at, c] = values[:, c]
         if c == 0:
@@ -81,8 +87,13 @@ def ground_truth(cos, thickness, eta2, eta3, kappa3):
 
 def run_jobs(folder: Path, jobs: dict) -> dict:
     (folder / "jobs.json").write_text(json.dumps(list(jobs.values())))
-    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
-                           str(folder / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    proc = subprocess.run(
+        ["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"), str(folder / "result.json")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     return dict(zip(jobs, json.loads((folder / "result.json").read_text())["results"]))
 
@@ -93,11 +104,18 @@ def exact_run(tmp_path_factory):
     make_dropin.write_exact_table()
     cos, thickness, eta2, eta3, kappa3, name = khr_points()
     points = [[c, d, e, 0.0, *n, 0.0, *k, 0.0] for c, d, e, n, k in zip(cos, thickness, eta2, eta3, kappa3)]
-    job = {"exr": f"/{TABLE.relative_to(ROOT)}", "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
-           "float": True, "points": points}
+    job = {
+        "exr": f"/{TABLE.relative_to(ROOT)}",
+        "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
+        "float": True,
+        "points": points,
+    }
     dielectric = [p for p, n in zip(points, name) if n == "dielectric"]
-    jobs = {"rgb": {**job, "call": RGB_CALL}, "scalar": {**job, "call": SCALAR_CALL, "points": dielectric},
-            "control": {**job, "call": RGB_CALL, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"}}
+    jobs = {
+        "rgb": {**job, "call": RGB_CALL},
+        "scalar": {**job, "call": SCALAR_CALL, "points": dielectric},
+        "control": {**job, "call": RGB_CALL, "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
+    }
     got = run_jobs(tmp_path_factory.mktemp("exact-engine"), jobs)
     table = read_exact_table(TABLE)
     expected, terms = float64_exact(table, cos, thickness, eta2, eta3, kappa3)
@@ -124,8 +142,13 @@ def corner_run(tmp_path_factory):
     make_dropin.write_exact_table()
     cos, thickness, eta2, eta3, kappa3 = corner_points()
     points = [[c, d, e, 0.0, n, n, n, 0.0, k, k, k, 0.0] for c, d, e, n, k in zip(cos, thickness, eta2, eta3, kappa3)]
-    job = {"exr": f"/{TABLE.relative_to(ROOT)}", "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
-           "float": True, "points": points, "call": SCALAR_CALL}
+    job = {
+        "exr": f"/{TABLE.relative_to(ROOT)}",
+        "include": f"/{TABLE.with_suffix('.glsl').relative_to(ROOT)}",
+        "float": True,
+        "points": points,
+        "call": SCALAR_CALL,
+    }
     got = np.array(run_jobs(tmp_path_factory.mktemp("exact-corner"), {"corner": job})["corner"]["rgb"])
     eta3, kappa3 = np.tile(eta3[:, None], 3), np.tile(kappa3[:, None], 3)
     expected, terms = float64_exact(read_exact_table(TABLE), cos, thickness, eta2, eta3, kappa3)
@@ -135,11 +158,18 @@ def corner_run(tmp_path_factory):
 def _exact_table(folder: Path, env=None) -> dict:
     """`lutbake exact-table` into ``folder`` (in a process with ``env`` added): suffix -> bytes."""
     folder.mkdir()
-    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(folder / TABLE.name)],
-                         capture_output=True, text=True, env={**os.environ, **(env or {})}, timeout=600)
+    out = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "exact-table", "--out", str(folder / TABLE.name)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **(env or {})},
+        timeout=600,
+    )
     assert out.returncode == 0, out.stderr
-    return {suffix: (folder / TABLE.name).with_suffix(f".{suffix}").read_bytes()
-            for suffix in ("exr", "json", "glsl", "hlsl")}
+    return {
+        suffix: (folder / TABLE.name).with_suffix(f".{suffix}").read_bytes()
+        for suffix in ("exr", "json", "glsl", "hlsl")
+    }
 
 
 def test_the_exact_table_is_the_same_bytes_on_one_machine(tmp_path):
@@ -158,11 +188,14 @@ def test_the_exact_table_across_blas_kernels_keeps_the_contract(tmp_path):
     within 1e-12 (relative, or absolute near 0), every string and the table's shape identical; the
     includes differ only in those numbers."""
     here = _exact_table(tmp_path / "a", {"LUTBAKE_CACHE_DIR": str(tmp_path / "cache-a")})
-    other = _exact_table(tmp_path / "b", {"LUTBAKE_CACHE_DIR": str(tmp_path / "cache-b"),
-                                          "OPENBLAS_CORETYPE": "Prescott"})
-    bits = [read_lut(tmp_path / name / TABLE.name, formats=("lutbake-exact",))[1].view(np.int32).astype(np.int64)
-            for name in ("a", "b")]
-    assert bits[0].shape == bits[1].shape and np.abs(bits[0] - bits[1]).max() <= 1   # float32: at most 1 ULP
+    other = _exact_table(
+        tmp_path / "b", {"LUTBAKE_CACHE_DIR": str(tmp_path / "cache-b"), "OPENBLAS_CORETYPE": "Prescott"}
+    )
+    bits = [
+        read_lut(tmp_path / name / TABLE.name, formats=("lutbake-exact",))[1].view(np.int32).astype(np.int64)
+        for name in ("a", "b")
+    ]
+    assert bits[0].shape == bits[1].shape and np.abs(bits[0] - bits[1]).max() <= 1  # float32: at most 1 ULP
     assert_within_contract(json.loads(here["json"]), json.loads(other["json"]))
     for suffix in ("glsl", "hlsl"):
         assert_texts_within_contract(here[suffix].decode(), other[suffix].decode())
@@ -232,7 +265,7 @@ class TestDropIn:
         require_engine()
         default_luts()
         image = tmp_path_factory.mktemp("dropin") / "dropin.png"
-        rows = make_dropin.errors(make_dropin.run(image), dispersive=False)   # raises on a shader error
+        rows = make_dropin.errors(make_dropin.run(image), dispersive=False)  # raises on a shader error
         return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
 
     def test_the_drop_in_exact_mode_matches_the_ground_truth(self, dropin):

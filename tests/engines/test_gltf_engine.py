@@ -10,15 +10,15 @@ import uuid
 
 import numpy as np
 import pytest
-
 from gltf_assets import SHOWCASE, document, iridescent, khronos_document, stand_in
-from lutbake.physics.colorimetry import delta_e00
-from lutbake.scene.gltf.materials import load_gltf_scene
-from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Atlas, Lut
-from lutbake.scene.bake import bake_scene
 from test_engine import ENGINE, ROOT, require_engine
+
+from lutbake.lut.sample import Atlas, Lut
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.points import FilmPoints
+from lutbake.scene.bake import bake_scene
+from lutbake.scene.gltf.materials import load_gltf_scene
+from lutbake.spectral.reference import reference_colour
 
 TOLERANCE = 1e-4
 
@@ -26,15 +26,22 @@ TOLERANCE = 1e-4
 def _generated() -> dict:
     """A hand-written asset: dielectrics with fixed and textured thickness, a coloured metal (a slice per
     channel), a texture-driven coloured metal (4D LUT) and a half-metal mixing both parts."""
-    textured_metal = iridescent(ior=1.45, d_min=150, d_max=450, thickness_texture=True, metallic=1.0,
-                                colour=[0.95, 0.64, 0.54])
+    textured_metal = iridescent(
+        ior=1.45, d_min=150, d_max=450, thickness_texture=True, metallic=1.0, colour=[0.95, 0.64, 0.54]
+    )
     textured_metal["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
     mixed = iridescent(ior=1.7, d_max=300, base_ior=1.9, metallic=1.0, colour=[0.5, 0.5, 0.5])
     mixed["pbrMetallicRoughness"]["metallicRoughnessTexture"] = {"index": 0}
-    return document([iridescent(ior=1.33, d_max=380, base_ior=1.0),
-                     iridescent(ior=2.2, d_min=100, d_max=700, thickness_texture=True, base_ior=1.5),
-                     iridescent(ior=1.6, d_max=250, metallic=1.0, colour=[0.9, 0.6, 0.3]),
-                     textured_metal, mixed], textures=[{"source": 0}])
+    return document(
+        [
+            iridescent(ior=1.33, d_max=380, base_ior=1.0),
+            iridescent(ior=2.2, d_min=100, d_max=700, thickness_texture=True, base_ior=1.5),
+            iridescent(ior=1.6, d_max=250, metallic=1.0, colour=[0.9, 0.6, 0.3]),
+            textured_metal,
+            mixed,
+        ],
+        textures=[{"source": 0}],
+    )
 
 
 def _expected(sample: list, record: dict, manifest: dict, folder) -> np.ndarray:
@@ -46,12 +53,18 @@ def _expected(sample: list, record: dict, manifest: dict, folder) -> np.ndarray:
         if "material" in info:
             terms[part] = _slice(manifest, folder, info["material"], cos_t, thickness)
         elif manifest["materials"][info["channels"][0]]["kind"] == "slice":
-            terms[part] = np.array([_slice(manifest, folder, n, cos_t, thickness)[c] for c, n in enumerate(info["channels"])])
+            terms[part] = np.array(
+                [_slice(manifest, folder, n, cos_t, thickness)[c] for c, n in enumerate(info["channels"])]
+            )
         else:
             lut, table = Lut.load(folder / manifest["materials"][info["channels"][0]]["file"]), info["table"]
-            pts = FilmPoints.build(eta2=lut.eta2, cos_theta=cos_t, thickness_nm=thickness,
-                                   eta3=np.interp(colour, table["f0"], table["eta3"]),
-                                   kappa3=np.interp(colour, table["f0"], table["kappa3"]))
+            pts = FilmPoints.build(
+                eta2=lut.eta2,
+                cos_theta=cos_t,
+                thickness_nm=thickness,
+                eta3=np.interp(colour, table["f0"], table["eta3"]),
+                kappa3=np.interp(colour, table["f0"], table["kappa3"]),
+            )
             terms[part] = np.diag(lut.sample(pts))
     dielectric, metal = terms.get("dielectric", np.zeros(3)), terms.get("metal", np.zeros(3))
     return dielectric * (1.0 - metalness) + metal * metalness
@@ -84,12 +97,19 @@ def bakes():
 def plugin_run(bakes, tmp_path_factory):
     """One Chromium run over every asset: {asset: (manifest, folder, {glTF material index: samples})}."""
     require_engine()
-    specs = [{"gltf": f"/{gltf.relative_to(ROOT)}", "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}"}
-             for name, (gltf, _, out) in bakes.items()]
+    specs = [
+        {"gltf": f"/{gltf.relative_to(ROOT)}", "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}"}
+        for name, (gltf, _, out) in bakes.items()
+    ]
     tmp_path = tmp_path_factory.mktemp("plugin")
     (tmp_path / "spec.json").write_text(json.dumps(specs))
-    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "gltf", str(tmp_path / "spec.json"),
-                           str(tmp_path / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    proc = subprocess.run(
+        ["node", str(ENGINE / "harness.mjs"), "gltf", str(tmp_path / "spec.json"), str(tmp_path / "result.json")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     results = json.loads((tmp_path / "result.json").read_text())["results"]
     return {name: (manifest, out, got) for (name, (_, manifest, out)), got in zip(bakes.items(), results)}
@@ -100,10 +120,13 @@ def test_showcase_slices_and_luts_hold_their_materials_ground_truth(bakes):
     within the scene's target (p99 ΔE00 ≤ max_de, no allowance: the bake holds `report`'s p99 at any seed,
     lutbake/scene/jobs.py), and every texture-driven metal's 4D LUT does where the engine reads it: along the
     mapping's F0 → (η3, κ3) table."""
-    rng = np.random.default_rng(23)   # not a seed the bake scored at
+    rng = np.random.default_rng(23)  # not a seed the bake scored at
     for name, (_, manifest, out) in bakes.items():
-        tables = {r["parts"]["metal"]["channels"][0]: r["parts"]["metal"]["table"]
-                  for r in manifest["source"]["materials"] if r["parts"].get("metal", {}).get("texture")}
+        tables = {
+            r["parts"]["metal"]["channels"][0]: r["parts"]["metal"]["table"]
+            for r in manifest["source"]["materials"]
+            if r["parts"].get("metal", {}).get("texture")
+        }
         for material, entry in manifest["materials"].items():
             cos_t, u = rng.uniform(0, 1, 1000) ** 2, rng.uniform(0, 1, 1000)
             if entry["kind"] == "slice":
@@ -114,10 +137,13 @@ def test_showcase_slices_and_luts_hold_their_materials_ground_truth(bakes):
             else:
                 lut, table = Lut.load(out / entry["file"]), tables[material]
                 f0 = rng.uniform(0, table["f0"][-1], 1000)
-                pts = FilmPoints.build(eta2=lut.eta2, cos_theta=cos_t,
-                                       opd_nm=lut.axes[1].lo + u * (lut.axes[1].hi - lut.axes[1].lo),
-                                       eta3=np.interp(f0, table["f0"], table["eta3"]),
-                                       kappa3=np.interp(f0, table["f0"], table["kappa3"]))
+                pts = FilmPoints.build(
+                    eta2=lut.eta2,
+                    cos_theta=cos_t,
+                    opd_nm=lut.axes[1].lo + u * (lut.axes[1].hi - lut.axes[1].lo),
+                    eta3=np.interp(f0, table["f0"], table["eta3"]),
+                    kappa3=np.interp(f0, table["f0"], table["kappa3"]),
+                )
                 rgb = lut.sample(pts)
             p99 = np.percentile(delta_e00(rgb, reference_colour(pts).values), 99)
             assert p99 <= manifest["settings"]["max_de"], (name, material, p99)
@@ -140,8 +166,10 @@ def test_the_check_can_fail(plugin_run):
     comparison above tells slices apart."""
     manifest, folder, result = plugin_run["generated"]
     record = next(r for r in manifest["source"]["materials"] if r["gltf_index"] == 2)
-    wrong = {**record, "parts": {"metal": {**record["parts"]["metal"],
-                                           "channels": [record["parts"]["metal"]["channels"][0]] * 3}}}
+    wrong = {
+        **record,
+        "parts": {"metal": {**record["parts"]["metal"], "channels": [record["parts"]["metal"]["channels"][0]] * 3}},
+    }
     samples = result["2"]
     error = max(np.abs(np.array(s[:3]) - _expected(s, wrong, manifest, folder)).max() for s in samples)
     assert error > 100 * TOLERANCE

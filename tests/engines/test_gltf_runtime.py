@@ -16,16 +16,15 @@ import uuid
 
 import numpy as np
 import pytest
-
 from test_engine import ROOT, require_engine
 from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
 
 sys.path.insert(0, str(ROOT / "bench"))
 import bench_gltf_runtime as bench  # noqa: E402
 
-ROUTED = "IridescenceSuzanne"   # its manifest edited: m0 handed to the runtime path, m2's slice left out
-PLANNED = "IridescenceLamp"     # served from its plan alone (texture-driven metals: the F0 table)
-SAME = 1e-6                     # one shader, one pixel: the same float
+ROUTED = "IridescenceSuzanne"  # its manifest edited: m0 handed to the runtime path, m2's slice left out
+PLANNED = "IridescenceLamp"  # served from its plan alone (texture-driven metals: the F0 table)
+SAME = 1e-6  # one shader, one pixel: the same float
 
 
 def _routed_manifest(bake: dict) -> str:
@@ -42,8 +41,13 @@ def _routed_manifest(bake: dict) -> str:
 
 def _plan(bake: dict) -> str:
     """`lutbake plan --gltf ASSET --json`, run as a user would: the mapping, nothing baked."""
-    proc = subprocess.run([sys.executable, "-m", "lutbake", "plan", "--gltf", str(bake["gltf"]), "--json"],
-                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lutbake", "plan", "--gltf", str(bake["gltf"]), "--json"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     path = bake["out"].parent / "plan.json"
     path.write_text(proc.stdout)
@@ -57,12 +61,18 @@ def run():
     try:
         bakes = bench.bake_stand_ins(folder)
         one = {"runtime": bench.runtime_stem(), "serves": ["bake"], "size": bench.SIZE, "stride": bench.STRIDE}
-        extra = [{**one, "gltf": bench.url(bakes[ROUTED]["gltf"]), "manifest": _routed_manifest(bakes[ROUTED])},
-                 {**one, "gltf": bench.url(bakes[PLANNED]["gltf"]), "plan": _plan(bakes[PLANNED])}]
+        extra = [
+            {**one, "gltf": bench.url(bakes[ROUTED]["gltf"]), "manifest": _routed_manifest(bakes[ROUTED])},
+            {**one, "gltf": bench.url(bakes[PLANNED]["gltf"]), "plan": _plan(bakes[PLANNED])},
+        ]
         result = bench.render(bench.both_serves(bakes) + extra)
-        yield {"bakes": bakes, "result": result, "scores": bench.score(result, bakes),
-               "routed": (result["results"][-2], result["served"][-2]["bake"]),
-               "planned": (result["results"][-1], result["served"][-1]["bake"])}
+        yield {
+            "bakes": bakes,
+            "result": result,
+            "scores": bench.score(result, bakes),
+            "routed": (result["results"][-2], result["served"][-2]["bake"]),
+            "planned": (result["results"][-1], result["served"][-1]["bake"]),
+        }
     finally:
         shutil.rmtree(folder, ignore_errors=True)
 
@@ -79,11 +89,13 @@ def test_every_iridescent_material_is_served_as_asked(run):
         samples, served = _main(run, asset)
         assert sorted(map(int, samples)) == sorted(records), asset
         for index, record in records.items():
-            kinds = {part: bake["manifest"]["materials"][info.get("material") or info["channels"][0]]["kind"]
-                     for part, info in record["parts"].items()}
+            kinds = {
+                part: bake["manifest"]["materials"][info.get("material") or info["channels"][0]]["kind"]
+                for part, info in record["parts"].items()
+            }
             assert served["bake"][str(index)]["parts"] == kinds, (asset, index)
             assert served["runtime"][str(index)]["parts"] == {part: "runtime" for part in kinds}, (asset, index)
-    assert sum(len(m) for m in run["scores"].values()) == 12   # the showcase's and CarConcept's
+    assert sum(len(m) for m in run["scores"].values()) == 12  # the showcase's and CarConcept's
 
 
 def test_the_runtime_path_meets_the_contract_on_every_material(run):
@@ -91,17 +103,22 @@ def test_the_runtime_path_meets_the_contract_on_every_material(run):
         for index, score in materials.items():
             de = score["runtime"]
             assert de.size >= 100, (asset, index)
-            assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= CONTRACT_MAX, \
-                (asset, index, np.percentile(de, 99), de.max())
+            assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= CONTRACT_MAX, (
+                asset,
+                index,
+                np.percentile(de, 99),
+                de.max(),
+            )
 
 
 def test_the_baked_path_in_the_same_run_holds_the_scenes_target(run):
     """The same pixels through the bake: p99 over all materials within the scenes' target (1.0, with the
     margin fresh points need), and the runtime table more accurate there."""
-    pooled = {serve: np.concatenate([s[serve] for m in run["scores"].values() for s in m.values()])
-              for serve in bench.SERVES}
+    pooled = {
+        serve: np.concatenate([s[serve] for m in run["scores"].values() for s in m.values()]) for serve in bench.SERVES
+    }
     target = max(b["manifest"]["settings"]["max_de"] for b in run["bakes"].values())
-    assert np.percentile(pooled["bake"], 99) <= target   # bakes hold report's p99 at any seed: no allowance
+    assert np.percentile(pooled["bake"], 99) <= target  # bakes hold report's p99 at any seed: no allowance
     assert np.percentile(pooled["runtime"], 99) < np.percentile(pooled["bake"], 99)
 
 
@@ -109,7 +126,10 @@ def test_a_part_the_bake_does_not_cover_goes_to_the_runtime_table(run):
     samples, served = run["routed"]
     main = _main(run, ROUTED)[0]
     assert {i: s["parts"] for i, s in served.items()} == {
-        "0": {"dielectric": "runtime"}, "1": {"metal": "slice"}, "2": {"dielectric": "runtime"}}
+        "0": {"dielectric": "runtime"},
+        "1": {"metal": "slice"},
+        "2": {"dielectric": "runtime"},
+    }
     for index, columns in (("0", slice(10, 13)), ("1", slice(0, 3)), ("2", slice(10, 13))):
         got, want = np.array(samples[index]), np.array(main[index])
         assert got.shape[0] == want.shape[0] > 100
@@ -156,11 +176,20 @@ def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
     material; given one, the part's route is 'runtime'; a serve the plugin does not know, or 'runtime'
     without the table, is refused naming the value."""
     require_engine()
-    proc = subprocess.run(["node", "--input-type=module"], input=ROUTE_ERRORS, capture_output=True, text=True,
-                          cwd=ROOT / "engine", timeout=60)
+    proc = subprocess.run(
+        ["node", "--input-type=module"],
+        input=ROUTE_ERRORS,
+        capture_output=True,
+        text=True,
+        cwd=ROOT / "engine",
+        timeout=60,
+    )
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
-    assert out["unbaked"] == "glTF material 3 'Lens': its dielectric part is not baked; pass { runtime } (loadLutbakeRuntime)"
+    assert (
+        out["unbaked"]
+        == "glTF material 3 'Lens': its dielectric part is not baked; pass { runtime } (loadLutbakeRuntime)"
+    )
     assert out["routes"] == {"gltfIndex": 3, "name": "Lens", "parts": {"dielectric": "runtime"}}
     assert out["runtime"] == "LutbakeGLTFPlugin: serve 'runtime' needs { runtime } (loadLutbakeRuntime)"
     assert out["atlas"] == "LutbakeGLTFPlugin: serve 'atlas' is not 'bake' or 'runtime'"

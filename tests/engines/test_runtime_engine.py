@@ -16,23 +16,23 @@ import sys
 
 import numpy as np
 import pytest
-
-from lutbake.physics.colorimetry import delta_e00
-from lutbake.modes.exact import base_rgb
-from lutbake.modes.runtime import read_runtime_table, runtime_colour
-from lutbake.modes.runtime.costs import path_costs
-from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, searched_worst, stress_points, truth
-from lutbake.modes.approximations import khr_iridescence_rgb
-from lutbake.physics.points import FilmPoints
 from test_engine import ENGINE, ROOT, require_engine
 from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, make_dropin, runtime_table_files
 from test_shaders import GLSLANG, PREFIX, compile_shader
+
+from lutbake.modes.approximations import khr_iridescence_rgb
+from lutbake.modes.exact import base_rgb
+from lutbake.modes.runtime import read_runtime_table, runtime_colour
+from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, searched_worst, stress_points, truth
+from lutbake.modes.runtime.costs import path_costs
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.points import FilmPoints
 
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_runtime_cost import static_costs, three_source  # noqa: E402
 
 TOLERANCE = 1e-4
-THREE_CALL = "evalIridescence(1.0, p.z, p.x, p.y, vec3(p.w))"   # three's own term: base F0 in p.w
+THREE_CALL = "evalIridescence(1.0, p.z, p.x, p.y, vec3(p.w))"  # three's own term: base F0 in p.w
 ONE_INDEX = "lutbake_iridescence(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
 PER_CHANNEL = "lutbake_iridescence_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
 
@@ -86,29 +86,44 @@ def runtime_run(tmp_path_factory):
     one_index = np.array([not k.endswith("per channel") for k in kinds])
     points = [[c, t, e, 0.0, *n, 0.0, *k, 0.0] for c, t, e, n, k in zip(cos, d, eta2, eta3, kappa3)]
     job = {"exr": f"/{path.relative_to(ROOT)}", "include": f"/{path.with_suffix('.glsl').relative_to(ROOT)}"}
-    jobs = [{**job, "call": ONE_INDEX, "points": [p for p, o in zip(points, one_index) if o]},
-            {**job, "call": PER_CHANNEL, "points": points},
-            {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
-            {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]}]
+    jobs = [
+        {**job, "call": ONE_INDEX, "points": [p for p, o in zip(points, one_index) if o]},
+        {**job, "call": PER_CHANNEL, "points": points},
+        {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
+        {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]},
+    ]
     folder = tmp_path_factory.mktemp("runtime-engine")
     (folder / "jobs.json").write_text(json.dumps(jobs))
-    proc = subprocess.run(["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"),
-                           str(folder / "result.json")], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    proc = subprocess.run(
+        ["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"), str(folder / "result.json")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
     result = json.loads((folder / "result.json").read_text())
     got = [np.array(r["rgb"]) for r in result["results"]]
-    model_one = runtime_colour(table, cos[one_index], d[one_index], 1.0, eta2[one_index], eta3[one_index, 0],
-                               kappa3[one_index, 0])
+    model_one = runtime_colour(
+        table, cos[one_index], d[one_index], 1.0, eta2[one_index], eta3[one_index, 0], kappa3[one_index, 0]
+    )
     model_rgb = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3)
     reference = truth(cos, d, eta2, eta3, kappa3)
-    return {"got": got, "model": (model_one, model_rgb), "truth": reference, "kinds": kinds,
-            "one_index": one_index, "result": result, "khr": khr_points()}
+    return {
+        "got": got,
+        "model": (model_one, model_rgb),
+        "truth": reference,
+        "kinds": kinds,
+        "one_index": one_index,
+        "result": result,
+        "khr": khr_points(),
+    }
 
 
 def test_the_engine_is_three_js_loading_the_table_with_defaults(runtime_run):
     texture = runtime_run["result"]["results"][0]["texture"]
     assert runtime_run["result"]["three"] == "187"
-    assert texture["flipY"] is False and texture["type"] == 1016   # THREE.HalfFloatType: EXRLoader's default
+    assert texture["flipY"] is False and texture["type"] == 1016  # THREE.HalfFloatType: EXRLoader's default
 
 
 def test_the_engine_returns_the_model(runtime_run):
@@ -123,8 +138,11 @@ def test_the_engine_meets_the_contract_against_the_ground_truth(runtime_run):
     de_rgb = delta_e00(runtime_run["got"][1], truth_rgb)
     de_one = delta_e00(runtime_run["got"][0], truth_rgb[runtime_run["one_index"]])
     for de in (de_one, de_rgb):
-        assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), \
-            (np.percentile(de, 99), de.max(), kinds[np.argmax(de_rgb)])
+        assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), (
+            np.percentile(de, 99),
+            de.max(),
+            kinds[np.argmax(de_rgb)],
+        )
     assert {k.split()[-1] for k in kinds} >= {"random", "stress", "searched", "channel"}
 
 
@@ -156,11 +174,13 @@ def test_the_khr_row_is_three_js_as_it_runs(runtime_run):
 
 def test_the_check_fails_with_the_other_row_order(runtime_run):
     control = runtime_run["got"][2]
-    assert np.abs(control - runtime_run["model"][0][:len(control)]).max() > 0.1
+    assert np.abs(control - runtime_run["model"][0][: len(control)]).max() > 0.1
 
 
-LUT_INCLUDE_CALL = ("lutbake_sample(lut_b, LUTBAKE_LUT, params.x, params.y, params.z, params.w)",
-                    "lutbake_sample(lut_b, linear_clamp, LUTBAKE_LUT, params.x, params.y, params.z, params.w)")
+LUT_INCLUDE_CALL = (
+    "lutbake_sample(lut_b, LUTBAKE_LUT, params.x, params.y, params.z, params.w)",
+    "lutbake_sample(lut_b, linear_clamp, LUTBAKE_LUT, params.x, params.y, params.z, params.w)",
+)
 
 
 def _shader(tmp_path, hlsl: bool, extra_includes=(), es: bool = False):
@@ -168,26 +188,36 @@ def _shader(tmp_path, hlsl: bool, extra_includes=(), es: bool = False):
     suffix = "hlsl" if hlsl else "glsl"
     includes = [path.with_suffix(f".{suffix}")] + [p.with_suffix(f".{suffix}") for p in extra_includes]
     source = "".join(p.read_text() for p in includes)
-    call = ("lutbake_iridescence(table, linear_clamp, params.x, params.y, 1.0, params.z, params.w, 0.5)"
-            " + lutbake_iridescence_rgb(table, linear_clamp, params.x, params.y, 1.0, params.z, params.www, params.www)"
-            if hlsl else
-            "lutbake_iridescence(table, params.x, params.y, 1.0, params.z, params.w, 0.5)"
-            " + lutbake_iridescence_rgb(table, params.x, params.y, 1.0, params.z, params.www, params.www)")
+    call = (
+        "lutbake_iridescence(table, linear_clamp, params.x, params.y, 1.0, params.z, params.w, 0.5)"
+        " + lutbake_iridescence_rgb(table, linear_clamp, params.x, params.y, 1.0, params.z, params.www, params.www)"
+        if hlsl
+        else "lutbake_iridescence(table, params.x, params.y, 1.0, params.z, params.w, 0.5)"
+        " + lutbake_iridescence_rgb(table, params.x, params.y, 1.0, params.z, params.www, params.www)"
+    )
     if extra_includes:
         call += " + 0.0 * " + LUT_INCLUDE_CALL[hlsl]
     if hlsl:
-        main = ("Texture2D<float4> table : register(t0);\nTexture2D<float3> lut_b : register(t1);\n"
-                "SamplerState linear_clamp : register(s0);\n"
-                f"float4 main(float4 params : TEXCOORD0) : SV_Target {{ return float4({call}, 1.0); }}\n")
+        main = (
+            "Texture2D<float4> table : register(t0);\nTexture2D<float3> lut_b : register(t1);\n"
+            "SamplerState linear_clamp : register(s0);\n"
+            f"float4 main(float4 params : TEXCOORD0) : SV_Target {{ return float4({call}, 1.0); }}\n"
+        )
         text = main.split("float4 main")[0] + source + "float4 main" + main.split("float4 main")[1]
     elif es:
-        text = ("#version 300 es\nuniform highp sampler2D table;\nuniform highp sampler2D lut_b;\n" + source +
-                f"in highp vec4 params;\nout highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n")
+        text = (
+            "#version 300 es\nuniform highp sampler2D table;\nuniform highp sampler2D lut_b;\n"
+            + source
+            + f"in highp vec4 params;\nout highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n"
+        )
     else:
-        text = ("#version 450\nlayout(binding = 0) uniform highp sampler2D table;\n"
-                "layout(binding = 1) uniform highp sampler2D lut_b;\n" + source +
-                "layout(location = 0) in highp vec4 params;\nlayout(location = 0) out highp vec4 colour;\n"
-                f"void main() {{ colour = vec4({call}, 1.0); }}\n")
+        text = (
+            "#version 450\nlayout(binding = 0) uniform highp sampler2D table;\n"
+            "layout(binding = 1) uniform highp sampler2D lut_b;\n"
+            + source
+            + "layout(location = 0) in highp vec4 params;\nlayout(location = 0) out highp vec4 colour;\n"
+            f"void main() {{ colour = vec4({call}, 1.0); }}\n"
+        )
     out = tmp_path / ("shader.hlsl" if hlsl else "shader.frag")
     out.write_text(text)
     return out
@@ -201,8 +231,9 @@ def test_the_includes_compile(tmp_path, hlsl):
 
 def test_the_glsl_include_compiles_as_glsl_es_300_without_default_precision(tmp_path):
     env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
-    out = subprocess.run([str(GLSLANG), "-S", "frag", str(_shader(tmp_path, False, es=True))],
-                         capture_output=True, text=True, env=env)
+    out = subprocess.run(
+        [str(GLSLANG), "-S", "frag", str(_shader(tmp_path, False, es=True))], capture_output=True, text=True, env=env
+    )
     assert out.returncode == 0, out.stdout + out.stderr
 
 
@@ -228,7 +259,7 @@ def test_the_runtime_path_is_six_reads_no_loop_and_at_most_1_5_times_three_js_ar
     for name in ("runtime", "runtime-rgb"):
         assert costs[name]["texture_instructions"] == 6 and costs[name]["loops"] == 0, costs[name]
     assert costs["runtime"]["arithmetic"] <= 1.5 * costs["three"]["arithmetic"], costs["runtime"]
-    shipped = path_costs()["paths"]   # what `lutbake report` prints: the bench's figures, current
+    shipped = path_costs()["paths"]  # what `lutbake report` prints: the bench's figures, current
     for name in costs:
         assert shipped[name]["spirv_arithmetic"] == costs[name]["arithmetic"]
         assert shipped[name]["reads"] == str(costs[name]["texture_instructions"])

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 import lutbake
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.grid.interpolation import cubic_taps
 from lutbake.grid.layout import TileLayout
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.physics.points import FilmPoints
 from lutbake.lut.sample import Lut
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.points import FilmPoints
 
 SHAPE = (6, 7, 5, 4)
 
@@ -46,8 +46,9 @@ def _lut(grid, axes):
 
 def _stack(values):
     """Film stacks of the test LUTs' film (η2 1.5 in air) at axis values (cos θ, D, η3, κ3)."""
-    return FilmPoints.texels(eta1=1.0, eta2=1.5, cos_theta=values[0], opd_nm=values[1], eta3=values[2],
-                             kappa3=values[3])
+    return FilmPoints.texels(
+        eta1=1.0, eta2=1.5, cos_theta=values[0], opd_nm=values[1], eta3=values[2], kappa3=values[3]
+    )
 
 
 def _padded(grid, mirror):
@@ -64,10 +65,19 @@ def _catmull_rom(padded, f):
     """Textbook Catmull-Rom at node coordinates f (one point), on the padded grid (offset 1)."""
     taps = []
     for fi, n in zip(f, padded.shape[:4]):
-        i = min(int(np.floor(fi)), n - 4)   # the cell's lower node (padded index i + 1)
+        i = min(int(np.floor(fi)), n - 4)  # the cell's lower node (padded index i + 1)
         t = fi - i
-        taps.append((i, [0.5 * (-t + 2 * t * t - t ** 3), 0.5 * (2 - 5 * t * t + 3 * t ** 3),
-                         0.5 * (t + 4 * t * t - 3 * t ** 3), 0.5 * (t ** 3 - t * t)]))
+        taps.append(
+            (
+                i,
+                [
+                    0.5 * (-t + 2 * t * t - t**3),
+                    0.5 * (2 - 5 * t * t + 3 * t**3),
+                    0.5 * (t + 4 * t * t - 3 * t**3),
+                    0.5 * (t**3 - t * t),
+                ],
+            )
+        )
     total = np.zeros(3)
     for k in itertools.product(range(4), repeat=4):
         w = np.prod([taps[a][1][k[a]] for a in range(4)])
@@ -88,9 +98,16 @@ def _stencil_range(grid, f):
     return block.min(axis=0), block.max(axis=0)
 
 
-@pytest.mark.parametrize("spacings", [("sqrt", "uniform", "uniform", "sqrt"), ("root4", "sqrt", "sqrt", "root4"),
-                                      ("uniform",) * 4, ("sqrt", "uniform", "sqrt-admittance", "sqrt"),
-                                      ("sqrt", "sqrt+corner", "sqrt-admittance+corner", "root4+corner")])
+@pytest.mark.parametrize(
+    "spacings",
+    [
+        ("sqrt", "uniform", "uniform", "sqrt"),
+        ("root4", "sqrt", "sqrt", "root4"),
+        ("uniform",) * 4,
+        ("sqrt", "uniform", "sqrt-admittance", "sqrt"),
+        ("sqrt", "sqrt+corner", "sqrt-admittance+corner", "root4+corner"),
+    ],
+)
 def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     """Mirrored ghosts exactly where an axis is √- or ¼-power-spaced from 0 (cos θ, κ3 here; D's √
     axis from 0 too; η3's starts at 1.2, so it extrapolates; its admittance nodes follow each point's
@@ -101,11 +118,11 @@ def test_cubic_reads_match_the_padded_textbook_rule(spacings):
     grid = rng.normal(size=SHAPE + (3,))
     lut = _lut(grid, axes)
     f = rng.uniform(0, 1, (300, 4)) * (np.array(SHAPE) - 1)
-    f[:40] = np.round(f[:40])                      # nodes, ends included
-    f[40:80, 0] = rng.uniform(0, 1, 40)            # first and last cells of every axis
+    f[:40] = np.round(f[:40])  # nodes, ends included
+    f[40:80, 0] = rng.uniform(0, 1, 40)  # first and last cells of every axis
     f[80:120, 1] = SHAPE[1] - 1 - rng.uniform(0, 1, 40)
-    if any(a.corner for a in axes):   # at cos θ1 = 0 the zoom is a step (no value has a node coordinate below
-        f[:, 0] = np.maximum(f[:, 0], 0.2)   # it), and near it η3 − η1 ∝ cos² θ1 outruns float64's η3 (f ≥ 0.2)
+    if any(a.corner for a in axes):  # at cos θ1 = 0 the zoom is a step (no value has a node coordinate below
+        f[:, 0] = np.maximum(f[:, 0], 0.2)  # it), and near it η3 − η1 ∝ cos² θ1 outruns float64's η3 (f ≥ 0.2)
     cos_theta = axes[0].from_unit(f[:, 0] / (axes[0].count - 1))
     values = [a.from_unit(f[:, i] / (a.count - 1), cos_theta) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
@@ -148,7 +165,7 @@ def test_cubic_reads_stay_within_the_texels_they_read_where_catmull_rom_overshoo
     values = [a.from_unit(f[:, i] / (a.count - 1)) for i, a in enumerate(axes)]
     got = lut.sample(_stack(values))
     unclamped = np.array([_catmull_rom(_padded(grid, [False] * 4), p) for p in f])
-    assert unclamped.min() < -0.07   # the overshoot being fixed
+    assert unclamped.min() < -0.07  # the overshoot being fixed
     assert got.min() >= 0.0 and got.max() <= 1.0
     inside = np.all((unclamped >= 0) & (unclamped <= 1), axis=1)
     assert np.abs(got - unclamped)[inside].max() < 1e-12
@@ -161,8 +178,9 @@ def test_cubic_reads_return_nodes_and_reproduce_quadratics():
     u = np.meshgrid(*(np.arange(n, dtype=float) for n in SHAPE), indexing="ij")
 
     def quadratic(c):
-        return (0.3 + c[0] - 0.2 * c[1] + 0.05 * c[0] * c[3] + 0.1 * c[2] ** 2 - 0.07 * c[1] * c[2])[..., None] \
-            * np.ones(3)
+        return (0.3 + c[0] - 0.2 * c[1] + 0.05 * c[0] * c[3] + 0.1 * c[2] ** 2 - 0.07 * c[1] * c[2])[
+            ..., None
+        ] * np.ones(3)
 
     lut = _lut(quadratic(u), axes)
     rng = np.random.default_rng(5)
@@ -179,21 +197,30 @@ def test_weights_sum_to_one_and_taps_stay_on_the_grid(count):
         first, w = cubic_taps(f, count, mirror)
         assert np.allclose(w.sum(axis=-1), 1.0, atol=1e-12)
         taps = first[:, None] + np.arange(4)
-        assert np.all((w == 0) | ((taps >= 0) & (taps <= count - 1)))   # clamped taps weigh nothing
+        assert np.all((w == 0) | ((taps >= 0) & (taps <= count - 1)))  # clamped taps weigh nothing
 
 
 def test_cubic_reads_beat_linear_reads_of_the_same_texels(tmp_path):
     """A small real LUT scored at random points against the ground truth: on the same stored bytes
     the cubic rule's error is a fraction of the linear rule's."""
-    axes = (Axis("cos_theta", 0.0, 1.0, 12, "sqrt"), Axis("opd_nm", 0.0, 1200.0, 40),
-            Axis("eta3", 1.0, 2.0, 6, "admittance"), Axis("kappa3", 0.0, 1.0, 5, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 12, "sqrt"),
+        Axis("opd_nm", 0.0, 1200.0, 40),
+        Axis("eta3", 1.0, 2.0, 6, "admittance"),
+        Axis("kappa3", 0.0, 1.0, 5, "sqrt"),
+    )
     lutbake.bake_lut(BakeSpec(eta2=1.4, axes=axes, precision="half"), tmp_path / "lut.exr")
     lut = Lut.load(tmp_path / "lut.exr")
     assert lut.interpolation == "cubic"
     rng = np.random.default_rng(8)
     n = 2000
-    stack = lutbake.FilmPoints.build(eta2=1.4, cos_theta=rng.uniform(0, 1, n), thickness_nm=rng.uniform(0, 1200, n) / 2.8,
-                                     eta3=rng.uniform(1, 2, n), kappa3=rng.uniform(0, 1, n))
+    stack = lutbake.FilmPoints.build(
+        eta2=1.4,
+        cos_theta=rng.uniform(0, 1, n),
+        thickness_nm=rng.uniform(0, 1200, n) / 2.8,
+        eta3=rng.uniform(1, 2, n),
+        kappa3=rng.uniform(0, 1, n),
+    )
     truth = lutbake.reference_rgb(stack)
     cubic, linear = (delta_e00(lut.sample(stack, interpolation=m), truth) for m in ("cubic", "linear"))
     assert np.percentile(cubic, 99) < 0.5 * np.percentile(linear, 99)
@@ -207,15 +234,20 @@ def test_sample_command_reads_by_the_header_or_the_given_rule(tmp_path):
     import subprocess
     import sys
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 6, "sqrt"), Axis("opd_nm", 0.0, 900.0, 8),
-            Axis("eta3", 1.2, 2.4, 4), Axis("kappa3", 0.0, 1.0, 4, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 6, "sqrt"),
+        Axis("opd_nm", 0.0, 900.0, 8),
+        Axis("eta3", 1.2, 2.4, 4),
+        Axis("kappa3", 0.0, 1.0, 4, "sqrt"),
+    )
     path = tmp_path / "lut.exr"
     lutbake.bake_lut(BakeSpec(eta2=1.5, axes=axes), path)
     point = ["--opd", "333", "--cos-theta", "0.37", "--eta3", "1.61", "--kappa3", "0.2", "--json"]
 
     def run(*extra):
-        return subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(path), *point, *extra],
-                              capture_output=True, text=True)
+        return subprocess.run(
+            [sys.executable, "-m", "lutbake.cli", "sample", str(path), *point, *extra], capture_output=True, text=True
+        )
 
     lut = Lut.load(path)
     stack = FilmPoints.build(eta2=1.5, opd_nm=333.0, cos_theta=0.37, eta3=1.61, kappa3=0.2)

@@ -60,18 +60,25 @@ def test_retile_moves_every_node_to_its_texel_in_the_other_order():
 
 
 def test_a_file_tiles_by_kappa3_only_where_eta3_passes_the_side_and_kappa3_fits():
-    assert TileLayout.for_grid((46, 104, 24, 24)).tiles_x == "eta3"            # 1104 × 2496
-    assert TileLayout.for_grid((32, 176, 18, 28)).tiles_x == "kappa3"          # 576 × 4928 → 896 × 3168
+    assert TileLayout.for_grid((46, 104, 24, 24)).tiles_x == "eta3"  # 1104 × 2496
+    assert TileLayout.for_grid((32, 176, 18, 28)).tiles_x == "kappa3"  # 576 × 4928 → 896 × 3168
     assert TileLayout.for_grid((4, 40, 2, 30), max_side=1000).size == (120, 80)
-    assert TileLayout.for_grid((64, 128, 80, 40)).tiles_x == "eta3"            # neither fits: as before
+    assert TileLayout.for_grid((64, 128, 80, 40)).tiles_x == "eta3"  # neither fits: as before
 
 
 def _tall_spec():
     """A grid whose η3 packing is 4,800 rows (300 D × 16 κ3 nodes): its file tiles by κ3 (48 × 600)."""
     from lutbake.grid.spec import Axis, BakeSpec
 
-    return BakeSpec(eta2=2.0, axes=(Axis("cos_theta", 0.0, 1.0, 3, "sqrt"), Axis("opd_nm", 0.0, 3000.0, 300, "sqrt"),
-                                    Axis("eta3", 0.02, 4.0, 2, "sqrt"), Axis("kappa3", 1.5, 9.0, 16, "root4")))
+    return BakeSpec(
+        eta2=2.0,
+        axes=(
+            Axis("cos_theta", 0.0, 1.0, 3, "sqrt"),
+            Axis("opd_nm", 0.0, 3000.0, 300, "sqrt"),
+            Axis("eta3", 0.02, 4.0, 2, "sqrt"),
+            Axis("kappa3", 1.5, 9.0, 16, "root4"),
+        ),
+    )
 
 
 def test_a_lut_past_4096_rows_is_written_by_kappa3_and_reads_as_its_grid(tmp_path):
@@ -88,12 +95,18 @@ def test_a_lut_past_4096_rows_is_written_by_kappa3_and_reads_as_its_grid(tmp_pat
     by_eta3 = Lut.in_memory(spec, spec.layout.retile(lut.image, lut.layout))
     rng = np.random.default_rng(4)
     n = 3000
-    stack = lutbake.FilmPoints.build(eta2=2.0, cos_theta=rng.uniform(0.0, 1.0, n), opd_nm=rng.uniform(0.0, 3000.0, n),
-                                     eta3=rng.uniform(0.02, 4.0, n), kappa3=rng.uniform(1.5, 9.0, n))
-    np.testing.assert_array_equal(lut.sample(stack), by_eta3.sample(stack))   # cubic: the same texels, same sums
+    stack = lutbake.FilmPoints.build(
+        eta2=2.0,
+        cos_theta=rng.uniform(0.0, 1.0, n),
+        opd_nm=rng.uniform(0.0, 3000.0, n),
+        eta3=rng.uniform(0.02, 4.0, n),
+        kappa3=rng.uniform(1.5, 9.0, n),
+    )
+    np.testing.assert_array_equal(lut.sample(stack), by_eta3.sample(stack))  # cubic: the same texels, same sums
     # linear: the bilinear weights come from x, y in another tile, equal to rounding
-    np.testing.assert_allclose(lut.sample(stack, interpolation="linear"), by_eta3.sample(stack, interpolation="linear"),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        lut.sample(stack, interpolation="linear"), by_eta3.sample(stack, interpolation="linear"), rtol=0, atol=1e-12
+    )
     # the texel of a node is the node's colour: the corner node (cos θ 1, D 3000, η3 4, κ3 1.5) by the truth
     node = lutbake.FilmPoints.build(eta2=2.0, cos_theta=1.0, opd_nm=3000.0, eta3=4.0, kappa3=1.5)
     x, y = lut.layout.texel(2, 299, 1, 0)
@@ -118,10 +131,10 @@ def test_a_header_tiling_by_kappa3_needs_format_6(tmp_path):
     import json
 
     import pytest
+    from test_hostile import write_exr
 
     import lutbake
     from lutbake.tables.lutfile import read_lut
-    from test_hostile import write_exr
 
     lutbake.bake_lut(_tall_spec(), tmp_path / "tall.exr")
     meta, image = read_lut(tmp_path / "tall.exr")

@@ -44,18 +44,24 @@ def pytest_generate_tests(metafunc):
 
 def _measured(tmp_path, shape, opd_nm, backend, device="", env=None) -> dict:
     """The child's JSON line: one shape baked in its own process (peak RSS is that process's own)."""
-    out = subprocess.run([sys.executable, "-c", _CHILD, json.dumps(shape), str(opd_nm), backend,
-                          str(tmp_path / "m.exr"), device], capture_output=True, text=True,
-                         env={**os.environ, **(env or {})})
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, json.dumps(shape), str(opd_nm), backend, str(tmp_path / "m.exr"), device],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **(env or {})},
+    )
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-@pytest.mark.parametrize("shape, opd_nm", [
-    ((600, 600, 2, 2), 100.0),     # (cos θ, D) pairs: X per pair, the plan's term counts; 1.4 bands
-    ((32, 8, 120, 120), 100.0),    # (cos θ, η3, κ3) columns: the series constants
-    ((64, 256, 8, 8), 4000.0),     # one band in flight, the closed form's table
-])
+@pytest.mark.parametrize(
+    "shape, opd_nm",
+    [
+        ((600, 600, 2, 2), 100.0),  # (cos θ, D) pairs: X per pair, the plan's term counts; 1.4 bands
+        ((32, 8, 120, 120), 100.0),  # (cos θ, η3, κ3) columns: the series constants
+        ((64, 256, 8, 8), 4000.0),  # one band in flight, the closed form's table
+    ],
+)
 def test_estimate_is_within_1_25x_of_the_measured_peak(tmp_path, shape, opd_nm, memory_runtime):
     """Each shape bakes in its own process on each runtime; the estimate with the runtime's resident bytes
     and the plan (the bake's last check before its bands) is within 1.25x of the peak RSS, and with the
@@ -76,8 +82,12 @@ def test_numpy_estimate_is_within_1_25x_of_the_measured_peak(tmp_path):
 
 
 def _spec(shape):
-    axes = (Axis("cos_theta", 0.0, 1.0, shape[0]), Axis("opd_nm", 0.0, 4000.0, shape[1]),
-            Axis("eta3", 1.0, 2.0, shape[2]), Axis("kappa3", 0.0, 1.0, shape[3]))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, shape[0]),
+        Axis("opd_nm", 0.0, 4000.0, shape[1]),
+        Axis("eta3", 1.0, 2.0, shape[2]),
+        Axis("kappa3", 0.0, 1.0, shape[3]),
+    )
     return BakeSpec(eta2=1.33, axes=axes)
 
 
@@ -100,14 +110,32 @@ def _cli(*args, cwd):
     return subprocess.run([sys.executable, "-m", "lutbake.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
-@pytest.mark.parametrize("extra, named", [
-    (["--eta3", "1:2:2", "--max-memory-gib", "nan"], "--max-memory-gib nan is not allowed"),
-    (["--eta3", "1:2:2", "--cos-theta", "0:1:20000", "--opd", "0:4000:20000", "--max-memory-gib", "2"],
-     "over the 2 GiB limit"),
-    # one image row of 16 M texels: a band (numpy path: its stacks and RGB) holds at least one row
-    (["--eta3", "1:2:4000", "--cos-theta", "0:1:4000", "--opd", "0:100:2", "--max-memory-gib", "1", "--backend",
-      "numpy"], "over the 1 GiB limit"),
-])
+@pytest.mark.parametrize(
+    "extra, named",
+    [
+        (["--eta3", "1:2:2", "--max-memory-gib", "nan"], "--max-memory-gib nan is not allowed"),
+        (
+            ["--eta3", "1:2:2", "--cos-theta", "0:1:20000", "--opd", "0:4000:20000", "--max-memory-gib", "2"],
+            "over the 2 GiB limit",
+        ),
+        # one image row of 16 M texels: a band (numpy path: its stacks and RGB) holds at least one row
+        (
+            [
+                "--eta3",
+                "1:2:4000",
+                "--cos-theta",
+                "0:1:4000",
+                "--opd",
+                "0:100:2",
+                "--max-memory-gib",
+                "1",
+                "--backend",
+                "numpy",
+            ],
+            "over the 1 GiB limit",
+        ),
+    ],
+)
 def test_bake_over_budget_exits_2_with_one_line_and_writes_nothing(tmp_path, extra, named):
     out = _cli("bake", "--eta2", "1.33", "--kappa3", "0:1:2", *extra, "--out", "x.exr", cwd=tmp_path)
     assert out.returncode == 2 and named in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from airy_mp import airy_reflectance_mp
+
+from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate import devices as runtimes
 from lutbake.integrate import opencl as integrate
 from lutbake.lut.bake import bake, bake_array
-from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.points import FilmPoints
 
 
@@ -23,8 +23,11 @@ def _cli(*args):
 def _building_devices():
     """(index in `lutbake devices`, device) of each device whose compiler builds the kernel. Device 0 need not
     be one: PoCL 3.0 from PyPI cannot compile on CPUs newer than its LLVM (AMD Zen 5)."""
-    return [(index, device) for index, device in enumerate(integrate.opencl_devices())
-            if not isinstance(integrate._program(device, "float64"), integrate.OpenCLUnavailable)]
+    return [
+        (index, device)
+        for index, device in enumerate(integrate.opencl_devices())
+        if not isinstance(integrate._program(device, "float64"), integrate.OpenCLUnavailable)
+    ]
 
 
 @pytest.mark.parametrize("thickness_nm", [0.0, 1e-9 / 3.0])
@@ -43,12 +46,19 @@ def test_every_device_writes_the_same_exr_bytes(tmp_path):
     texels are the numpy path's rounded to half (an adjacent half where they straddle a rounding edge)."""
     from lutbake.lut.sample import Lut
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 16), Axis("eta3", 1.0, 3.0, 3),
-            Axis("kappa3", 0.0, 4.0, 3, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 2000.0, 16),
+        Axis("eta3", 1.0, 3.0, 3),
+        Axis("kappa3", 0.0, 4.0, 3, "sqrt"),
+    )
     spec = BakeSpec(eta2=1.4, axes=axes, precision="half")
     numpy_image = bake_array(spec, "numpy")
-    keys = [integrate.device_key(d) for d in integrate.opencl_devices()
-            if not isinstance(integrate._program(d, "float64"), integrate.OpenCLUnavailable)]
+    keys = [
+        integrate.device_key(d)
+        for d in integrate.opencl_devices()
+        if not isinstance(integrate._program(d, "float64"), integrate.OpenCLUnavailable)
+    ]
     assert keys, "no OpenCL device builds the kernel"
     files = {}
     for key in keys:
@@ -56,7 +66,7 @@ def test_every_device_writes_the_same_exr_bytes(tmp_path):
         files[key] = (tmp_path / f"{key}.exr").read_bytes()
         assert json.loads((tmp_path / f"{key}.json").read_text())["baked_on"]["device"] == result.device
         image = Lut.load(tmp_path / f"{key}.exr").image.astype(float)
-        assert np.max(np.abs(image - numpy_image)) <= 1e-3   # a half's spacing below 1 is ≤ 4.9e-4
+        assert np.max(np.abs(image - numpy_image)) <= 1e-3  # a half's spacing below 1 is ≤ 4.9e-4
         assert np.mean(image == numpy_image.astype(np.float16)) > 0.99
     assert len(set(files.values())) == 1, f"EXR bytes differ between {', '.join(files)}"
 
@@ -68,8 +78,7 @@ def test_a_device_failing_its_self_check_is_refused_and_the_next_is_used(monkeyp
     first = integrate.device_label(devices[0])
     monkeypatch.setattr(integrate, "_SELF_CHECKED", {})
     real = integrate.self_check_error
-    monkeypatch.setattr(integrate, "self_check_error",
-                        lambda b: 1e-3 if b.device == first else real(b))
+    monkeypatch.setattr(integrate, "self_check_error", lambda b: 1e-3 if b.device == first else real(b))
     with pytest.raises(integrate.OpenCLUnavailable, match="self-check"):
         integrate.OpenCLBackend("float64", device=str(first_index))
     if len(devices) > 1:
@@ -85,8 +94,22 @@ def test_bake_names_its_device_in_stdout_json_and_sidecar(tmp_path):
     building = _building_devices()
     assert building, "no OpenCL device builds the kernel"
     index, device = building[-1]
-    flags = ["bake", "--quiet", "--eta2", "1.4", "--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2",
-             "--kappa3", "0:1:2", "--device", str(index)]
+    flags = [
+        "bake",
+        "--quiet",
+        "--eta2",
+        "1.4",
+        "--cos-theta",
+        "0:1:4",
+        "--opd",
+        "0:1000:4",
+        "--eta3",
+        "1:2:2",
+        "--kappa3",
+        "0:1:2",
+        "--device",
+        str(index),
+    ]
     text = _cli(*flags, "--out", str(tmp_path / "a.exr"))
     label = integrate.device_label(device)
     assert text.returncode == 0, text.stderr
@@ -110,27 +133,31 @@ def _bake_in_process(argv, capfd, monkeypatch):
 
 
 @pytest.mark.parametrize("default_set", [False, True], ids=["one-lut", "default-set"])
-def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_back(tmp_path, capfd, monkeypatch,
-                                                                                    default_set):
+def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_back(
+    tmp_path, capfd, monkeypatch, default_set
+):
     """Issue 27: `--device N` whose kernel does not build is one line, exit 2, nothing written (not a silent
     numpy bake); without --device the same failure falls back to numpy, saying so. Every device is made to
     fail its build here, so the test runs alike where PoCL builds (Zen 3) and where it cannot (Zen 5)."""
     index, device = _building_devices()[-1]
-    monkeypatch.setattr(integrate, "_device_kernels",
-                        lambda d, compute: integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build"))
+    monkeypatch.setattr(
+        integrate,
+        "_device_kernels",
+        lambda d, compute: integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build"),
+    )
     grid = ["--eta2", "1.4", "--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2"]
     out = tmp_path / "out"
     target = ["--out", str(out)] if default_set else [*grid, "--out", str(out / "a.exr")]
     if not default_set:
         out.mkdir()
-    with monkeypatch.context() as patch:   # a regression fails here at once rather than bake for minutes
+    with monkeypatch.context() as patch:  # a regression fails here at once rather than bake for minutes
         patch.setattr(integrate, "NumpyBackend", lambda: pytest.fail("a named device fell back to numpy"))
         status, err = _bake_in_process(["bake", "--quiet", *target, "--device", str(index)], capfd, monkeypatch)
     assert status == 2 and len(err.strip().splitlines()) == 1, err
     assert err.startswith(f"lutbake: error: --device '{index}' cannot run the kernel ("), err
     assert "no build" in err and "numpy" not in err
     assert not out.exists() if default_set else not any(out.iterdir())
-    with pytest.raises(integrate.DeviceCannotRun):   # the library alike, and catchable as OpenCLUnavailable
+    with pytest.raises(integrate.DeviceCannotRun):  # the library alike, and catchable as OpenCLUnavailable
         integrate.backend("auto", device=integrate.device_key(device))
     if not default_set:
         with pytest.warns(RuntimeWarning, match="baking with the numpy path"):
@@ -170,8 +197,9 @@ def test_every_runtime_is_found_and_each_is_named_apart():
     """Every device pyopencl alone finds (PyPI's PoCL from its own folder, the system's vendor list: Debian's
     PoCL where installed) is listed, and Intel's runtime where the environment holds it; the two PoCLs
     have keys of their own (the family and where the runtime came from), so a test id or --device names one."""
-    plain = json.loads(subprocess.run([sys.executable, "-c", _PLAIN_PYOPENCL], capture_output=True, text=True,
-                                      check=True).stdout)
+    plain = json.loads(
+        subprocess.run([sys.executable, "-c", _PLAIN_PYOPENCL], capture_output=True, text=True, check=True).stdout
+    )
     devices = integrate.opencl_devices()
     listed = [[d.platform.name.strip(), d.platform.version.strip(), d.name.strip()] for d in devices]
     assert all(row in listed for row in plain), (plain, listed)
@@ -179,15 +207,15 @@ def test_every_runtime_is_found_and_each_is_named_apart():
     assert len(set(keys)) == len(keys), keys
     origins = {(runtimes.runtime_of(d).family, runtimes.runtime_of(d).origin) for d in devices}
     pyopencl_icds = Path(runtimes._opencl().__file__).parent / ".libs"
-    if any("pocl" in icd.name for icd in pyopencl_icds.glob("*.icd")):   # pocl-binary-distribution
+    if any("pocl" in icd.name for icd in pyopencl_icds.glob("*.icd")):  # pocl-binary-distribution
         assert ("pocl", "PyPI") in origins and "pocl-pypi" in keys
-    if (Path(sys.prefix) / "lib" / "libintelocl.so").is_file():          # the cpu extra
+    if (Path(sys.prefix) / "lib" / "libintelocl.so").is_file():  # the cpu extra
         assert ("intel", "PyPI") in origins and "intel-pypi" in keys
     for device in devices:
         runtime = runtimes.runtime_of(device)
         label = integrate.device_label(device)
         assert label.startswith(f"{runtime.name} {runtime.version} ({runtime.origin}") and device.name.strip() in label
-        if runtime.family == "pocl":   # which PoCL: its version and LLVM's, from the platform's own words
+        if runtime.family == "pocl":  # which PoCL: its version and LLVM's, from the platform's own words
             assert f"PoCL {runtime.version}" in device.platform.version and f"LLVM {runtime.llvm}" in label
 
 
@@ -210,8 +238,15 @@ def test_device_pocl_means_a_pocl_that_builds(monkeypatch):
     assert pocls, "no PoCL builds the kernel"
     real = integrate._device_kernels
     broken = []
-    monkeypatch.setattr(integrate, "_device_kernels", lambda d, compute: integrate.OpenCLUnavailable(
-        f"{integrate.device_label(d)}: error: no build") if d in broken else real(d, compute))
+    monkeypatch.setattr(
+        integrate,
+        "_device_kernels",
+        lambda d, compute: (
+            integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build")
+            if d in broken
+            else real(d, compute)
+        ),
+    )
     for pocl in pocls:
         assert integrate.OpenCLBackend("float64", device="pocl").device == integrate.device_label(pocl)
         broken.append(pocl)
@@ -221,10 +256,12 @@ def test_device_pocl_means_a_pocl_that_builds(monkeypatch):
 
 # PyPI's PoCL 3.0 building the kernel on AMD Zen 5, as pyopencl words it (recorded under qemu-x86_64
 # -cpu EPYC-Milan,family=26,model=2: LLVM 14 names the CPU 'generic'; docs/devices.md).
-_ZEN5_BUILD_LOG = ("clBuildProgram failed: BUILD_PROGRAM_FAILURE - clBuildProgram failed: BUILD_PROGRAM_FAILURE\n\n"
-                   "Build on <pyopencl.Device 'pthread-AMD EPYC' on 'Portable Computing Language' at 0x400067a550>:"
-                   "\n\nerror: unknown target CPU 'generic'\nDevice pthread-AMD EPYC failed to build the program\n\n"
-                   "(options: -DLUTBAKE_FP64 -DMAX_NEAR=32)")
+_ZEN5_BUILD_LOG = (
+    "clBuildProgram failed: BUILD_PROGRAM_FAILURE - clBuildProgram failed: BUILD_PROGRAM_FAILURE\n\n"
+    "Build on <pyopencl.Device 'pthread-AMD EPYC' on 'Portable Computing Language' at 0x400067a550>:"
+    "\n\nerror: unknown target CPU 'generic'\nDevice pthread-AMD EPYC failed to build the program\n\n"
+    "(options: -DLUTBAKE_FP64 -DMAX_NEAR=32)"
+)
 
 
 def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkeypatch, capsys):
@@ -236,9 +273,17 @@ def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkey
     index, pocl = next((i, d) for i, d in enumerate(devices) if runtimes.runtime_of(d).family == "pocl")
     runtime = runtimes.runtime_of(pocl)
     real = integrate._device_kernels
-    monkeypatch.setattr(integrate, "_device_kernels", lambda d, compute: integrate.OpenCLUnavailable(
-        f"{integrate.device_label(d)}: {integrate._why_not_built(d, RuntimeError(_ZEN5_BUILD_LOG))}")
-        if d == pocl else real(d, compute))
+    monkeypatch.setattr(
+        integrate,
+        "_device_kernels",
+        lambda d, compute: (
+            integrate.OpenCLUnavailable(
+                f"{integrate.device_label(d)}: {integrate._why_not_built(d, RuntimeError(_ZEN5_BUILD_LOG))}"
+            )
+            if d == pocl
+            else real(d, compute)
+        ),
+    )
     try:
         cli.main(["devices"])
     except SystemExit as exc:
@@ -249,5 +294,6 @@ def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkey
         f"{index} {integrate.device_key(pocl)}: PoCL {runtime.version} ({runtime.origin}, LLVM {runtime.llvm}) / "
         f"{pocl.name.strip()}: cannot compile for this CPU: unknown target CPU 'generic' (LLVM {runtime.llvm} does "
         "not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, builds on "
-        "such CPUs)")
-    assert entry + 1 == len(lines) or lines[entry + 1][0].isdigit()   # nothing more about it
+        "such CPUs)"
+    )
+    assert entry + 1 == len(lines) or lines[entry + 1][0].isdigit()  # nothing more about it

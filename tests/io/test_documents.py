@@ -8,7 +8,7 @@ from lutbake.io.documents import MAX_NESTING, load_json, load_toml, read_text
 
 
 def test_json_within_the_bound_parses_as_json_does():
-    doc = {"a": [1, {"b": [2.5, None, "x]}[{"]}], "c": "\\\"{"}
+    doc = {"a": [1, {"b": [2.5, None, "x]}[{"]}], "c": '\\"{'}
     assert load_json(json.dumps(doc), "header") == doc
 
 
@@ -42,8 +42,10 @@ def test_toml_nested_arrays_past_the_bound_are_refused():
 
 def test_toml_brackets_in_strings_and_comments_do_not_count():
     deep = "[" * 100
-    text = (f'a = "{deep}"\nb = \'{deep}\'\n# {deep}\nc = """\n{deep}\n"""\nd = \'\'\'{deep}\'\'\'\n'
-            "[t]\ne = [[1, 2], {f = 3}]\n")
+    text = (
+        f"a = \"{deep}\"\nb = '{deep}'\n# {deep}\nc = \"\"\"\n{deep}\n\"\"\"\nd = '''{deep}'''\n"
+        "[t]\ne = [[1, 2], {f = 3}]\n"
+    )
     doc = load_toml(text, "scene.toml")
     assert doc["a"] == doc["b"] == deep and doc["t"]["e"] == [[1, 2], {"f": 3}]
 

@@ -11,27 +11,44 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_engine import ROOT, require_engine
 
 from lutbake.io.fileset import sha256_file
 from lutbake.tables.headers import exr_header
 from lutbake.tables.lutfile import read_lut
-from test_engine import ROOT, require_engine
 
-TINY = ["--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2", "--backend", "numpy",
-        "--quiet"]
+TINY = [
+    "--cos-theta",
+    "0:1:4",
+    "--opd",
+    "0:1000:4",
+    "--eta3",
+    "1:2:2",
+    "--kappa3",
+    "0:1:2",
+    "--backend",
+    "numpy",
+    "--quiet",
+]
 SCENE = """[materials.soap]
 film = {film}
 thickness_nm = 300
 base = 1.0
 """
-STOPS_LUT = 5    # the journal, then four renames
+STOPS_LUT = 5  # the journal, then four renames
 STOPS_SCENE = 5  # the journal, then atlas, two includes, manifest
 
 
 def _start(*args, cwd, stop=False):
     env = {**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1" if stop else "0"}
-    return subprocess.Popen([sys.executable, "-m", "lutbake.cli", *args], cwd=cwd, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "lutbake.cli", *args],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def _run(*args, cwd):
@@ -101,8 +118,9 @@ def _engine_accepts(folder: Path, pairs) -> list:
     loads the pair, False where it refuses it."""
     require_engine()
     args = [str(folder / name) for pair in pairs for name in pair]
-    out = subprocess.run(["node", str(ROOT / "engine" / "check-set.mjs"), *args], capture_output=True, text=True,
-                         timeout=120)
+    out = subprocess.run(
+        ["node", str(ROOT / "engine" / "check-set.mjs"), *args], capture_output=True, text=True, timeout=120
+    )
     return [json.loads(line)["ok"] for line in out.stdout.splitlines()]
 
 
@@ -253,7 +271,7 @@ def test_ctrl_c_while_pyopencl_loads_arrives_once_it_is_loaded():
     The signal is held through the first import and handled once pyopencl is whole."""
     out = subprocess.run([sys.executable, "-c", _SIGNAL_DURING_IMPORT], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[True]"   # handled once, after the import (unheld: [False])
+    assert out.stdout.strip() == "[True]"  # handled once, after the import (unheld: [False])
 
 
 @pytest.mark.parametrize("delay", [0.0, 0.1, 0.3, 0.5])
@@ -262,12 +280,17 @@ def test_ctrl_c_during_start_up_is_one_line_and_exit_130(delay, tmp_path):
     handler is installed before click is imported): before that, Python's own start-up (.pth files,
     compiling modules in a fresh venv) owns SIGINT and no package can answer for it."""
     # `check` runs for seconds after its imports, so every delay lands while lutbake is still working
-    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "lutbake.cli", "check", "--quiet"], cwd=tmp_path,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "lutbake.cli", "check", "--quiet"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     seen = []
     for line in proc.stderr:  # import-time lines: wait for click, imported after the handler
         seen.append(line)
-        if line.rstrip().split("|")[-1].strip() == "click":   # at any depth of the import tree
+        if line.rstrip().split("|")[-1].strip() == "click":  # at any depth of the import tree
             break
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)

@@ -10,16 +10,16 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import LUT_MEMBERS, README_LUTS, default_luts
-from lutbake.lut.bake import bake, bake_array, default_specs
+
 from lutbake.errors import ParameterError
-from lutbake.integrate.opencl import NumpyBackend
-from lutbake.tables.lutfile import read_lut
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.integrate.opencl import NumpyBackend
+from lutbake.lut.bake import bake, bake_array, default_specs
+from lutbake.lut.sample import Lut
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Lut
+from lutbake.tables.lutfile import read_lut
 
 
 def random_spec(rng, shape=(32, 64, 8, 8), **kw):
@@ -67,16 +67,26 @@ def test_kernel_matches_ground_truth_within_the_spectral_target(spec, kernel_gri
     y = rng.integers(0, n_opd * n_kappa3, 200)
     x = rng.integers(0, n_cos * n_eta3, 200)
     v = [a.values() for a in spec.axes]
-    pts = FilmPoints.build(eta1=spec.eta1, eta2=spec.eta2, cos_theta=v[0][x % n_cos], opd_nm=v[1][y % n_opd],
-                           eta3=v[2][x // n_cos], kappa3=v[3][y // n_opd])
+    pts = FilmPoints.build(
+        eta1=spec.eta1,
+        eta2=spec.eta2,
+        cos_theta=v[0][x % n_cos],
+        opd_nm=v[1][y % n_opd],
+        eta3=v[2][x // n_cos],
+        kappa3=v[3][y // n_opd],
+    )
     truth = reference_colour(pts, spec.observer, spec.space).values
     assert np.max(np.abs(kernel_grid[y, x] - truth)) <= 1e-5
 
 
 def test_grazing_and_evanescent_texels_are_physical(kernel_device):
     """Film below the ambient index (η1 > η2: evanescent film past the critical angle)."""
-    axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
-            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 16),
+        Axis("opd_nm", 0.0, 3000.0, 16),
+        Axis("eta3", 1.0, 3.0, 4),
+        Axis("kappa3", 0.0, 4.0, 4),
+    )
     spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes)
     grid = bake_array(spec, "opencl", "direct", kernel_device)
     assert np.max(np.abs(grid - bake_array(spec, "numpy"))) <= 1e-10
@@ -88,13 +98,16 @@ def test_grazing_and_evanescent_texels_are_physical(kernel_device):
 
 def _lut_stack(lut, cos_theta, opd_nm, eta3, kappa3):
     """Film stacks of the LUT's film at its coordinates (cos θ1, D, η3, κ3)."""
-    return FilmPoints.texels(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3,
-                             kappa3=kappa3)
+    return FilmPoints.texels(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3)
 
 
 def _small_spec(**kw):
-    axes = (Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 32),
-            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 16, "sqrt"),
+        Axis("opd_nm", 0.0, 2000.0, 32),
+        Axis("eta3", 1.0, 3.0, 4),
+        Axis("kappa3", 0.0, 4.0, 4, "sqrt"),
+    )
     return BakeSpec(eta2=1.4, axes=axes, **kw)
 
 
@@ -219,8 +232,9 @@ def test_oiiotool_reads_the_lut_and_its_attributes(lut_path):
 
 
 def _cli(*args, cwd=None):
-    return subprocess.Popen([sys.executable, "-m", "lutbake.cli", *args], cwd=cwd,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "lutbake.cli", *args], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT, signal.SIGTERM])
@@ -228,8 +242,24 @@ def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
     """A slow (numpy) bake is killed mid-way: the previous LUT survives, byte for byte."""
     out = tmp_path / "lut.exr"
     out.write_bytes(b"previous")
-    proc = _cli("bake", "--eta2", "1.5", "--cos-theta", "0:1:64", "--opd", "0:20000:256",
-                "--eta3", "1:3:8", "--kappa3", "0:5:8", "--backend", "numpy", "--quiet", "--out", str(out))
+    proc = _cli(
+        "bake",
+        "--eta2",
+        "1.5",
+        "--cos-theta",
+        "0:1:64",
+        "--opd",
+        "0:20000:256",
+        "--eta3",
+        "1:3:8",
+        "--kappa3",
+        "0:5:8",
+        "--backend",
+        "numpy",
+        "--quiet",
+        "--out",
+        str(out),
+    )
     deadline = time.time() + 60
     while not any(p.name.startswith(".lut.exr.tmp") for p in tmp_path.iterdir()):
         assert proc.poll() is None and time.time() < deadline, proc.stderr.read() if proc.poll() else "timeout"
@@ -246,18 +276,21 @@ def test_interrupted_bake_leaves_no_partial_lut(tmp_path, sig):
         assert leftovers == []
 
 
-@pytest.mark.parametrize("args, named", [
-    (["--eta2", "1.5", "--opd", "100:50:8"], "--opd range 100:50 is empty or reversed"),
-    (["--eta2", "1.5", "--eta3", "1:3:1"], "--eta3 count 1 is not allowed"),
-    (["--eta2", "1.5", "--cos-theta", "0:1.5:8"], "cos_theta = 1.5"),
-    (["--eta2", "1.5", "--kappa3", "0:5:8:log"], "spacing 'log'"),
-    (["--eta2", "0", "--opd", "0:100:8"], "eta2 = 0.0"),
-    (["--eta2", "1.5", "--opd", "0:100"], "is not A:B:N"),
-    (["--eta2", "1.5", "--kappa3", "0:5:8:admittance"], "allowed only on --eta3"),
-    (["--eta2", "1.5", "--eta3", "0.5:3:8:admittance"], "needs A >= eta1"),
-    (["--eta2", "1.5", "--eta3", "0.5:3:8:sqrt-admittance"], "needs A >= eta1"),
-    (["--eta2", "1.5", "--opd", "0:3000:8:sqrt-admittance"], "allowed only on --eta3"),
-])
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--eta2", "1.5", "--opd", "100:50:8"], "--opd range 100:50 is empty or reversed"),
+        (["--eta2", "1.5", "--eta3", "1:3:1"], "--eta3 count 1 is not allowed"),
+        (["--eta2", "1.5", "--cos-theta", "0:1.5:8"], "cos_theta = 1.5"),
+        (["--eta2", "1.5", "--kappa3", "0:5:8:log"], "spacing 'log'"),
+        (["--eta2", "0", "--opd", "0:100:8"], "eta2 = 0.0"),
+        (["--eta2", "1.5", "--opd", "0:100"], "is not A:B:N"),
+        (["--eta2", "1.5", "--kappa3", "0:5:8:admittance"], "allowed only on --eta3"),
+        (["--eta2", "1.5", "--eta3", "0.5:3:8:admittance"], "needs A >= eta1"),
+        (["--eta2", "1.5", "--eta3", "0.5:3:8:sqrt-admittance"], "needs A >= eta1"),
+        (["--eta2", "1.5", "--opd", "0:3000:8:sqrt-admittance"], "allowed only on --eta3"),
+    ],
+)
 def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
     proc = _cli("bake", *args, "--out", str(tmp_path / "x.exr"))
     _, err = proc.communicate(timeout=120)
@@ -303,8 +336,9 @@ def test_row_levels_equal_per_texel_levels(spec):
 def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
     from lutbake.integrate import opencl as integrate
 
-    monkeypatch.setattr(integrate, "_program",
-                        lambda device, compute: integrate.OpenCLUnavailable("no platform (simulated)"))
+    monkeypatch.setattr(
+        integrate, "_program", lambda device, compute: integrate.OpenCLUnavailable("no platform (simulated)")
+    )
     with pytest.warns(RuntimeWarning, match="numpy path"):
         assert isinstance(integrate.backend("auto"), NumpyBackend)
     with pytest.raises(integrate.OpenCLUnavailable):
@@ -313,34 +347,63 @@ def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
 
 def test_sample_command_refuses_another_film(lut_path, tmp_path):
     """--eta2 (or a CSV's eta2 column) other than the LUT's is refused in the flags' words, exit 2."""
-    flag = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--eta2", "1.5",
-                           "--opd", "700", "--cos-theta", "0.5", "--eta3", "1.7"], capture_output=True, text=True)
+    flag = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "sample",
+            str(lut_path),
+            "--eta2",
+            "1.5",
+            "--opd",
+            "700",
+            "--cos-theta",
+            "0.5",
+            "--eta3",
+            "1.7",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert flag.returncode == 2 and "--eta2 1.5 differs from the LUT's eta2 = 1.4" in flag.stderr
     csv = tmp_path / "pts.csv"
     csv.write_text("eta2,thickness_nm,cos_theta,eta3\n1.4,250,0.5,1.7\n1.33,250,0.5,1.7\n")
-    column = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
-                            capture_output=True, text=True)
+    column = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
+        capture_output=True,
+        text=True,
+    )
     assert column.returncode == 2 and "--eta2 1.33 differs from the LUT's eta2 = 1.4" in column.stderr
 
 
 def test_sample_and_inspect_commands(lut_path, tmp_path):
     csv = tmp_path / "pts.csv"
     csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n1.2,700,1.7,1.3\n")
-    bad = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
-                         capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv)],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "cos_theta = 1.2" in bad.stderr
     csv.write_text("cos_theta,opd_nm,eta3,kappa3\n0.5,700,1.7,1.3\n0.9,2500,1.7,1.3\n")
-    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv), "--json"],
-                         capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "sample", str(lut_path), "--points", str(csv), "--json"],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     rows = json.loads(out.stdout)["points"]
     lut = Lut.load(lut_path)
     assert np.allclose(rows[0]["rgb"], lut.sample(_lut_stack(lut, 0.5, 700.0, 1.7, 1.3)), atol=1e-12)
     assert rows[0]["in_domain"] and not rows[1]["in_domain"]
-    meta = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path), "--json"],
-                          capture_output=True, text=True)
+    meta = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path), "--json"], capture_output=True, text=True
+    )
     assert json.loads(meta.stdout) == lut.meta
-    text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path)], capture_output=True, text=True)
+    text = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "inspect", str(lut_path)], capture_output=True, text=True
+    )
     assert "axis opd_nm" in text.stdout and lut.meta["content_hash"] in text.stdout
     mix = lut.meta["integrator"]
     assert f"Fourier series at {mix['series_texels']} texels" in text.stdout
@@ -348,8 +411,12 @@ def test_sample_and_inspect_commands(lut_path, tmp_path):
 
 
 def _admittance_spec(spacing="admittance", **kw):
-    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 8),
-            Axis("eta3", 1.2, 3.0, 5, spacing), Axis("kappa3", 0.0, 4.0, 3, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 2000.0, 8),
+        Axis("eta3", 1.2, 3.0, 5, spacing),
+        Axis("kappa3", 0.0, 4.0, 3, "sqrt"),
+    )
     return BakeSpec(eta2=1.4, eta1=1.2, axes=axes, **kw)
 
 
@@ -357,13 +424,13 @@ def _admittance_spec(spacing="admittance", **kw):
 def test_admittance_nodes_are_uniform_in_the_base_admittance_at_each_cos_node(spacing, power):
     spec = _admittance_spec(spacing)
     cos_t = spec.axis["cos_theta"].values()
-    eta3 = spec.eta3_columns().reshape(5, 8)           # (η3 node, cos node)
-    g = (eta3 ** 2 - 1.2 ** 2 * (1 - cos_t ** 2)) ** power   # the admittance, or its square root
+    eta3 = spec.eta3_columns().reshape(5, 8)  # (η3 node, cos node)
+    g = (eta3**2 - 1.2**2 * (1 - cos_t**2)) ** power  # the admittance, or its square root
     assert np.allclose(np.diff(g, axis=0), (g[-1] - g[0]) / 4, rtol=0, atol=1e-12)
     assert np.all(eta3[0] == 1.2) and np.all(eta3[-1] == 3.0)
-    assert eta3[1, 0] < eta3[1, -1]                            # grazing: crowded towards η3 = η1
+    assert eta3[1, 0] < eta3[1, -1]  # grazing: crowded towards η3 = η1
     normal = np.linspace(1.2 ** (2 * power), 3.0 ** (2 * power), 5) ** (1 / (2 * power))
-    assert np.allclose(eta3[:, -1], normal)                    # normal incidence: uniform in η3 or √η3
+    assert np.allclose(eta3[:, -1], normal)  # normal incidence: uniform in η3 or √η3
 
 
 def test_sqrt_admittance_crowds_harder_than_admittance_at_grazing():
@@ -383,9 +450,12 @@ def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(t
     cos_t, opd, kappa3 = (a.values()[j] for a, j in zip(np.array(spec.axes)[[0, 1, 3]], (i[0], i[1], i[3])))
     eta3 = spec.eta3_columns().reshape(5, 8)[i[2], i[0]]
     stored = lut.image.reshape(3, 8, 5, 8, 3).transpose(3, 1, 2, 0, 4)  # (cos, opd, eta3, kappa3, 3)
-    assert np.max(np.abs(lut.sample(_lut_stack(lut, cos_t, opd, eta3, kappa3)) - stored)) <= 1e-6 * np.max(np.abs(stored))
-    pts = FilmPoints.build(eta1=1.2, eta2=1.4, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(), eta3=eta3.ravel(),
-                           kappa3=kappa3.ravel())
+    assert np.max(np.abs(lut.sample(_lut_stack(lut, cos_t, opd, eta3, kappa3)) - stored)) <= 1e-6 * np.max(
+        np.abs(stored)
+    )
+    pts = FilmPoints.build(
+        eta1=1.2, eta2=1.4, cos_theta=cos_t.ravel(), opd_nm=opd.ravel(), eta3=eta3.ravel(), kappa3=kappa3.ravel()
+    )
     truth = reference_colour(pts, spec.observer, spec.space).values
     assert np.max(np.abs(stored.reshape(-1, 3) - truth)) <= 1e-5
 
@@ -394,8 +464,9 @@ def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_
     from lutbake.cli import domain_spec
 
     def eta3_spacing(eta1):
-        spec = domain_spec(1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "cubic", "float64", "spectral",
-                           None)
+        spec = domain_spec(
+            1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "cubic", "float64", "spectral", None
+        )
         return spec.axis["eta3"].spacing
 
     assert eta3_spacing(1.0) == "sqrt-admittance" and eta3_spacing(1.33) == "uniform"

@@ -12,28 +12,31 @@ import numpy as np
 import pytest
 
 import lutbake
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import CORNER_COS, Axis, BakeSpec
+from lutbake.lut.sample import Lut
+from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_rgb
-from lutbake.lut.sample import Lut
 
 ETA2 = 1.33
 
 
 def _axes(zoom: bool, counts=(20, 40, 10, 10)):
     corner = (lambda nodes, scale: (nodes, scale)) if zoom else (lambda nodes, scale: ())
-    return (Axis("cos_theta", 0.0, 1.0, counts[0], "uniform-root4" if zoom else "sqrt"),
-            Axis("opd_nm", 0.0, 1500.0, counts[1], "sqrt", corner(8, 30.0)),
-            Axis("eta3", 1.0, 2.5, counts[2], "sqrt-admittance", corner(4, 1.0)),
-            Axis("kappa3", 0.0, 1.0, counts[3], "root4", corner(4, 1.0)))
+    return (
+        Axis("cos_theta", 0.0, 1.0, counts[0], "uniform-root4" if zoom else "sqrt"),
+        Axis("opd_nm", 0.0, 1500.0, counts[1], "sqrt", corner(8, 30.0)),
+        Axis("eta3", 1.0, 2.5, counts[2], "sqrt-admittance", corner(4, 1.0)),
+        Axis("kappa3", 0.0, 1.0, counts[3], "root4", corner(4, 1.0)),
+    )
 
 
 def _stack(cos_theta, opd_nm, eta3, kappa3):
     arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in (cos_theta, opd_nm, eta3, kappa3)))
-    return FilmPoints.texels(eta1=1.0, eta2=ETA2, cos_theta=arrays[0], opd_nm=arrays[1], eta3=arrays[2],
-                             kappa3=arrays[3])
+    return FilmPoints.texels(
+        eta1=1.0, eta2=ETA2, cos_theta=arrays[0], opd_nm=arrays[1], eta3=arrays[2], kappa3=arrays[3]
+    )
 
 
 @pytest.mark.parametrize("axis", _axes(True)[1:], ids=lambda a: a.name)
@@ -82,8 +85,9 @@ def test_the_grazing_column_is_the_limit_of_the_truth(zoomed):
     float64's resolution of η3); the nodes at or past the share hold 1."""
     spec, lut = zoomed
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
-    i_opd, i_eta3, i_kappa3 = (i.ravel() for i in np.meshgrid(np.arange(n_opd), np.arange(n_eta3), np.arange(n_kappa3),
-                                                           indexing="ij"))
+    i_opd, i_eta3, i_kappa3 = (
+        i.ravel() for i in np.meshgrid(np.arange(n_opd), np.arange(n_eta3), np.arange(n_kappa3), indexing="ij")
+    )
     x, y = spec.layout.texel(0, i_opd, i_eta3, i_kappa3)
     texels = lut.image[y, x].astype(float)
     (_, opd), (_, eta3), (_, kappa3) = (a.corner for a in spec.axes[1:])
@@ -91,7 +95,9 @@ def test_the_grazing_column_is_the_limit_of_the_truth(zoomed):
     inside = (i_opd < nodes[0]) & (i_eta3 < nodes[1]) & (i_kappa3 < nodes[2])
     rho = [(1.0 - i[inside] / m) ** -4.0 - 1.0 for i, m in zip((i_opd, i_eta3, i_kappa3), nodes)]
     c = CORNER_COS / 10.0
-    limit = reference_rgb(_stack(c, rho[0] * opd * c, np.sqrt(1.0 + rho[1] * eta3 * c * c), rho[2] * kappa3 * c * c / 2.0))
+    limit = reference_rgb(
+        _stack(c, rho[0] * opd * c, np.sqrt(1.0 + rho[1] * eta3 * c * c), rho[2] * kappa3 * c * c / 2.0)
+    )
     assert np.abs(texels[inside] - limit).max() < 2e-3
     assert np.all(texels[~inside] == 1.0)
 
@@ -114,7 +120,7 @@ def test_a_zoomed_lut_follows_the_truth_into_the_corner(zoomed, tmp_path):
     truth = reference_rgb(points)
     de_zoomed = delta_e00(lut.sample(points), truth)
     de_plain = delta_e00(Lut.load(plain).sample(points), truth)
-    assert np.percentile(de_plain, 50) > 10.0   # measured 19.6 (p90 92)
+    assert np.percentile(de_plain, 50) > 10.0  # measured 19.6 (p90 92)
     assert np.percentile(de_zoomed, 50) < 1.0 and np.percentile(de_zoomed, 90) < 4.0 and de_zoomed.max() < 20.0
     # measured p50 0.50, p90 2.8, max 13.9 on this coarse grid (the default set's grids: docs/accuracy.md)
 
@@ -163,8 +169,9 @@ def test_a_bad_zoom_is_one_line_exit_2_and_nothing_written(tmp_path):
 def test_default_axes_drop_their_zoom_where_the_domain_leaves_out_the_corner(tmp_path):
     """`--cos-theta 0.2:1:8` leaves grazing out: the default D, η3 and κ3 axes then bake without their zoom
     (a format v4 file) instead of refusing axes the user did not give."""
-    out = _cli(["bake", "--eta2", "1.33", "--cos-theta", "0.2:1:8", "--opd", "0:1500:16:sqrt", "--out", "x.exr"],
-               tmp_path)
+    out = _cli(
+        ["bake", "--eta2", "1.33", "--cos-theta", "0.2:1:8", "--opd", "0:1500:16:sqrt", "--out", "x.exr"], tmp_path
+    )
     assert out.returncode == 0, out.stderr
     meta = Lut.load(tmp_path / "x.exr").meta
     assert meta["format_version"] == 4 and not any("corner" in a for a in meta["axes"])

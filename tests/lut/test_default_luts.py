@@ -8,14 +8,23 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import DEFAULT_LUTS as LUTS
+from conftest import default_luts
 
-from conftest import DEFAULT_LUTS as LUTS, default_luts
 from lutbake.lut.bake import default_specs
+from lutbake.lut.sample import Lut
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.report import (SEARCH_BUDGET, corner_distance, held_out_points, lut_stacks, proxy_truth, score,
-                            search_max, singular_places)
-from lutbake.lut.sample import Lut
+from lutbake.quality.report import (
+    SEARCH_BUDGET,
+    corner_distance,
+    held_out_points,
+    lut_stacks,
+    proxy_truth,
+    score,
+    search_max,
+    singular_places,
+)
 from lutbake.quality.worstcase import SearchAxis, find_worst
 
 
@@ -46,8 +55,21 @@ def test_default_lut_passes_the_readme_gate(name):
     """`lutbake report LUT --max-de 1.0` (README) exits 0: p99 ΔE00 ≤ 1 at its 1,000 default held-out points,
     issue 13's p99 ≤ 0.3, and issue 24's searched max ≤ 1 over the whole domain: the dielectric LUTs' grazing
     corner included, which their zoom resolves (docs/lut-format.md#the-grazing-corner)."""
-    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "report", str(LUTS / f"{name}.exr"), "--max-de", "1.0",
-                          "--no-approximations", "--json"], capture_output=True, text=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "report",
+            str(LUTS / f"{name}.exr"),
+            "--max-de",
+            "1.0",
+            "--no-approximations",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr or out.stdout[-2000:]
     summary = json.loads(out.stdout)
     assert summary["gate"]["passed"] and summary["lut_error"]["de00_p99"] <= 1.0
@@ -65,8 +87,16 @@ def test_dielectric_lut_max_is_within_1_in_the_corner(name):
     lut = Lut.load(LUTS / f"{name}.exr")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", 1000, 3)
     de = score("lut", lut.sample(pts.stack), pts, "rec709", "cie1931").de00
-    found = search_max(lut.sample, lut, pts, de, proxy_truth(lut), SEARCH_BUDGET, 3,
-                       exclude=lambda stack: corner_distance(stack) >= 0.2)
+    found = search_max(
+        lut.sample,
+        lut,
+        pts,
+        de,
+        proxy_truth(lut),
+        SEARCH_BUDGET,
+        3,
+        exclude=lambda stack: corner_distance(stack) >= 0.2,
+    )
     assert found["de00_max"] <= 1.0, found
 
 
@@ -99,10 +129,13 @@ def test_no_default_texel_takes_the_direct_path_and_inspect_says_how_each_was_in
     path = LUTS / "lutbake-eta2-2.00-metal.exr"
     mix = Lut.load(path).meta["integrator"]
     assert mix["closed_form_texels"] > 0
-    text = subprocess.run([sys.executable, "-m", "lutbake.cli", "inspect", str(path)], capture_output=True,
-                          text=True).stdout
-    assert (f"Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ {mix['series_bound_rgb_max']:.1e}), "
-            f"poles' closed form at {mix['closed_form_texels']}") in text and "past the node cap" not in text
+    text = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "inspect", str(path)], capture_output=True, text=True
+    ).stdout
+    assert (
+        f"Fourier series at {mix['series_texels']} texels (bound |ΔRGB| ≤ {mix['series_bound_rgb_max']:.1e}), "
+        f"poles' closed form at {mix['closed_form_texels']}"
+    ) in text and "past the node cap" not in text
 
 
 @pytest.mark.parametrize("name", sorted(default_specs()))

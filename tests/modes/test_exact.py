@@ -9,15 +9,15 @@ import zlib
 
 import numpy as np
 import pytest
+from test_shaders import GLSLANG, PREFIX, compile_shader
 
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.modes.exact import METALS, base_rgb, exact_colour, read_exact_table, write_exact_table
-from lutbake.spectral.fourier import NU0_PER_NM, series_colour, weight_transform
+from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
 from lutbake.quality.worstcase import SearchAxis, find_worst
-from test_shaders import GLSLANG, PREFIX, compile_shader
+from lutbake.spectral.fourier import NU0_PER_NM, series_colour, weight_transform
+from lutbake.spectral.reference import reference_colour
 
 ETA2 = 1.3
 DIELECTRICS = (1.0, 1.5, 2.5)
@@ -35,7 +35,7 @@ def _khr_points(n, seed):
     """cos θ uniform with normal and grazing incidence included, d over the KHR range 100–400 nm."""
     rng = np.random.default_rng(seed)
     cos = rng.uniform(0.0, 1.0, n)
-    cos[:n // 20], cos[n // 20:n // 10] = 0.0, 1.0
+    cos[: n // 20], cos[n // 20 : n // 10] = 0.0, 1.0
     return cos, rng.uniform(100.0, 400.0, n)
 
 
@@ -44,12 +44,14 @@ def _truth(cos, thickness, eta3, kappa3):
     a base with one (n, k) for all three channels is integrated once."""
     eta3, kappa3 = np.broadcast_to(eta3, 3), np.broadcast_to(kappa3, 3)
     if (eta3 == eta3[0]).all() and (kappa3 == kappa3[0]).all():
-        return reference_colour(FilmPoints.build(eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness,
-                                                 eta3=eta3[0], kappa3=kappa3[0])).values
+        return reference_colour(
+            FilmPoints.build(eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[0], kappa3=kappa3[0])
+        ).values
     out = np.empty((cos.size, 3))
     for c in range(3):
-        pts = FilmPoints.build(eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c],
-                               kappa3=kappa3[c])
+        pts = FilmPoints.build(
+            eta1=1.0, eta2=ETA2, cos_theta=cos, thickness_nm=thickness, eta3=eta3[c], kappa3=kappa3[c]
+        )
         out[:, c] = reference_colour(pts).values[:, c]
     return out
 
@@ -59,7 +61,7 @@ def test_the_table_is_the_weight_transform_and_its_zero_is_white(tables):
     wt = weight_transform()
     x = np.array([0.0, 2.0, 1234.0, 40000.0, table.x_max_nm])
     expected = wt(x) * np.exp(-2j * np.pi * NU0_PER_NM * x)[None]
-    assert np.abs(table.samples[:, (x / 2.0).astype(int)] - expected).max() <= 1e-7   # float32 storage
+    assert np.abs(table.samples[:, (x / 2.0).astype(int)] - expected).max() <= 1e-7  # float32 storage
     # Ŵ_c(0) = ∫ w_c dλ: a flat reflectance of 1 reads (1, 1, 1) in linear RGB
     assert np.allclose(table.samples[:, 0], 1.0, atol=1e-4)
 
@@ -75,7 +77,7 @@ def test_exact_colour_matches_the_ground_truth(tables, base):
     """Max |ΔRGB| ≤ 2e-4 and max ΔE00 ≤ 0.1 at 300 KHR-range points (tolerance 1e-4 per the rule, plus the
     linear interpolation of the table, a priori ≤ 2.4e-5 per term)."""
     _, table, _ = tables
-    cos, thickness = _khr_points(300, seed=zlib.crc32(str(base).encode()))   # the same points every run
+    cos, thickness = _khr_points(300, seed=zlib.crc32(str(base).encode()))  # the same points every run
     eta3, kappa3 = (base, 0.0) if isinstance(base, float) else base_rgb(base)
     got = exact_colour(table, cos, thickness, 1.0, ETA2, np.tile(eta3, (cos.size, 1)), np.tile(kappa3, (cos.size, 1)))
     truth = _truth(cos, thickness, eta3, kappa3)
@@ -90,8 +92,9 @@ def test_exact_colour_matches_the_float64_series(tables):
     eta3 = np.where(np.arange(400) % 2 == 0, 1.6, 0.4)
     kappa3 = np.where(np.arange(400) % 2 == 0, 0.0, 3.0)
     got = exact_colour(table, cos, thickness, 1.0, ETA2, eta3, kappa3)
-    series = series_colour(FilmPoints(eta1=1.0, eta2=ETA2, eta3=eta3, kappa3=kappa3, cos_theta=cos,
-                                      thickness_nm=thickness))
+    series = series_colour(
+        FilmPoints(eta1=1.0, eta2=ETA2, eta3=eta3, kappa3=kappa3, cos_theta=cos, thickness_nm=thickness)
+    )
     ok = series.terms >= 0
     assert ok.mean() > 0.9
     assert np.abs(got.values[ok] - series.values[ok]).max() <= 1e-4
@@ -111,8 +114,9 @@ def test_a_tighter_tolerance_takes_more_terms_and_gets_closer(tables):
 def test_hard_cases(tables):
     """Grazing incidence reflects totally; a film of zero thickness is the bare interface's Fresnel term."""
     _, table, _ = tables
-    grazing = exact_colour(table, np.zeros(2), np.array([0.0, 300.0]), 1.0, ETA2, np.array([1.0, 0.2]),
-                           np.array([0.0, 3.0]))
+    grazing = exact_colour(
+        table, np.zeros(2), np.array([0.0, 300.0]), 1.0, ETA2, np.array([1.0, 0.2]), np.array([0.0, 3.0])
+    )
     assert np.allclose(grazing.values, table.samples[:, 0].real, atol=1e-7)
     cos = np.array([1.0, 0.5, 0.1])
     bare = exact_colour(table, cos, np.zeros(3), 1.0, ETA2, np.full(3, 0.2), np.full(3, 3.0))
@@ -131,10 +135,17 @@ CORNER_SPAN = np.array([0.02, 20.0, 1e-3, 1e-3])
 def corner_search(table, eta2, budget, seed=0):
     """find_worst of the exact mode's ΔE00 against the ground truth over the corner's neighbourhood (its
     corners, edges, the four singular faces, compass refinement): (max, (cos θ1, D, η3 − η1, κ3), how)."""
+
     def stack(u):
         v = CORNER_SPAN * np.asarray(u) ** 3
-        return FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=v[:, 0], thickness_nm=v[:, 1] / (2.0 * eta2),
-                                eta3=1.0 + v[:, 2], kappa3=v[:, 3])
+        return FilmPoints.build(
+            eta1=1.0,
+            eta2=eta2,
+            cos_theta=v[:, 0],
+            thickness_nm=v[:, 1] / (2.0 * eta2),
+            eta3=1.0 + v[:, 2],
+            kappa3=v[:, 3],
+        )
 
     def error(u):
         st = stack(u)
@@ -142,8 +153,12 @@ def corner_search(table, eta2, budget, seed=0):
         return delta_e00(got, reference_colour(st).values)
 
     axes = tuple(SearchAxis(name, cells=8) for name in ("cos_theta", "opd_nm", "eta3", "kappa3"))
-    faces = {"cos θ → 0": {"cos_theta": 0.0}, "D → 0": {"opd_nm": 0.0}, "η3 → η1": {"eta3": 0.0},
-             "κ3 → 0": {"kappa3": 0.0}}
+    faces = {
+        "cos θ → 0": {"cos_theta": 0.0},
+        "D → 0": {"opd_nm": 0.0},
+        "η3 → η1": {"eta3": 0.0},
+        "κ3 → 0": {"kappa3": 0.0},
+    }
     worst = find_worst(error, axes, singular=faces, budget=budget, seed=seed)
     return worst.value, CORNER_SPAN * worst.where**3, worst.best.how()
 
@@ -161,24 +176,37 @@ def test_the_searched_max_near_the_dielectric_corner_is_bounded(tables, eta2):
 def test_the_includes_compile(tables, tmp_path):
     folder, _, _ = tables
     glsl = folder / "w.glsl"
-    call = ("lutbake_exact(table, params.x, params.y, 1.0, 1.3, params.z, params.w) + lutbake_exact_rgb(table, "
-            "params.x, params.y, 1.0, 1.3, vec3(0.2, 0.5, 1.2), vec3(3.0, 2.5, 2.0))")
+    call = (
+        "lutbake_exact(table, params.x, params.y, 1.0, 1.3, params.z, params.w) + lutbake_exact_rgb(table, "
+        "params.x, params.y, 1.0, 1.3, vec3(0.2, 0.5, 1.2), vec3(3.0, 2.5, 2.0))"
+    )
     es = tmp_path / "es.frag"
-    es.write_text("#version 300 es\n" + glsl.read_text() + "uniform highp sampler2D table;\nin highp vec4 params;\n"
-                  f"out highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n")
-    out = subprocess.run([str(GLSLANG), "-S", "frag", str(es)], capture_output=True, text=True,
-                         env={"LD_LIBRARY_PATH": str(PREFIX / "lib")})   # WebGL2's language, no precision statement
+    es.write_text(
+        "#version 300 es\n" + glsl.read_text() + "uniform highp sampler2D table;\nin highp vec4 params;\n"
+        f"out highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n"
+    )
+    out = subprocess.run(
+        [str(GLSLANG), "-S", "frag", str(es)],
+        capture_output=True,
+        text=True,
+        env={"LD_LIBRARY_PATH": str(PREFIX / "lib")},
+    )  # WebGL2's language, no precision statement
     assert out.returncode == 0, out.stdout + out.stderr
     vulkan = tmp_path / "vk.frag"
-    vulkan.write_text("#version 450\n" + glsl.read_text() + "layout(binding = 0) uniform highp sampler2D table;\n"
-                      "layout(location = 0) in highp vec4 params;\nlayout(location = 0) out highp vec4 colour;\n"
-                      f"void main() {{ colour = vec4({call}, 1.0); }}\n")
+    vulkan.write_text(
+        "#version 450\n" + glsl.read_text() + "layout(binding = 0) uniform highp sampler2D table;\n"
+        "layout(location = 0) in highp vec4 params;\nlayout(location = 0) out highp vec4 colour;\n"
+        f"void main() {{ colour = vec4({call}, 1.0); }}\n"
+    )
     out = compile_shader(vulkan, hlsl=False)
     assert out.returncode == 0, out.stdout + out.stderr
     hlsl = tmp_path / "shader.hlsl"
-    hlsl.write_text((folder / "w.hlsl").read_text() + "Texture2D<float3> table : register(t0);\n"
-                    "float4 main(float4 params : TEXCOORD0) : SV_Target { return float4("
-                    + call.replace("vec3", "float3") + ", 1.0); }\n")
+    hlsl.write_text(
+        (folder / "w.hlsl").read_text() + "Texture2D<float3> table : register(t0);\n"
+        "float4 main(float4 params : TEXCOORD0) : SV_Target { return float4("
+        + call.replace("vec3", "float3")
+        + ", 1.0); }\n"
+    )
     out = compile_shader(hlsl, hlsl=True)
     assert out.returncode == 0, out.stdout + out.stderr
 
@@ -197,12 +225,15 @@ def test_cli_writes_one_set_with_the_same_bytes_twice(tmp_path, tables):
     assert "#define LUTBAKE_EXACT_MAX_TERMS 64" in (tmp_path / "t.glsl").read_text()
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--out", "{d}/t.png"], "must end in .exr"),
-    (["--out", "{d}/t.exr", "--tolerance", "2"], "--tolerance 2 must lie in (0, 1)"),
-    (["--out", "{d}/t.exr", "--max-terms", "0"], "--max-terms 0 must lie in [1, 4096]"),
-    (["--out", "{d}/t.exr", "--precision", "double"], "'double' is not one of"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--out", "{d}/t.png"], "must end in .exr"),
+        (["--out", "{d}/t.exr", "--tolerance", "2"], "--tolerance 2 must lie in (0, 1)"),
+        (["--out", "{d}/t.exr", "--max-terms", "0"], "--max-terms 0 must lie in [1, 4096]"),
+        (["--out", "{d}/t.exr", "--precision", "double"], "'double' is not one of"),
+    ],
+)
 def test_cli_refuses_bad_input_and_writes_nothing(tmp_path, args, message):
     out = _cli(*(a.format(d=tmp_path) for a in args))
     assert out.returncode == 2 and message in out.stderr and len(out.stderr.strip().splitlines()) == 1
@@ -226,10 +257,14 @@ def test_reader_refuses_a_lut_and_a_bad_header(tmp_path, tables):
 
 
 def _a_lut(folder):
-    from lutbake.lut.bake import bake
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.lut.bake import bake
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 4), Axis("opd_nm", 0.0, 500.0, 4), Axis("eta3", 1.0, 2.0, 2),
-            Axis("kappa3", 0.0, 1.0, 2))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 4),
+        Axis("opd_nm", 0.0, 500.0, 4),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
     bake(BakeSpec(eta2=1.4, axes=axes), folder / "lut.exr", backend="numpy")
     return folder / "lut.exr"

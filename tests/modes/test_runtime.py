@@ -17,16 +17,24 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lutbake.spectral.fourier import NU0_PER_NM, weight_transform
 from lutbake.modes.runtime import read_runtime_table, runtime_colour, stored_table
-from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, named_error, random_error, searched_worst, stress_error, \
-    truth
+from lutbake.modes.runtime.accuracy import (
+    BOXES,
+    NAMED_METALS,
+    named_error,
+    random_error,
+    searched_worst,
+    stress_error,
+    truth,
+)
 from lutbake.modes.runtime.files import BAND_ROWS, TILES_PER_ROW
 from lutbake.modes.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
+from lutbake.spectral.fourier import NU0_PER_NM, weight_transform
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "docs"))
 import make_dropin  # noqa: E402  (writes the runtime and exact tables the engine tests load)
+
 CONTRACT_MAX, CONTRACT_P99 = 1.0, 0.3
 REGRESSION_MAX = 0.5
 
@@ -56,7 +64,7 @@ def test_the_limit_slice_is_the_series_extrapolated_to_zero():
     limit = transform_values(0.0, w)
     richardson = 2 * transform_values(0.25, w) - transform_values(0.5, w)
     assert np.abs(limit - richardson).max() <= 1e-4
-    assert np.abs(limit - transform_values(0.5, w)).max() > 1e-3   # the check can tell X = 0.5 from 0
+    assert np.abs(limit - transform_values(0.5, w)).max() > 1e-3  # the check can tell X = 0.5 from 0
 
 
 def test_the_series_is_the_plain_sum_inside_the_disc():
@@ -76,8 +84,9 @@ def test_each_tile_holds_two_neighbouring_slices(table):
         for j in (0, 31, 32, SLICES - 3):
             x0, y0 = table.tile_origin(j, c)
             x1, y1 = table.tile_origin(j + 1, c)
-            assert np.array_equal(table.image[y0:y0 + NODES, x0:x0 + NODES, 2:],
-                                  table.image[y1:y1 + NODES, x1:x1 + NODES, :2])
+            assert np.array_equal(
+                table.image[y0 : y0 + NODES, x0 : x0 + NODES, 2:], table.image[y1 : y1 + NODES, x1 : x1 + NODES, :2]
+            )
     assert table.image.shape == (3 * BAND_ROWS * NODES, TILES_PER_ROW * NODES, 4)
 
 
@@ -85,8 +94,15 @@ def test_grazing_incidence_returns_white_for_every_stack(table):
     """cos θ = 0: R = 1 whatever the stack, as the ground truth defines it (also η1 = η2 = η3)."""
     n = 6
     eta3 = np.array([1.0, 1.0, 1.5, 0.05, 4.0, 3.0])
-    got = runtime_colour(table, np.zeros(n), [0, 300, 1500, 50, 0, 800], 1.0, [1.0, 1.0, 1.33, 3.0, 2.0, 1.0001],
-                         eta3, [0.0, 0.0, 0.0, 9.0, 1.5, 2.0])
+    got = runtime_colour(
+        table,
+        np.zeros(n),
+        [0, 300, 1500, 50, 0, 800],
+        1.0,
+        [1.0, 1.0, 1.33, 3.0, 2.0, 1.0001],
+        eta3,
+        [0.0, 0.0, 0.0, 9.0, 1.5, 2.0],
+    )
     assert np.abs(got - 1.0).max() <= 1e-5
 
 
@@ -96,14 +112,19 @@ def test_no_film_is_the_bare_interface(table, rng):
     cos, eta2 = rng.uniform(0, 1, n), rng.uniform(1, 3, n)
     eta3, kappa3 = rng.uniform(0.05, 4, n), rng.uniform(0, 9, n)
     got = runtime_colour(table, cos, np.zeros(n), 1.0, eta2, eta3, kappa3)
-    assert np.abs(got - truth(*(np.float32(v).astype(float) for v in (cos, np.zeros(n), eta2, eta3, kappa3)))).max() <= 2e-5
+    assert (
+        np.abs(got - truth(*(np.float32(v).astype(float) for v in (cos, np.zeros(n), eta2, eta3, kappa3)))).max()
+        <= 2e-5
+    )
 
 
 @pytest.mark.parametrize("box", sorted(BOXES))
 def test_random_points_meet_the_contract(table, box):
     de = random_error(table, BOXES[box], 300, seed=22)
-    assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), \
-        (np.percentile(de, 99), de.max())
+    assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), (
+        np.percentile(de, 99),
+        de.max(),
+    )
 
 
 def test_named_metals_per_channel_meet_the_contract(table):
@@ -147,8 +168,11 @@ def test_runtime_table_command_writes_one_set_deterministically(tmp_path):
     meta = json.loads(out.with_suffix(".json").read_text())
     assert meta == read_runtime_table(out).meta and meta["format"] == "lutbake-runtime"
     glsl = out.with_suffix(".glsl").read_text()
-    assert "highp vec3 lutbake_iridescence(highp sampler2D table, highp float cos_theta, highp float thickness_nm,\n" \
-           "                               highp float eta1, highp float eta2, highp float eta3, highp float kappa3)" in glsl
+    assert (
+        "highp vec3 lutbake_iridescence(highp sampler2D table, highp float cos_theta, highp float thickness_nm,\n"
+        "                               highp float eta1, highp float eta2, highp float eta3, highp float kappa3)"
+        in glsl
+    )
     assert "lutbake_iridescence_rgb(highp sampler2D table" in glsl and "highp vec3 eta3, highp vec3 kappa3)" in glsl
     before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
     assert subprocess.run(run, capture_output=True).returncode == 0
@@ -157,8 +181,11 @@ def test_runtime_table_command_writes_one_set_deterministically(tmp_path):
 
 @pytest.mark.parametrize("out", ["rt.png", "missing/rt.exr"])
 def test_runtime_table_refuses_bad_output_in_one_line(tmp_path, out):
-    proc = subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(tmp_path / out)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(tmp_path / out)],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "--out" in proc.stderr
     assert not any(tmp_path.rglob("*"))
 

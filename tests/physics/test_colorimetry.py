@@ -1,10 +1,9 @@
 """Colour weights: flat spectra map to grey, whites match colour-science's own integration."""
 
-import warnings
-
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -64,8 +63,13 @@ def test_delta_e_is_zero_for_equal_and_positive_for_different_colours():
     assert np.all(delta_e00(a, b) > 0.1)
     # grey steps of equal lightness difference are about equally far apart
     assert delta_e00([0.18] * 3, [0.2] * 3) == pytest.approx(
-        colour.delta_E(colour.XYZ_to_Lab([0.18 * 0.9505, 0.18, 0.18 * 1.089]),
-                       colour.XYZ_to_Lab([0.2 * 0.9505, 0.2, 0.2 * 1.089]), method="CIE 2000"), rel=1e-3)
+        colour.delta_E(
+            colour.XYZ_to_Lab([0.18 * 0.9505, 0.18, 0.18 * 1.089]),
+            colour.XYZ_to_Lab([0.2 * 0.9505, 0.2, 0.2 * 1.089]),
+            method="CIE 2000",
+        ),
+        rel=1e-3,
+    )
 
 
 def _colour_science_delta_e00(rgb_a, rgb_b, observer, space):
@@ -81,10 +85,22 @@ def _colour_science_delta_e00(rgb_a, rgb_b, observer, space):
 def test_delta_e00_matches_colour_science(space, rng):
     """lutbake's CIEDE2000 against colour.delta_E on 20,000 pairs: bright, dark (below CIELAB's linear
     toe), near-equal, achromatic (hue undefined) and out-of-gamut (negative) colours."""
-    a = np.concatenate([rng.uniform(0, 1, (5000, 3)), rng.uniform(0, 0.004, (5000, 3)),
-                        np.repeat(rng.uniform(0, 1, (5000, 1)), 3, axis=1), rng.uniform(-0.05, 1, (5000, 3))])
-    b = np.concatenate([rng.uniform(0, 1, (5000, 3)), a[5000:10000] * rng.uniform(0.9, 1.1, (5000, 3)),
-                        np.repeat(rng.uniform(0, 1, (5000, 1)), 3, axis=1), a[15000:] + rng.normal(0, 0.01, (5000, 3))])
+    a = np.concatenate(
+        [
+            rng.uniform(0, 1, (5000, 3)),
+            rng.uniform(0, 0.004, (5000, 3)),
+            np.repeat(rng.uniform(0, 1, (5000, 1)), 3, axis=1),
+            rng.uniform(-0.05, 1, (5000, 3)),
+        ]
+    )
+    b = np.concatenate(
+        [
+            rng.uniform(0, 1, (5000, 3)),
+            a[5000:10000] * rng.uniform(0.9, 1.1, (5000, 3)),
+            np.repeat(rng.uniform(0, 1, (5000, 1)), 3, axis=1),
+            a[15000:] + rng.normal(0, 0.01, (5000, 3)),
+        ]
+    )
     ours = delta_e00(a, b, "cie1931", space)
     theirs = _colour_science_delta_e00(a, b, "cie1931", space)
     np.testing.assert_allclose(ours, theirs, rtol=1e-9, atol=1e-9)
@@ -95,8 +111,8 @@ def test_tables_from_the_cache_equal_colour_sciences(tmp_path, monkeypatch):
 
     monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
     fresh = module._read_colour_science("cie1964", "p3")
-    first = module._colour_science_tables("cie1964", "p3")     # built, stored
-    again = module._colour_science_tables("cie1964", "p3")     # read back
+    first = module._colour_science_tables("cie1964", "p3")  # built, stored
+    again = module._colour_science_tables("cie1964", "p3")  # read back
     assert len(list(tmp_path.iterdir())) == 1
     for name in fresh:
         np.testing.assert_array_equal(first[name], fresh[name])
@@ -114,8 +130,18 @@ lutbake.bake_lut(replace(spec, axes=tuple(a.resized(4) for a in spec.axes)), sys
 delta_e00([0.1, 0.2, 0.3], [0.1, 0.2, 0.31])
 print("colour" in sys.modules)
 """
-    env = dict(os.environ, LUTBAKE_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(Path(__file__).resolve().parents[2]))
-    runs = [subprocess.run([sys.executable, "-c", probe, str(tmp_path / f"{i}.exr")], env=env, capture_output=True,
-                           text=True, timeout=300) for i in range(2)]
+    env = dict(
+        os.environ, LUTBAKE_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(Path(__file__).resolve().parents[2])
+    )
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", probe, str(tmp_path / f"{i}.exr")],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        for i in range(2)
+    ]
     assert [r.returncode for r in runs] == [0, 0], runs[-1].stderr
-    assert [r.stdout.strip() for r in runs] == ["True", "False"]   # first fills the cache, then never again
+    assert [r.stdout.strip() for r in runs] == ["True", "False"]  # first fills the cache, then never again

@@ -7,7 +7,9 @@ import pytest
 from lutbake.physics.materials import ALIASES, ConstantMaterial, material
 
 
-@pytest.mark.parametrize("alias", ["Fe", "Cu", "Ag", "Au", "Al", "Ti", "Cr", "SiO2", "TiO2", "Fe2O3", "water", "butanol"])
+@pytest.mark.parametrize(
+    "alias", ["Fe", "Cu", "Ag", "Au", "Al", "Ti", "Cr", "SiO2", "TiO2", "Fe2O3", "water", "butanol"]
+)
 def test_aliases_resolve_and_cover_the_visible_range(alias):
     m = material(alias)
     eta, kappa = m.index(np.linspace(360, 830, 48))
@@ -68,6 +70,6 @@ def test_knots_are_where_the_index_is_not_linear():
         mid, ends = cu.index(0.5 * (a + b)), cu.index(np.array([a, b]))
         assert np.allclose(mid, [np.mean(e) for e in ends], rtol=1e-12, atol=0)
     eta = cu.index(np.array([knots[3] - 1.0, knots[3], knots[3] + 1.0]))[0]
-    assert abs(eta[0] - 2 * eta[1] + eta[2]) > 1e-4   # a kink: the slope changes there
+    assert abs(eta[0] - 2 * eta[1] + eta[2]) > 1e-4  # a kink: the slope changes there
     assert material("butanol").knots_nm == (450.0,)
     assert material("SiO2").knots_nm == ()

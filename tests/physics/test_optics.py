@@ -4,14 +4,13 @@ import mpmath as mp
 import numpy as np
 import pytest
 import tmm
+from airy_mp import airy_reflectance_exact, airy_reflectance_mp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lutbake.physics.optics import film_amplitudes, film_reflectance, film_transmittance
 from lutbake.physics.materials import material
+from lutbake.physics.optics import film_amplitudes, film_reflectance, film_transmittance
 from lutbake.physics.points import FilmPoints
-
-from airy_mp import airy_reflectance_exact, airy_reflectance_mp
 
 U = np.finfo(float).eps / 2
 
@@ -27,7 +26,7 @@ def _random_cases(rng, n):
     eta2 = rng.uniform(1.0, 3.0, n)
     eta3 = rng.uniform(1.0, 4.0, n)
     kind = rng.integers(0, 6, n)
-    eta3 = np.where(kind == 1, eta2, eta3)                         # film matches base
+    eta3 = np.where(kind == 1, eta2, eta3)  # film matches base
     eta3 = np.where(kind == 2, eta2 * rng.uniform(0.3, 0.95, n), eta3)  # TIR at the base
     eta1 = np.where(kind == 3, eta2 * rng.uniform(1.05, 2.0, n), eta1)  # TIR at the top
     kappa3 = rng.choice([0.0, 0.0, 10.0, -1.0], n)
@@ -71,7 +70,7 @@ def _extreme_cases(rng, thickness_nm=(0.0, 2000.0)):
     return cases
 
 
-BACKWARD_U = 16   # the float64 R is the exact R of inputs each within 16u, rounded within 16u (checked below)
+BACKWARD_U = 16  # the float64 R is the exact R of inputs each within 16u, rounded within 16u (checked below)
 
 
 def _input_sensitivity(case):
@@ -82,8 +81,10 @@ def _input_sensitivity(case):
         for i, x in enumerate(case):
             step = mp.mpf(x) * mp.mpf(10) ** -20
             up, down = ([mp.mpf(v) + sign * step * (j == i) for j, v in enumerate(case)] for sign in (1, -1))
-            out += [float(abs(a - b) / (2 * mp.mpf(10) ** -20))
-                    for a, b in zip(airy_reflectance_exact(*up), airy_reflectance_exact(*down))]
+            out += [
+                float(abs(a - b) / (2 * mp.mpf(10) ** -20))
+                for a, b in zip(airy_reflectance_exact(*up), airy_reflectance_exact(*down))
+            ]
     return out
 
 
@@ -166,8 +167,9 @@ def test_transmittance_matches_tmm_on_absorbing_bases(rng):
     t = film_transmittance(_stack(e1, e2, e3, k3, np.cos(np.radians(theta)), d), lam)
     for i in range(300):
         for pol, ours in (("s", t[0][i]), ("p", t[1][i])):
-            ref = tmm.coh_tmm(pol, [e1[i], e2[i], e3[i] + 1j * k3[i]], [np.inf, d[i], np.inf],
-                              np.radians(theta[i]), lam[i])["T"]
+            ref = tmm.coh_tmm(
+                pol, [e1[i], e2[i], e3[i] + 1j * k3[i]], [np.inf, d[i], np.inf], np.radians(theta[i]), lam[i]
+            )["T"]
             assert abs(ours - ref) <= 1e-9
 
 
@@ -183,8 +185,7 @@ def test_named_materials_are_taken_at_each_wavelength():
         for j in range(12):
             stack = [1.0, 1.4, eta3[j] + 1j * kappa3[j]]
             theta = np.arccos(gold.cos_theta[i])
-            ref = [tmm.coh_tmm(pol, stack, [np.inf, gold.thickness_nm[i], np.inf], theta, lam[j])["R"]
-                   for pol in "sp"]
+            ref = [tmm.coh_tmm(pol, stack, [np.inf, gold.thickness_nm[i], np.inf], theta, lam[j])["R"] for pol in "sp"]
             assert abs(r[i, j] - 0.5 * sum(ref)) <= 1e-9
 
 
@@ -203,7 +204,9 @@ def test_brewster_angle_amplitude_is_continuous():
 
 @settings(max_examples=400, deadline=None)
 @given(
-    eta1=st.floats(0.5, 3.0), eta2=st.floats(1.0, 4.0), eta3=st.floats(0.05, 5.0),
+    eta1=st.floats(0.5, 3.0),
+    eta2=st.floats(1.0, 4.0),
+    eta3=st.floats(0.05, 5.0),
     kappa3=st.one_of(st.just(0.0), st.floats(0.0, 100.0)),
     cos_theta=st.one_of(st.sampled_from([0.0, 1e-12, 1.0]), st.floats(0.0, 1.0)),
     thickness=st.one_of(st.just(0.0), st.floats(0.0, 1e5)),

@@ -2,30 +2,34 @@
 
 import copy
 import json
-from dataclasses import replace
-from pathlib import Path
 import math
 import subprocess
 import sys
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from lutbake.modes.approximations import belcour_barla_rgb, eval_sensitivity, khr_iridescence_rgb
-from lutbake.lut.bake import bake
-from lutbake.physics.colorimetry import delta_e00
 from lutbake.errors import ParameterError
-from lutbake.tables.lutfile import exr_stream
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
-from lutbake.quality.report import report_lut
+from lutbake.lut.bake import bake
 from lutbake.lut.sample import Lut
+from lutbake.modes.approximations import belcour_barla_rgb, eval_sensitivity, khr_iridescence_rgb
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.points import FilmPoints
+from lutbake.quality.report import report_lut
+from lutbake.spectral.reference import reference_colour
+from lutbake.tables.lutfile import exr_stream
 
 
 def _spec():
-    axes = (Axis("cos_theta", 0.0, 1.0, 16, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 48),
-            Axis("eta3", 1.0, 3.0, 6), Axis("kappa3", 0.0, 4.0, 6, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 16, "sqrt"),
+        Axis("opd_nm", 0.0, 2000.0, 48),
+        Axis("eta3", 1.0, 3.0, 6),
+        Axis("kappa3", 0.0, 4.0, 6, "sqrt"),
+    )
     return BakeSpec(eta2=1.4, axes=axes)
 
 
@@ -36,7 +40,7 @@ def lut_path(tmp_path_factory):
     return path
 
 
-BUDGET = 2000   # each row's worst-case search: a tenth of `report`'s default, enough for these small grids
+BUDGET = 2000  # each row's worst-case search: a tenth of `report`'s default, enough for these small grids
 
 
 def test_numbers_are_reproducible_for_a_seed(lut_path):
@@ -55,7 +59,7 @@ def test_planted_error_is_found_at_its_parameters(lut_path, tmp_path):
     lut = Lut.load(lut_path)
     image = lut.image.astype(np.float64)
     n_cos, n_opd = 16, 48
-    image[2 * n_opd:3 * n_opd, 3 * n_cos:4 * n_cos] += 0.2
+    image[2 * n_opd : 3 * n_opd, 3 * n_cos : 4 * n_cos] += 0.2
     planted = tmp_path / "planted.exr"
     with exr_stream(planted, image.shape[1], image.shape[0], lut.meta) as exr:
         exr.write_rows(image)
@@ -66,7 +70,7 @@ def test_planted_error_is_found_at_its_parameters(lut_path, tmp_path):
         return eta3_nodes[2] < w["eta3"] < eta3_nodes[4] and kappa3_nodes[1] < w["kappa3"] < kappa3_nodes[3]
 
     held = [w for w in rep.worst if not w["kind"].startswith("searched")]
-    assert held and all(near_the_tile(w) for w in held[:5])   # (this grid's corner errs more: searched)
+    assert held and all(near_the_tile(w) for w in held[:5])  # (this grid's corner errs more: searched)
     clean = report_lut(lut_path, 600, seed=1, approximations=False, search_budget=BUDGET).lut.summary()
     planted_maxima = [m for m in rep.lut.worst_case["local_maxima"] if near_the_tile(m)]
     assert planted_maxima and max(m["de00"] for m in planted_maxima) > 2 * clean["worst_case"]["held_out_max"]
@@ -78,7 +82,9 @@ def _report_cli(*args):
 
 
 def test_gate_exits_1_above_and_0_below_the_threshold(lut_path):
-    p99 = report_lut(lut_path, 200, seed=0, approximations=False, search_budget=BUDGET).summary()["lut_error"]["de00_p99"]
+    p99 = report_lut(lut_path, 200, seed=0, approximations=False, search_budget=BUDGET).summary()["lut_error"][
+        "de00_p99"
+    ]
     flags = ("--points", "200", "--no-approximations", "--search-budget", str(BUDGET), "--json")
     above = _report_cli(str(lut_path), *flags, "--max-de", f"{p99 * 0.99}")
     below = _report_cli(str(lut_path), *flags, "--max-de", f"{p99 * 1.01}")
@@ -87,14 +93,28 @@ def test_gate_exits_1_above_and_0_below_the_threshold(lut_path):
 
 
 def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
-    out = _report_cli(str(lut_path), "--points", "100", "--out", str(tmp_path / "r"), "--max-de", "0.001",
-                      "--search-budget", str(BUDGET))
-    assert out.returncode == 1, out.stderr   # the gate fails, the report is written
+    out = _report_cli(
+        str(lut_path),
+        "--points",
+        "100",
+        "--out",
+        str(tmp_path / "r"),
+        "--max-de",
+        "0.001",
+        "--search-budget",
+        str(BUDGET),
+    )
+    assert out.returncode == 1, out.stderr  # the gate fails, the report is written
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     rows = {a["name"]: a for a in summary["approximations"]}
-    assert set(rows) == {"belcour-barla-2017", "khr-iridescence-threejs", "lutbake-exact-mode", "lutbake-runtime",
-                         "lut-linear-reads"}
-    assert [r["name"] for r in summary["runtime_paths"]] == ["lut", *rows]   # each row's error beside its cost
+    assert set(rows) == {
+        "belcour-barla-2017",
+        "khr-iridescence-threejs",
+        "lutbake-exact-mode",
+        "lutbake-runtime",
+        "lut-linear-reads",
+    }
+    assert [r["name"] for r in summary["runtime_paths"]] == ["lut", *rows]  # each row's error beside its cost
     # the LUT is read cubic (its header's rule); linear reads of the same texels err more
     assert summary["interpolation"] == "cubic"
     assert summary["lut_error"]["de00_p99"] < rows["lut-linear-reads"]["de00_p99"]
@@ -108,8 +128,11 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
         assert (tmp_path / "r" / fig).stat().st_size > 1000 and fig in html
     # the table, the JSON and the terminal state one max: the searched one (the maps' agreement: below)
     lut_row = summary["lut_error"]
-    assert "<td>lut</td>" + "".join(f"<td>{lut_row[k]:.3f}</td>" for k in
-                                     ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max")) in html
+    assert (
+        "<td>lut</td>"
+        + "".join(f"<td>{lut_row[k]:.3f}</td>" for k in ("de00_mean", "de00_p50", "de00_p95", "de00_p99", "de00_max"))
+        in html
+    )
     assert f"{lut_row['de00_max']:.3f} at cos θ" in html and f"ΔE00 {lut_row['de00_max']:.3f} at" in out.stdout
     assert lut_row["de00_max"] == lut_row["worst_case"]["de00_max"] >= lut_row["worst_case"]["held_out_max"]
 
@@ -136,8 +159,12 @@ def test_the_truth_has_no_limit_at_the_corner_and_corner_distance_measures_the_w
 def _corner_lut(tmp_path_factory):
     """A soap-film LUT on the default set's dielectric parameterization, small: it reaches the corner where
     cos θ1, D, η3 − η1 and κ3 all vanish."""
-    axes = (Axis("cos_theta", 0.0, 1.0, 12, "sqrt"), Axis("opd_nm", 0.0, 1200.0, 24, "sqrt"),
-            Axis("eta3", 1.0, 2.0, 6, "sqrt-admittance"), Axis("kappa3", 0.0, 1.0, 5, "root4"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 12, "sqrt"),
+        Axis("opd_nm", 0.0, 1200.0, 24, "sqrt"),
+        Axis("eta3", 1.0, 2.0, 6, "sqrt-admittance"),
+        Axis("kappa3", 0.0, 1.0, 5, "root4"),
+    )
     path = tmp_path_factory.mktemp("corner") / "soap.exr"
     bake(BakeSpec(eta2=1.33, axes=axes), path)
     return path
@@ -155,8 +182,9 @@ def test_the_searched_max_is_found_where_held_out_points_do_not_reach_and_holds_
     worst = rep.lut.summary()["worst_case"]
     assert worst["de00_max"] > 3 * worst["held_out_max"]
     assert worst["found_by"].startswith(("singular: ", "near singular: "))
-    stack = FilmPoints.build(eta2=1.33, cos_theta=worst["cos_theta"], opd_nm=worst["opd_nm"], eta3=worst["eta3"],
-                             kappa3=worst["kappa3"])
+    stack = FilmPoints.build(
+        eta2=1.33, cos_theta=worst["cos_theta"], opd_nm=worst["opd_nm"], eta3=worst["eta3"], kappa3=worst["kappa3"]
+    )
     lut = Lut.load(rep.path)
     truth = reference_colour(stack).values
     assert np.allclose(truth[0], worst["truth_rgb"], atol=1e-9) and np.allclose(lut.sample(stack)[0], worst["lut_rgb"])
@@ -176,7 +204,7 @@ def test_maps_never_show_more_than_the_stated_max(corner_report, tmp_path):
     stated = rep.lut.summary()["de00_max"]
     assert max(p.de00.max() for p in panels) <= stated
     missed = copy.deepcopy(rep)
-    missed.lut.worst_case["de00_max"] = 0.0   # as if the search had found nothing
+    missed.lut.worst_case["de00_max"] = 0.0  # as if the search had found nothing
     top = max(panels, key=lambda p: p.de00.max())
     missed.include_points(top.stack, top.truth, top.de00.ravel(), "map point")
     assert missed.lut.summary()["de00_max"] >= top.de00.max() > 0.0
@@ -230,8 +258,7 @@ def test_belcour_barla_fails_on_dispersive_metal_bases():
 
     def de(base):
         eta3, kappa3 = (float(v) for v in material(base).index(550.0))
-        truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=0.9, thickness_nm=opd / 3.0,
-                                                  base=base)).values
+        truth = reference_colour(FilmPoints.build(eta2=1.5, cos_theta=0.9, thickness_nm=opd / 3.0, base=base)).values
         return delta_e00(belcour_barla_rgb(_stack(1.5, eta3, kappa3, 0.9, opd)), truth)
 
     assert np.percentile(de("Cu"), 50) > 10
@@ -242,8 +269,9 @@ def test_khr_hand_computed_value_on_bare_glass():
     """η2 = η1 (film fades out), glass base, normal incidence, by hand with three.js's Schlick (its exp2 fit:
     f = 2^(−5.55473 − 6.98316) at cos 1, not 0): R12 = f, R23 = 0.04 + 0.96 f, R123 clamped to 1e-5,
     C0 = R12 + Rs, orders ±2 (Rs − T121) R123^(m/2) (M709 · S(0)) (phase π per order)."""
-    m709 = np.array([[3.2404542, -1.5371385, -0.4985314], [-0.9692660, 1.8760108, 0.0415560],
-                     [0.0556434, -0.2040259, 1.0572252]])
+    m709 = np.array(
+        [[3.2404542, -1.5371385, -0.4985314], [-0.9692660, 1.8760108, 0.0415560], [0.0556434, -0.2040259, 1.0572252]]
+    )
     s0 = eval_sensitivity(0.0, 0.0)
     f = 2.0 ** (-5.55473 - 6.98316)
     rs = (1 - f) ** 2 * (0.04 + 0.96 * f) / (1 - 1e-5)
@@ -265,8 +293,12 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     from lutbake.quality.refine import tune
     from lutbake.quality.sweep import sweep
 
-    axes = (Axis("cos_theta", 0.3, 1.0, 8), Axis("opd_nm", 0.0, 800.0, 16), Axis("eta3", 1.4, 1.6, 4),
-            Axis("kappa3", 0.0, 0.5, 4))
+    axes = (
+        Axis("cos_theta", 0.3, 1.0, 8),
+        Axis("opd_nm", 0.0, 800.0, 16),
+        Axis("eta3", 1.4, 1.6, 4),
+        Axis("kappa3", 0.0, 0.5, 4),
+    )
     spec = BakeSpec(eta2=1.33, axes=axes)
     doc = sweep(spec, tmp_path / "s", n_points=120, seed=0, search_budget=300)
     kinds = [r["kind"] for r in doc["rows"]]
@@ -278,7 +310,7 @@ def test_sweep_and_tune_on_a_small_domain(tmp_path):
     assert res["uniform grid"]["shape"] == res["√ grid"]["shape"] == res["res×1"]["shape"]
     assert res["uniform grid"]["de00_p99"] == res["res×1"]["de00_p99"]  # this spec's axes are all uniform
     assert res["√ grid"]["de00_p99"] != res["uniform grid"]["de00_p99"]
-    assert res["admittance grid"]["shape"] == res["res×1"]["shape"]      # η3 1.4–1.6 ≥ η1: it is there
+    assert res["admittance grid"]["shape"] == res["res×1"]["shape"]  # η3 1.4–1.6 ≥ η1: it is there
     assert res["admittance grid"]["de00_p99"] != res["√ grid"]["de00_p99"]
     assert res["res×1 linear reads"]["bytes"] == res["res×1"]["bytes"]  # same file, read by the other rule
     assert res["res×1"]["de00_p99"] < res["res×1 linear reads"]["de00_p99"]
@@ -292,8 +324,8 @@ def test_atlas_slices_report_their_searched_max():
     (√cos θ, thickness) grid against the ground truth; the atlas row's max is the largest slice's."""
     import sys
 
-    from lutbake.quality.report import report_atlas
     from lutbake.lut.sample import Atlas
+    from lutbake.quality.report import report_atlas
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "docs"))
     from make_scene_examples import bake_example
@@ -303,8 +335,9 @@ def test_atlas_slices_report_their_searched_max():
     for s in doc["slices"]:
         w = s["worst_case"]
         assert s["de00_max"] == w["de00_max"] >= w["held_out_max"] and w["evaluations"] <= 300
-        stack = FilmPoints.build(cos_theta=w["cos_theta"], thickness_nm=w["thickness_nm"],
-                                 **Atlas.load(path).film_stack(s["materials"][0]))
+        stack = FilmPoints.build(
+            cos_theta=w["cos_theta"], thickness_nm=w["thickness_nm"], **Atlas.load(path).film_stack(s["materials"][0])
+        )
         truth = reference_colour(stack).values
         assert delta_e00(Atlas.load(path).sample(s["materials"][0], stack), truth)[0] == pytest.approx(w["de00_max"])
     assert doc["lut_error"]["de00_max"] == max(s["de00_max"] for s in doc["slices"])
@@ -316,20 +349,33 @@ def test_tuned_counts_pass_report_at_three_seeds_tune_never_saw(tmp_path):
     p99 instead, tune stops at 32×32×4×8, which seed 4 fails: p99 0.318.)"""
     from lutbake.quality.refine import tune
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 1500.0, 16),
-            Axis("eta3", 1.2, 2.0, 4, "sqrt-admittance"), Axis("kappa3", 0.0, 0.5, 4, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 1500.0, 16),
+        Axis("eta3", 1.2, 2.0, 4, "sqrt-admittance"),
+        Axis("kappa3", 0.0, 0.5, 4, "sqrt"),
+    )
     spec = BakeSpec(eta2=1.33, axes=axes, precision="half")
     result = tune(spec, 0.3, search_budget=BUDGET)
     assert result.met and result.best.gated <= 0.3 and result.best.de00_p99 <= result.best.gated
     tuned = BakeSpec(eta2=1.33, axes=tuple(replace(a, count=c) for a, c in zip(axes, result.counts)), precision="half")
     bake(tuned, tmp_path / "tuned.exr")
-    out = _report_cli(str(tmp_path / "tuned.exr"), "--seed", "4", "--max-de", "0.3", "--no-approximations",
-                      "--search-budget", str(BUDGET), "--json")
+    out = _report_cli(
+        str(tmp_path / "tuned.exr"),
+        "--seed",
+        "4",
+        "--max-de",
+        "0.3",
+        "--no-approximations",
+        "--search-budget",
+        str(BUDGET),
+        "--json",
+    )
     assert out.returncode == 0, json.loads(out.stdout)["lut_error"]["de00_p99"]
-    for seed in (5, 6):   # the same gate through the API (report --max-de X passes when p99 <= X)
+    for seed in (5, 6):  # the same gate through the API (report --max-de X passes when p99 <= X)
         rep = report_lut(tmp_path / "tuned.exr", seed=seed, approximations=False, search_budget=BUDGET)
         assert rep.lut.summary()["de00_p99"] <= 0.3, seed
-    worst = result.best.stats["worst_case"]   # its max is searched, as report's
+    worst = result.best.stats["worst_case"]  # its max is searched, as report's
     assert result.best.stats["de00_max"] == worst["de00_max"] >= worst["held_out_max"]
 
 
@@ -338,12 +384,16 @@ def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():
     admittance coordinate at the point's own cos θ (what the sampler interpolates in)."""
     from lutbake.quality.report import held_out_points
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 2000.0, 8),
-            Axis("eta3", 1.0, 3.0, 5, "admittance"), Axis("kappa3", 0.0, 4.0, 4, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 2000.0, 8),
+        Axis("eta3", 1.0, 3.0, 5, "admittance"),
+        Axis("kappa3", 0.0, 4.0, 4, "sqrt"),
+    )
     pts = held_out_points(axes, 1.0, 1.4, "cie1931", "rec709", 40, 3)
     centre = pts.kind == "cell-centre"
     lut = Lut({"axes": [a.describe() for a in axes], "constants": {"eta1": 1.0, "eta2": 1.4}}, None)
     coords = np.stack(lut.node_coords(pts.stack), axis=1)[centre]
     assert np.allclose(coords % 1.0, 0.5, atol=1e-9)
     uniform_eta3 = Axis("eta3", 1.0, 3.0, 5).to_unit(pts.stack.eta3[centre]) * 4
-    assert not np.allclose(uniform_eta3 % 1.0, 0.5, atol=1e-3)   # the admittance cells are not η3's
+    assert not np.allclose(uniform_eta3 % 1.0, 0.5, atol=1e-3)  # the admittance cells are not η3's

@@ -8,12 +8,12 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import node_parses
-from lutbake.quality import check
+
 from lutbake.integrate.opencl import OpenCLBackend
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
+from lutbake.quality import check
 
 
 @pytest.fixture(scope="module")
@@ -27,8 +27,15 @@ def check_json():
 def test_lutbake_check_passes_and_reports_every_case(check_json):
     doc = json.loads(check_json)
     groups = {c["group"] for c in doc["checks"]}
-    assert groups == {"high finesse", "thick films", "degenerate stacks", "angles", "float32 kernel", "truncation",
-                      "fourier series"}
+    assert groups == {
+        "high finesse",
+        "thick films",
+        "degenerate stacks",
+        "angles",
+        "float32 kernel",
+        "truncation",
+        "fourier series",
+    }
     for c in doc["checks"]:
         assert {"value", "reference", "error", "tolerance", "passed"} <= set(c)
         assert c["passed"] and np.isfinite(c["value"])
@@ -51,7 +58,7 @@ def test_check_exits_1_on_a_failure(monkeypatch):
     assert result.return_value == 1 and "FAIL planted failure" in result.output
 
 
-WRONG_BY = 2e-4   # in RGB: 0.2 ΔE00 on mid grey
+WRONG_BY = 2e-4  # in RGB: 0.2 ΔE00 on mid grey
 
 
 def _columns(stack):
@@ -115,8 +122,10 @@ def test_the_incoherent_limit_case_fails_the_single_pass_formula():
 
 def _extreme_inputs(rng, n):
     """Random stacks biased to the stiff corners of every axis."""
+
     def pick(choices, lo, hi):
         return np.where(rng.random(n) < 0.3, rng.choice(choices, n), rng.uniform(lo, hi, n))
+
     cos_theta = pick([0.0, 1e-12, 1e-6, 1.0], 0.0, 1.0)
     opd = pick([0.0, 1e-9, 1e5], 0.0, 1e5)
     eta3 = pick([1.0, 0.05, 5.0], 0.05, 5.0)
@@ -153,15 +162,26 @@ def test_bake_records_texels_past_the_spectral_cap():
 
     # 4×4×2×2: 44 texels past the cap, all measured (8×8×2×2 had 196, the worst 64 measured: 14 s of
     # ground truth at D up to 100 µm instead of 5 s, the same checks)
-    axes = (Axis("cos_theta", 0.0, 0.1, 4), Axis("opd_nm", 0.0, 100000.0, 4), Axis("eta3", 2.0, 3.0, 2),
-            Axis("kappa3", 50.0, 100.0, 2))
+    axes = (
+        Axis("cos_theta", 0.0, 0.1, 4),
+        Axis("opd_nm", 0.0, 100000.0, 4),
+        Axis("eta3", 2.0, 3.0, 2),
+        Axis("kappa3", 50.0, 100.0, 2),
+    )
     from lutbake.lut.bake import capped_error
 
     count, bound, measured = capped_error(BakeSpec(eta2=2.0, axes=axes))
     assert count > 0 and 1e-6 <= bound <= 1.0
     assert 0 < measured <= bound  # the a-priori bound holds where it is measured
-    tame = BakeSpec(eta2=1.5, axes=(Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 8),
-                                    Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 5.0, 2)))
+    tame = BakeSpec(
+        eta2=1.5,
+        axes=(
+            Axis("cos_theta", 0.0, 1.0, 8),
+            Axis("opd_nm", 0.0, 4000.0, 8),
+            Axis("eta3", 1.0, 3.0, 2),
+            Axis("kappa3", 0.0, 5.0, 2),
+        ),
+    )
     assert capped_error(tame) == (0, 0.0, 0.0)
 
 
@@ -170,16 +190,23 @@ def test_grazing_texels_are_exact_so_never_counted_past_the_cap():
     linear Rec.709), so the truncation bound is 0 there: the texels counted and measured past the cap
     are the ones that oscillate (a default metal LUT had half of its 5,268 counted texels at cos θ 0,
     and its 64 measured ones all there, residual 1e-15, while the oscillating ones reach 5e-7)."""
-    from lutbake.lut.bake import capped_error
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.lut.bake import capped_error
     from lutbake.spectral.reference import reference_rgb
 
-    spec = BakeSpec(eta2=2.0, axes=(Axis("cos_theta", 0.0, 0.0042, 2), Axis("opd_nm", 2500.0, 3000.0, 3),
-                                    Axis("eta3", 0.02, 0.2, 2), Axis("kappa3", 7.0, 9.0, 2)))
+    spec = BakeSpec(
+        eta2=2.0,
+        axes=(
+            Axis("cos_theta", 0.0, 0.0042, 2),
+            Axis("opd_nm", 2500.0, 3000.0, 3),
+            Axis("eta3", 0.02, 0.2, 2),
+            Axis("kappa3", 7.0, 9.0, 2),
+        ),
+    )
     white = reference_rgb(FilmPoints.build(eta2=2.0, thickness_nm=700.0, cos_theta=0.0, eta3=0.02, kappa3=9.0))
     assert np.abs(white - 1.0).max() <= 1e-9
     count, bound, texels = spec.capped_texels()
     assert count > 0 and np.all(texels[0] > 0.0)
     assert spec.truncation_estimate(np.zeros(2), np.full(2, 3000.0), np.full(2, 0.02), np.full(2, 9.0)).max() == 0.0
     _, _, measured = capped_error(spec)
-    assert measured <= bound   # within the a-priori bound where it is measured
+    assert measured <= bound  # within the a-priori bound where it is measured

@@ -20,8 +20,10 @@ def _random_max(error, d, n=5000, seed=1):
 def _cone(centre, radius):
     """1 at ``centre``, falling linearly to 0 at ``radius`` and 0 beyond: no slope to climb from outside,
     so only a start inside finds it."""
+
     def error(u):
         return np.maximum(0.0, 1.0 - np.linalg.norm(u - centre, axis=1) / radius)
+
     return error
 
 
@@ -56,6 +58,7 @@ def test_a_corner_maximum_is_found_by_the_corner_starts():
 def test_an_edge_maximum_is_found_along_the_edge_and_refined():
     """Non-zero only within 0.02 of the edge a = 1, c = 0, d = 1, peaking at b = 0.37 on it (value 1):
     found from the edge starts and refined to b = 0.37."""
+
     def error(u):
         off_edge = np.max(np.abs(u[:, [0, 2, 3]] - [1.0, 0.0, 1.0]), axis=1)
         return np.maximum(0.0, 1.0 - off_edge / 0.02) * (1.0 - (u[:, 1] - 0.37) ** 2)
@@ -75,7 +78,7 @@ def test_a_peak_beside_a_hill_is_found_by_the_scatter_near_the_best_starts():
     cone = _cone(peak, 0.03)
 
     def error(u):
-        return np.maximum(0.3 * np.exp(-np.sum((u - top) ** 2, axis=1) / (2 * 0.15 ** 2)), cone(u))
+        return np.maximum(0.3 * np.exp(-np.sum((u - top) ** 2, axis=1) / (2 * 0.15**2)), cone(u))
 
     assert _random_max(error, 4) < 0.31
     found = [find_worst(error, AXES4, budget=10000, seed=seed) for seed in range(4)]
@@ -126,7 +129,7 @@ def test_a_discrete_axis_is_enumerated_and_held_while_refining():
 
     def error(u):
         level = np.round(u[:, 2] * 3)
-        assert np.allclose(u[:, 2] * 3, level)   # only levels are ever evaluated
+        assert np.allclose(u[:, 2] * 3, level)  # only levels are ever evaluated
         return np.where(level == 2, 2.0, 1.0) / (1.0 + np.sum(((u[:, :2] - [0.31, 0.77]) / 0.02) ** 2, axis=1))
 
     worst = find_worst(error, axes, budget=6000)
@@ -154,17 +157,18 @@ def test_nan_counts_as_the_worst_and_the_budget_is_kept():
 
 def test_same_seed_same_result_and_the_candidates_are_distinct_maxima():
     """Two separated peaks of heights 1 and 0.5: the candidates list both, best first."""
+
     def error(u):
-        return (1.0 / (1.0 + np.sum(((u - 0.2) / 0.05) ** 2, axis=1))
-                + 0.5 / (1.0 + np.sum(((u - 0.8) / 0.05) ** 2, axis=1)))
+        return 1.0 / (1.0 + np.sum(((u - 0.2) / 0.05) ** 2, axis=1)) + 0.5 / (
+            1.0 + np.sum(((u - 0.8) / 0.05) ** 2, axis=1)
+        )
 
     first, again = find_worst(error, AXES4, budget=5000, seed=4), find_worst(error, AXES4, budget=5000, seed=4)
     assert first.describe() == again.describe()
     values = [c.value for c in first.candidates]
     assert values == sorted(values, reverse=True)
     assert values[0] == pytest.approx(1.0, abs=1e-3)
-    assert any(abs(v - 0.5) < 2e-3 and np.allclose(c.where, 0.8, atol=1e-2)
-               for v, c in zip(values, first.candidates))
+    assert any(abs(v - 0.5) < 2e-3 and np.allclose(c.where, 0.8, atol=1e-2) for v, c in zip(values, first.candidates))
 
 
 def test_bad_arguments_are_refused_in_one_line():

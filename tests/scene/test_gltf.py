@@ -8,22 +8,32 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gltf_assets import (
+    KHRONOS,
+    SHOWCASE,
+    SPHERE_GRIDS,
+    credit_line,
+    document,
+    glb_bytes,
+    iridescent,
+    khronos_gltf,
+    write_gltf,
+)
 
-from gltf_assets import (KHRONOS, SHOWCASE, SPHERE_GRIDS, credit_line, document, glb_bytes, iridescent, khronos_gltf,
-                         write_gltf)
+from lutbake.lut.sample import Atlas
 from lutbake.physics.colorimetry import delta_e00
-from lutbake.scene.gltf.materials import load_gltf_scene, material_rows
 from lutbake.physics.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
 from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Atlas
 from lutbake.scene.bake import bake_scene
+from lutbake.scene.gltf.materials import load_gltf_scene, material_rows
 from lutbake.scene.plan import plan_scene
+from lutbake.spectral.reference import reference_colour
 
 
 def cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True, cwd=cwd
+    )
 
 
 def test_every_showcase_asset_plans_with_a_slice_per_used_iridescent_material(tmp_path):
@@ -33,8 +43,9 @@ def test_every_showcase_asset_plans_with_a_slice_per_used_iridescent_material(tm
         assert proc.returncode == 0, proc.stderr
         rows = json.loads(proc.stdout)["gltf_materials"]
         doc = json.loads(path.read_text())
-        iridescent_indices = [i for i, m in enumerate(doc["materials"])
-                              if "KHR_materials_iridescence" in m.get("extensions", {})]
+        iridescent_indices = [
+            i for i, m in enumerate(doc["materials"]) if "KHR_materials_iridescence" in m.get("extensions", {})
+        ]
         assert [r["gltf_index"] for r in rows] == iridescent_indices
         for r in rows:
             assert (r["slice"] or r["lut"]) if r["used_by"] else r["why_not"], (path.name, r)
@@ -56,8 +67,17 @@ def test_sample_by_slice_name_from_the_command_line(tmp_path):
     path = khronos_gltf("SunglassesKhronos", tmp_path)
     row = json.loads(cli("plan", "--gltf", path, "--json").stdout)["gltf_materials"][0]
     assert cli("bake", "--gltf", path, "--out", tmp_path / "out").returncode == 0
-    proc = cli("sample", tmp_path / "out" / "SunglassesKhronos.exr", "--material", row["slice"], "--thickness",
-               300.01, "--angle", 40, "--json")
+    proc = cli(
+        "sample",
+        tmp_path / "out" / "SunglassesKhronos.exr",
+        "--material",
+        row["slice"],
+        "--thickness",
+        300.01,
+        "--angle",
+        40,
+        "--json",
+    )
     assert proc.returncode == 0, proc.stderr
     got = np.array(json.loads(proc.stdout)["points"][0]["rgb"])
     truth = reference_colour(FilmPoints.build(eta2=2.0, thickness_nm=300.01, angle_deg=40.0, eta3=1.0)).values[0]
@@ -70,13 +90,17 @@ def _rows(tmp_path, materials, metal_mapping="fitted", **doc):
 
 
 def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):
-    scene, rows = _rows(tmp_path, [
-        iridescent(ior=1.2345678901, d_max=321.5, base_ior=1.61),                  # η2 as read; fixed thickness
-        iridescent(d_min=700, d_max=250, thickness_texture=True),                   # min > max: sorted range
-        {"extensions": {"KHR_materials_iridescence": {}}, "pbrMetallicRoughness": {"metallicFactor": 0}},
-        iridescent(iridescenceFactor=0.0),                                          # no film
-        {"extensions": {"KHR_materials_iridescence": {}}},                          # glTF's defaults: a white metal
-    ], textures=[{}])
+    scene, rows = _rows(
+        tmp_path,
+        [
+            iridescent(ior=1.2345678901, d_max=321.5, base_ior=1.61),  # η2 as read; fixed thickness
+            iridescent(d_min=700, d_max=250, thickness_texture=True),  # min > max: sorted range
+            {"extensions": {"KHR_materials_iridescence": {}}, "pbrMetallicRoughness": {"metallicFactor": 0}},
+            iridescent(iridescenceFactor=0.0),  # no film
+            {"extensions": {"KHR_materials_iridescence": {}}},  # glTF's defaults: a white metal
+        ],
+        textures=[{}],
+    )
     film = {m.name: m for m in scene.materials}
     assert rows[0]["film"] == 1.2345678901 and film[rows[0]["slice"]].film == 1.2345678901  # never snapped
     assert film[rows[0]["slice"]].thickness_nm == (321.5, 321.5) and film[rows[0]["slice"]].base == (1.61, 0.0)
@@ -90,8 +114,10 @@ def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):
 
 
 def test_unused_materials_are_listed_not_baked_and_draft_keys_warn(tmp_path):
-    doc = document([iridescent(), iridescent(ior=1.9, iridescenceIOR=1.5)], meshes=[
-        {"primitives": [{"attributes": {}, "material": 1}]}])
+    doc = document(
+        [iridescent(), iridescent(ior=1.9, iridescenceIOR=1.5)],
+        meshes=[{"primitives": [{"attributes": {}, "material": 1}]}],
+    )
     scene = load_gltf_scene(write_gltf(tmp_path / "a.gltf", doc))
     rows = material_rows(scene, plan_scene(scene))
     assert rows[0]["slice"] is None and "not used" in rows[0]["why_not"]
@@ -106,7 +132,7 @@ def test_metal_mappings_and_the_white_metal_clamp(tmp_path):
     _, three = _rows(tmp_path, [metal], metal_mapping="threejs")
     f, t = fitted[0]["bases"]["metal"], three[0]["bases"]["metal"]
     assert f["clamped"] and "clamped" in fitted[0]["warnings"][0] and len(set(f["channels"])) == 3
-    assert t["kappa3"] == [0.0, 0.0, 0.0] and t["eta3"][2] == pytest.approx((1 + 0.34 ** 0.5) / (1 - 0.34 ** 0.5))
+    assert t["kappa3"] == [0.0, 0.0, 0.0] and t["eta3"][2] == pytest.approx((1 + 0.34**0.5) / (1 - 0.34**0.5))
     assert t["eta3"][0] == pytest.approx(10.0)  # F0 clamped where η would leave lutbake's domain
     named = tmp_path / "mapping.json"
     named.write_text(json.dumps({"materials": {"0": "Au"}}))
@@ -126,22 +152,31 @@ def test_texture_driven_base_colour_gets_a_4d_job_over_its_mapping_curve(tmp_pat
     (e_lo, e_hi), (k_lo, k_hi) = job.key["base"]
     table = metal["table"]
     assert table["f0"][0] == 0.0 and table["f0"][-1] == 0.9  # the brightest channel's reach
-    assert (e_lo, e_hi, k_lo, k_hi) == (min(table["eta3"]), max(table["eta3"]), min(table["kappa3"]),
-                                        max(table["kappa3"]))
+    assert (e_lo, e_hi, k_lo, k_hi) == (
+        min(table["eta3"]),
+        max(table["eta3"]),
+        min(table["kappa3"]),
+        max(table["kappa3"]),
+    )
 
 
 def test_random_hand_written_assets_bake_as_gltf_and_glb(tmp_path):
     """Random films (η2 1.0-2.5), thicknesses and dielectric bases: the .gltf bakes, its .glb twin plans the
     same jobs, and every slice holds its ground truth at fresh points."""
     rng = np.random.default_rng(5)
-    materials = [iridescent(ior=float(rng.uniform(1.0, 2.5)), d_max=float(rng.uniform(50, 800)),
-                            base_ior=float(rng.uniform(1.0, 2.5))) for _ in range(4)]
+    materials = [
+        iridescent(
+            ior=float(rng.uniform(1.0, 2.5)), d_max=float(rng.uniform(50, 800)), base_ior=float(rng.uniform(1.0, 2.5))
+        )
+        for _ in range(4)
+    ]
     doc = document(materials)
     gltf = write_gltf(tmp_path / "random.gltf", doc)
     glb = tmp_path / "random.glb"
     glb.write_bytes(glb_bytes({**doc, "buffers": [{"byteLength": 8}]}, b"\0" * 8))
-    assert [j.hash for j in plan_scene(load_gltf_scene(glb)).jobs] == \
-        [j.hash for j in plan_scene(load_gltf_scene(gltf)).jobs]
+    assert [j.hash for j in plan_scene(load_gltf_scene(glb)).jobs] == [
+        j.hash for j in plan_scene(load_gltf_scene(gltf)).jobs
+    ]
     proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", "--json")
     assert proc.returncode == 0, proc.stderr
     atlas = Atlas.load(tmp_path / "out" / "random.exr")
@@ -170,6 +205,7 @@ def test_sphere_grids_plan_every_sphere(tmp_path):
 
 # --- metals ---------------------------------------------------------------------------------------
 
+
 def test_conductor_reflectance_matches_tmm():
     tmm = pytest.importorskip("tmm")
     for eta, kappa, theta in ((0.3, 2.5, 0.7), (1.8, 1.06, 1.3), (1.5, 0.0, 1.0), (0.05, 2.3, 1.55)):
@@ -197,8 +233,13 @@ def test_receipts_say_what_each_choice_costs(tmp_path):
     """`report OUT/ASSET.json`: per material the values read (defaults flagged), what was baked against the
     truth (within the target), three.js's own term (far off) and the other metal mapping's truth. The
     coloured metal is per channel: reading every channel from the red slice would miss the target."""
-    doc = document([iridescent(ior=1.4, d_min=200, d_max=500, thickness_texture=True),
-                    iridescent(ior=1.6, d_max=350, metallic=1.0, colour=[0.9, 0.6, 0.3])], textures=[{}])
+    doc = document(
+        [
+            iridescent(ior=1.4, d_min=200, d_max=500, thickness_texture=True),
+            iridescent(ior=1.6, d_max=350, metallic=1.0, colour=[0.9, 0.6, 0.3]),
+        ],
+        textures=[{}],
+    )
     gltf = write_gltf(tmp_path / "coat.gltf", doc)
     assert cli("bake", "--gltf", gltf, "--out", tmp_path / "out").returncode == 0
     proc = cli("report", tmp_path / "out" / "coat.json", "--points", 150, "--json", "--out", tmp_path / "rec")

@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from gltf_assets import document, glb_bytes, iridescent
 from test_hostile import run_case
 
@@ -81,8 +80,9 @@ def test_an_edited_manifest_is_not_up_to_date(tmp_path, capfd, monkeypatch):
     doc = json.loads(manifest.read_text())
     doc["materials"]["soap"]["de00_p99"] = 0.001  # a better error than was reached: a lie
     manifest.write_text(json.dumps(doc, indent=2) + "\n")
-    _, out, _ = run_case(["bake", "--scene", "s.toml", "--out", "T", "--json", *NUMPY], tmp_path, capfd,
-                         monkeypatch, {0})
+    _, out, _ = run_case(
+        ["bake", "--scene", "s.toml", "--out", "T", "--json", *NUMPY], tmp_path, capfd, monkeypatch, {0}
+    )
     assert json.loads(out)["up_to_date"] is False and _tree(tmp_path / "T") == reference
     manifest.write_text("[" * 5000 + "]" * 5000)  # nested past the bound: re-baked, no traceback
     run_case(["bake", "--scene", "s.toml", "--out", "T", *NUMPY], tmp_path, capfd, monkeypatch, {0})
@@ -90,8 +90,10 @@ def test_an_edited_manifest_is_not_up_to_date(tmp_path, capfd, monkeypatch):
 
 
 def test_a_scene_past_the_optical_path_limit_names_its_field_and_writes_nothing(tmp_path, capfd, monkeypatch):
-    (tmp_path / "s.toml").write_text("[materials.a]\nfilm = 1.5\nthickness_nm = 100\nbase = 1.0\n"
-                                     "[materials.thick]\nfilm = 2.0\nthickness_nm = [100, 60000]\nbase = 1.5\n")
+    (tmp_path / "s.toml").write_text(
+        "[materials.a]\nfilm = 1.5\nthickness_nm = 100\nbase = 1.0\n"
+        "[materials.thick]\nfilm = 2.0\nthickness_nm = [100, 60000]\nbase = 1.5\n"
+    )
     _, _, err = run_case(["bake", "--scene", "s.toml", "--out", "T", *NUMPY], tmp_path, capfd, monkeypatch, {2})
     assert "s.toml:7: materials.thick.thickness_nm: the optical path" in err and "--opd" not in err
     assert not (tmp_path / "T").exists()
@@ -105,8 +107,10 @@ def test_plan_of_100000_materials_finishes(tmp_path, capfd, monkeypatch):
     """No per-material O(ms) work: the plan of 10^5 materials in 97,000 distinct slices (film cycles every
     1,000 materials, thickness every 97; the ground-truth rate sampled on 8 jobs) ends well inside the
     hostile table's guard."""
-    text = "".join(f"[materials.m{i}]\nfilm = {1.2 + (i % 1000) * 1e-3}\nthickness_nm = [100, {200 + i % 97}]\n"
-                   f"base = 1.5\n" for i in range(100_000))
+    text = "".join(
+        f"[materials.m{i}]\nfilm = {1.2 + (i % 1000) * 1e-3}\nthickness_nm = [100, {200 + i % 97}]\nbase = 1.5\n"
+        for i in range(100_000)
+    )
     (tmp_path / "s.toml").write_text(text)
     start = time.perf_counter()
     _, out, _ = run_case(["plan", "--scene", "s.toml", "--json"], tmp_path, capfd, monkeypatch, {0})
@@ -115,8 +119,13 @@ def test_plan_of_100000_materials_finishes(tmp_path, capfd, monkeypatch):
 
 def _many_materials(folder: Path, n: int = 60) -> None:
     folder.mkdir()
-    (folder / "s.toml").write_text("".join(f"[materials.m{i}]\nfilm = {1.3 + 0.01 * i}\nthickness_nm = [100, 900]\n"
-                                           f"base = {{ eta3 = 1.6, kappa3 = {0.1 * i} }}\n" for i in range(n)))
+    (folder / "s.toml").write_text(
+        "".join(
+            f"[materials.m{i}]\nfilm = {1.3 + 0.01 * i}\nthickness_nm = [100, 900]\n"
+            f"base = {{ eta3 = 1.6, kappa3 = {0.1 * i} }}\n"
+            for i in range(n)
+        )
+    )
 
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
@@ -124,10 +133,16 @@ def test_a_signal_stops_a_many_material_bake_at_once_and_leaves_nothing(sig, cod
     """60 slices queued: the signal lands while the first ones refine; queued ground truths are cancelled, not
     awaited. Within a few seconds (under load), exit 128 + signal, no set, no temporary, no journal."""
     _many_materials(tmp_path / "w")
-    proc = subprocess.Popen([sys.executable, "-m", "lutbake.cli", "bake", "--scene", "s.toml", "--out", "T",
-                             "--progress"], cwd=tmp_path / "w", stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lutbake.cli", "bake", "--scene", "s.toml", "--out", "T", "--progress"],
+        cwd=tmp_path / "w",
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.time() + 120
-    while not list((tmp_path / "w" / "T" / ".lutbake-cache").glob("*.npy")) if (tmp_path / "w" / "T").exists() else True:
+    while (
+        not list((tmp_path / "w" / "T" / ".lutbake-cache").glob("*.npy")) if (tmp_path / "w" / "T").exists() else True
+    ):
         assert proc.poll() is None and time.time() < deadline, "the bake ended before a slice was cached"
         time.sleep(0.05)
     sent = time.time()
@@ -137,11 +152,14 @@ def test_a_signal_stops_a_many_material_bake_at_once_and_leaves_nothing(sig, cod
     assert proc.returncode == code, proc.stderr.read()
     assert stopped < 5.0, stopped
     left = sorted(p.name for p in (tmp_path / "w" / "T").iterdir())
-    assert left == [".lutbake-cache"]  # completed slices stay cached (content-hashed); no set member, temporary or journal
+    assert left == [
+        ".lutbake-cache"
+    ]  # completed slices stay cached (content-hashed); no set member, temporary or journal
     assert all(p.suffix in (".npy", ".json") for p in (tmp_path / "w" / "T" / ".lutbake-cache").iterdir())
 
 
 # --- malformed glTF / GLB ------------------------------------------------------------------------
+
 
 def _glb(doc, binary=None) -> bytes:
     return glb_bytes(doc, binary)
@@ -150,38 +168,98 @@ def _glb(doc, binary=None) -> bytes:
 _VALID = document([iridescent()])
 MALFORMED = {
     "truncated GLB": (lambda: _glb(_VALID)[:40], "a.glb", "declares"),
-    "GLB header past the file": (lambda: struct.pack("<III", 0x46546C67, 2, 10 ** 9) + b"\0" * 8, "a.glb", "declares"),
-    "GLB chunk past the end": (lambda: struct.pack("<III", 0x46546C67, 2, 24) + struct.pack("<II", 10 ** 6, 0x4E4F534A)
-                               + b"{}  ", "a.glb", "past the end"),
+    "GLB header past the file": (lambda: struct.pack("<III", 0x46546C67, 2, 10**9) + b"\0" * 8, "a.glb", "declares"),
+    "GLB chunk past the end": (
+        lambda: struct.pack("<III", 0x46546C67, 2, 24) + struct.pack("<II", 10**6, 0x4E4F534A) + b"{}  ",
+        "a.glb",
+        "past the end",
+    ),
     "GLB version 1": (lambda: struct.pack("<III", 0x46546C67, 1, 12), "a.glb", "version 1"),
     "not JSON": (lambda: b"{materials: [", "a.gltf", "not JSON"),
     "not UTF-8": (lambda: b"\xff\xfe{}", "a.gltf", "not UTF-8"),
     "no asset": (lambda: json.dumps({"materials": []}).encode(), "a.gltf", "asset.version"),
-    "materials not an array": (lambda: json.dumps({**_VALID, "materials": {"a": 1}}).encode(), "a.gltf",
-                               "materials: must be an array"),
-    "iridescenceIor a string": (lambda: json.dumps(document([iridescent(ior="1.5")])).encode(), "a.gltf",
-                                "iridescenceIor = '1.5' is not a number"),
-    "primitive material out of range": (lambda: json.dumps(document([iridescent()], meshes=[
-        {"primitives": [{"attributes": {}, "material": 7}]}])).encode(), "a.gltf", "material = 7"),
-    "variant out of range": (lambda: json.dumps(document([iridescent()], meshes=[{"primitives": [{"attributes": {},
-        "extensions": {"KHR_materials_variants": {"mappings": [{"material": 0, "variants": [3]}]}}}]}])).encode(),
-        "a.gltf", "variants[0] = 3"),
-    "GLB buffer without a binary chunk": (lambda: _glb({**_VALID, "buffers": [{"byteLength": 64}]}), "a.glb",
-                                          "not the .glb's binary chunk"),
-    "buffer view of a missing buffer": (lambda: json.dumps({**_VALID, "bufferViews": [
-        {"buffer": 2, "byteLength": 4}]}).encode(), "a.gltf", "bufferViews[0].buffer = 2"),
-    "huge accessor count": (lambda: _glb({**_VALID, "buffers": [{"byteLength": 8}], "bufferViews": [
-        {"buffer": 0, "byteLength": 8}], "accessors": [{"bufferView": 0, "componentType": 5126, "count": 10 ** 12,
-                                                        "type": "VEC3"}]}, b"\0" * 8), "a.glb", "count = 1,000,000,000,000"),
-    "huge material count": (lambda: json.dumps({**_VALID, "materials": [{}] * 100_001}).encode(), "a.gltf",
-                            "100,001 items"),
-    "truncated external buffer": (lambda: json.dumps({**_VALID, "buffers": [{"uri": "a.bin", "byteLength": 10 ** 6}]}
-                                                     ).encode(), "a.gltf", "truncated"),
+    "materials not an array": (
+        lambda: json.dumps({**_VALID, "materials": {"a": 1}}).encode(),
+        "a.gltf",
+        "materials: must be an array",
+    ),
+    "iridescenceIor a string": (
+        lambda: json.dumps(document([iridescent(ior="1.5")])).encode(),
+        "a.gltf",
+        "iridescenceIor = '1.5' is not a number",
+    ),
+    "primitive material out of range": (
+        lambda: json.dumps(
+            document([iridescent()], meshes=[{"primitives": [{"attributes": {}, "material": 7}]}])
+        ).encode(),
+        "a.gltf",
+        "material = 7",
+    ),
+    "variant out of range": (
+        lambda: json.dumps(
+            document(
+                [iridescent()],
+                meshes=[
+                    {
+                        "primitives": [
+                            {
+                                "attributes": {},
+                                "extensions": {
+                                    "KHR_materials_variants": {"mappings": [{"material": 0, "variants": [3]}]}
+                                },
+                            }
+                        ]
+                    }
+                ],
+            )
+        ).encode(),
+        "a.gltf",
+        "variants[0] = 3",
+    ),
+    "GLB buffer without a binary chunk": (
+        lambda: _glb({**_VALID, "buffers": [{"byteLength": 64}]}),
+        "a.glb",
+        "not the .glb's binary chunk",
+    ),
+    "buffer view of a missing buffer": (
+        lambda: json.dumps({**_VALID, "bufferViews": [{"buffer": 2, "byteLength": 4}]}).encode(),
+        "a.gltf",
+        "bufferViews[0].buffer = 2",
+    ),
+    "huge accessor count": (
+        lambda: _glb(
+            {
+                **_VALID,
+                "buffers": [{"byteLength": 8}],
+                "bufferViews": [{"buffer": 0, "byteLength": 8}],
+                "accessors": [{"bufferView": 0, "componentType": 5126, "count": 10**12, "type": "VEC3"}],
+            },
+            b"\0" * 8,
+        ),
+        "a.glb",
+        "count = 1,000,000,000,000",
+    ),
+    "huge material count": (
+        lambda: json.dumps({**_VALID, "materials": [{}] * 100_001}).encode(),
+        "a.gltf",
+        "100,001 items",
+    ),
+    "truncated external buffer": (
+        lambda: json.dumps({**_VALID, "buffers": [{"uri": "a.bin", "byteLength": 10**6}]}).encode(),
+        "a.gltf",
+        "truncated",
+    ),
     "nested 5000 deep": (lambda: b"[" * 5000 + b"]" * 5000, "a.gltf", "nests 5000 levels deep"),
-    "negative thickness": (lambda: json.dumps(document([iridescent(d_max=-5.0)])).encode(), "a.gltf",
-                           "iridescenceThicknessMaximum = -5.0 is not allowed"),
-    "film index past lutbake's domain": (lambda: json.dumps(document([iridescent(ior=50.0)])).encode(), "a.gltf",
-                                         "iridescenceIor = 50.0 is not allowed"),
+    "negative thickness": (
+        lambda: json.dumps(document([iridescent(d_max=-5.0)])).encode(),
+        "a.gltf",
+        "iridescenceThicknessMaximum = -5.0 is not allowed",
+    ),
+    "film index past lutbake's domain": (
+        lambda: json.dumps(document([iridescent(ior=50.0)])).encode(),
+        "a.gltf",
+        "iridescenceIor = 50.0 is not allowed",
+    ),
     "unknown metal mapping": (lambda: json.dumps(_VALID).encode(), "a.gltf", "metal mapping 'gold'"),
 }
 
@@ -204,14 +282,20 @@ def test_report_on_a_manifest_that_is_no_gltf_bake_is_one_line(tmp_path, capfd, 
     assert "not the manifest of a glTF bake" in err
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["plan", "--scene", "s.toml", "--gltf", "a.gltf"], "give exactly one of --scene FILE.toml or --gltf"),
-    (["plan"], "give exactly one of --scene FILE.toml or --gltf"),
-    (["plan", "--scene", "s.toml", "--metal-mapping", "threejs"], "--metal-mapping applies to --gltf only"),
-    (["bake", "--eta2", "1.5", "--metal-mapping", "threejs", "--out", "x.exr"], "--metal-mapping applies to --gltf"),
-    (["bake", "--gltf", "a.gltf", "--opd", "0:100:8", "--out", "T"], "--opd cannot be combined with --gltf"),
-    (["bake", "--gltf", "a.gltf", "--out", "T.exr"], "a scene bakes into a folder"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["plan", "--scene", "s.toml", "--gltf", "a.gltf"], "give exactly one of --scene FILE.toml or --gltf"),
+        (["plan"], "give exactly one of --scene FILE.toml or --gltf"),
+        (["plan", "--scene", "s.toml", "--metal-mapping", "threejs"], "--metal-mapping applies to --gltf only"),
+        (
+            ["bake", "--eta2", "1.5", "--metal-mapping", "threejs", "--out", "x.exr"],
+            "--metal-mapping applies to --gltf",
+        ),
+        (["bake", "--gltf", "a.gltf", "--opd", "0:100:8", "--out", "T"], "--opd cannot be combined with --gltf"),
+        (["bake", "--gltf", "a.gltf", "--out", "T.exr"], "a scene bakes into a folder"),
+    ],
+)
 def test_gltf_flag_conflicts_are_one_line(argv, message, tmp_path, capfd, monkeypatch):
     (tmp_path / "s.toml").write_text(SCENE)
     (tmp_path / "a.gltf").write_text(json.dumps(_VALID))

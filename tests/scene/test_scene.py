@@ -8,17 +8,17 @@ import textwrap
 import numpy as np
 import pytest
 
-from lutbake.scene.bake import bake_scene
 from lutbake.integrate.opencl import backend
-from lutbake.scene.jobs import uniform_points
-from lutbake.quality.refine import Trial, bound_level, mixture_percentile, refine
 from lutbake.lut.sample import load_table
-from lutbake.scene.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
+from lutbake.quality.refine import Trial, bound_level, mixture_percentile, refine
+from lutbake.scene.bake import bake_scene
+from lutbake.scene.jobs import uniform_points
 from lutbake.scene.plan import plan_scene
+from lutbake.scene.slices import DISPERSIVE_TOLERANCE, SliceStack, integrate_slice, slice_grid
 from lutbake.scene.toml import load_scene
+from lutbake.spectral.reference import reference_colour
 
 
 def write(tmp_path, text, name="scene.toml"):
@@ -55,28 +55,46 @@ def test_fixed_base_scene_collapses_to_small_2d_slices(tmp_path):
     doc = plan.describe()
     assert all(len(j["counts"]) == 2 for j in doc["jobs"])
     assert doc["bytes_start_total"] * 100 < doc["generic_4d_bytes"]
-    ranged = plan_scene(load_scene(write(tmp_path, """
+    ranged = plan_scene(
+        load_scene(
+            write(
+                tmp_path,
+                """
         [materials.coat]
         film = 1.6
         thickness_nm = [150, 450]
         base = { eta3 = [1.2, 2.8], kappa3 = [0.5, 4.0] }
-        """, "ranged.toml")))
+        """,
+                "ranged.toml",
+            )
+        )
+    )
     assert [j.kind for j in ranged.jobs] == ["lut"]
     assert [a["min"] for a in ranged.describe()["jobs"][0]["axes"]][2:] == [1.2, 0.5]
 
 
 def test_fixed_thickness_collapses_to_one_row(tmp_path):
-    plan = plan_scene(load_scene(write(tmp_path, """
+    plan = plan_scene(
+        load_scene(
+            write(
+                tmp_path,
+                """
         [materials.ergun_1]
         film = 3.0
         thickness_nm = 15.1667
         base = { eta3 = 1.43, kappa3 = 0.0 }
-        """)))
+        """,
+            )
+        )
+    )
     assert plan.jobs[0].counts[1] == 1
 
 
 def test_dispersive_copper_slice_meets_the_target_against_ground_truth(tmp_path):
-    scene = load_scene(write(tmp_path, """
+    scene = load_scene(
+        write(
+            tmp_path,
+            """
         [scene]
         max_de = 0.4
 
@@ -84,7 +102,9 @@ def test_dispersive_copper_slice_meets_the_target_against_ground_truth(tmp_path)
         film = 1.5
         thickness_nm = [100, 300]
         base = "Cu"
-        """))
+        """,
+        )
+    )
     result = bake_scene(scene, tmp_path / "out")
     manifest = json.loads((tmp_path / "out" / "scene.json").read_text())
     entry = manifest["materials"]["copper_coat"]
@@ -121,20 +141,45 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "lutbake.cli", *args], capture_output=True, text=True)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = 1.0\ncolour = 'red'\n",
-     ":5: unknown field materials.a.colour"),
-    ("[materials.a]\nfilm = 1.5\nbase = 1.0\n", ":1: materials.a is missing the field 'thickness_nm'"),
-    ("[materials.a]\nfilm = 1.5\nthickness_nm = [70, 10]\nbase = 1.0\n", ":3: materials.a.thickness_nm = [70, 10] is reversed"),
-    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = \"Cooper\"\n", ":4: materials.a.base: unknown material 'Cooper'"),
-    ("[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = { eta3 = 2.0, kappa3 = -1 }\n", ":4: materials.a.kappa3"),
-    ("[scene]\nspace = 'srgb'\n[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = 1.0\n", ":2: scene.space = 'srgb'"),
-    ("[materials.a]\nfilm = \"butanol\"\nthickness_nm = 10\nbase = { eta3 = [1, 2] }\n", ":2: materials.a: a named (dispersive) film"),
-    ("[materials.a\nfilm = 1.5\n", "invalid TOML"),
-    ("[materials.a]\nfilm = nan\nthickness_nm = 10\nbase = 1.0\n", ":2: materials.a.film: eta2 = nan is not allowed"),
-    ("[materials.a]\nfilm = 1.5\nthickness_nm = [10, 1e400]\nbase = 1.0\n",
-     ":3: materials.a.thickness_nm: thickness_nm = inf is not allowed"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            "[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = 1.0\ncolour = 'red'\n",
+            ":5: unknown field materials.a.colour",
+        ),
+        ("[materials.a]\nfilm = 1.5\nbase = 1.0\n", ":1: materials.a is missing the field 'thickness_nm'"),
+        (
+            "[materials.a]\nfilm = 1.5\nthickness_nm = [70, 10]\nbase = 1.0\n",
+            ":3: materials.a.thickness_nm = [70, 10] is reversed",
+        ),
+        (
+            '[materials.a]\nfilm = 1.5\nthickness_nm = [10, 70]\nbase = "Cooper"\n',
+            ":4: materials.a.base: unknown material 'Cooper'",
+        ),
+        (
+            "[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = { eta3 = 2.0, kappa3 = -1 }\n",
+            ":4: materials.a.kappa3",
+        ),
+        (
+            "[scene]\nspace = 'srgb'\n[materials.a]\nfilm = 1.5\nthickness_nm = 10\nbase = 1.0\n",
+            ":2: scene.space = 'srgb'",
+        ),
+        (
+            '[materials.a]\nfilm = "butanol"\nthickness_nm = 10\nbase = { eta3 = [1, 2] }\n',
+            ":2: materials.a: a named (dispersive) film",
+        ),
+        ("[materials.a\nfilm = 1.5\n", "invalid TOML"),
+        (
+            "[materials.a]\nfilm = nan\nthickness_nm = 10\nbase = 1.0\n",
+            ":2: materials.a.film: eta2 = nan is not allowed",
+        ),
+        (
+            "[materials.a]\nfilm = 1.5\nthickness_nm = [10, 1e400]\nbase = 1.0\n",
+            ":3: materials.a.thickness_nm: thickness_nm = inf is not allowed",
+        ),
+    ],
+)
 def test_invalid_scenes_exit_2_naming_file_line_and_field(tmp_path, text, message):
     path = write(tmp_path, text)
     out = tmp_path / "out"
@@ -162,7 +207,10 @@ def test_plan_and_bake_from_the_command_line(tmp_path):
 
 
 def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
-    scene = load_scene(write(tmp_path, """
+    scene = load_scene(
+        write(
+            tmp_path,
+            """
         [scene]
         max_de = 1.5
 
@@ -170,7 +218,9 @@ def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
         film = 1.6
         thickness_nm = [150, 300]
         base = { eta3 = [1.2, 2.0], kappa3 = [0.5, 2.0] }
-        """))
+        """,
+        )
+    )
     result = bake_scene(scene, tmp_path / "out")
     entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["coat"]
     assert entry["kind"] == "lut" and entry["de00_p99"] <= 1.5
@@ -184,12 +234,15 @@ def test_ranged_base_gets_a_4d_lut_tuned_to_the_target(tmp_path):
 
 
 @pytest.mark.parametrize("centres", [False, True], ids=["nodes", "cell centres"])
-@pytest.mark.parametrize("film, base, thickness_nm, tolerance", [
-    (1.33, (1.0, 0.0), (100, 1000), 1e-8),         # constant indices: the kernel's 4D path, series per texel
-    (3.0, (1.43, 0.0), (15.1667, 15.1667), 1e-8),  # one thickness row
-    (2.9, "Fe", (10, 70), DISPERSIVE_TOLERANCE),   # dispersive base: the kernel's reflectance per node
-    ("butanol", "Ag", (100, 600), DISPERSIVE_TOLERANCE),  # dispersive film: numpy per node; silver's kinks
-])
+@pytest.mark.parametrize(
+    "film, base, thickness_nm, tolerance",
+    [
+        (1.33, (1.0, 0.0), (100, 1000), 1e-8),  # constant indices: the kernel's 4D path, series per texel
+        (3.0, (1.43, 0.0), (15.1667, 15.1667), 1e-8),  # one thickness row
+        (2.9, "Fe", (10, 70), DISPERSIVE_TOLERANCE),  # dispersive base: the kernel's reflectance per node
+        ("butanol", "Ag", (100, 600), DISPERSIVE_TOLERANCE),  # dispersive film: numpy per node; silver's kinks
+    ],
+)
 def test_slice_integration_matches_the_ground_truth_at_its_texels(film, base, thickness_nm, tolerance, centres):
     """At the slice's nodes and at its cells' centres (what a slice's trials are scored against)."""
     from lutbake.integrate.opencl import backend
@@ -205,11 +258,14 @@ def test_slice_integration_matches_the_ground_truth_at_its_texels(film, base, th
 
 
 @pytest.mark.parametrize("compute, tolerance", [("float64", 1e-12), ("float32", 2e-5)])
-@pytest.mark.parametrize("eta1, film, base", [
-    (1.0, "butanol", "Ag"),       # dispersive film over a dispersive metal
-    (1.0, 2.9, "Fe"),             # constant film, dispersive base
-    (1.6, "butanol", "TiO2"),     # η1 > η2: the film is evanescent beyond its critical angle (R < 1 over TiO2)
-])
+@pytest.mark.parametrize(
+    "eta1, film, base",
+    [
+        (1.0, "butanol", "Ag"),  # dispersive film over a dispersive metal
+        (1.0, 2.9, "Fe"),  # constant film, dispersive base
+        (1.6, "butanol", "TiO2"),  # η1 > η2: the film is evanescent beyond its critical angle (R < 1 over TiO2)
+    ],
+)
 def test_stack_colour_matches_the_numpy_physics_node_by_node(kernel_device, compute, tolerance, eta1, film, base):
     """The device's per-stack sum (stack_terms + stack_rgb) against lutbake/physics/optics.py's R at the same rule's
     nodes, at grazing and normal incidence, zero and thick films, and cos θ1 repeated across points
@@ -230,19 +286,25 @@ def test_stack_colour_matches_the_numpy_physics_node_by_node(kernel_device, comp
     assert np.max(np.abs(got - expected)) <= tolerance
     # grazing: R = 1, so both sides sum the N weights, each in some order: within γ_N Σ|w| apiece
     n = rule.wavelength_nm.size
-    assert (np.abs(got[0] - rule.weights.sum(axis=1))
-            <= 2 * n * np.finfo(float).eps / 2 * np.abs(rule.weights).sum(axis=1)).all()
+    assert (
+        np.abs(got[0] - rule.weights.sum(axis=1)) <= 2 * n * np.finfo(float).eps / 2 * np.abs(rule.weights).sum(axis=1)
+    ).all()
 
 
 def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
     """The manifest's p99 is what the shipped half texels score at the slice's uniform points and every cell
     centre (equal weight, as `report` draws them), and it holds at fresh points against the ground truth."""
-    scene = load_scene(write(tmp_path, """
+    scene = load_scene(
+        write(
+            tmp_path,
+            """
         [materials.steel]
         film = 2.9
         thickness_nm = [10, 70]
         base = { eta3 = 2.7, kappa3 = 2.8 }
-        """))
+        """,
+        )
+    )
     bake_scene(scene, tmp_path / "out")
     entry = json.loads((tmp_path / "out" / "scene.json").read_text())["materials"]["steel"]
     job, integrator = plan_scene(scene).jobs[0], backend("auto")
@@ -251,11 +313,12 @@ def test_slice_error_is_measured_on_the_stored_atlas(tmp_path):
     counts = [entry["axes"][axis]["count"] for axis in ("cos_theta", "thickness_nm")]
     cos_c, d_c = (g.ravel() for g in np.meshgrid(*slice_grid(counts, job.thickness_nm, centres=True)))
     centres = stack.points(cos_c, d_c)
-    de = [delta_e00(stored.sample("steel", p), t) for p, t in
-          ((pts, truth), (centres, reference_colour(centres).values))]
+    de = [
+        delta_e00(stored.sample("steel", p), t) for p, t in ((pts, truth), (centres, reference_colour(centres).values))
+    ]
     assert entry["de00_p99"] == pytest.approx(mixture_percentile(de, 99.0), abs=2e-3)
     assert entry["target_met"] and entry["de00_p99"] <= entry["de00_p99_bound"] <= scene.max_de
-    rng = np.random.default_rng(2024)   # not a seed the bake scored at
+    rng = np.random.default_rng(2024)  # not a seed the bake scored at
     fresh = stack.points(rng.uniform(0, 1, 1000) ** 2, rng.uniform(10, 70, 1000))
     assert np.percentile(delta_e00(stored.sample("steel", fresh), reference_colour(fresh).values), 99) <= scene.max_de
     assert entry["de00_max"] >= entry["worst_case"]["held_out_max"] >= entry["de00_p99"]
@@ -281,7 +344,7 @@ def test_mixture_percentile_weighs_each_sample_equally_and_the_bound_level_is_re
     a, b = np.array([5.0, 1.0, 3.0]), np.array([0.5, 2.0, 4.0, 6.0, 2.5, 7.0])
     for q in (10.0, 50.0, 90.0, 99.0, 99.73):
         assert mixture_percentile([a, b], q) == np.percentile(np.concatenate([a, a, b]), q, method="inverted_cdf")
-    assert bound_level(1000) == pytest.approx(99.7319, abs=1e-4) and bound_level(10 ** 9) == pytest.approx(99.0, abs=1e-3)
+    assert bound_level(1000) == pytest.approx(99.7319, abs=1e-4) and bound_level(10**9) == pytest.approx(99.0, abs=1e-3)
 
 
 def test_refine_grows_the_axis_that_pays_most_per_byte_then_trims():

@@ -4,15 +4,14 @@ import io
 
 import numpy as np
 import pytest
-
 from airy_mp import airy_reflectance_mp
 from long_quadrature import LONG, U_DOUBLE, U_LONG, BandRule
+
+from lutbake.physics.points import FilmPoints
 from lutbake.spectral import fourier
 from lutbake.spectral.fourier import series_coefficients, series_colour, weight_transform
-from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
 from lutbake.spectral.rules import panel_rule
-
 
 
 def _transform_by_panels(x_nm, nodes_per_nm=64):
@@ -26,8 +25,10 @@ def _transform_in_long_double(x_nm):
     at most 19 rad per nm), (n, 3), and its rounding bound: the phase 2πx/λ within 5u of it (2π, ·x,
     /λ, the node's move), e^{iφ} within 8u."""
     rule = BandRule()
-    out = [rule.integral(np.exp(1j * phase), U_LONG * (5 * phase + 8))
-           for phase in (rule.two_pi * LONG(x) / rule.nm for x in x_nm)]
+    out = [
+        rule.integral(np.exp(1j * phase), U_LONG * (5 * phase + 8))
+        for phase in (rule.two_pi * LONG(x) / rule.nm for x in x_nm)
+    ]
     return tuple(np.array(v) for v in zip(*out))
 
 
@@ -61,7 +62,7 @@ def test_tail_bound_holds_and_decays_beyond_the_table():
         x = np.linspace(start, 1.2 * start, 400)
         exact = np.abs(_transform_by_panels(x, 8 if start < 1e5 else 96)).max()
         assert exact <= wt.tail_bound(start) <= 20 * exact
-    assert wt.tail_bound(1e6) <= 1.01e-4 * wt.tail_bound(1e4)   # 1/x² decay
+    assert wt.tail_bound(1e6) <= 1.01e-4 * wt.tail_bound(1e4)  # 1/x² decay
 
 
 def _series_at_phase(co, phase, terms=4000):
@@ -71,11 +72,14 @@ def _series_at_phase(co, phase, terms=4000):
     return [co.c0[p, 0] + 2 * np.real(np.sum(co.k[p, 0] * co.q[p, 0] ** (m - 1) * z)) for p in (0, 1)]
 
 
-@pytest.mark.parametrize("stack", [
-    (1.0, 1.5, 2.2, 3.5, 0.6),     # metal base
-    (1.0, 2.8, 1.2, 20.0, 0.05),   # near-resonant: |q| ≈ 0.99
-    (1.0, 1.33, 1.0, 0.0, 0.9),    # soap film in air
-])
+@pytest.mark.parametrize(
+    "stack",
+    [
+        (1.0, 1.5, 2.2, 3.5, 0.6),  # metal base
+        (1.0, 2.8, 1.2, 20.0, 0.05),  # near-resonant: |q| ≈ 0.99
+        (1.0, 1.33, 1.0, 0.0, 0.9),  # soap film in air
+    ],
+)
 def test_coefficients_give_the_textbook_airy_sum_at_50_digits(stack):
     """Within the float64 sum's rounding: term m (|K||q|^{m−1}) has its phase m·φ within 3u of it (φ,
     the product), e^{imφ} 8u, q^{m−1} and K, q's own rounding carried m times (4m u), and the sum of
@@ -88,14 +92,23 @@ def test_coefficients_give_the_textbook_airy_sum_at_50_digits(stack):
         phase = 2 * np.pi * co.x_nm[0] / lam
         got = _series_at_phase(co, phase)
         want = airy_reflectance_mp(eta1, eta2, eta3, kappa3, cos_theta, thickness, lam)
-        rounding = [2 * U_DOUBLE * np.sum(np.abs(co.k[p, 0]) * np.abs(co.q[p, 0]) ** (m - 1)
-                                          * (3 * m * phase + 8 + 4 * m + m.size)) + U_DOUBLE for p in (0, 1)]
+        rounding = [
+            2
+            * U_DOUBLE
+            * np.sum(np.abs(co.k[p, 0]) * np.abs(co.q[p, 0]) ** (m - 1) * (3 * m * phase + 8 + 4 * m + m.size))
+            + U_DOUBLE
+            for p in (0, 1)
+        ]
         assert (np.abs(np.array(got) - want) <= rounding).all()
 
 
 def _random_texels(rng, n):
-    return dict(cos_theta=rng.uniform(0, 1, n), opd_nm=rng.uniform(0, 4000, n),
-                eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
+    return dict(
+        cos_theta=rng.uniform(0, 1, n),
+        opd_nm=rng.uniform(0, 4000, n),
+        eta3=rng.uniform(1, 3, n),
+        kappa3=rng.uniform(0, 5, n),
+    )
 
 
 def _truth(eta1, eta2, t):
@@ -113,28 +126,32 @@ def test_series_matches_the_ground_truth_on_random_texels(rng):
 def test_truncation_bound_is_honest_when_loose(rng):
     """With a loose tolerance the series stops early; its error stays within the recorded bound."""
     t = _random_texels(rng, 200)
-    t["cos_theta"] = rng.uniform(0.02, 0.3, 200)   # high finesse: slow geometric decay
+    t["cos_theta"] = rng.uniform(0.02, 0.3, 200)  # high finesse: slow geometric decay
     res = series_colour(FilmPoints.texels(eta1=1.0, eta2=2.5, **t), tolerance=1e-4)
     ok = res.terms >= 0
     assert ok.sum() > 150
     err = np.abs(res.values[ok] - _truth(1.0, 2.5, t)[ok]).max(axis=1)
     assert (err <= res.bound[ok] + 1e-9).all()
-    assert err.max() > 1e-7   # the tolerance did bite, so the comparison above is not vacuous
+    assert err.max() > 1e-7  # the tolerance did bite, so the comparison above is not vacuous
 
 
 def _one(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
-    t = dict(cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]),
-             kappa3=np.array([kappa3]))
+    t = dict(
+        cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]), kappa3=np.array([kappa3])
+    )
     return series_colour(FilmPoints.texels(eta1=eta1, eta2=eta2, **t)), _truth(eta1, eta2, t)
 
 
-@pytest.mark.parametrize("name, stack, terms", [
-    ("zero thickness: closed form", (1.0, 1.5, 0.7, 0.0, 2.0, 3.0), 0),
-    ("grazing over a matched base (q → 1, K = 0)", (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0), 0),
-    ("grazing over a metal", (1.0, 2.0, 0.0, 3000.0, 2.5, 4.0), 0),
-    ("total reflection at the base", (1.5, 1.6, 0.3, 2000.0, 1.0, 0.0), None),
-    ("thick film on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 5.0), None),
-])
+@pytest.mark.parametrize(
+    "name, stack, terms",
+    [
+        ("zero thickness: closed form", (1.0, 1.5, 0.7, 0.0, 2.0, 3.0), 0),
+        ("grazing over a matched base (q → 1, K = 0)", (1.0, 1.5, 0.0, 1000.0, 1.0, 0.0), 0),
+        ("grazing over a metal", (1.0, 2.0, 0.0, 3000.0, 2.5, 4.0), 0),
+        ("total reflection at the base", (1.5, 1.6, 0.3, 2000.0, 1.0, 0.0), None),
+        ("thick film on a metal", (1.0, 1.5, 0.8, 20000.0, 2.0, 5.0), None),
+    ],
+)
 def test_hard_cases_match_the_ground_truth(name, stack, terms):
     res, truth = _one(*stack)
     assert np.isfinite(res.values).all(), name
@@ -164,6 +181,7 @@ def test_texels_beyond_the_series_take_the_closed_form_and_evanescent_films_the_
 
 
 # --- the bake kernel's series (kernels/airy.cl: bake_rows_series, plan_rows) ---
+
 
 def _random_grid(rng, **kw):
     from lutbake.grid.spec import Axis, BakeSpec
@@ -206,8 +224,9 @@ def test_kernel_rule_is_the_numpy_rule(grid_spec, kernel_device):
     assert stats.series_texels > 0.9 * grid_spec.cells and 1e-9 < stats.bounds[0] <= 1e-7
 
 
-def test_series_inputs_copied_to_the_device_chunk_by_chunk_are_the_whole(grid_spec, series_grid, kernel_device,
-                                                                        monkeypatch):
+def test_series_inputs_copied_to_the_device_chunk_by_chunk_are_the_whole(
+    grid_spec, series_grid, kernel_device, monkeypatch
+):
     """The series constants go to the device a chunk of columns (and of (cos θ, D) pairs) at a time, each at
     its offset (the host never holds them whole): with 37-row chunks, 56 of each, the bake is the same."""
     import lutbake.integrate.opencl
@@ -227,12 +246,16 @@ def test_kernel_series_float32_within_2e5_of_float64(grid_spec, series_grid, ker
 
 
 def test_kernel_falls_back_to_the_direct_path_for_evanescent_films():
-    from lutbake.lut.bake import bake_array
-    from lutbake.integrate.opencl import OpenCLBackend
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.integrate.opencl import OpenCLBackend
+    from lutbake.lut.bake import bake_array
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 16), Axis("opd_nm", 0.0, 3000.0, 16),
-            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 4.0, 4))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 16),
+        Axis("opd_nm", 0.0, 3000.0, 16),
+        Axis("eta3", 1.0, 3.0, 4),
+        Axis("kappa3", 0.0, 4.0, 4),
+    )
     spec = BakeSpec(eta2=1.2, eta1=1.5, axes=axes, samples_per_cycle=8.0)
     stats = OpenCLBackend("float64").series_plan(spec)
     # cos θ1 < √(1 − (1.2/1.5)²) = 0.6: evanescent film, 9 of 16 cos θ nodes
@@ -241,11 +264,15 @@ def test_kernel_falls_back_to_the_direct_path_for_evanescent_films():
 
 
 def test_kernel_series_for_another_observer_and_space():
-    from lutbake.lut.bake import bake_array
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.lut.bake import bake_array
 
-    axes = (Axis("cos_theta", 0.0, 1.0, 8), Axis("opd_nm", 0.0, 4000.0, 16),
-            Axis("eta3", 1.0, 3.0, 4), Axis("kappa3", 0.0, 5.0, 4))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8),
+        Axis("opd_nm", 0.0, 4000.0, 16),
+        Axis("eta3", 1.0, 3.0, 4),
+        Axis("kappa3", 0.0, 5.0, 4),
+    )
     spec = BakeSpec(eta2=1.7, axes=axes, observer="cie1964", space="acescg", samples_per_cycle=8.0)
     assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
 
@@ -265,5 +292,5 @@ def test_table_cache_lives_in_the_user_cache_and_survives_corruption(tmp_path, m
         rebuilt = weight_transform(**args)
         np.testing.assert_array_equal(rebuilt.coefficients, fresh.coefficients)
         with np.load(cached) as stored, np.load(io.BytesIO(good)) as first:
-            np.testing.assert_array_equal(stored["f"], first["f"])   # rewritten whole
+            np.testing.assert_array_equal(stored["f"], first["f"])  # rewritten whole
     weight_transform.cache_clear()

@@ -4,18 +4,25 @@ series, the ground truth, and the kernel's direct quadrature."""
 
 import numpy as np
 import pytest
-
 from long_quadrature import LONG, U_DOUBLE, U_LONG, BandRule, gauss_legendre
-from lutbake.spectral.fourier import series_colour, weight_transform
+
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.points import FilmPoints
-from lutbake.spectral.poles import (DEEP_LIMIT_NM, RE_MAX_NM, RE_MIN_NM, SHALLOW_NM, cauchy_table, chebyshev_rule,
-                           closed_form)
+from lutbake.spectral.fourier import series_colour, weight_transform
+from lutbake.spectral.poles import (
+    DEEP_LIMIT_NM,
+    RE_MAX_NM,
+    RE_MIN_NM,
+    SHALLOW_NM,
+    cauchy_table,
+    chebyshev_rule,
+    closed_form,
+)
 from lutbake.spectral.reference import DEFAULT_TOLERANCE, reference_colour
 from lutbake.spectral.rules import panel_rule
 
 KNOTS_NM = np.arange(360.0, 831.0)
-PROBABLE = 8.0   # λ of the probabilistic bound below: 2N e^{−λ²/2} ≤ 3e-10 for N ≤ 10^4
+PROBABLE = 8.0  # λ of the probabilistic bound below: 2N e^{−λ²/2} ≤ 3e-10 for N ≤ 10^4
 
 
 def _table_rounding(table, P):
@@ -27,8 +34,10 @@ def _table_rounding(table, P):
     coefficients' terms, times (P − centre)^m, add to < 2 S (the far knots are ≥ 3.5 cells away, the
     centre ≤ 1.12 from P); Horner's rule of degree d ≤ 22 adds 2d u S, the 8 near knots (log within
     4 ulp, a + bP, the product, the sum) 13u S. So ≤ (2λ√K + 44 + 13) u S_c(P)."""
-    S = np.abs(table.constant)[:, None] + (np.abs(table.knot_a[:, None, :] + table.knot_b[:, None, :] * P[None, :, None])
-                                           * np.abs(np.log(KNOTS_NM[None, None, :] - P[None, :, None]))).sum(axis=2)
+    S = np.abs(table.constant)[:, None] + (
+        np.abs(table.knot_a[:, None, :] + table.knot_b[:, None, :] * P[None, :, None])
+        * np.abs(np.log(KNOTS_NM[None, None, :] - P[None, :, None]))
+    ).sum(axis=2)
     return (2 * PROBABLE * np.sqrt(KNOTS_NM.size) + 44 + 13) * U_DOUBLE * S
 
 
@@ -58,7 +67,7 @@ def test_cauchy_table_is_the_quadrature_of_the_weights_within_its_bound(rng):
     quadrature, rounding = (np.array(v) for v in zip(*map(_cauchy_quadrature, P)))
     assert table.bound.max() <= 1e-13
     assert (np.abs(table(P) - quadrature.T) <= table.bound[:, None] + _table_rounding(table, P) + rounding.T).all()
-    assert (im < SHALLOW_NM).sum() > 20 and (im >= SHALLOW_NM).sum() > 20   # both regimes exercised
+    assert (im < SHALLOW_NM).sum() > 20 and (im >= SHALLOW_NM).sum() > 20  # both regimes exercised
 
 
 def test_cauchy_table_near_the_real_axis_is_the_exact_knot_sum(rng):
@@ -68,10 +77,13 @@ def test_cauchy_table_near_the_real_axis_is_the_exact_knot_sum(rng):
     table = cauchy_table()
     P = rng.integers(362, 828, 50) + rng.uniform(-1e-6, 1e-6, 50) + 1j * 10 ** rng.uniform(-12, -6, 50)
     P_long = P.astype(np.clongdouble)
-    terms = ((table.knot_a[:, None, :] + table.knot_b[:, None, :] * P_long[None, :, None])
-             * np.log(KNOTS_NM[None, None, :] - P_long[None, :, None]))
+    terms = (table.knot_a[:, None, :] + table.knot_b[:, None, :] * P_long[None, :, None]) * np.log(
+        KNOTS_NM[None, None, :] - P_long[None, :, None]
+    )
     exact = (table.constant[:, None] + terms.sum(axis=2)).astype(complex)
-    exact_rounding = ((13 + 2 * KNOTS_NM.size) * U_LONG * np.abs(terms).sum(axis=2)).astype(float) + U_DOUBLE * np.abs(exact)
+    exact_rounding = ((13 + 2 * KNOTS_NM.size) * U_LONG * np.abs(terms).sum(axis=2)).astype(float) + U_DOUBLE * np.abs(
+        exact
+    )
     assert (np.abs(table(P) - exact) <= table.bound[:, None] + _table_rounding(table, P) + exact_rounding).all()
 
 
@@ -84,21 +96,26 @@ def test_chebyshev_weights_integrate_every_polynomial_of_their_degree(rng):
     mpmath's), plus the 41-point transform to weights, within Σ_i|p(λ_i)|·(2/40)·λ√41 u·Σ_k|μ_ck|."""
     rule, band = chebyshev_rule(), BandRule()
     eps_gl = float(np.abs(np.polynomial.legendre.leggauss(22)[1] / gauss_legendre(22)[1] - 1).max())
-    moments = np.abs((band.weights[:, None, :] * np.polynomial.chebyshev.chebvander(_unit(band.nm), 40).T)
-                     .sum(axis=2)).astype(float)                                          # |μ_ck| (3, 41)
+    moments = np.abs(
+        (band.weights[:, None, :] * np.polynomial.chebyshev.chebvander(_unit(band.nm), 40).T).sum(axis=2)
+    ).astype(float)  # |μ_ck| (3, 41)
     for degree in (0, 7, 40):
         coef = rng.normal(size=degree + 1)
-        clenshaw = 2 * (degree + 1) ** 2 * U_LONG * np.abs(coef).sum()   # p's evaluation in long double
+        clenshaw = 2 * (degree + 1) ** 2 * U_LONG * np.abs(coef).sum()  # p's evaluation in long double
         values = np.polynomial.chebyshev.chebval(_unit(rule.wavelength_nm.astype(LONG)), coef)
         got = (rule.weights.astype(LONG) * values).sum(axis=1).astype(float)
-        exact, exact_rounding = band.integral(np.polynomial.chebyshev.chebval(_unit(band.nm), coef),
-                                              np.full(band.nm.size, clenshaw))
-        construction = (np.abs(coef).sum() * rule.mass * (PROBABLE * np.sqrt(470 * 22) * U_DOUBLE + eps_gl)
-                        + np.abs(values).astype(float).sum() * 2 / 40 * PROBABLE * np.sqrt(41) * U_DOUBLE
-                        * moments.sum(axis=1))
+        exact, exact_rounding = band.integral(
+            np.polynomial.chebyshev.chebval(_unit(band.nm), coef), np.full(band.nm.size, clenshaw)
+        )
+        construction = np.abs(coef).sum() * rule.mass * (PROBABLE * np.sqrt(470 * 22) * U_DOUBLE + eps_gl) + np.abs(
+            values
+        ).astype(float).sum() * 2 / 40 * PROBABLE * np.sqrt(41) * U_DOUBLE * moments.sum(axis=1)
         evaluation = np.abs(rule.weights).sum(axis=1) * clenshaw + U_DOUBLE * np.abs(got)
         assert (np.abs(got - exact) <= construction + evaluation + exact_rounding).all()
-    lam, w = panel_rule(512).wavelength_nm, panel_rule(512).weights   # |w_c| kinks where w_c changes sign: converges slowly, hence 512
+    lam, w = (
+        panel_rule(512).wavelength_nm,
+        panel_rule(512).weights,
+    )  # |w_c| kinks where w_c changes sign: converges slowly, hence 512
     assert np.allclose(rule.mass, np.abs(w).sum(axis=1), rtol=1e-8)
 
 
@@ -113,8 +130,9 @@ def _film_poles_nm(q, X):
     """The complex λ (Im > 0) where q e^{i2πX/λ} = 1, i.e. 2πX/λ = 2πk − arg q + i log|q|, for the k
     whose real part falls within 2 nm of the band."""
     arg, log_abs = np.angle(q), np.log(np.abs(q))
-    k = np.arange(np.ceil((2 * np.pi * X / 832.0 + arg) / (2 * np.pi)),
-                  np.floor((2 * np.pi * X / 358.0 + arg) / (2 * np.pi)) + 1)
+    k = np.arange(
+        np.ceil((2 * np.pi * X / 832.0 + arg) / (2 * np.pi)), np.floor((2 * np.pi * X / 358.0 + arg) / (2 * np.pi)) + 1
+    )
     return 2 * np.pi * X / (2 * np.pi * k - arg + 1j * log_abs)
 
 
@@ -149,10 +167,10 @@ def test_closed_form_equals_a_converged_quadrature_within_both_bounds(rng):
     ≤ 0.17 of the bound over those 200 seeds (AMD Zen 4, numpy 2.4)."""
     K, q, X = _stiff_cases(rng, 24)
     result = closed_form(K, q, X)
-    assert result.ok.all() and (result.near_poles > 0).sum() >= 6   # a quarter at least: poles near the band
+    assert result.ok.all() and (result.near_poles > 0).sum() >= 6  # a quarter at least: poles near the band
     reference, rounding = _reference_quadrature(K, q, X)
     assert (np.abs(result.integral - reference) <= result.bound[:, None] + rounding).all()
-    assert (result.bound <= 1e-9 * np.abs(K)).all()   # within the series' tolerance: the closed form is used
+    assert (result.bound <= 1e-9 * np.abs(K)).all()  # within the series' tolerance: the closed form is used
 
 
 def test_closed_form_equals_the_series_where_both_converge(rng):
@@ -188,25 +206,31 @@ def test_texels_the_series_cannot_take_match_the_ground_truth():
     stacks = FilmPoints.texels(eta1=1.0, eta2=2.0, cos_theta=cos_theta, opd_nm=opd, eta3=0.02, kappa3=kappa3)
     result = series_colour(stacks)
     assert (result.path == 1).sum() >= 12
-    truth = reference_colour(FilmPoints.build(eta1=1.0, eta2=2.0, cos_theta=cos_theta, opd_nm=opd, eta3=0.02,
-                                              kappa3=kappa3)).values
+    truth = reference_colour(
+        FilmPoints.build(eta1=1.0, eta2=2.0, cos_theta=cos_theta, opd_nm=opd, eta3=0.02, kappa3=kappa3)
+    ).values
     assert (np.abs(result.values - truth) <= result.bound[:, None] + DEFAULT_TOLERANCE).all()
     assert result.bound[result.path == 1].max() <= 1e-9
 
 
 # --- the kernel's closed form (kernels/poles.cl: bake_texels_closed, plan_rows) ---
 
+
 @pytest.fixture(scope="module")
 def stiff_spec():
     """Metals near grazing incidence, films to 6 µm: a fifth of the texels beyond the series."""
-    axes = (Axis("cos_theta", 0.0, 0.1, 8, "sqrt"), Axis("opd_nm", 0.0, 6000.0, 16, "sqrt"),
-            Axis("eta3", 0.02, 4.0, 4, "sqrt"), Axis("kappa3", 1.5, 20.0, 4, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 0.1, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 6000.0, 16, "sqrt"),
+        Axis("eta3", 0.02, 4.0, 4, "sqrt"),
+        Axis("kappa3", 1.5, 20.0, 4, "sqrt"),
+    )
     return BakeSpec(eta2=2.0, axes=axes, samples_per_cycle=8.0)
 
 
 def test_kernel_closed_form_is_the_numpy_closed_form_and_the_plan_counts_it(stiff_spec, kernel_device):
-    from lutbake.lut.bake import bake_array
     from lutbake.integrate.opencl import OpenCLBackend
+    from lutbake.lut.bake import bake_array
 
     params = [np.ravel(p) for p in stiff_spec.cell_params(0, stiff_spec.image_size[1])]
     reference = series_colour(stiff_spec.texel_stacks(params))

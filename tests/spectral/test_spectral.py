@@ -10,11 +10,20 @@ from lutbake.spectral.rules import panel_rule, wavenumber_rule
 def _hard_points(rng, n=150):
     """Thick films up to D = 20 µm, plus near-resonant ones (metal base at grazing,
     total reflection at the base) where R(λ) has narrow Fabry–Perot features."""
-    thick = dict(eta2=rng.uniform(1.2, 3.0, n), opd_nm=rng.uniform(0, 20000, n),
-                 cos_theta=rng.uniform(0, 1, n), eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 5, n))
-    resonant = dict(eta2=rng.uniform(2.0, 3.0, n), opd_nm=rng.uniform(5000, 20000, n),
-                    cos_theta=rng.uniform(0.02, 0.3, n), eta3=rng.uniform(1.0, 1.5, n),
-                    kappa3=rng.choice([0.0, 20.0], n))
+    thick = dict(
+        eta2=rng.uniform(1.2, 3.0, n),
+        opd_nm=rng.uniform(0, 20000, n),
+        cos_theta=rng.uniform(0, 1, n),
+        eta3=rng.uniform(1, 3, n),
+        kappa3=rng.uniform(0, 5, n),
+    )
+    resonant = dict(
+        eta2=rng.uniform(2.0, 3.0, n),
+        opd_nm=rng.uniform(5000, 20000, n),
+        cos_theta=rng.uniform(0.02, 0.3, n),
+        eta3=rng.uniform(1.0, 1.5, n),
+        kappa3=rng.choice([0.0, 20.0], n),
+    )
     return [FilmPoints.build(**thick), FilmPoints.build(**resonant)]
 
 
@@ -35,8 +44,9 @@ def test_fixed_5nm_sampling_is_not_converged(rng):
     pts = _hard_points(rng)[1]
     ref = reference_colour(pts).values
     lam = np.arange(360.0, 831.0, 5.0)
-    from lutbake.spectral.reference import spectral_reflectance
     from lutbake.physics.colorimetry import colorimetry
+    from lutbake.spectral.reference import spectral_reflectance
+
     w = colorimetry().sensitivity(lam) * 5.0
     coarse = spectral_reflectance(pts, lam)[2] @ w.T
     assert np.max(np.abs(coarse - ref)) > 1e-3
@@ -65,14 +75,26 @@ def test_wavenumber_rule_is_exact_for_polynomials_in_wavenumber():
 
 def test_ladder_meets_its_error_target_on_random_texels(rng):
     """Per-texel levels (bandwidth × harmonics) hold |ΔRGB| ≤ 1e-5 at 3 samples/cycle."""
-    from lutbake.integrate.opencl import NumpyBackend
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.integrate.opencl import NumpyBackend
 
     n = 300
-    spec = BakeSpec(eta2=1.8, axes=(Axis("cos_theta", 0.0, 1.0, 2), Axis("opd_nm", 0.0, 8000.0, 2),
-                                    Axis("eta3", 1.0, 3.0, 2), Axis("kappa3", 0.0, 8.0, 2)))
-    pts = FilmPoints.build(eta2=1.8, cos_theta=rng.uniform(0, 1, n) ** 2, opd_nm=rng.uniform(0, 8000, n),
-                           eta3=rng.uniform(1, 3, n), kappa3=rng.uniform(0, 8, n))
+    spec = BakeSpec(
+        eta2=1.8,
+        axes=(
+            Axis("cos_theta", 0.0, 1.0, 2),
+            Axis("opd_nm", 0.0, 8000.0, 2),
+            Axis("eta3", 1.0, 3.0, 2),
+            Axis("kappa3", 0.0, 8.0, 2),
+        ),
+    )
+    pts = FilmPoints.build(
+        eta2=1.8,
+        cos_theta=rng.uniform(0, 1, n) ** 2,
+        opd_nm=rng.uniform(0, 8000, n),
+        eta3=rng.uniform(1, 3, n),
+        kappa3=rng.uniform(0, 8, n),
+    )
     fast = NumpyBackend().evaluate(spec, pts)
     assert np.max(np.abs(fast - reference_colour(pts).values)) <= 1e-5
 
@@ -95,7 +117,7 @@ def test_knotted_rule_is_exact_for_spectra_with_kinks_at_its_knots():
     def kinked(lam):
         x = 1e3 / lam
         pieces = [np.ones_like(x)] + [np.maximum(x - 1e3 / k, 0.0) for k in knots]
-        return sum(((-1) ** i) * (i + 1) * p + 0.3 * p ** 3 for i, p in enumerate(pieces))
+        return sum(((-1) ** i) * (i + 1) * p + 0.3 * p**3 for i, p in enumerate(pieces))
 
     exact = ref.weights @ kinked(ref.wavelength_nm)
     for count in (64, 256, 1024):
@@ -110,7 +132,7 @@ def test_knotted_rule_cuts_only_where_every_panel_gets_its_nodes():
     from lutbake.spectral.rules import MIN_PANEL_NODES
 
     knots = tuple(np.linspace(370.0, 820.0, 20))  # 21 panels
-    assert wavenumber_rule(64, knots_nm=knots).count == 64          # 21 × 4 > 64: the plain rule
+    assert wavenumber_rule(64, knots_nm=knots).count == 64  # 21 × 4 > 64: the plain rule
     assert wavenumber_rule(128, knots_nm=knots).name.endswith("-21-panels")
     assert 21 * MIN_PANEL_NODES > 64
 

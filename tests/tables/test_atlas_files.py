@@ -7,30 +7,31 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import DEFAULT_LUTS, default_luts
+
 from lutbake.errors import ParameterError
+from lutbake.lut.sample import Atlas, load_table
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Atlas, load_table
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "docs"))
 from make_scene_examples import bake_example  # noqa: E402
 
 ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"
-LUT = DEFAULT_LUTS / "lutbake-eta2-1.50.exr"   # a 4D LUT of the default set
+LUT = DEFAULT_LUTS / "lutbake-eta2-1.50.exr"  # a 4D LUT of the default set
 
 
 @pytest.fixture(scope="module", autouse=True)
 def luts():
-    bake_example("tempered-steel")   # docs/scenes is baked here, not kept in the repository (docs/design-notes.md)
+    bake_example("tempered-steel")  # docs/scenes is baked here, not kept in the repository (docs/design-notes.md)
     return default_luts()
 
 
 def cli(*args):
-    return subprocess.run([sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=ROOT)
+    return subprocess.run(
+        [sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True, cwd=ROOT
+    )
 
 
 def stack(atlas: Atlas, material: str, cos_theta, thickness_nm) -> FilmPoints:
@@ -57,8 +58,9 @@ def test_atlas_nodes_hold_their_own_materials_ground_truth(material):
     expected = truth(atlas, pts)
     assert np.abs(atlas.sample(material, pts) - expected).max() <= 2e-3  # half: 2^-11 relative, values ≤ ~0.7
     others = [m for m in atlas.materials if m != material]
-    assert all(np.abs(atlas.sample(m, stack(atlas, m, cos_t.ravel(), d.ravel())) - expected).max() > 1e-2
-               for m in others)
+    assert all(
+        np.abs(atlas.sample(m, stack(atlas, m, cos_t.ravel(), d.ravel())) - expected).max() > 1e-2 for m in others
+    )
 
 
 def test_atlas_refuses_a_stack_of_another_material():
@@ -76,7 +78,7 @@ def test_atlas_sample_between_nodes_is_bilinear():
     step = (th["max"] - th["min"]) / (h - 1)
     cos_mid = ((3 + 0.5) / (w - 1)) ** 2  # halfway between nodes 3 and 4 in √cos θ
     got = atlas.sample("steel_werner", stack(atlas, "steel_werner", cos_mid, th["min"] + 5.5 * step))
-    corners = atlas.image[y0 + 5:y0 + 7, x0 + 3:x0 + 5].astype(float)
+    corners = atlas.image[y0 + 5 : y0 + 7, x0 + 3 : x0 + 5].astype(float)
     assert np.abs(got - corners.mean(axis=(0, 1))).max() < 1e-12
 
 
@@ -92,17 +94,22 @@ def test_sample_by_material_name_from_the_command_line():
     assert out.returncode == 0, out.stderr
     row = json.loads(out.stdout)["points"][0]
     atlas = load_table(ATLAS)
-    assert row["rgb"] == atlas.sample("steel_werner", stack(atlas, "steel_werner", np.cos(np.radians(30)), 40.0)
-                                      )[0].tolist()
+    assert (
+        row["rgb"]
+        == atlas.sample("steel_werner", stack(atlas, "steel_werner", np.cos(np.radians(30)), 40.0))[0].tolist()
+    )
     assert row["in_domain"] and abs(row["thickness_nm"] - 40) < 1e-12
 
 
-@pytest.mark.parametrize("args, message", [
-    ((ATLAS,), "--material is required with a scene atlas: allowed steel_constant, steel_werner"),
-    ((ATLAS, "--material", "gold"), "material 'gold' is not in this atlas"),
-    ((ATLAS, "--material", "steel_werner", "--eta3", 2), "--eta3 is not allowed with a scene atlas"),
-    ((LUT, "--material", "steel_werner", "--eta3", 2), "--material 'steel_werner' is for scene atlases"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        ((ATLAS,), "--material is required with a scene atlas: allowed steel_constant, steel_werner"),
+        ((ATLAS, "--material", "gold"), "material 'gold' is not in this atlas"),
+        ((ATLAS, "--material", "steel_werner", "--eta3", 2), "--eta3 is not allowed with a scene atlas"),
+        ((LUT, "--material", "steel_werner", "--eta3", 2), "--material 'steel_werner' is for scene atlases"),
+    ],
+)
 def test_sample_rejects_bad_atlas_input(args, message):
     out = cli("sample", *args, "--thickness", 40, "--angle", 30)
     assert out.returncode == 2 and message in out.stderr and out.stderr.count("\n") == 1 and not out.stdout

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from lutbake.scene.bake import bake_scene
-from lutbake.lut.bake import bake
-from lutbake.tables.lutfile import warn_texture_size
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.lut.bake import bake
+from lutbake.scene.bake import bake_scene
 from lutbake.scene.toml import load_scene
+from lutbake.tables.lutfile import warn_texture_size
 
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 GLSLANG = PREFIX / "bin" / "glslang"
@@ -32,10 +32,14 @@ Texture2D<float3> lut_b : register(t1);
 SamplerState linear_clamp : register(s0);
 float4 main(float4 params : TEXCOORD0) : SV_Target { return float4(CALL, 1.0); }
 """
-LUT_CALL = {False: "lutbake_sample(lut, {ident}, params.x, params.y, params.z, params.w)",
-            True: "lutbake_sample(lut, linear_clamp, {ident}, params.x, params.y, params.z, params.w)"}
-ATLAS_CALL = {False: "lutbake_atlas_sample(lut_b, {ident}, params.x, params.y)",
-              True: "lutbake_atlas_sample(lut_b, linear_clamp, {ident}, params.x, params.y)"}
+LUT_CALL = {
+    False: "lutbake_sample(lut, {ident}, params.x, params.y, params.z, params.w)",
+    True: "lutbake_sample(lut, linear_clamp, {ident}, params.x, params.y, params.z, params.w)",
+}
+ATLAS_CALL = {
+    False: "lutbake_atlas_sample(lut_b, {ident}, params.x, params.y)",
+    True: "lutbake_atlas_sample(lut_b, linear_clamp, {ident}, params.x, params.y)",
+}
 
 
 def compile_shader(path: Path, hlsl: bool, defines=()):
@@ -57,20 +61,26 @@ def _wrapped(tmp_path, includes, call: str, hlsl: bool, version="#version 450\n"
 @pytest.fixture(scope="module")
 def baked(tmp_path_factory):
     folder = tmp_path_factory.mktemp("shaders")
-    axes = (Axis("cos_theta", 0.0, 1.0, 8, "sqrt"), Axis("opd_nm", 0.0, 1000.0, 8),
-            Axis("eta3", 1.0, 2.0, 2), Axis("kappa3", 0.0, 1.0, 2, "sqrt"))
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),
+        Axis("opd_nm", 0.0, 1000.0, 8),
+        Axis("eta3", 1.0, 2.0, 2),
+        Axis("kappa3", 0.0, 1.0, 2, "sqrt"),
+    )
     bake(BakeSpec(eta2=1.4, axes=axes), folder / "lut.exr")
-    admittance = (*axes[:2], Axis("eta3", 1.0, 2.0, 3, "admittance"), axes[3])   # the other sampler path
+    admittance = (*axes[:2], Axis("eta3", 1.0, 2.0, 3, "admittance"), axes[3])  # the other sampler path
     bake(BakeSpec(eta2=2.0, axes=admittance), folder / "2nd-lut.exr")
     scene = folder / "scene.toml"
-    scene.write_text(textwrap.dedent("""
+    scene.write_text(
+        textwrap.dedent("""
         [scene]
         max_de = 3.0
         [materials.film_a]
         film = 1.33
         thickness_nm = [200, 300]
         base = 1.0
-        """))
+        """)
+    )
     bake_scene(load_scene(scene), folder / "scene")
     return folder
 
@@ -95,8 +105,13 @@ def test_scene_atlas_include_compiles(baked, tmp_path, hlsl):
 def test_two_luts_and_an_atlas_compile_in_one_shader(baked, tmp_path, hlsl, scanline0_at_v0):
     suffix = "hlsl" if hlsl else "glsl"
     includes = [baked / f"lut.{suffix}", baked / f"2nd-lut.{suffix}", baked / "scene" / f"scene.{suffix}"]
-    call = " + ".join([LUT_CALL[hlsl].format(ident="LUTBAKE_LUT"), LUT_CALL[hlsl].format(ident="LUTBAKE_2ND_LUT"),
-                       ATLAS_CALL[hlsl].format(ident="LUTBAKE_SCENE_FILM_A")])
+    call = " + ".join(
+        [
+            LUT_CALL[hlsl].format(ident="LUTBAKE_LUT"),
+            LUT_CALL[hlsl].format(ident="LUTBAKE_2ND_LUT"),
+            ATLAS_CALL[hlsl].format(ident="LUTBAKE_SCENE_FILM_A"),
+        ]
+    )
     defines = [] if scanline0_at_v0 is None else [f"-DLUTBAKE_SCANLINE0_AT_V0={scanline0_at_v0}"]
     out = compile_shader(_wrapped(tmp_path, includes, call, hlsl), hlsl, defines)
     assert out.returncode == 0, out.stdout + out.stderr
@@ -105,8 +120,9 @@ def test_two_luts_and_an_atlas_compile_in_one_shader(baked, tmp_path, hlsl, scan
 def test_includes_compile_as_glsl_es_300_without_default_precision(baked, tmp_path):
     """WebGL2's language with no `precision` statement: every declaration in the includes carries its own."""
     includes = [baked / "lut.glsl", baked / "2nd-lut.glsl", baked / "scene" / "scene.glsl"]
-    call = LUT_CALL[False].format(ident="LUTBAKE_2ND_LUT") + " + " + ATLAS_CALL[False].format(
-        ident="LUTBAKE_SCENE_FILM_A")
+    call = (
+        LUT_CALL[False].format(ident="LUTBAKE_2ND_LUT") + " + " + ATLAS_CALL[False].format(ident="LUTBAKE_SCENE_FILM_A")
+    )
     source = _wrapped(tmp_path, includes, call, False, "#version 300 es\n").read_text()
     source = source.replace("layout(binding = 0) ", "").replace("layout(binding = 1) ", "")
     es = tmp_path / "es.frag"
@@ -145,8 +161,28 @@ def test_a_texture_larger_than_8192_warns():
 
 
 def test_bake_warns_above_8192_texels(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "lutbake.cli", "bake", "--quiet", "--eta2", "1.4",
-                          "--cos-theta", "0:1:2", "--opd", "0:100:2", "--eta3", "1:2:4100", "--kappa3", "0:1:2",
-                          "--out", str(tmp_path / "wide.exr")], capture_output=True, text=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "lutbake.cli",
+            "bake",
+            "--quiet",
+            "--eta2",
+            "1.4",
+            "--cos-theta",
+            "0:1:2",
+            "--opd",
+            "0:100:2",
+            "--eta3",
+            "1:2:4100",
+            "--kappa3",
+            "0:1:2",
+            "--out",
+            str(tmp_path / "wide.exr"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     assert "8200×4 texels exceeds 8192" in out.stderr

@@ -8,5 +8,4 @@ arithmetic in numpy: what a GPU returns).
 from lutbake.modes.runtime.files import RuntimeTable, read_runtime_table, stored_table, write_runtime_table
 from lutbake.modes.runtime.model import runtime_colour, runtime_rgb
 
-__all__ = ["RuntimeTable", "read_runtime_table", "stored_table", "write_runtime_table", "runtime_colour",
-           "runtime_rgb"]
+__all__ = ["RuntimeTable", "read_runtime_table", "stored_table", "write_runtime_table", "runtime_colour", "runtime_rgb"]

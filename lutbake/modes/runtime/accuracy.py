@@ -17,15 +17,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lutbake.physics.colorimetry import delta_e00
-from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
-from lutbake.quality.worstcase import SearchAxis, find_worst
 from lutbake.modes.runtime.files import RuntimeTable
 from lutbake.modes.runtime.model import runtime_colour
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.physics.points import FilmPoints
+from lutbake.quality.worstcase import SearchAxis, find_worst
+from lutbake.spectral.reference import reference_colour
 
-__all__ = ["BOXES", "NAMED_METALS", "Box", "truth", "random_error", "stress_points", "box_error", "named_error",
-           "stress_error", "searched_worst", "searched_named_worst"]
+__all__ = [
+    "BOXES",
+    "NAMED_METALS",
+    "Box",
+    "truth",
+    "random_error",
+    "stress_points",
+    "box_error",
+    "named_error",
+    "stress_error",
+    "searched_worst",
+    "searched_named_worst",
+]
 
 NAMED_METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 
@@ -49,8 +60,10 @@ class Box:
 
 
 _FILM = ((0.0, 1.0), (0.0, 1500.0), (1.0, 3.0))
-BOXES = {"dielectric": Box("dielectric", _FILM + ((1.0, 3.0), (0.0, 2.0))),
-         "metal": Box("metal", _FILM + ((0.05, 4.0), (1.5, 9.0)))}
+BOXES = {
+    "dielectric": Box("dielectric", _FILM + ((1.0, 3.0), (0.0, 2.0))),
+    "metal": Box("metal", _FILM + ((0.05, 4.0), (1.5, 9.0))),
+}
 
 
 def _f32(*columns):
@@ -62,8 +75,11 @@ def truth(cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
     index (a point whose three indices are equal is integrated once for all three channels)."""
     eta3, kappa3 = np.asarray(eta3, float), np.asarray(kappa3, float)
     if eta3.ndim == 1:
-        return reference_colour(FilmPoints.build(eta1=1.0, eta2=eta2, cos_theta=cos_theta, thickness_nm=thickness_nm,
-                                                 eta3=eta3, kappa3=kappa3)).values
+        return reference_colour(
+            FilmPoints.build(
+                eta1=1.0, eta2=eta2, cos_theta=cos_theta, thickness_nm=thickness_nm, eta3=eta3, kappa3=kappa3
+            )
+        ).values
     columns = [np.broadcast_to(np.asarray(v, float), eta3.shape[:1]) for v in (cos_theta, thickness_nm, eta2)]
     out = truth(*columns, eta3[:, 0], kappa3[:, 0])
     split = np.flatnonzero(~((eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)))
@@ -118,25 +134,44 @@ def named_error(table: RuntimeTable, metal: str, filter_bits=None):
     def error(unit):
         m = unit.shape[0]
         return _de(table, (*film.point(unit), np.tile(n3, (m, 1)), np.tile(k3, (m, 1))), filter_bits)
+
     return error
 
 
-_AXES = (SearchAxis("cos_theta", cells=16), SearchAxis("thickness_nm", cells=32), SearchAxis("eta2", cells=16),
-         SearchAxis("eta3", cells=16), SearchAxis("kappa3", cells=16))
+_AXES = (
+    SearchAxis("cos_theta", cells=16),
+    SearchAxis("thickness_nm", cells=32),
+    SearchAxis("eta2", cells=16),
+    SearchAxis("eta3", cells=16),
+    SearchAxis("kappa3", cells=16),
+)
 # Faces where the physics is singular: grazing incidence, no film, a film matching the ambient, and
 # (where the box reaches them) a base matching the ambient or without absorption.
-_SINGULAR = {"grazing": {"cos_theta": 0.0}, "no film": {"thickness_nm": 0.0}, "film = ambient": {"eta2": 0.0},
-             "base = ambient": {"eta3": 0.0}, "lossless base": {"kappa3": 0.0}}
+_SINGULAR = {
+    "grazing": {"cos_theta": 0.0},
+    "no film": {"thickness_nm": 0.0},
+    "film = ambient": {"eta2": 0.0},
+    "base = ambient": {"eta3": 0.0},
+    "lossless base": {"kappa3": 0.0},
+}
 
 
-def searched_worst(table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None,
-                   full_stress: bool = False):
+def searched_worst(
+    table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None, full_stress: bool = False
+):
     """worstcase.find_worst over ``box`` (unit coordinates linear in cos θ, d, η2, η3, κ3), the stress grid
     (coarse, or the full one, scored first and not counted in the budget) among its starts."""
     stress = stress_points(box, coarse=not full_stress)
     errors = stress_error(table, box, coarse=not full_stress, filter_bits=filter_bits) if full_stress else None
-    return find_worst(box_error(table, box, filter_bits), _AXES, points=box.unit(stress), errors=errors,
-                      singular=_SINGULAR, budget=budget, seed=seed)
+    return find_worst(
+        box_error(table, box, filter_bits),
+        _AXES,
+        points=box.unit(stress),
+        errors=errors,
+        singular=_SINGULAR,
+        budget=budget,
+        seed=seed,
+    )
 
 
 def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, seed: int = 0):

@@ -24,17 +24,27 @@ import numpy as np
 
 from lutbake import __version__
 from lutbake.io.fileset import open_set
+from lutbake.modes.runtime.transform import NODES, SLICES, X_MAX_NM, ZOOM_NM, transform_table
 from lutbake.spectral.fourier import NU0_PER_NM
 from lutbake.tables.lutfile import flat_attributes, shader_template
-from lutbake.modes.runtime.transform import NODES, SLICES, X_MAX_NM, ZOOM_NM, transform_table
 
-__all__ = ["RUNTIME_FORMAT", "RUNTIME_FORMAT_VERSION", "TILES_PER_ROW", "BAND_ROWS", "RuntimeTable",
-           "stored_table", "write_runtime_table", "read_runtime_table", "include_fields", "runtime_includes"]
+__all__ = [
+    "RUNTIME_FORMAT",
+    "RUNTIME_FORMAT_VERSION",
+    "TILES_PER_ROW",
+    "BAND_ROWS",
+    "RuntimeTable",
+    "stored_table",
+    "write_runtime_table",
+    "read_runtime_table",
+    "include_fields",
+    "runtime_includes",
+]
 
 RUNTIME_FORMAT = "lutbake-runtime"
 RUNTIME_FORMAT_VERSION = 1
 TILES_PER_ROW = 32
-BAND_ROWS = -(-(SLICES - 1) // TILES_PER_ROW)   # tile rows per channel band
+BAND_ROWS = -(-(SLICES - 1) // TILES_PER_ROW)  # tile rows per channel band
 
 
 @dataclass(frozen=True)
@@ -59,7 +69,7 @@ def _image(u: np.ndarray, white: np.ndarray) -> np.ndarray:
         for j in range(SLICES - 1):
             row, col = j // TILES_PER_ROW + c * BAND_ROWS, j % TILES_PER_ROW
             tile = np.stack([v[c, j].real, v[c, j].imag, v[c, j + 1].real, v[c, j + 1].imag], axis=-1)
-            image[row * NODES:(row + 1) * NODES, col * NODES:(col + 1) * NODES] = tile
+            image[row * NODES : (row + 1) * NODES, col * NODES : (col + 1) * NODES] = tile
     return image
 
 
@@ -72,21 +82,41 @@ def _white(observer: str, space: str) -> np.ndarray:
 
 
 def _metadata(observer: str, space: str, exact: np.ndarray, stored: np.ndarray, white: np.ndarray) -> dict:
-    digest = hashlib.sha256(json.dumps([__version__, RUNTIME_FORMAT_VERSION, observer, space, X_MAX_NM, ZOOM_NM,
-                                        SLICES, NODES, TILES_PER_ROW]).encode())
+    digest = hashlib.sha256(
+        json.dumps(
+            [__version__, RUNTIME_FORMAT_VERSION, observer, space, X_MAX_NM, ZOOM_NM, SLICES, NODES, TILES_PER_ROW]
+        ).encode()
+    )
     height, width, _ = stored.shape
     illuminant = "D65" if space != "acescg" else "ACES white (CIE daylight series)"
     return {
-        "format": RUNTIME_FORMAT, "format_version": RUNTIME_FORMAT_VERSION, "lutbake_version": __version__,
-        "content_hash": digest.hexdigest()[:16], "observer": observer, "illuminant": illuminant, "space": space,
-        "encoding": "linear", "precision": "half", "channels": ["R", "G", "B", "A"],
-        "table": {"quantity": "U_c(X, w) - W_c: (1 - z) sum_m z^(m-1) A_c(m X), A_c(x) = W_c(x) exp(-2 pi i nu0 x)",
-                  "x_max_nm": X_MAX_NM, "x_spacing": "sqrt", "slices": SLICES, "nodes": NODES,
-                  "zoom_nm": ZOOM_NM, "nu0_per_nm": NU0_PER_NM, "white": [float(v) for v in white],
-                  "tiles_per_row": TILES_PER_ROW, "band_rows": BAND_ROWS, "width": width, "height": height,
-                  "layout": "tile (pair j, channel c) at column j mod tiles_per_row, tile row j div tiles_per_row "
-                            "+ c band_rows; texel (Re V_j, Im V_j, Re V_j+1, Im V_j+1), Re w along x, Im w "
-                            "along scanlines, both -1 to 1"},
+        "format": RUNTIME_FORMAT,
+        "format_version": RUNTIME_FORMAT_VERSION,
+        "lutbake_version": __version__,
+        "content_hash": digest.hexdigest()[:16],
+        "observer": observer,
+        "illuminant": illuminant,
+        "space": space,
+        "encoding": "linear",
+        "precision": "half",
+        "channels": ["R", "G", "B", "A"],
+        "table": {
+            "quantity": "U_c(X, w) - W_c: (1 - z) sum_m z^(m-1) A_c(m X), A_c(x) = W_c(x) exp(-2 pi i nu0 x)",
+            "x_max_nm": X_MAX_NM,
+            "x_spacing": "sqrt",
+            "slices": SLICES,
+            "nodes": NODES,
+            "zoom_nm": ZOOM_NM,
+            "nu0_per_nm": NU0_PER_NM,
+            "white": [float(v) for v in white],
+            "tiles_per_row": TILES_PER_ROW,
+            "band_rows": BAND_ROWS,
+            "width": width,
+            "height": height,
+            "layout": "tile (pair j, channel c) at column j mod tiles_per_row, tile row j div tiles_per_row "
+            "+ c band_rows; texel (Re V_j, Im V_j, Re V_j+1, Im V_j+1), Re w along x, Im w "
+            "along scanlines, both -1 to 1",
+        },
         "error": {"storage_max": float(np.abs(stored - exact).max())},
     }
 
@@ -143,8 +173,11 @@ def read_runtime_table(path) -> RuntimeTable:
         with OpenEXR.File(str(path)) as exr:
             meta = json.loads(exr.header()["lutbake.metadata"])
             channels = exr.channels()
-            image = (np.array(channels["RGBA"].pixels) if "RGBA" in channels
-                     else np.stack([np.array(channels[c].pixels) for c in "RGBA"], axis=-1))
+            image = (
+                np.array(channels["RGBA"].pixels)
+                if "RGBA" in channels
+                else np.stack([np.array(channels[c].pixels) for c in "RGBA"], axis=-1)
+            )
     except Exception:  # OpenEXR raises several types for missing or damaged files
         raise ValueError(f"{str(path)!r} is not a readable lutbake runtime table") from None
     if meta.get("format") != RUNTIME_FORMAT or meta.get("format_version") != RUNTIME_FORMAT_VERSION:
@@ -152,20 +185,32 @@ def read_runtime_table(path) -> RuntimeTable:
     t = meta.get("table", {})
     expected = (3 * t.get("band_rows", 0) * t.get("nodes", 0), t.get("tiles_per_row", 0) * t.get("nodes", 0), 4)
     if image.shape != expected or not np.isfinite(image).all():
-        raise ValueError(f"{str(path)!r}: its image does not match its header's table layout (or holds non-finite texels)")
+        raise ValueError(
+            f"{str(path)!r}: its image does not match its header's table layout (or holds non-finite texels)"
+        )
     return RuntimeTable(meta, image.astype(np.float32))
 
 
 def include_fields(meta: dict, table_name: str) -> dict:
     """The template fields of a runtime table's shader sources (runtime.*.in): its constants."""
     t = meta["table"]
-    return {"table_name": table_name, "content_hash": meta["content_hash"], "space": meta["space"],
-            "observer": meta["observer"], "nu0": repr(t["nu0_per_nm"]), "x_max": repr(t["x_max_nm"]),
-            "zoom": repr(t["zoom_nm"]), "last_slice": repr(float(t["slices"] - 1)),
-            "half_span": repr(0.5 * (t["nodes"] - 1)), "nodes": repr(float(t["nodes"])),
-            "tiles": repr(float(t["tiles_per_row"])), "band": repr(float(t["band_rows"] * t["nodes"])),
-            "width": repr(float(t["width"])), "height": repr(float(t["height"])),
-            "white": ", ".join(repr(v) for v in t["white"])}
+    return {
+        "table_name": table_name,
+        "content_hash": meta["content_hash"],
+        "space": meta["space"],
+        "observer": meta["observer"],
+        "nu0": repr(t["nu0_per_nm"]),
+        "x_max": repr(t["x_max_nm"]),
+        "zoom": repr(t["zoom_nm"]),
+        "last_slice": repr(float(t["slices"] - 1)),
+        "half_span": repr(0.5 * (t["nodes"] - 1)),
+        "nodes": repr(float(t["nodes"])),
+        "tiles": repr(float(t["tiles_per_row"])),
+        "band": repr(float(t["band_rows"] * t["nodes"])),
+        "width": repr(float(t["width"])),
+        "height": repr(float(t["height"])),
+        "white": ", ".join(repr(v) for v in t["white"]),
+    }
 
 
 def runtime_includes(meta: dict, table_name: str) -> dict:

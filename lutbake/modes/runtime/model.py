@@ -55,16 +55,17 @@ def _pol(y1, y2, p, q, em1, beta):
     eq = ea / np.maximum(ea + a * a * eb, F(1e-30))
     c0 = a * a + (F(1) - eb) * ea * eq
     ab = (a - at2[0], -at2[1])
-    zeta = (F(2) * y1 * inv - at2[0] + (ab[0] * em1[0] - ab[1] * em1[1]),
-            -at2[1] + (ab[0] * em1[1] + ab[1] * em1[0]))
+    zeta = (F(2) * y1 * inv - at2[0] + (ab[0] * em1[0] - ab[1] * em1[1]), -at2[1] + (ab[0] * em1[1] + ab[1] * em1[0]))
     kr = eb * eq
     kz = kr / np.maximum(zeta[0] * zeta[0] + zeta[1] * zeta[1], F(1e-30))
     f = (kr - kz * zeta[0], kz * zeta[1])
     num = (beta - zeta[0], -zeta[1])
     den = (beta + (F(1) - beta) * zeta[0], (F(1) - beta) * zeta[1])
     dd = np.maximum(den[0] * den[0] + den[1] * den[1], F(1e-30))
-    w = (np.clip((num[0] * den[0] + num[1] * den[1]) / dd, F(-1), F(1)),
-         np.clip((num[1] * den[0] - num[0] * den[1]) / dd, F(-1), F(1)))
+    w = (
+        np.clip((num[0] * den[0] + num[1] * den[1]) / dd, F(-1), F(1)),
+        np.clip((num[1] * den[0] - num[0] * den[1]) / dd, F(-1), F(1)),
+    )
     return c0, f, w
 
 
@@ -95,8 +96,9 @@ def _base(film, eta1, eta2, eta3, kappa3):
     g2 = film["g2"]
     c0s, fs, ws = _pol(e1c, g2, (g2, F(0) * g2), g3, film["em1"], film["beta"])
     n3 = ((eta3 - kappa3) * (eta3 + kappa3), ek)
-    c0p, fp, wp = _pol(e22 * film["c1"], eta1 * g2, (g2 * n3[0], g2 * n3[1]), (e22 * g3[0], e22 * g3[1]),
-                       film["em1"], film["beta"])
+    c0p, fp, wp = _pol(
+        e22 * film["c1"], eta1 * g2, (g2 * n3[0], g2 * n3[1]), (e22 * g3[0], e22 * g3[1]), film["em1"], film["beta"]
+    )
     return F(0.5) * (c0s + c0p), (fs, ws), (fp, wp)
 
 
@@ -110,7 +112,7 @@ def _bilinear(image, x, y, bits):
     x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
     tx, ty = (np.clip(fx - x0, 0, 1), np.clip(fy - y0, 0, 1))
     if bits:
-        scale = F(2 ** bits)
+        scale = F(2**bits)
         tx, ty = np.round(tx * scale) / scale, np.round(ty * scale) / scale
     tx, ty = tx[:, None], ty[:, None]
     top = image[y0, x0] * (F(1) - tx) + image[y0, x1] * tx
@@ -129,8 +131,9 @@ def _read(table: RuntimeTable, film, w, band, bits):
     return v[:, 0] + (v[:, 2] - v[:, 0]) * xt, v[:, 1] + (v[:, 3] - v[:, 1]) * xt
 
 
-def runtime_colour(table: RuntimeTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3,
-                   filter_bits: int | None = None) -> np.ndarray:
+def runtime_colour(
+    table: RuntimeTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3, filter_bits: int | None = None
+) -> np.ndarray:
     """Linear RGB (n, 3) as the include computes it. η3, κ3 of shape (n,) call ``lutbake_iridescence``,
     (n, 3) ``lutbake_iridescence_rgb``; everything is rounded to float32 first, as a GPU receives it."""
     cos_theta = np.atleast_1d(np.asarray(cos_theta, F))
@@ -141,14 +144,18 @@ def runtime_colour(table: RuntimeTable, cos_theta, thickness_nm, eta1, eta2, eta
     film = _film(table.meta, cos_theta, *args)
     white = np.asarray(table.meta["table"]["white"], F)
     colour = np.empty((n, 3), F)
-    bases = [(eta3[:, c], kappa3[:, c]) for c in range(3)] if per_channel else \
-        [(np.broadcast_to(eta3, (n,)), np.broadcast_to(kappa3, (n,)))]
+    bases = (
+        [(eta3[:, c], kappa3[:, c]) for c in range(3)]
+        if per_channel
+        else [(np.broadcast_to(eta3, (n,)), np.broadcast_to(kappa3, (n,)))]
+    )
     for c, (e3, k3) in enumerate(bases):
         c0, (fs, ws), (fp, wp) = _base(film, args[1], args[2], e3, k3)
-        for band in ([c] if per_channel else range(3)):
+        for band in [c] if per_channel else range(3):
             vs, vp = _read(table, film, ws, band, filter_bits), _read(table, film, wp, band, filter_bits)
-            colour[:, band] = ((c0 + fs[0] + fp[0]) * white[band] + fs[0] * vs[0] - fs[1] * vs[1]
-                               + fp[0] * vp[0] - fp[1] * vp[1])
+            colour[:, band] = (
+                (c0 + fs[0] + fp[0]) * white[band] + fs[0] * vs[0] - fs[1] * vs[1] + fp[0] * vp[0] - fp[1] * vp[1]
+            )
     return colour.astype(float)
 
 
@@ -156,6 +163,10 @@ def runtime_rgb(stack, space: str = "rec709", observer: str = "cie1931") -> np.n
     """The runtime path (the default table) at film stacks of constant indices: what `report` and `sweep`
     score beside a LUT (approximations.APPROXIMATIONS)."""
     stack.require("runtime table", film=None, base=None)
-    cos_theta, thickness, eta1, eta2, eta3, kappa3 = (np.ravel(a) for a in np.broadcast_arrays(
-        stack.cos_theta, stack.thickness_nm, stack.eta1, stack.eta2, stack.eta3, stack.kappa3))
+    cos_theta, thickness, eta1, eta2, eta3, kappa3 = (
+        np.ravel(a)
+        for a in np.broadcast_arrays(
+            stack.cos_theta, stack.thickness_nm, stack.eta1, stack.eta2, stack.eta3, stack.kappa3
+        )
+    )
     return runtime_colour(stored_table(observer, space), cos_theta, thickness, eta1, eta2, eta3, kappa3)

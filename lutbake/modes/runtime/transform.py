@@ -27,18 +27,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import colorimetry
 from lutbake.spectral.fourier import NU0_PER_NM, TABLE_MAX_NM, weight_transform
-from lutbake.io.usercache import cached_arrays
 
-__all__ = ["X_MAX_NM", "ZOOM_NM", "SLICES", "NODES", "slice_positions", "node_grid", "zoom_beta", "z_of_w",
-           "transform_values", "slice_values", "transform_table"]
+__all__ = [
+    "X_MAX_NM",
+    "ZOOM_NM",
+    "SLICES",
+    "NODES",
+    "slice_positions",
+    "node_grid",
+    "zoom_beta",
+    "z_of_w",
+    "transform_values",
+    "slice_values",
+    "transform_table",
+]
 
-X_MAX_NM = 9000.0    # X = 2 η2 d cos θ2: η2 ≤ 3 and d ≤ 1500 nm at normal incidence
-ZOOM_NM = 250.0      # s = 2/L at w = 0: the resonance of thin films (|s| ~ 2π × 7.85e-4 nm⁻¹) near the middle
-SLICES = 129         # X nodes, uniform in √X (slice 0: the X → 0⁺ limit)
-NODES = 33           # w nodes per axis on [−1, 1]; odd, so w = −1 (where every X = 0 lands) is a node
-_BLOCK = 256         # terms per matrix product in the series
+X_MAX_NM = 9000.0  # X = 2 η2 d cos θ2: η2 ≤ 3 and d ≤ 1500 nm at normal incidence
+ZOOM_NM = 250.0  # s = 2/L at w = 0: the resonance of thin films (|s| ~ 2π × 7.85e-4 nm⁻¹) near the middle
+SLICES = 129  # X nodes, uniform in √X (slice 0: the X → 0⁺ limit)
+NODES = 33  # w nodes per axis on [−1, 1]; odd, so w = −1 (where every X = 0 lands) is a node
+_BLOCK = 256  # terms per matrix product in the series
 
 
 def slice_positions() -> np.ndarray:
@@ -75,21 +86,21 @@ def _series(wt, x_nm: float, z: np.ndarray) -> np.ndarray:
     summing are a prefix): only nodes near the rim take every term up to the table's end."""
     terms = int(TABLE_MAX_NM // x_nm)
     a = _demodulated(wt, x_nm * np.arange(1, terms + 1))
-    delta = np.diff(a, axis=1)                            # ΔA_m, m = 1 … terms − 1
+    delta = np.diff(a, axis=1)  # ΔA_m, m = 1 … terms − 1
     remaining = np.cumsum(np.abs(delta).max(axis=0)[::-1])[::-1]
     order = np.argsort(-np.abs(z))
     zs = z[order]
     powers = np.cumprod(np.vstack([np.ones_like(zs), np.broadcast_to(zs, (_BLOCK - 1, zs.size))]), axis=0)
-    step = powers[-1] * zs                                # z^_BLOCK
-    lead = zs.copy()                                      # z^(first m of the block)
+    step = powers[-1] * zs  # z^_BLOCK
+    lead = zs.copy()  # z^(first m of the block)
     acc = np.zeros((3, zs.size), complex)
     active = zs.size
     for start in range(0, delta.shape[1], _BLOCK):
         active = int(np.count_nonzero(np.abs(lead[:active]) * remaining[start] > 1e-12))
         if active == 0:
             break
-        block = delta[:, start:start + _BLOCK]
-        acc[:, :active] += (block @ powers[:block.shape[1], :active]) * lead[None, :active]
+        block = delta[:, start : start + _BLOCK]
+        acc[:, :active] += (block @ powers[: block.shape[1], :active]) * lead[None, :active]
         lead[:active] *= step[:active]
     out = np.empty_like(acc)
     out[:, order] = acc
@@ -100,13 +111,13 @@ def _limit(observer: str, space: str, w: np.ndarray) -> np.ndarray:
     """U0(w) = lim_{X→0⁺} U, (3, n): ∫ w(λ)·sλ/(pλ − c) dλ, p = s + i2πν0, c = i2π, per 1 nm panel."""
     cm = colorimetry(observer, space)
     lam, table = cm.wavelength_nm.astype(float), cm.rgb_table
-    far = np.abs(1.0 + w) < 1e-12                           # w = −1: s = ∞, U0 = ∫w
+    far = np.abs(1.0 + w) < 1e-12  # w = −1: s = ∞, U0 = ∫w
     s = (2.0 / ZOOM_NM) * (1.0 - w) / np.where(far, 1.0, 1.0 + w)
-    s = np.where(s.real < 1e-15, 1e-15 + 1j * s.imag, s)   # the rim (Re s = 0) from inside the disc
+    s = np.where(s.real < 1e-15, 1e-15 + 1j * s.imag, s)  # the rim (Re s = 0) from inside the disc
     p, c = s + 2j * np.pi * NU0_PER_NM, 2j * np.pi
-    slope = np.diff(table, axis=1) / np.diff(lam)           # w = α + βλ on each panel
+    slope = np.diff(table, axis=1) / np.diff(lam)  # w = α + βλ on each panel
     intercept = table[:, :-1] - slope * lam[:-1]
-    logs = np.diff(np.log(p[:, None] * lam[None, :] - c), axis=1)   # principal log: pλ − c stays in Re ≥ 0
+    logs = np.diff(np.log(p[:, None] * lam[None, :] - c), axis=1)  # principal log: pλ − c stays in Re ≥ 0
     # ∫ (α + βλ)·c/(pλ − c) dλ = c[β Δλ/p + (α + βc/p) Δlog/p]
     pp = p[:, None, None]
     panels = c * (slope[None] * np.diff(lam) / pp + (intercept[None] + slope[None] * c / pp) * logs[:, None] / pp)
@@ -134,8 +145,13 @@ def transform_table(observer: str = "cie1931", space: str = "rec709") -> np.ndar
     """U_c at every slice and node, (3, SLICES, NODES, NODES) complex: built once per machine (~10 s of
     CPU, the smallest slices' long sums) and kept in the user cache (lutbake/io/usercache.py)."""
     cm = colorimetry(observer, space)
-    key = b"".join([cm.rgb_table.tobytes(), np.array([X_MAX_NM, ZOOM_NM, SLICES, NODES, TABLE_MAX_NM,
-                                                      NU0_PER_NM]).tobytes(), b"runtime-transform-v2"])
+    key = b"".join(
+        [
+            cm.rgb_table.tobytes(),
+            np.array([X_MAX_NM, ZOOM_NM, SLICES, NODES, TABLE_MAX_NM, NU0_PER_NM]).tobytes(),
+            b"runtime-transform-v2",
+        ]
+    )
     shape = (3, SLICES, NODES, NODES)
 
     def build():

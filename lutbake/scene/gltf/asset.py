@@ -25,8 +25,8 @@ from lutbake.io.documents import load_json, read_text
 
 __all__ = ["GltfAsset", "read_gltf", "MAX_JSON_BYTES", "MAX_ITEMS"]
 
-MAX_JSON_BYTES = 64 << 20   # the JSON of the largest Khronos sample asset is ~1 MB
-MAX_ITEMS = 100_000         # materials, meshes, primitives per mesh, buffers: far beyond real assets
+MAX_JSON_BYTES = 64 << 20  # the JSON of the largest Khronos sample asset is ~1 MB
+MAX_ITEMS = 100_000  # materials, meshes, primitives per mesh, buffers: far beyond real assets
 _GLB_MAGIC, _JSON_CHUNK, _BIN_CHUNK = 0x46546C67, 0x4E4F534A, 0x004E4942
 
 
@@ -84,13 +84,18 @@ class GltfAsset:
                 if "material" in prim:
                     i = self.index(prim["material"], len(self.materials), f"{where}.material", "materials")
                     used.setdefault(i, []).append("primitive")
-                ext = self.object(self.object(prim, "extensions", where), "KHR_materials_variants",
-                                  f"{where}.extensions")
-                for k, mapping in enumerate(self.array("mappings", dict, ext, f"{where}.extensions.KHR_materials_variants")):
+                ext = self.object(
+                    self.object(prim, "extensions", where), "KHR_materials_variants", f"{where}.extensions"
+                )
+                for k, mapping in enumerate(
+                    self.array("mappings", dict, ext, f"{where}.extensions.KHR_materials_variants")
+                ):
                     at = f"{where}.extensions.KHR_materials_variants.mappings[{k}]"
                     i = self.index(mapping.get("material"), len(self.materials), f"{at}.material", "materials")
                     for j, v in enumerate(self.array("variants", int, mapping, at)):
-                        used.setdefault(i, []).append(names[self.index(v, len(names), f"{at}.variants[{j}]", "variants")])
+                        used.setdefault(i, []).append(
+                            names[self.index(v, len(names), f"{at}.variants[{j}]", "variants")]
+                        )
         return {i: sorted(set(u), key=u.index) for i, u in sorted(used.items())}
 
     def _check_asset(self) -> None:
@@ -122,8 +127,10 @@ class GltfAsset:
         else:
             file = self.path.parent / uri
             if not file.is_file():  # lutbake reads no geometry: the JSON alone can be baked
-                self.warnings.append(f"{where}.uri {uri!r} is not beside the asset: not read by lutbake, but "
-                                     "an engine loading the asset needs it")
+                self.warnings.append(
+                    f"{where}.uri {uri!r} is not beside the asset: not read by lutbake, but "
+                    "an engine loading the asset needs it"
+                )
                 return
             size, source = file.stat().st_size, repr(uri)
         if size < length:
@@ -144,14 +151,17 @@ class GltfAsset:
             if "bufferView" not in accessor:
                 continue
             view = views[self.index(accessor["bufferView"], len(views), f"{where}.bufferView", "bufferViews")]
-            element = _COMPONENT_BYTES.get(accessor.get("componentType"), 0) * _TYPE_COMPONENTS.get(accessor.get("type"), 0)
+            element = _COMPONENT_BYTES.get(accessor.get("componentType"), 0) * _TYPE_COMPONENTS.get(
+                accessor.get("type"), 0
+            )
             if not element:
                 raise self.error(where, "componentType or type is not one glTF 2.0 defines")
             stride = view.get("byteStride", element)
             end = self._size(accessor, "byteOffset", where, 0) + stride * (count - 1) + element
             if count and end > view["byteLength"]:
-                raise self.error(f"{where}.count", f"= {count:,} needs {end:,} bytes; its buffer view has "
-                                                   f"{view['byteLength']:,}")
+                raise self.error(
+                    f"{where}.count", f"= {count:,} needs {end:,} bytes; its buffer view has {view['byteLength']:,}"
+                )
 
     def _size(self, parent: dict, key: str, where: str, default=None) -> int:
         value = parent.get(key, default)
@@ -218,6 +228,8 @@ def _chunk_header(fh, path: Path, size: int) -> tuple:
         raise ValueError(f"{path}: truncated GLB chunk header at byte {fh.tell() - len(head)}")
     length, kind = struct.unpack("<II", head)
     if length % 4 or fh.tell() + length > size:
-        raise ValueError(f"{path}: GLB chunk at byte {fh.tell() - 8} declares {length:,} bytes: past the end "
-                         f"of the file ({size:,} bytes) or not a multiple of 4")
+        raise ValueError(
+            f"{path}: GLB chunk at byte {fh.tell() - 8} declares {length:,} bytes: past the end "
+            f"of the file ({size:,} bytes) or not a multiple of 4"
+        )
     return length, kind

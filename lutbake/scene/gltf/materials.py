@@ -30,20 +30,24 @@ from pathlib import Path
 import numpy as np
 
 from lutbake.io.documents import load_json, read_text
-from lutbake.scene.gltf.asset import GltfAsset, read_gltf
 from lutbake.physics.materials import material as named_material
 from lutbake.physics.metals import F0_MAX, MAPPINGS, conductor, reflectance_error
 from lutbake.physics.points import check_value
+from lutbake.scene.gltf.asset import GltfAsset, read_gltf
 from lutbake.scene.model import Scene, SceneMaterial, check_material_names
 
 __all__ = ["load_gltf_scene", "METAL_TABLE_NODES", "FILM_DEFAULTS"]
 
 _EXT = "KHR_materials_iridescence"
-FILM_DEFAULTS = {"iridescenceFactor": 1.0, "iridescenceIor": 1.3, "iridescenceThicknessMinimum": 100.0,
-                 "iridescenceThicknessMaximum": 400.0}
+FILM_DEFAULTS = {
+    "iridescenceFactor": 1.0,
+    "iridescenceIor": 1.3,
+    "iridescenceThicknessMinimum": 100.0,
+    "iridescenceThicknessMaximum": 400.0,
+}
 _KNOWN_KEYS = set(FILM_DEFAULTS) | {"iridescenceTexture", "iridescenceThicknessTexture", "extensions", "extras"}
 _DRAFT_KEYS = {"iridescenceIOR": "iridescenceIor"}
-METAL_TABLE_NODES = 65   # F0 → (η3, κ3) nodes the engine interpolates for a texture-driven metal
+METAL_TABLE_NODES = 65  # F0 → (η3, κ3) nodes the engine interpolates for a texture-driven metal
 _MAX_MAPPING_BYTES = 1 << 20
 
 
@@ -90,8 +94,9 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
     used = asset.used_materials()
     records, materials = [], []
     for index, body in enumerate(asset.materials):
-        ext = asset.object(asset.object(body, "extensions", f"materials[{index}]"), _EXT,
-                           f"materials[{index}].extensions")
+        ext = asset.object(
+            asset.object(body, "extensions", f"materials[{index}]"), _EXT, f"materials[{index}].extensions"
+        )
         if _EXT not in body.get("extensions", {}):
             continue
         reader = _MaterialReader(asset, index, body, ext)
@@ -102,9 +107,14 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
         records.append(record)
     check_material_names([m.name for m in materials], lambda name, message: asset.error(name, message))
     max_de = float(check_value("max_de", max_de)[0])
-    source = {"kind": "gltf", "asset": asset.path.name, "metal_mapping": default,
-              "mapping_file": None if mapping_file is None else Path(mapping_file).name,
-              "asset_warnings": asset.warnings, "materials": records}
+    source = {
+        "kind": "gltf",
+        "asset": asset.path.name,
+        "metal_mapping": default,
+        "mapping_file": None if mapping_file is None else Path(mapping_file).name,
+        "asset_warnings": asset.warnings,
+        "materials": records,
+    }
     inputs = () if mapping_file is None else (str(mapping_file),)
     return Scene(str(asset.path), "rec709", "cie1931", 1.0, "half", max_de, tuple(materials), source, inputs)
 
@@ -115,8 +125,10 @@ def _metal_mapping(value: str, asset: GltfAsset) -> tuple:
         return value, {}, None
     path = Path(value)
     if not path.is_file():
-        raise ValueError(f"metal mapping {value!r} is not allowed: use {' or '.join(MAPPINGS)}, or a JSON file "
-                         "naming a lutbake material per glTF material")
+        raise ValueError(
+            f"metal mapping {value!r} is not allowed: use {' or '.join(MAPPINGS)}, or a JSON file "
+            "naming a lutbake material per glTF material"
+        )
     doc = load_json(read_text(path, "metal mapping", _MAX_MAPPING_BYTES), str(path))
     if not isinstance(doc, dict) or not isinstance(doc.get("materials", {}), dict):
         raise ValueError(f"{path}: must be an object with 'materials': {{NAME or INDEX: lutbake material}}")
@@ -206,10 +218,19 @@ class _MaterialReader:
                 self._domain("thickness_nm", d, f"{where}{key}")
         if textured and d_min > d_max:
             self.warn(f"iridescenceThicknessMinimum {d_min:g} > Maximum {d_max:g}: the range is baked sorted")
-        self.thickness_key = "iridescenceThicknessMinimum" if textured and d_min > d_max else "iridescenceThicknessMaximum"
-        record = {"gltf_index": self.index, "name": self.body.get("name"), "used_by": used_by,
-                  "read": self.read, "film": None, "thickness_nm": list(thickness), "parts": {},
-                  "warnings": self.warnings}
+        self.thickness_key = (
+            "iridescenceThicknessMinimum" if textured and d_min > d_max else "iridescenceThicknessMaximum"
+        )
+        record = {
+            "gltf_index": self.index,
+            "name": self.body.get("name"),
+            "used_by": used_by,
+            "read": self.read,
+            "film": None,
+            "thickness_nm": list(thickness),
+            "parts": {},
+            "warnings": self.warnings,
+        }
         if not used_by:
             record["why_not"] = "not used by any mesh primitive (nor through KHR_materials_variants)"
         elif factor == 0.0:
@@ -224,7 +245,7 @@ class _MaterialReader:
             check_value(name, value)
         except ValueError as exc:
             message = str(exc)
-            raise self.error(key, f"= {value!r} {message[message.index('is not allowed'):]}") from None
+            raise self.error(key, f"= {value!r} {message[message.index('is not allowed') :]}") from None
 
 
 class _Parts:
@@ -239,8 +260,9 @@ class _Parts:
         colour = self._base_colour(pbr)
         metal_textured = reader.texture(pbr, "metallicRoughnessTexture", pbr_where)
         colour_textured = reader.texture(pbr, "baseColorTexture", pbr_where)
-        ior_ext = reader.asset.object(reader.asset.object(body, "extensions", reader.label), "KHR_materials_ior",
-                                      f"{reader.label}.extensions")
+        ior_ext = reader.asset.object(
+            reader.asset.object(body, "extensions", reader.label), "KHR_materials_ior", f"{reader.label}.extensions"
+        )
         ior = reader.number(ior_ext, "ior", 1.5, "KHR_materials_ior.")
         metalness = (0.0 if metal_textured else min(max(metallic, 0.0), 1.0), min(max(metallic, 0.0), 1.0))
         record["metalness"] = list(metalness)
@@ -255,8 +277,11 @@ class _Parts:
 
     def _base_colour(self, pbr: dict) -> list:
         value = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
-        ok = isinstance(value, list) and len(value) == 4 and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value)
+        ok = (
+            isinstance(value, list)
+            and len(value) == 4
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value)
+        )
         if not ok:
             raise self.reader.error("pbrMetallicRoughness.baseColorFactor", f"= {value!r} is not 4 numbers")
         self.reader.read["baseColorFactor"] = {"value": value, "default": "baseColorFactor" not in pbr}
@@ -264,9 +289,11 @@ class _Parts:
 
     def _add(self, part: str, base, field: str, base_path=None) -> str:
         name = f"{self.stem}-{part}"
-        origin = {"film": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.iridescenceIor",
-                  "thickness_nm": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.{self.reader.thickness_key}",
-                  "base": f"{self.reader.asset.path}: {self.reader.label}: {field}"}
+        origin = {
+            "film": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.iridescenceIor",
+            "thickness_nm": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.{self.reader.thickness_key}",
+            "base": f"{self.reader.asset.path}: {self.reader.label}: {field}",
+        }
         self.materials.append(SceneMaterial(name, self.record["film"], self.thickness, base, origin, base_path))
         return name
 
@@ -285,10 +312,17 @@ class _Parts:
                 part = "metal" if len(set(zip(eta, kappa))) == 1 else f"metal-{'rgb'[c]}"
                 names[key] = self._add(part, (float(key[0]), float(key[1])), "pbrMetallicRoughness.baseColorFactor")
             channels.append(names[key])
-        return {"mapping": mapping, "f0": f0, "eta3": eta.tolist(), "kappa3": kappa.tolist(),
-                "clamped": bool(clamped.any()), "channels": channels,
-                "reflectance_error_max": max(reflectance_error(float(e), float(k), min(f, F0_MAX[mapping]))["max"]
-                                             for e, k, f in zip(eta, kappa, f0))}
+        return {
+            "mapping": mapping,
+            "f0": f0,
+            "eta3": eta.tolist(),
+            "kappa3": kappa.tolist(),
+            "clamped": bool(clamped.any()),
+            "channels": channels,
+            "reflectance_error_max": max(
+                reflectance_error(float(e), float(k), min(f, F0_MAX[mapping]))["max"] for e, k, f in zip(eta, kappa, f0)
+            ),
+        }
 
     def _metal_range(self, f0_factor, mapping: str) -> dict:
         """A texture-driven base colour: F0 per channel anywhere in [0, factor]; one 4D job over the
@@ -301,17 +335,26 @@ class _Parts:
         if box[0][0] == box[0][1] and box[1][0] == box[1][1]:  # a black texture range: one constant base
             box = (box[0][0], box[1][0])
         # The curve's nodes and how far along it each channel's F0 reaches (the scoring of its 4D job).
-        path = None if isinstance(box[0], float) else (tuple(eta), tuple(kappa),
-                                                       tuple(min(f, F0_MAX[mapping]) / top for f in f0_factor))
+        path = (
+            None
+            if isinstance(box[0], float)
+            else (tuple(eta), tuple(kappa), tuple(min(f, F0_MAX[mapping]) / top for f in f0_factor))
+        )
         name = self._add("metal", box, "pbrMetallicRoughness.baseColorTexture", path)
-        return {"mapping": mapping, "texture": True, "f0_max": [min(f, F0_MAX[mapping]) for f in f0_factor],
-                "channels": [name] * 3,
-                "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()}}
+        return {
+            "mapping": mapping,
+            "texture": True,
+            "f0_max": [min(f, F0_MAX[mapping]) for f in f0_factor],
+            "channels": [name] * 3,
+            "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()},
+        }
 
     def _report_clamp(self, f0, clamped, mapping: str) -> None:
         if np.any(clamped):
-            self.reader.warn(f"base colour F0 up to {max(f0):g} has no finite conductor: clamped to "
-                             f"{F0_MAX[mapping]:.4g} ({mapping} mapping)")
+            self.reader.warn(
+                f"base colour F0 up to {max(f0):g} has no finite conductor: clamped to "
+                f"{F0_MAX[mapping]:.4g} ({mapping} mapping)"
+            )
 
 
 def _material_stem(index: int, name) -> str:
@@ -333,11 +376,23 @@ def material_rows(scene: Scene, plan) -> list:
         served += parts["metal"]["channels"] if "metal" in parts else []
         slices = [n for n in dict.fromkeys(served) if kind[n].kind == "slice"]
         luts = [f"{kind[n].id}.exr" for n in dict.fromkeys(served) if kind[n].kind == "lut"]
-        rows.append({"gltf_index": r["gltf_index"], "name": r["name"], "used_by": r["used_by"],
-                     "read": r["read"], "defaults": sorted(k for k, v in r["read"].items()
-                                                           if isinstance(v, dict) and v["default"]),
-                     "film": r["film"], "thickness_nm": r["thickness_nm"], "metalness": r.get("metalness"),
-                     "bases": parts, "mapping": parts.get("metal", {}).get("mapping"),
-                     "slice": slices[0] if slices else None, "slices": slices, "lut": luts[0] if luts else None,
-                     "why_not": r.get("why_not"), "warnings": r["warnings"]})
+        rows.append(
+            {
+                "gltf_index": r["gltf_index"],
+                "name": r["name"],
+                "used_by": r["used_by"],
+                "read": r["read"],
+                "defaults": sorted(k for k, v in r["read"].items() if isinstance(v, dict) and v["default"]),
+                "film": r["film"],
+                "thickness_nm": r["thickness_nm"],
+                "metalness": r.get("metalness"),
+                "bases": parts,
+                "mapping": parts.get("metal", {}).get("mapping"),
+                "slice": slices[0] if slices else None,
+                "slices": slices,
+                "lut": luts[0] if luts else None,
+                "why_not": r.get("why_not"),
+                "warnings": r["warnings"],
+            }
+        )
     return rows

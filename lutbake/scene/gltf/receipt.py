@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
+from lutbake.io.documents import load_json, read_text
+from lutbake.io.strictjson import dumps
+from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.approximations import khr_iridescence_rgb
 from lutbake.physics.colorimetry import delta_e00
-from lutbake.io.documents import load_json, read_text
 from lutbake.physics.metals import MAPPINGS, conductor
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
-from lutbake.lut.sample import Atlas, Lut
-from lutbake.io.strictjson import dumps
 
 __all__ = ["gltf_receipts", "write_receipts"]
 
@@ -44,13 +44,20 @@ def gltf_receipts(manifest_path, n_points: int = 300, seed: int = 0) -> dict:
         raise ValueError(f"{str(path)!r} is not the manifest of a glTF bake (lutbake bake --gltf)")
     rng = np.random.default_rng(seed)
     rows = [_receipt(r, manifest, path.parent, n_points, rng) for r in source["materials"]]
-    return {"asset": source["asset"], "manifest": path.name, "metal_mapping": source["metal_mapping"],
-            "points_per_part": n_points, "materials": rows}
+    return {
+        "asset": source["asset"],
+        "manifest": path.name,
+        "metal_mapping": source["metal_mapping"],
+        "points_per_part": n_points,
+        "materials": rows,
+    }
 
 
 def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
-    row = {k: record.get(k) for k in ("gltf_index", "name", "used_by", "film", "thickness_nm", "metalness",
-                                      "why_not", "warnings")}
+    row = {
+        k: record.get(k)
+        for k in ("gltf_index", "name", "used_by", "film", "thickness_nm", "metalness", "why_not", "warnings")
+    }
     row["read"] = record["read"]
     row["defaults"] = sorted(k for k, v in record["read"].items() if isinstance(v, dict) and v["default"])
     row["parts"] = {}
@@ -65,8 +72,10 @@ def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
         costs = {"baked": _stats(baked, truth), "threejs": _stats(_per_channel(khr_iridescence_rgb, stacks), truth)}
         if info.get("mapping") in MAPPINGS:
             other = next(m for m in MAPPINGS if m != info["mapping"])
-            costs["other_mapping"] = {"mapping": other, **_stats(_other_truth(info, other, record["film"], cos_t,
-                                                                              thickness, bases), truth)}
+            costs["other_mapping"] = {
+                "mapping": other,
+                **_stats(_other_truth(info, other, record["film"], cos_t, thickness, bases), truth),
+            }
         row["parts"][part] = {**{k: v for k, v in info.items() if k != "table"}, "de00": costs}
     return row
 
@@ -80,8 +89,10 @@ def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_
     if info.get("texture"):
         table = info["table"]
         f0 = [rng.uniform(0.0, top, cos_t.size) for top in info["f0_max"]]
-        bases = [{"eta3": np.interp(f, table["f0"], table["eta3"]), "kappa3": np.interp(f, table["f0"], table["kappa3"])}
-                 for f in f0]
+        bases = [
+            {"eta3": np.interp(f, table["f0"], table["eta3"]), "kappa3": np.interp(f, table["f0"], table["kappa3"])}
+            for f in f0
+        ]
         entry = manifest["materials"][info["channels"][0]]
         return bases, _per_channel(Lut.load(folder / entry["file"]).sample, _stacks(eta2, cos_t, thickness, bases))
     if info["mapping"] == "named":
@@ -89,8 +100,13 @@ def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_
     else:
         unique = {}
         bases = [unique.setdefault((e, k), {"eta3": e, "kappa3": k}) for e, k in zip(info["eta3"], info["kappa3"])]
-    baked = np.stack([_sample_slice(manifest, folder, name, eta2, cos_t, thickness, b)[:, c]
-                      for c, (name, b) in enumerate(zip(info["channels"], bases))], axis=-1)
+    baked = np.stack(
+        [
+            _sample_slice(manifest, folder, name, eta2, cos_t, thickness, b)[:, c]
+            for c, (name, b) in enumerate(zip(info["channels"], bases))
+        ],
+        axis=-1,
+    )
     return bases, baked
 
 
@@ -107,8 +123,10 @@ def _other_truth(info, mapping, eta2, cos_t, thickness, bases) -> np.ndarray:
         if id(b) not in other:
             f0 = ((b["eta3"] - 1.0) ** 2 + b["kappa3"] ** 2) / ((b["eta3"] + 1.0) ** 2 + b["kappa3"] ** 2)
             eta, kappa, _ = conductor(np.atleast_1d(f0), mapping)
-            other[id(b)] = {"eta3": eta if np.ndim(b["eta3"]) else eta[0],
-                            "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0]}
+            other[id(b)] = {
+                "eta3": eta if np.ndim(b["eta3"]) else eta[0],
+                "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0],
+            }
     stacks = _stacks(eta2, cos_t, thickness, [other[id(b)] for b in bases])
     return _per_channel(lambda s: reference_colour(s).values, stacks)
 
@@ -146,28 +164,40 @@ def write_receipts(receipts: dict, out_dir) -> None:
 
 def _html(receipts: dict) -> str:
     esc = html.escape
-    parts = [f"<!doctype html><meta charset=utf-8><title>lutbake receipts: {esc(receipts['asset'])}</title>",
-             "<style>body{font:14px sans-serif;margin:2em}td,th{padding:2px 8px;text-align:left}"
-             "table{border-collapse:collapse;margin-bottom:1.5em}tr:nth-child(even){background:#f3f3f3}</style>",
-             f"<h1>{esc(receipts['asset'])}: one receipt per glTF material</h1>",
-             f"<p>ΔE00 against the spectral ground truth at {receipts['points_per_part']} held-out points per part; "
-             f"metal mapping {esc(receipts['metal_mapping'])} (docs/gltf.md).</p>"]
+    parts = [
+        f"<!doctype html><meta charset=utf-8><title>lutbake receipts: {esc(receipts['asset'])}</title>",
+        "<style>body{font:14px sans-serif;margin:2em}td,th{padding:2px 8px;text-align:left}"
+        "table{border-collapse:collapse;margin-bottom:1.5em}tr:nth-child(even){background:#f3f3f3}</style>",
+        f"<h1>{esc(receipts['asset'])}: one receipt per glTF material</h1>",
+        f"<p>ΔE00 against the spectral ground truth at {receipts['points_per_part']} held-out points per part; "
+        f"metal mapping {esc(receipts['metal_mapping'])} (docs/gltf.md).</p>",
+    ]
     for r in receipts["materials"]:
         parts.append(f"<h2>material {r['gltf_index']}: {esc(r['name'] or '(unnamed)')}</h2>")
-        read = ", ".join(f"{esc(k)} = {esc(str(v['value'] if isinstance(v, dict) else v))}"
-                         + (" (default)" if isinstance(v, dict) and v["default"] else "") for k, v in r["read"].items())
+        read = ", ".join(
+            f"{esc(k)} = {esc(str(v['value'] if isinstance(v, dict) else v))}"
+            + (" (default)" if isinstance(v, dict) and v["default"] else "")
+            for k, v in r["read"].items()
+        )
         parts.append(f"<p>read: {read}</p>")
         if r["why_not"]:
             parts.append(f"<p>not baked: {esc(r['why_not'])}</p>")
         for w in r["warnings"]:
             parts.append(f"<p>warning: {esc(w)}</p>")
         if r["parts"]:
-            parts.append("<table><tr><th>part</th><th>mapping</th><th>baked p99 / max</th>"
-                         "<th>three.js p99 / max</th><th>other mapping p99 / max</th></tr>")
+            parts.append(
+                "<table><tr><th>part</th><th>mapping</th><th>baked p99 / max</th>"
+                "<th>three.js p99 / max</th><th>other mapping p99 / max</th></tr>"
+            )
             for name, p in r["parts"].items():
-                cells = [f"{c['de00_p99']:.2f} / {c['de00_max']:.2f}" if c else "" for c in
-                         (p["de00"]["baked"], p["de00"]["threejs"], p["de00"].get("other_mapping"))]
-                parts.append(f"<tr><td>{esc(name)}</td><td>{esc(str(p.get('mapping', 'ior')))}</td>"
-                             + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+                cells = [
+                    f"{c['de00_p99']:.2f} / {c['de00_max']:.2f}" if c else ""
+                    for c in (p["de00"]["baked"], p["de00"]["threejs"], p["de00"].get("other_mapping"))
+                ]
+                parts.append(
+                    f"<tr><td>{esc(name)}</td><td>{esc(str(p.get('mapping', 'ior')))}</td>"
+                    + "".join(f"<td>{c}</td>" for c in cells)
+                    + "</tr>"
+                )
             parts.append("</table>")
     return "\n".join(parts) + "\n"
