@@ -116,9 +116,12 @@ def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_
     four_pi_d = 4.0 * np.pi * d / lam
     phi = four_pi_d * g2
     w_s = 1j * four_pi_d * _exprel(1j * phi)
+    # p: the dual admittances g/n², all scaled by η1² (r is homogeneous of degree 0 in (Y, 1/W)), so that a
+    # medium matching the ambient keeps Y = g exactly: g/η1² underflows to 0 for a subnormal cos θ1 and
+    # left 0/0 where both Y1 and Y3 did (η3 = η1, d = 0, cos θ1 = 5e-324).
     terms = {
         "s": (g1, g2, g3, w_s),
-        "p": (g1 / e1**2, g2 / e2**2, g3 / n3**2, w_s * e2**2),
+        "p": (g1, g2 * (e1 / e2) ** 2, g3 * (e1 * e1 / n3**2), w_s * (e2 / e1) ** 2),
     }
     return terms, phi, c1
 

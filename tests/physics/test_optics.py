@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import tmm
 from airy_mp import airy_reflectance_exact, airy_reflectance_mp
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from lutbake.physics.materials import material
@@ -212,6 +212,7 @@ def test_brewster_angle_amplitude_is_continuous():
     thickness=st.one_of(st.just(0.0), st.floats(0.0, 1e5)),
     lam=st.floats(360.0, 830.0),
 )
+@example(eta1=2.0, eta2=1.0, eta3=2.0, kappa3=0.0, cos_theta=5e-324, thickness=0.0, lam=360.0)  # p: 0/0 once
 def test_reflectance_is_a_probability(eta1, eta2, eta3, kappa3, cos_theta, thickness, lam):
     rs, rp, r = film_reflectance(_stack(eta1, eta2, eta3, kappa3, cos_theta, thickness), lam)
     for v in (rs, rp, r):
