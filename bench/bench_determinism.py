@@ -53,7 +53,8 @@ def header_numbers(a, b, path="") -> list:
 
 
 def compare(files: dict) -> dict:
-    from lutbake.tables.lutfile import ATLAS_FORMAT, EXACT_FORMAT, FORMAT, read_lut
+    from lutbake.tables.headers import ATLAS_FORMAT, EXACT_FORMAT, FORMAT
+    from lutbake.tables.lutfile import read_lut
 
     (meta_a, image_a), (meta_b, image_b) = (read_lut(p, (FORMAT, ATLAS_FORMAT, EXACT_FORMAT)) for p in files.values())
     bits = np.int16 if image_a.dtype == np.float16 else np.int32

@@ -31,7 +31,8 @@ def _holds_the_default_set(folder: Path) -> bool:
     """Every default LUT in ``folder`` has the content hash of the current default spec, and includes that
     the current templates write (a template change leaves the hash as it was)."""
     from lutbake.lut.bake import default_specs
-    from lutbake.tables.lutfile import read_lut, shader_includes
+    from lutbake.tables.includes import shader_includes
+    from lutbake.tables.lutfile import read_lut
 
     def current(name, spec):
         meta = read_lut(folder / f"{name}.exr")[0]

@@ -28,15 +28,14 @@ from lutbake.blender.nodes import BLENDER_SPACES, OSL_MATERIALS, SceneReads, Sli
 from lutbake.errors import ParameterError
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
-from lutbake.modes.exact import include_fields as exact_fields
 from lutbake.modes.runtime.accuracy import truth
-from lutbake.modes.runtime.files import include_fields as runtime_fields
 from lutbake.modes.runtime.files import read_runtime_table
 from lutbake.modes.runtime.model import runtime_colour
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
-from lutbake.tables.lutfile import atomic_path, shader_template
+from lutbake.tables.includes import osl_source
+from lutbake.tables.lutfile import atomic_path
 
 __all__ = [
     "BLENDER_ENV",
@@ -199,11 +198,11 @@ def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.
     return out
 
 
-# Per OSL kind: the table reader, the template fields of its shader sources, and what the script computes
-# at probes with η1 = 1 and η3, κ3 (n, 3) per channel.
+# Per OSL kind: the table reader, and what the script computes at probes with η1 = 1 and η3, κ3 (n, 3) per
+# channel.
 _OSL_KINDS = {
-    "exact": (read_exact_table, exact_fields, _exact_expected),
-    "runtime": (read_runtime_table, runtime_fields, _runtime_expected),
+    "exact": (read_exact_table, _exact_expected),
+    "runtime": (read_runtime_table, _runtime_expected),
 }
 _OSL_PARAMETER = {"exact": "exact", "runtime": "runtime_table"}  # write_library's parameter of each kind
 
@@ -216,12 +215,11 @@ def osl_script(kind: str, table) -> str:
     """The OSL script (shaders/KIND.osl.in, ``kind`` 'exact' or 'runtime') for the table ``table`` (an
     `exact-table` or `runtime-table` EXR), whose absolute path it reads; ValueError names a file that is
     not such a table."""
-    read, fields, _ = _OSL_KINDS[kind]
+    read, _ = _OSL_KINDS[kind]
     path = Path(table).absolute()
     if not path.is_file():  # before OpenEXR, which prints its own line about it
         raise ParameterError(f"{{{_OSL_PARAMETER[kind]}}} {{table}} is not a file", table=repr(str(table)))
-    meta = read(path).meta
-    return shader_template(f"{kind}.osl.in").substitute({**fields(meta, path.name), "table_path": str(path)})
+    return osl_source(read(path).meta, path)
 
 
 def render_probes(job: dict, blender=None) -> dict:
@@ -396,7 +394,7 @@ def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed
     runtime table: runtime.model's float32 model), and ΔE00 against the ground truth (channel c with the
     base's c-th index, runtime.accuracy.truth; the dielectric probes alone too). All are held at 0 where
     negative, as Glossy BSDF clamps."""
-    read, _, expected_colour = _OSL_KINDS[kind]
+    read, expected_colour = _OSL_KINDS[kind]
     cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
     expected = np.maximum(expected_colour(read(table), cos_theta, thickness, eta2, eta3, kappa3), 0.0)
     probes = [

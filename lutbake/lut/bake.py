@@ -15,7 +15,6 @@ it and the largest a-priori bound it enforced.
 
 from __future__ import annotations
 
-import json
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -33,7 +32,9 @@ from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
 from lutbake.spectral.reference import reference_colour
 from lutbake.spectral.rules import STENCIL_NODES
-from lutbake.tables.lutfile import FORMAT, exr_rows, shader_includes
+from lutbake.tables.exr import exr_rows
+from lutbake.tables.headers import FORMAT
+from lutbake.tables.lutfile import write_companions
 
 __all__ = [
     "BakeResult",
@@ -431,9 +432,7 @@ def write_lut(
             pending = started
         if retiled:
             exr.write_rows(spec.file_layout.retile(np.concatenate(held), spec.layout))
-    files.temp(out_path.with_suffix(".json")).write_text(json.dumps(sidecar, indent=2, sort_keys=True) + "\n")
-    for suffix, text in shader_includes(meta, out_path.name).items():
-        files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
+    write_companions(files, out_path, meta, sidecar)
     return BakeResult(
         out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device, error, *capped
     )

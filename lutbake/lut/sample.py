@@ -25,7 +25,8 @@ from lutbake.grid.interpolation import cubic_taps, mirrors_low_end
 from lutbake.grid.layout import TileLayout
 from lutbake.grid.spec import axis_from_header
 from lutbake.physics.points import FilmPoints
-from lutbake.tables.lutfile import ATLAS_FORMAT, FORMAT, read_lut
+from lutbake.tables.headers import ATLAS_FORMAT, FORMAT
+from lutbake.tables.lutfile import read_lut
 
 __all__ = ["Lut", "Atlas", "load_table"]
 

@@ -19,7 +19,8 @@ or at the term cap, or where (M+1)X passes the table's end.
 
 ``exact_colour`` is the float64 numpy evaluation of the same math on a table
 as stored (tests compare the shader with it, and it with the ground truth).
-docs/lut-format.md specifies the file.
+docs/lut-format.md specifies the file; lutbake/tables/ writes, reads and checks it
+(its header's schema: tables/headers.py) and renders its includes (tables/includes.py).
 """
 
 from __future__ import annotations
@@ -34,11 +35,15 @@ import numpy as np
 
 from lutbake import __version__
 from lutbake.errors import ParameterError
-from lutbake.io.fileset import open_set
-from lutbake.io.names import shader_comment
-from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
-from lutbake.spectral.fourier import NU0_PER_NM, SeriesCoefficients, series_coefficients, weight_transform
-from lutbake.tables.lutfile import EXACT_FORMAT, EXACT_FORMAT_VERSION, exr_rows, read_lut, shader_template
+from lutbake.spectral.fourier import (
+    NU0_PER_NM,
+    NU_HALF_BAND_PER_NM,
+    SeriesCoefficients,
+    series_coefficients,
+    weight_transform,
+)
+from lutbake.tables.headers import EXACT_FORMAT, EXACT_FORMAT_VERSION
+from lutbake.tables.lutfile import read_lut, write_table_set
 
 __all__ = [
     "TABLE_STEP_NM",
@@ -52,8 +57,6 @@ __all__ = [
     "write_exact_table",
     "read_exact_table",
     "exact_colour",
-    "exact_includes",
-    "include_fields",
     "RGB_WAVELENGTHS_NM",
     "METALS",
     "base_rgb",
@@ -64,7 +67,6 @@ TABLE_TEXELS = 32768  # x from 0 to 65,534 nm: 64 terms of the thickest KHR film
 TABLE_WIDTH = 2048  # WebGL2 and OpenGL ES 3.0 guarantee textures this wide
 DEFAULT_TOLERANCE = 1e-4  # |ΔRGB| the truncation rule allows
 DEFAULT_MAX_TERMS = 64  # the shader's loop cap (a #define the engine may change)
-BAND_HALF_PER_NM = 0.5 * (1.0 / WAVELENGTH_MIN_NM - 1.0 / WAVELENGTH_MAX_NM)  # ν_half: A's band, |ν − ν0|
 # Per-channel base indices for lutbake_exact_rgb: a named material's n, k at the dominant wavelengths
 # of the Rec.709 primaries (docs/engines.md measures what this costs against the dispersive truth).
 RGB_WAVELENGTHS_NM = (611.0, 549.0, 464.0)
@@ -139,7 +141,7 @@ def _unpack(image: np.ndarray) -> np.ndarray:
 
 def _interpolation_bound(mass: np.ndarray) -> float:
     """A priori sup |lerp − f| of the band-limited f (|ν − ν0| ≤ ν_half): h²/8 · (2πν_half)² · mass."""
-    return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * BAND_HALF_PER_NM) ** 2 * mass.max())
+    return float(TABLE_STEP_NM**2 / 8.0 * (2.0 * np.pi * NU_HALF_BAND_PER_NM) ** 2 * mass.max())
 
 
 def table_metadata(
@@ -204,13 +206,7 @@ def write_exact_table(
         raise ParameterError("{max_terms} {value} must lie in [1, 4096]", value=max_terms)
     _check_writable(out_path)
     meta, stored = _stored(observer, space, precision, tolerance, max_terms)
-    image = stored.astype(np.float64)
-    with open_set(out_path.parent, out_path.name) as files:
-        with exr_rows(files.temp(out_path), image.shape[1], image.shape[0], meta, precision) as exr:
-            exr.write_rows(image)
-        files.temp(out_path.with_suffix(".json")).write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
-        for suffix, text in exact_includes(meta, out_path.name).items():
-            files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
+    write_table_set(out_path, stored, meta, precision)
     return meta
 
 
@@ -243,35 +239,6 @@ def exact_mode(stack, space: str = "rec709", observer: str = "cie1931") -> Exact
 def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
     """``exact_mode``'s linear RGB (n, 3)."""
     return exact_mode(stack, space, observer).values
-
-
-def include_fields(meta: dict, table_name: str) -> dict:
-    """The template fields of a Ŵ table's shader sources (exact.*.in): its constants and defaults."""
-    table, tail = meta["table"], meta["tail"]
-    return {
-        "table_name": shader_comment(table_name),
-        "content_hash": meta["content_hash"],
-        "space": meta["space"],
-        "observer": meta["observer"],
-        "step": repr(table["step_nm"]),
-        "width": table["width"],
-        "rows": table["rows_per_part"],
-        "texels": table["texels"],
-        "x_max": repr(table["x_max_nm"]),
-        "nu0": repr(table["nu0_per_nm"]),
-        "mass": repr(tail["mass"]),
-        "edge": repr(tail["edge"]),
-        "variation": repr(tail["variation"]),
-        "tolerance": repr(meta["include"]["tolerance"]),
-        "band": repr(2.0 * np.pi * BAND_HALF_PER_NM),
-        "max_terms": meta["include"]["max_terms"],
-    }
-
-
-def exact_includes(meta: dict, table_name: str) -> dict:
-    """GLSL and HLSL include texts for a Ŵ table, keyed by file suffix."""
-    fields = include_fields(meta, table_name)
-    return {suffix: shader_template(f"exact.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 
 
 def read_exact_table(path) -> ExactTable:
@@ -357,7 +324,7 @@ def _resummed_tail(table: ExactTable, x, terms, co: SeriesCoefficients, power) -
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # ζ = 0 only where K = 0
         s0, s1, s2 = 1.0 / zeta, z / zeta**2, z * (1.0 + z) / zeta**3
         tail = (at + d1 * off + 0.5 * d2 * off**2) * s0 + (d1 + d2 * off) * step * s1 + 0.5 * d2 * step**2 * s2
-        rho = 2.0 * np.pi * BAND_HALF_PER_NM * step / np.abs(zeta)
+        rho = 2.0 * np.pi * NU_HALF_BAND_PER_NM * step / np.abs(zeta)
         taylor = table.meta["tail"]["mass"] * rho**3 * np.abs(co.k) / np.abs(zeta)
         dropped = table.tail_bound(x_m)[None, :, None] * np.abs(co.k) / co.one_minus_q
     return np.where(taylor < dropped, (power * tail).real, 0.0)

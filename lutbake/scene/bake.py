@@ -28,8 +28,8 @@ from lutbake.scene.cache import SceneCache
 from lutbake.scene.jobs import refine_slice, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import ScenePlan, plan_scene
-from lutbake.tables.atlas import ERROR_KEYS, atlas_header, atlas_includes, pack_atlas, slice_entry
-from lutbake.tables.lutfile import warn_texture_size, write_atlas
+from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
+from lutbake.tables.includes import atlas_includes, warn_texture_size
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
 

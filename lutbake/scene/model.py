@@ -17,7 +17,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from lutbake.tables.lutfile import shader_ident
+from lutbake.io.names import shader_identifier
 
 __all__ = ["Scene", "SceneMaterial", "check_material_names", "MATERIAL_NAME"]
 
@@ -111,7 +111,7 @@ def check_material_names(names, error) -> None:
                 f"material name {name!r} is not allowed: use 1-64 ASCII letters, digits, '-' or "
                 "'_', starting with a letter",
             )
-        ident = shader_ident(name)
+        ident = shader_identifier(name)
         if ident in seen:
             raise error(name, f"material names {seen[ident]!r} and {name!r} both become {ident} in shaders: rename one")
         seen[ident] = name

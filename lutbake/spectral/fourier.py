@@ -42,6 +42,7 @@ __all__ = [
     "series_plan",
     "PATHS",
     "NU0_PER_NM",
+    "NU_HALF_BAND_PER_NM",
     "TABLE_STEP_NM",
     "TABLE_MAX_NM",
     "SERIES_BUDGET",
@@ -51,6 +52,7 @@ __all__ = [
 NU_MIN_PER_NM = 1.0 / WAVELENGTH_MAX_NM
 NU_MAX_PER_NM = 1.0 / WAVELENGTH_MIN_NM
 NU0_PER_NM = 0.5 * (NU_MIN_PER_NM + NU_MAX_PER_NM)  # demodulation: centre of the support in ν
+NU_HALF_BAND_PER_NM = 0.5 * (NU_MAX_PER_NM - NU_MIN_PER_NM)  # the support's half width: |ν − ν0| ≤ this
 TABLE_STEP_NM = 25.0
 TABLE_MAX_NM = 4.0e5
 DEFAULT_SERIES_TOLERANCE = 1e-9  # per polarization: truncation bound on the dropped terms

@@ -1,9 +1,10 @@
-"""Packing a scene's slices: the atlas layout, its header and its GLSL/HLSL includes.
+"""Packing a scene's slices: the atlas layout, its header, its manifest entries and its EXR.
 
 Slices are stacked vertically, left-aligned, each in a rect [x0, y0, width, height] of texels that
 sampling stays inside (docs/scene.md, Outputs). The header (format lutbake-atlas, docs/lut-format.md)
 names each slice's materials, axes, film and base, so `inspect`, `sample --material` and `report`
-read an atlas without its manifest; the includes hold one LutbakeSlice constant per material.
+read an atlas without its manifest; its includes (one LutbakeSlice constant per material) are rendered
+by tables/includes.py.
 """
 
 from __future__ import annotations
@@ -12,24 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.io.names import shader_comment
-from lutbake.tables.lutfile import ATLAS_FORMAT, shader_ident, shader_template
+from lutbake.tables.exr import write_image
+from lutbake.tables.headers import ATLAS_FORMAT
 
-__all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "atlas_includes", "ERROR_KEYS"]
+__all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "write_atlas", "ERROR_KEYS"]
 
 # What a job's record says about its error, copied into each of its materials' manifest entries.
 ERROR_KEYS = ("de00_p99", "de00_p99_bound", "target_met", "de00_max", "worst_case")
-
-_ATLAS_LINES = {
-    "glsl": (
-        "const LutbakeSlice {ident} = LutbakeSlice(vec4({rect}), vec2({thick}), vec2({size}));",
-        "// {name}: 4D LUT {file} (sample it with {stem}.glsl)",
-    ),
-    "hlsl": (
-        "static const LutbakeSlice {ident} = {{float4({rect}), float2({thick}), float2({size})}};",
-        "// {name}: 4D LUT {file} (sample it with {stem}.hlsl)",
-    ),
-}
 
 
 def pack_atlas(slices) -> dict:
@@ -98,37 +88,6 @@ def slice_entry(job, record: dict, rect, atlas: dict, exr_name: str) -> dict:
     }
 
 
-def atlas_includes(manifest: dict, atlas: dict) -> dict:
-    """GLSL and HLSL include texts for a scene (its manifest and ``pack_atlas`` layout), keyed by suffix."""
-    return {lang: _atlas_include(manifest, atlas, lang) for lang in _ATLAS_LINES}
-
-
-def _atlas_include(manifest: dict, atlas: dict, lang: str) -> str:
-    """The scene's atlas sampler and one LutbakeSlice constant per slice material (a comment per 4D LUT)."""
-    slice_line, lut_line = _ATLAS_LINES[lang]
-    scene = Path(manifest["scene"]).stem
-    size = ", ".join(str(float(v)) for v in (atlas["width"], atlas["height"]))
-    lines = []
-    for name, e in manifest["materials"].items():
-        if e["kind"] == "slice":
-            th = e["axes"]["thickness_nm"]
-            lines.append(
-                slice_line.format(
-                    ident=shader_ident(f"{scene}_{name}"),
-                    size=size,
-                    rect=", ".join(str(float(v)) for v in e["rect"]),
-                    thick=f"{float(th['min'])}, {float(th['max'])}",
-                )
-            )
-        else:
-            lines.append(
-                lut_line.format(
-                    name=shader_comment(name), file=shader_comment(e["file"]), stem=shader_comment(Path(e["file"]).stem)
-                )
-            )
-    return shader_template(f"atlas.{lang}.in").substitute(
-        scene=shader_comment(manifest["scene"]),
-        scene_hash=manifest["scene_hash"][:16],
-        atlas=shader_comment(f"{scene}.exr"),
-        materials="\n".join(lines),
-    )
+def write_atlas(path: Path, atlas: dict, meta: dict, precision: str) -> None:
+    """Write a packed atlas (``pack_atlas``) with its header (``atlas_header``), read back by ``read_lut``."""
+    write_image(path, atlas["image"], meta, precision)

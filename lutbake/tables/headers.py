@@ -1,17 +1,26 @@
-"""Reading a lutbake EXR's header without trusting it: the file's structure, then its metadata.
+"""Each table kind's header, and reading a lutbake EXR's header without trusting it: its structure, then
+its metadata.
+
+Four kinds of table share one file layout (docs/lut-format.md), told apart by the metadata's ``format``:
+``KINDS`` says, per format, which versions a reader knows, the image's channels, the header's schema and how
+messages name such a file. The kinds: the 4D LUT (``lutbake-lut``, lutbake/lut/bake.py), a scene's atlas of
+2D slices (``lutbake-atlas``, lutbake/tables/atlas.py), the exact mode's colour-weight transform table
+(``lutbake-exact``, lutbake/modes/exact.py) and the runtime table (``lutbake-runtime``,
+lutbake/modes/runtime/).
 
 ``exr_header`` parses the header itself, in bounded reads (the OpenEXR file layout: magic number,
 version flags, then attributes ``name\\0 type\\0 size value`` up to an empty name), so nothing is
 allocated for pixels before the header has been checked. ``check_structure`` then requires what
-docs/lut-format.md promises: one scanline part, exactly the channels R, G, B, all HALF or all
-FLOAT (a UINT channel is not a colour), a data window at the origin, a lossless compression whose
-worst-case ratio bounds what a file of this size can hold (a 0.9 MB file declaring 12000² float
-texels is refused before 1.7 GB is allocated), and the ``lutbake.metadata`` string.
+docs/lut-format.md promises: one scanline part, exactly the channels R, G, B (R, G, B, A for the runtime
+table), all HALF or all FLOAT (a UINT channel is not a colour), a data window at the origin, a lossless
+compression whose worst-case ratio bounds what a file of this size can hold (a 0.9 MB file declaring
+12000² float texels is refused before 1.7 GB is allocated), and the ``lutbake.metadata`` string.
 
 ``check_metadata`` validates the metadata document of each format against its schema: every key a
 reader uses, its type and range, axis ranges inside the input domain (lutbake/physics/points.py), strings
-printable (no terminal control sequences reach ``lutbake inspect``). Failures raise ValueError whose
-message is the field's name; lutfile.read_lut turns it into one line naming the file.
+printable (no terminal control sequences reach ``lutbake inspect``), the image's size and channels as the
+header describes them. Failures raise ValueError whose message is the field's name;
+lutfile.read_lut turns it into one line naming the file.
 
 References: OpenEXR, "OpenEXR File Layout" (openexr.com/en/latest/OpenEXRFileLayout.html).
 """
@@ -20,6 +29,8 @@ from __future__ import annotations
 
 import re
 import struct
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -28,7 +39,32 @@ from lutbake.grid.spec import AXIS_UNITS, CORNER_AXES
 from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from lutbake.physics.points import inside_domain
 
-__all__ = ["exr_header", "check_structure", "check_metadata", "MAX_ATTRIBUTE_BYTES"]
+__all__ = [
+    "FORMAT",
+    "ATLAS_FORMAT",
+    "EXACT_FORMAT",
+    "RUNTIME_FORMAT",
+    "FORMAT_VERSION",
+    "EXACT_FORMAT_VERSION",
+    "RUNTIME_FORMAT_VERSION",
+    "TableKind",
+    "KINDS",
+    "exr_header",
+    "check_structure",
+    "check_metadata",
+    "MAX_ATTRIBUTE_BYTES",
+]
+
+FORMAT = "lutbake-lut"
+ATLAS_FORMAT = "lutbake-atlas"
+EXACT_FORMAT = "lutbake-exact"
+RUNTIME_FORMAT = "lutbake-runtime"
+# LUT v2 adds the η3 axis's "admittance" spacing, v3 "root4" and the "interpolation" key, v4 the η3 axis's
+# "sqrt-admittance" spacing, v5 the grazing corner's zoom on D, η3 and κ3 (docs/lut-format.md; a LUT
+# without one is written as v4), v6 tiles laid along x by κ3; older LUTs (no such axis) still read.
+FORMAT_VERSION = 6
+EXACT_FORMAT_VERSION = 1
+RUNTIME_FORMAT_VERSION = 1
 
 _MAGIC = 20000630
 _TILED, _LONG_NAMES, _DEEP, _MULTIPART = 0x200, 0x400, 0x800, 0x1000
@@ -90,9 +126,10 @@ def _channels(data: bytes) -> dict:
     return out
 
 
-def check_structure(header: dict) -> dict:
-    """(width, height, pixel type, metadata text) of a header that holds one lutbake image; ValueError
-    naming what is not (see the module docstring)."""
+def check_structure(header: dict, channel_sets=("RGB",)) -> dict:
+    """(width, height, channels, pixel type, metadata text) of a header that holds one lutbake image whose
+    channels are one of ``channel_sets`` ("RGB", "RGBA"); ValueError naming what is not (see the module
+    docstring)."""
     attributes, flags = header["attributes"], header["flags"]
     _need(not flags & (_TILED | _DEEP | _MULTIPART), "not a single-part scanline image")
     for name, kind, size in (
@@ -103,11 +140,13 @@ def check_structure(header: dict) -> dict:
         found, value = attributes.get(name, ("", b""))
         _need(found == kind and (size is None or len(value) == size), f"no {name} attribute of type {kind}")
     channels = _channels(attributes["channels"][1])
-    _need(sorted(channels) == ["B", "G", "R"], f"channels {', '.join(sorted(channels)) or 'none'}, expected R, G, B")
+    names = next((c for c in channel_sets if sorted(c) == sorted(channels)), None)
+    expected = " or ".join(", ".join(c) for c in channel_sets)
+    _need(names is not None, f"channels {', '.join(sorted(channels)) or 'none'}, expected {expected}")
     kinds = {kind for kind, _, _ in channels.values()}
     _need(
         len(kinds) == 1 and kinds <= set(_PIXEL_BYTES),
-        f"channel types {', '.join(sorted(kinds))}: R, G, B must all be HALF or all FLOAT",
+        f"channel types {', '.join(sorted(kinds))}: {', '.join(names)} must all be HALF or all FLOAT",
     )
     _need(all(xs == ys == 1 for _, xs, ys in channels.values()), "subsampled channels")
     x0, y0, x1, y1 = struct.unpack("<4i", attributes["dataWindow"][1])
@@ -116,7 +155,7 @@ def check_structure(header: dict) -> dict:
     compression = attributes["compression"][1][0]
     _need(compression in _COMPRESSIONS, f"compression {compression} (readers take NO, RLE, ZIPS or ZIP)")
     name, ratio = _COMPRESSIONS[compression]
-    declared = width * height * 3 * _PIXEL_BYTES[pixel]
+    declared = width * height * len(names) * _PIXEL_BYTES[pixel]
     _need(
         declared <= header["size"] * ratio,
         f"its data window of {width} x {height} texels cannot fit in {header['size']:,} bytes of {name} data",
@@ -124,7 +163,7 @@ def check_structure(header: dict) -> dict:
     kind, text = attributes.get("lutbake.metadata", ("", b""))
     _need(kind == "string", "no lutbake.metadata")
     try:
-        return {"width": width, "height": height, "pixel": pixel, "metadata": text.decode("utf-8")}
+        return {"width": width, "height": height, "channels": names, "pixel": pixel, "metadata": text.decode("utf-8")}
     except UnicodeDecodeError:
         raise ValueError("lutbake.metadata is not UTF-8") from None
 
@@ -137,12 +176,25 @@ def _need(ok: bool, why: str) -> None:
 # --- metadata: one schema per format (docs/lut-format.md); the ValueError's message is the field ---------
 
 
+@dataclass(frozen=True)
+class TableKind:
+    """What readers know of one format: the versions they read, the image's channels, the header's schema
+    (``schema(meta, structure)`` raises ValueError naming the field), and how a message names a file of it
+    (``noun`` before a missing file's name, ``title`` after "is not a" for a file that is not one)."""
+
+    versions: tuple
+    channels: str
+    schema: Callable[[dict, dict], None]
+    noun: str = "LUT"
+    title: str = "lutbake EXR"
+
+
 def check_metadata(meta: dict, structure: dict) -> None:
     """Raise ValueError(field) when ``meta`` (its format already known) breaks its schema or does not
     describe the image ``structure`` declares."""
-    {"lutbake-lut": _check_lut, "lutbake-atlas": _check_atlas, "lutbake-exact": _check_exact}[meta["format"]](
-        meta, structure
-    )
+    kind = KINDS[meta["format"]]
+    kind.schema(meta, structure)
+    _need(structure["channels"] == kind.channels, "channels (image)")
     _need(meta["precision"] == {"HALF": "half", "FLOAT": "float"}[structure["pixel"]], "precision (channel type)")
 
 
@@ -333,12 +385,35 @@ def _check_exact(meta: dict, shape: dict) -> None:
     _integer(_at(include, "max_terms", "include"), "include.max_terms", 1, 4096)
 
 
-def _identity(meta: dict, hash_digits: int) -> None:
-    """What LUTs and exact tables say about their origin: writer version, content hash, weighting."""
+def _check_runtime(meta: dict, shape: dict) -> None:
+    """The runtime table (lutbake/modes/runtime/files.py): its slices' tiles, band by band, fill the image."""
+    _identity(meta, hash_digits=16, channels="RGBA")
+    _storage(meta)
+    table = _dict(meta, "table")
+    for key in ("x_max_nm", "zoom_nm", "nu0_per_nm"):
+        _number(_at(table, key, "table"), f"table.{key}", positive=True)
+    _choice(table, "x_spacing", ("sqrt",), "table")
+    for key in ("quantity", "layout"):
+        _text(_at(table, key, "table"), f"table.{key}")
+    slices, nodes = (_integer(_at(table, key, "table"), f"table.{key}", 2, 1 << 16) for key in ("slices", "nodes"))
+    tiles = _integer(_at(table, "tiles_per_row", "table"), "table.tiles_per_row", 1, 1 << 16)
+    band_rows = _integer(_at(table, "band_rows", "table"), "table.band_rows", 1)
+    _need(band_rows == -(-(slices - 1) // tiles), "table.band_rows")  # the pairs of slices, tiles_per_row a row
+    white = _at(table, "white", "table")
+    _need(isinstance(white, list) and len(white) == 3, "table.white")
+    for value in white:
+        _number(value, "table.white", positive=True)
+    size = tuple(_integer(_at(table, key, "table"), f"table.{key}", 1) for key in ("width", "height"))
+    _need(size == (tiles * nodes, 3 * band_rows * nodes) == (shape["width"], shape["height"]), "table (image size)")
+    _number(_at(_dict(meta, "error"), "storage_max", "error"), "error.storage_max", low=0.0)
+
+
+def _identity(meta: dict, hash_digits: int, channels: str = "RGB") -> None:
+    """What LUTs, exact and runtime tables say about their origin: writer version, content hash, weighting."""
     _text(_at(meta, "lutbake_version"), "lutbake_version")
     _need(_is_hex(_at(meta, "content_hash"), hash_digits), "content_hash")
     _text(_at(meta, "illuminant"), "illuminant")
-    _need(_at(meta, "channels") == ["R", "G", "B"], "channels")
+    _need(_at(meta, "channels") == list(channels), "channels")
 
 
 def _storage(meta: dict) -> None:
@@ -405,3 +480,13 @@ def _domain(value, name: str, field: str) -> float:
     """A number inside the input domain of ``name`` (docs/stability.md, Input domain)."""
     _need(inside_domain(name, _number(value, field)), field)
     return float(value)
+
+
+KINDS = {
+    FORMAT: TableKind((1, 2, 3, 4, 5, 6), "RGB", _check_lut),
+    ATLAS_FORMAT: TableKind((1,), "RGB", _check_atlas),
+    EXACT_FORMAT: TableKind((EXACT_FORMAT_VERSION,), "RGB", _check_exact),
+    RUNTIME_FORMAT: TableKind(
+        (RUNTIME_FORMAT_VERSION,), "RGBA", _check_runtime, "runtime table", "readable lutbake runtime table"
+    ),
+}

@@ -25,7 +25,7 @@ from test_hostile import TINY, run_case, write_exr
 
 from lutbake.io import usercache
 from lutbake.io.fileset import MAX_JOURNAL_BYTES, sha256_file
-from lutbake.tables import lutfile
+from lutbake.tables import headers, lutfile
 from lutbake.tables.lutfile import read_lut
 
 CASE_SECONDS = 60
@@ -257,7 +257,7 @@ _OPTIONAL = {
     "id",
     "closed_form_texels",
 }
-FORMATS = (lutfile.FORMAT, lutfile.ATLAS_FORMAT, lutfile.EXACT_FORMAT)
+FORMATS = (headers.FORMAT, headers.ATLAS_FORMAT, headers.EXACT_FORMAT)
 
 
 def _mutations(meta, seed: int, n: int):
@@ -302,13 +302,13 @@ def test_tampered_metadata_is_refused_naming_the_field(kind, seed, good_files, t
     removed): refused in one line naming the file and the field, before a pixel is read (an exact table,
     which the CLI reads only through exact.read_exact_table, straight through read_lut)."""
     meta, image = read_lut(good_files[kind], formats=FORMATS)
-    real_read_pixels = lutfile._read_pixels
+    real_read_pixels = lutfile.read_pixels
     for field, edited, optional in _mutations(meta, seed, 12):
         _write_like(tmp_path / "bad.exr", image, edited)
-        monkeypatch.setattr(lutfile, "_read_pixels", real_read_pixels if optional else _never_read)
+        monkeypatch.setattr(lutfile, "read_pixels", real_read_pixels if optional else _never_read)
         if kind == "exact":
             try:
-                read_lut(tmp_path / "bad.exr", formats=(lutfile.EXACT_FORMAT,))
+                read_lut(tmp_path / "bad.exr", formats=(headers.EXACT_FORMAT,))
                 assert optional, field
             except ValueError as exc:
                 assert "bad.exr" in str(exc) and "\n" not in str(exc), (field, exc)
@@ -383,7 +383,7 @@ def _oversized(data: bytes) -> bytes:
 
 @pytest.mark.parametrize("name", list(STRUCTURES))
 def test_exr_structure_is_checked_before_pixels_are_allocated(name, good_files, tmp_path, capfd, monkeypatch):
-    monkeypatch.setattr(lutfile, "_read_pixels", _never_read)
+    monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     (tmp_path / "bad.exr").write_bytes(STRUCTURES[name](good_files["lut"].read_bytes()))
     _, out, err = run_case(["inspect", "bad.exr"], tmp_path, capfd, monkeypatch, {2})
     assert "bad.exr" in err and out == ""
@@ -408,7 +408,7 @@ def test_a_small_file_declaring_a_huge_image_is_refused_before_allocation(
         (tmp_path / "small.exr").read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)
     )
     (tmp_path / "bad.exr").write_bytes(data)
-    monkeypatch.setattr(lutfile, "_read_pixels", _never_read)
+    monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     _, _, err = run_case(["inspect", "bad.exr"], tmp_path, capfd, monkeypatch, {2})
     assert "12000 x 12000 texels cannot fit" in err
 
@@ -489,7 +489,7 @@ ATLAS_VALUES = {
 
 @pytest.mark.parametrize("name", list(ATLAS_VALUES))
 def test_atlas_header_values_are_checked(name, good_files, tmp_path, capfd, monkeypatch):
-    meta, image = read_lut(good_files["atlas"], formats=(lutfile.ATLAS_FORMAT,))
+    meta, image = read_lut(good_files["atlas"], formats=(headers.ATLAS_FORMAT,))
     ATLAS_VALUES[name](meta)
     _write_like(tmp_path / "bad.exr", image, meta)
     for command in (
@@ -502,7 +502,7 @@ def test_atlas_header_values_are_checked(name, good_files, tmp_path, capfd, monk
 
 
 def test_valid_files_of_every_format_still_read(good_files):
-    for kind, fmt in (("lut", lutfile.FORMAT), ("atlas", lutfile.ATLAS_FORMAT), ("exact", lutfile.EXACT_FORMAT)):
+    for kind, fmt in (("lut", headers.FORMAT), ("atlas", headers.ATLAS_FORMAT), ("exact", headers.EXACT_FORMAT)):
         meta, image = read_lut(good_files[kind], formats=(fmt,))
         assert meta["format"] == fmt and image.ndim == 3 and np.isfinite(image).all()
 

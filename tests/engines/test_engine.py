@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from conftest import default_luts
 
+from lutbake.io.names import shader_identifier as shader_ident
 from lutbake.lut.bake import default_specs
 from lutbake.lut.sample import load_table
-from lutbake.tables.lutfile import shader_ident
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "docs"))

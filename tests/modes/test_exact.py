@@ -241,7 +241,7 @@ def test_cli_refuses_bad_input_and_writes_nothing(tmp_path, args, message):
 
 
 def test_reader_refuses_a_lut_and_a_bad_header(tmp_path, tables):
-    from lutbake.tables.lutfile import _ExrRows
+    from lutbake.tables.exr import write_image
 
     _, table, _ = tables
     with pytest.raises(ValueError, match="not a lutbake-exact v1 file"):
@@ -249,9 +249,7 @@ def test_reader_refuses_a_lut_and_a_bad_header(tmp_path, tables):
     meta = json.loads(json.dumps(table.meta))
     meta["table"]["rows_per_part"] = 3
     image = np.zeros((32, 2048, 3), np.float32)
-    rows = _ExrRows(tmp_path / "bad.exr", 2048, 32, meta, "float")
-    rows.write_rows(image)
-    rows.file.close()
+    write_image(tmp_path / "bad.exr", image, meta, "float")
     with pytest.raises(ValueError, match="table.texels"):
         read_exact_table(tmp_path / "bad.exr")
 

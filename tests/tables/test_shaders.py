@@ -14,7 +14,7 @@ from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.lut.bake import bake
 from lutbake.scene.bake import bake_scene
 from lutbake.scene.toml import load_scene
-from lutbake.tables.lutfile import warn_texture_size
+from lutbake.tables.includes import warn_texture_size
 
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 GLSLANG = PREFIX / "bin" / "glslang"

@@ -1,5 +1,8 @@
 """The runtime table as files: one RGBA half EXR, a JSON sidecar, GLSL and HLSL includes.
 
+What the table holds and its header are made here; lutbake/tables/ writes and reads the files as it does
+every table's (the header's schema: tables/headers.py) and renders the includes (tables/includes.py).
+
 Image layout (docs/engines.md, "Runtime table"): U_c(X, w) − W_c of transform.py, W_c = Ŵ_c(0) the
 channel's white (the table holds the departure from it: half floats keep ~11 bits of it, not of U). Tiles
 of NODES × NODES texels (columns Re w, scanlines Im w, both from −1 to 1); the tile of slice pair j
@@ -23,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from lutbake import __version__
-from lutbake.io.fileset import open_set
 from lutbake.modes.runtime.transform import NODES, SLICES, X_MAX_NM, ZOOM_NM, transform_table
 from lutbake.spectral.fourier import NU0_PER_NM
-from lutbake.tables.lutfile import flat_attributes, shader_template
+from lutbake.tables.headers import RUNTIME_FORMAT, RUNTIME_FORMAT_VERSION
+from lutbake.tables.lutfile import read_lut, write_table_set
 
 __all__ = [
     "RUNTIME_FORMAT",
@@ -37,12 +40,8 @@ __all__ = [
     "stored_table",
     "write_runtime_table",
     "read_runtime_table",
-    "include_fields",
-    "runtime_includes",
 ]
 
-RUNTIME_FORMAT = "lutbake-runtime"
-RUNTIME_FORMAT_VERSION = 1
 TILES_PER_ROW = 32
 BAND_ROWS = -(-(SLICES - 1) // TILES_PER_ROW)  # tile rows per channel band
 
@@ -130,25 +129,6 @@ def stored_table(observer: str = "cie1931", space: str = "rec709") -> RuntimeTab
     return RuntimeTable(_metadata(observer, space, exact, stored, white), stored.astype(np.float32))
 
 
-def _write_exr(path: Path, image: np.ndarray, meta: dict) -> None:
-    import Imath
-    import OpenEXR
-
-    height, width, _ = image.shape
-    header = OpenEXR.Header(width, height)
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(Imath.PixelType.HALF)) for c in "RGBA"}
-    header["compression"] = Imath.Compression(Imath.Compression.ZIP_COMPRESSION)
-    header["lutbake.metadata"] = json.dumps(meta, sort_keys=True).encode()
-    for key, value in flat_attributes(meta).items():
-        header[key] = value.encode()
-    exr = OpenEXR.OutputFile(str(path), header)
-    try:
-        half = image.astype(np.float16)
-        exr.writePixels({c: np.ascontiguousarray(half[:, :, i]).tobytes() for i, c in enumerate("RGBA")})
-    finally:
-        exr.close()
-
-
 def write_runtime_table(out_path, observer: str = "cie1931", space: str = "rec709") -> dict:
     """Write NAME.exr, NAME.json, NAME.glsl and NAME.hlsl as one set; return the metadata."""
     from lutbake.lut.bake import _check_writable
@@ -156,64 +136,12 @@ def write_runtime_table(out_path, observer: str = "cie1931", space: str = "rec70
     out_path = Path(out_path)
     _check_writable(out_path)
     table = stored_table(observer, space)
-    with open_set(out_path.parent, out_path.name) as files:
-        _write_exr(files.temp(out_path), table.image, table.meta)
-        files.temp(out_path.with_suffix(".json")).write_text(json.dumps(table.meta, indent=2, sort_keys=True) + "\n")
-        for suffix, text in runtime_includes(table.meta, out_path.name).items():
-            files.temp(out_path.with_suffix(f".{suffix}")).write_text(text)
+    write_table_set(out_path, table.image, table.meta, table.meta["precision"])
     return table.meta
 
 
 def read_runtime_table(path) -> RuntimeTable:
-    """The table as stored; ValueError names the file when it is not a runtime table."""
-    import OpenEXR
-
-    path = Path(path)
-    try:
-        with OpenEXR.File(str(path)) as exr:
-            meta = json.loads(exr.header()["lutbake.metadata"])
-            channels = exr.channels()
-            image = (
-                np.array(channels["RGBA"].pixels)
-                if "RGBA" in channels
-                else np.stack([np.array(channels[c].pixels) for c in "RGBA"], axis=-1)
-            )
-    except Exception:  # OpenEXR raises several types for missing or damaged files
-        raise ValueError(f"{str(path)!r} is not a readable lutbake runtime table") from None
-    if meta.get("format") != RUNTIME_FORMAT or meta.get("format_version") != RUNTIME_FORMAT_VERSION:
-        raise ValueError(f"{str(path)!r} is not a {RUNTIME_FORMAT} v{RUNTIME_FORMAT_VERSION} file")
-    t = meta.get("table", {})
-    expected = (3 * t.get("band_rows", 0) * t.get("nodes", 0), t.get("tiles_per_row", 0) * t.get("nodes", 0), 4)
-    if image.shape != expected or not np.isfinite(image).all():
-        raise ValueError(
-            f"{str(path)!r}: its image does not match its header's table layout (or holds non-finite texels)"
-        )
+    """The table as stored, its header checked against its schema before its pixels are read (ValueError
+    names the file and what is wrong)."""
+    meta, image = read_lut(path, (RUNTIME_FORMAT,))
     return RuntimeTable(meta, image.astype(np.float32))
-
-
-def include_fields(meta: dict, table_name: str) -> dict:
-    """The template fields of a runtime table's shader sources (runtime.*.in): its constants."""
-    t = meta["table"]
-    return {
-        "table_name": table_name,
-        "content_hash": meta["content_hash"],
-        "space": meta["space"],
-        "observer": meta["observer"],
-        "nu0": repr(t["nu0_per_nm"]),
-        "x_max": repr(t["x_max_nm"]),
-        "zoom": repr(t["zoom_nm"]),
-        "last_slice": repr(float(t["slices"] - 1)),
-        "half_span": repr(0.5 * (t["nodes"] - 1)),
-        "nodes": repr(float(t["nodes"])),
-        "tiles": repr(float(t["tiles_per_row"])),
-        "band": repr(float(t["band_rows"] * t["nodes"])),
-        "width": repr(float(t["width"])),
-        "height": repr(float(t["height"])),
-        "white": ", ".join(repr(v) for v in t["white"]),
-    }
-
-
-def runtime_includes(meta: dict, table_name: str) -> dict:
-    """GLSL and HLSL include texts for a runtime table, keyed by file suffix."""
-    fields = include_fields(meta, table_name)
-    return {suffix: shader_template(f"runtime.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
