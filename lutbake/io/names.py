@@ -1,7 +1,7 @@
 """Names of the CIE observers and working spaces (and colour-science's names for them), of the
 LUT interpolation rules (lutbake/grid/interpolation.py) and of the η3 spacings that follow the incidence
 (lutbake/grid/spec.py); and how a file, scene or material name may appear in shader source (a // comment,
-a constant's identifier): the file name itself stays intact everywhere else.
+a constant's identifier, an OSL string): the file name itself stays intact everywhere else.
 
 Kept apart from lutbake/physics/colorimetry.py, with no imports, so the command line can list
 the choices at start-up without loading numpy or colour-science.
@@ -48,3 +48,20 @@ def shader_comment(text: str) -> str:
     ('nl\\\\n#error injected\\\\n.exr', '\\\\xfc.exr')
     """
     return "".join(c if " " <= c <= "~" and c != "\\" else "\\x5c" if c == "\\" else ascii(c)[1:-1] for c in text)
+
+
+def shader_string(text: str) -> str:
+    """``text`` as it may stand between the double quotes of an OSL string (an OSL script's table path):
+    unchanged; ValueError when it holds a double quote or a control character (a newline would end the
+    string and put the rest in the source), which no escape carries through every OSL compiler alike.
+
+    >>> shader_string("/tables/rt.exr")
+    '/tables/rt.exr'
+    >>> shader_string("/tables/rt\\n#error.exr")
+    Traceback (most recent call last):
+    ...
+    ValueError: '/tables/rt\\n#error.exr' holds a double quote or a control character, which an OSL string cannot hold
+    """
+    if any(c == '"' or c < " " or c == "\x7f" for c in text):
+        raise ValueError(f"{text!r} holds a double quote or a control character, which an OSL string cannot hold")
+    return text

@@ -7,9 +7,9 @@ Blender's Cycles (its absolute path in the script). ``atlas_includes`` renders a
 constants come from the scene's manifest (which also names the 4D LUTs the scene uses beside the atlas).
 
 Every name that reaches a shader goes through lutbake/io/names.py: ``shader_comment`` where it stands in a
-// comment, ``shader_identifier`` where it names a constant, so a hostile file, scene or material name
-cannot add a line to the source. Numbers are written as Python's shortest round-trip repr: the same header
-gives the same bytes.
+// comment, ``shader_identifier`` where it names a constant, ``shader_string`` (which refuses what it cannot
+carry) in an OSL string, so a hostile file, scene or material name cannot add a line to the source. Numbers
+are written as Python's shortest round-trip repr: the same header gives the same bytes.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 from lutbake.grid.interpolation import mirrors_low_end
 from lutbake.grid.spec import ROOT4_WEIGHT
-from lutbake.io.names import ADMITTANCE_SPACINGS, shader_comment, shader_identifier
+from lutbake.io.names import ADMITTANCE_SPACINGS, shader_comment, shader_identifier, shader_string
 from lutbake.spectral.fourier import NU_HALF_BAND_PER_NM
 from lutbake.tables.headers import EXACT_FORMAT, FORMAT, RUNTIME_FORMAT
 
@@ -55,9 +55,10 @@ def shader_includes(meta: dict, table_name: str) -> dict:
 
 
 def osl_source(meta: dict, table_path: Path) -> str:
-    """The OSL script of an exact or runtime table (header ``meta``) that Cycles reads at ``table_path``."""
+    """The OSL script of an exact or runtime table (header ``meta``) that Cycles reads at ``table_path``;
+    ValueError when the path cannot stand in an OSL string."""
     stem = _TEMPLATES[meta["format"]][0]
-    fields = {**include_fields(meta, table_path.name), "table_path": str(table_path)}
+    fields = {**include_fields(meta, table_path.name), "table_path": shader_string(str(table_path))}
     return shader_template(f"{stem}.osl.in").substitute(fields)
 
 
