@@ -221,7 +221,7 @@ def slice_program(g, read: SliceRead, size: tuple, cos_theta, thickness_nm):
 
 
 def _warp(g, value, spacing: str, snell):
-    """The coordinate in which an axis's nodes are uniform (plan.Axis._warp); ``snell`` carries η1 and
+    """The coordinate in which an axis's nodes are uniform (grid/axis.py, _warp); ``snell`` carries η1 and
     cos θ1 for the admittance spacings, whose v² − (η1 sin θ1)² is (v − η1)(v + η1) + (η1 cos θ1)², as the
     includes write it (no cancellation near v = η1)."""
     if spacing == "uniform":

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lutbake.grid.axis import ROOT4_WEIGHT
 from lutbake.grid.interpolation import mirrors_low_end
-from lutbake.grid.spec import ROOT4_WEIGHT
 from lutbake.io import fileset
 from lutbake.io.documents import load_json
 from lutbake.io.fileset import temporary_for

@@ -13,7 +13,8 @@ import pytest
 
 import lutbake
 from lutbake.errors import ParameterError
-from lutbake.grid.spec import CORNER_COS, Axis, BakeSpec
+from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.grid.texels import CORNER_COS
 from lutbake.lut.sample import Lut
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
