@@ -207,8 +207,9 @@ def _check_optical_path(job: SceneJob, m: SceneMaterial) -> None:
 
 
 def _truth_points(job: SceneJob) -> int:
-    """Ground-truth points a job's bake evaluates (lutbake/spectral/reference.py): the searched max's local maxima and worst
-    scored point (measure.search_stacks), and a 4D job tuned over its domain also its report points."""
+    """Ground-truth points a job's bake evaluates (lutbake/spectral/reference.py): the searched max's local
+    maxima and worst scored point (measure.search_stacks), and a 4D job tuned over its domain also its report
+    points."""
     rescored = RESCORED + 1
     return rescored if job.kind == "slice" or "base_path" in job.key else SCORED_POINTS["lut"] + RESCORED
 
