@@ -60,20 +60,19 @@ sys.path.insert(0, str(ROOT / "docs"))
 from make_scene_examples import bake_example  # noqa: E402
 
 import lutbake  # noqa: E402
-from lutbake.blender.library import (
+from lutbake.blender.library import (  # noqa: E402
     Probes,
     blender_thin_film_probes,
     lutbake_probes,
-    render_probes,  # noqa: E402
+    render_probes,
     verify_osl,
     write_library,
 )
-from lutbake.blender.nodes import (
-    EXACT_MATERIAL,
-    RUNTIME_MATERIAL,
+from lutbake.blender.nodes import EXACT_MATERIAL, RUNTIME_MATERIAL  # noqa: E402
+from lutbake.blender.programs import (  # noqa: E402
     LutRead,
     NumpyGraph,
-    bilinear_program,  # noqa: E402
+    bilinear_program,
     read_manifest,
     read_program,
 )

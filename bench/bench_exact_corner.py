@@ -1,7 +1,7 @@
 """The exact mode's searched maximum ΔE00: over each default LUT's domain, and near the dielectric corner.
 
 1. Per default LUT (luts/, baked when missing): the `lutbake-exact-mode` row's searched max as `lutbake report`
-   finds it (report.search_max: 1,000 held-out points at seed 0, 20,000 evaluations), where, how found.
+   finds it (measure.search_max: 1,000 held-out points at seed 0, 20,000 evaluations), where, how found.
 2. The corner's neighbourhood alone, cos θ1 ≤ 0.02, D ≤ 20 nm, η3 − η1 ≤ 1e-3, κ3 ≤ 1e-3 (tests/modes/test_exact.py
    corner_search, 3,000 evaluations) for η2 1.33, 1.5, 2.0 and 3.0; and the share of its random points where
    the 64-term cap binds (the closed-form tail's share of pixels).
@@ -26,19 +26,19 @@ from test_exact import CORNER_SPAN, corner_search  # noqa: E402
 
 from lutbake.lut.sample import Lut  # noqa: E402
 from lutbake.modes.exact import exact_colour, exact_mode_rgb, stored_table  # noqa: E402
-from lutbake.quality import report  # noqa: E402
+from lutbake.quality import measure  # noqa: E402
 
 
 def lut_row(path: Path) -> dict:
     lut = Lut.load(path)
     space, observer = lut.meta["space"], lut.meta["observer"]
-    pts = report.held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, 1000, 0)
+    pts = measure.held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, 1000, 0)
 
     def read(stack):
         return exact_mode_rgb(stack, space, observer)
 
-    held = report.score("lutbake-exact-mode", read(pts.stack), pts, space, observer, 0.0)
-    found = report.search_max(read, lut, pts, held.de00, report.proxy_truth(lut), report.SEARCH_BUDGET, 0)
+    held = measure.score("lutbake-exact-mode", read(pts.stack), pts, space, observer, 0.0)
+    found = measure.search_max(read, lut, pts, held.de00, measure.proxy_truth(lut), measure.SEARCH_BUDGET, 0)
     return {k: found[k] for k in ("de00_max", "cos_theta", "opd_nm", "eta3", "kappa3", "found_by", "held_out_max")}
 
 

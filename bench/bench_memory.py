@@ -1,4 +1,4 @@
-"""Peak memory of a bake against the memory model (lutbake.grid.spec.BakeSpec.memory), shape by shape.
+"""Peak memory of a bake against the memory model (lutbake/grid/memory.py, BakeSpec.memory), shape by shape.
 
     python bench/bench_memory.py [--shapes NAME ...] [--devices KEY ...] [--json FILE]
 

@@ -7,7 +7,7 @@ over the default domain for η2 = 1.5, then writes the tables into
 docs/accuracy.md, with where common bases (lutbake's named materials) fall in
 (η3, κ3) over 400–700 nm. Through the Python API it adds, for the dielectric
 LUTs, the searched maximum inside the grazing corner's neighbourhood
-(report.corner_distance ρ < 0.2), where their zoom works, and the map of that
+(measure.corner_distance ρ < 0.2), where their zoom works, and the map of that
 corner (docs/accuracy/corner.png).
 """
 
@@ -92,9 +92,9 @@ def main():
 
 def searched_in_corner(path) -> dict:
     """`report`'s search (its 5,000 points and budget) confined to the corner's neighbourhood ρ < 0.2
-    (report.corner_distance), at a seed the reports do not use."""
+    (measure.corner_distance), at a seed the reports do not use."""
     from lutbake.lut.sample import Lut
-    from lutbake.quality.report import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
+    from lutbake.quality.measure import SEARCH_BUDGET, corner_distance, held_out_points, proxy_truth, score, search_max
 
     lut = Lut.load(path)
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, "cie1931", "rec709", POINTS, 3)
@@ -119,7 +119,7 @@ def corner_map(paths, out_png, n: int = 64):
     from lutbake.lut.sample import Lut
     from lutbake.physics.colorimetry import delta_e00
     from lutbake.physics.points import FilmPoints
-    from lutbake.quality.report import corner_distance
+    from lutbake.quality.measure import corner_distance
     from lutbake.spectral.reference import reference_colour
 
     cos_t, opd = np.meshgrid(np.logspace(-6, 0, n), np.logspace(-4, np.log10(3000.0), n))
@@ -215,7 +215,7 @@ def corner_section(reports) -> list:
         "a fixed node coordinate move smoothly. What remains hardest there is the darkest colour: where a thin",
         "film's reflection and a weak absorber's cancel, the colour sits within ~0.001 of black, where ΔE00 is",
         "most sensitive; the ratio parts' node counts (D 24, η3 8, κ3 14) are set by those valleys.",
-        "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.quality.report.corner_distance`, measures the distance to the",
+        "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.quality.measure.corner_distance`, measures the distance to the",
         f"corner. The search confined to ρ < {CORNER_RADIUS:g} (5,000 held-out points at seed 3, 20,000 evaluations) finds "
         + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items())
         + ".",

@@ -15,7 +15,7 @@ importing lutbake changes no process state (signal handlers, environment).
 # (the function bake.bake is public as bake_lut: a package attribute named like a submodule is
 # replaced by the submodule when that is imported)
 _API = {
-    "Axis": "grid.spec",
+    "Axis": "grid.axis",
     "BakeSpec": "grid.spec",
     "FilmPoints": "physics.points",
     "reference_colour": "spectral.reference",

@@ -4,7 +4,8 @@ Blender runs as a separate program: a Blender executable (run with ``--backgroun
 Python interpreter with the ``bpy`` module (PyPI's bpy 5.0.1 needs Python 3.11 and numpy < 2, which
 lutbake's own dependencies exclude, so it lives in an environment of its own). Inside it run two
 scripts of this package that import nothing of lutbake: ``lutbake/blender/nodes.py`` (the node groups and
-materials, and the OSL materials: the exact runtime mode and the runtime table, scripts filled in from
+materials, built from the reads of lutbake/blender/programs.py, which it loads by path; and the OSL
+materials: the exact runtime mode and the runtime table, scripts filled in from
 shaders/exact.osl.in and shaders/runtime.osl.in) and
 ``lutbake/blender/probe.py`` (renders probe planes). This module finds Blender, checks the inputs before it
 starts, commits the .blend atomically, and compares renders with ``lutbake sample``, with the exact
@@ -24,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lutbake.blender.nodes import BLENDER_SPACES, OSL_MATERIALS, SceneReads, SliceRead, read_manifest
+from lutbake.blender.nodes import OSL_MATERIALS
+from lutbake.blender.programs import BLENDER_SPACES, SceneReads, SliceRead, read_manifest
 from lutbake.errors import ParameterError
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
@@ -333,9 +335,9 @@ def verify_library(
     ``closure`` 'glossy' renders the shipped material (Glossy BSDF); 'emission' feeds the group into an
     Emission shader instead, which isolates the group from the engine's closure storage (EEVEE keeps
     closure colours in a ~10-bit G-buffer). Blender clamps a closure's negative colour components to 0
-    (Cycles' Emission excepted), so the render is held to max(sample, 0). Returns per material and overall max |ΔRGB| (overall also in
-    half-float ulps of the expected value: EEVEE renders into half floats), how many
-    points had a negative component, the largest spread inside a probe, whether all are within
+    (Cycles' Emission excepted), so the render is held to max(sample, 0). Returns per material and overall
+    max |ΔRGB| (overall also in half-float ulps of the expected value: EEVEE renders into half floats),
+    how many points had a negative component, the largest spread inside a probe, whether all are within
     RENDER_TOLERANCE, and the render's seconds.
     """
     scene = read_manifest(manifest)

@@ -28,7 +28,7 @@ from importlib import resources
 import numpy as np
 
 from lutbake.errors import OpenCLUnavailable, ParameterError
-from lutbake.grid.spec import SERIES_CHUNK
+from lutbake.grid.memory import SERIES_CHUNK
 from lutbake.integrate.devices import (
     _every_runtime_registered,
     _opencl,

@@ -1,6 +1,6 @@
 """Names of the CIE observers and working spaces (and colour-science's names for them), of the
 LUT interpolation rules (lutbake/grid/interpolation.py) and of the η3 spacings that follow the incidence
-(lutbake/grid/spec.py); and how a file, scene or material name may appear in shader source (a // comment,
+(lutbake/grid/axis.py); and how a file, scene or material name may appear in shader source (a // comment,
 a constant's identifier, an OSL string): the file name itself stays intact everywhere else.
 
 Kept apart from lutbake/physics/colorimetry.py, with no imports, so the command line can list

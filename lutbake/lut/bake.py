@@ -24,7 +24,8 @@ import numpy as np
 
 from lutbake import __version__
 from lutbake.errors import ParameterError
-from lutbake.grid.spec import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
+from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
+from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.opencl import NumpyBackend, bake_rows_all
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set

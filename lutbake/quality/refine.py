@@ -15,7 +15,7 @@ centres of the trial grid's own cells) and holds to the target not their p99
 but ``p99_bound``, the percentile that a fresh 1,000-point report's p99 stays
 below at 99 % of seeds (99.73 %: the p99 of n points scatters by
 √(0.99·0.01/n) in probability). The winning grid's maximum is then searched
-(report.search_max), so its `max` means what `report`'s does.
+(measure.search_max), so its `max` means what `report`'s does.
 
 Trials are integrated in memory by the bake's integrator and never written:
 what a trial costs is its texels, not the file set or the bake's own
@@ -186,9 +186,9 @@ def _scaled_counts(counts, axis: int, factor: float, cap) -> tuple:
 
 
 def uniform_points(spec, n_points: int, seed: int):
-    """Held-out points uniform over the domain of ``spec`` with their ground truth (lutbake/quality/report.py): what
+    """Held-out points uniform over the domain of ``spec`` with their ground truth (lutbake/quality/measure.py): what
     `sweep` scores every variant at (a cell centre of one grid is a node of another)."""
-    from lutbake.quality.report import held_out_points
+    from lutbake.quality.measure import held_out_points
 
     return held_out_points(
         spec.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed, centre_fraction=0.0
@@ -211,7 +211,7 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
     """``measure`` for 4D grids over ``spec``'s domain: baked in memory (``trial_lut``), sampled as a GPU
     would at `report`'s points for that grid (half uniform, the same for every trial; half at centres of
     its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``."""
-    from lutbake.quality.report import held_out_points, score
+    from lutbake.quality.measure import held_out_points, score
 
     n_centre = n_points // 2
     uniform = held_out_points(
@@ -262,13 +262,13 @@ def tune(
     """Smallest per-axis counts (greedy, ``refine``) that `report` finds within ``max_de`` at any seed:
     ``p99_bound`` of `report`'s kind of held-out points (``n_points``: half uniform, half at the trial
     grid's cell centres) ≤ ``max_de``, from ``start`` counts over the domain of ``spec``. Trials are
-    scored against the bake's direct spectral rule (report.proxy_truth: ~1e-6 from the ground truth in
+    scored against the bake's direct spectral rule (measure.proxy_truth: ~1e-6 from the ground truth in
     RGB, a hundred times faster; `report` then measures against the ground truth itself). The winner's
-    maximum is then searched (``search_budget`` evaluations, report.SEARCH_BUDGET by default) and put in
+    maximum is then searched (``search_budget`` evaluations, measure.SEARCH_BUDGET by default) and put in
     its stats as ``worst_case`` and ``de00_max``."""
     from lutbake.integrate.opencl import backend as make_backend
     from lutbake.lut.sample import Lut
-    from lutbake.quality.report import SEARCH_BUDGET, proxy_truth
+    from lutbake.quality.measure import SEARCH_BUDGET, proxy_truth
 
     integrator = make_backend(backend, spec.compute)
     truth = proxy_truth(Lut.in_memory(spec, None), backend)
@@ -288,9 +288,9 @@ def tune(
 
 
 def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, backend: str) -> dict:
-    """report.search_max of the winning grid, from its held-out points."""
+    """measure.search_max of the winning grid, from its held-out points."""
     from lutbake.lut.sample import Lut
-    from lutbake.quality.report import held_out_points, proxy_truth, score, search_max
+    from lutbake.quality.measure import held_out_points, proxy_truth, score, search_max
 
     grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, result.counts)))
     lut = Lut.in_memory(grid, result.artefact)

@@ -4,7 +4,7 @@ Every variant is baked (timed), its file measured in bytes, and scored at the
 same held-out points (uniform over the domain) as the approximations engines
 run today, so the rows are comparable: p99 ΔE00 against bake seconds and
 bytes for LUTs, against nanoseconds per evaluation for the approximations.
-Each row's max is searched (report.search_max, ``search_budget`` evaluations
+Each row's max is searched (measure.search_max, ``search_budget`` evaluations
 a row, fewer than `report`'s: a sweep has ~30 rows).
 """
 
@@ -21,8 +21,8 @@ from lutbake.io.progress import no_progress
 from lutbake.lut.bake import bake
 from lutbake.lut.sample import Lut
 from lutbake.modes.approximations import APPROXIMATIONS
+from lutbake.quality.measure import proxy_truth, score, search_max
 from lutbake.quality.refine import POINT_KIND, uniform_points
-from lutbake.quality.report import proxy_truth, score, search_max
 
 __all__ = ["sweep", "variants", "SWEEP_SEARCH_BUDGET"]
 

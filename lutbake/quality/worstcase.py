@@ -194,6 +194,19 @@ def find_worst(
     axes = tuple(axes)
     rng = np.random.default_rng(seed)
     counter = _Counter(error, budget)
+    u, e, kinds = _starts(counter, axes, points, errors, singular or {}, rng)
+    order = _distinct(axes, u, np.argsort(-e, kind="stable"), limit=max(4 * counter.left // _per_start(axes), 1))
+    found = _refine_in_batches(counter, axes, u[order], e[order], kinds[order])
+    candidates = _distinct_candidates(axes, found, max_candidates)
+    counts = dict(zip(*np.unique(kinds, return_counts=True)))
+    return WorstCase(axes, candidates, counter.used, budget, {str(k): int(n) for k, n in counts.items()})
+
+
+def _starts(counter, axes, points, errors, singular: dict, rng) -> tuple:
+    """Phase 1, (u, e, kinds) of every start: the given points, the corners, edges and singular faces, a
+    random scatter, then a scatter near the best of those; each evaluated (the given ones unless their
+    ``errors`` are known) within the budget's shares."""
+    budget = counter.budget
     corners = _corners(axes)
     if len(corners) > budget // 2:
         raise ValueError(
@@ -203,7 +216,7 @@ def find_worst(
     pools = [
         ("corner", corners),
         *_edges(axes, int(_EDGE_SHARE * budget)),
-        *_singular_faces(axes, singular or {}, int(_SINGULAR_SHARE * budget), rng),
+        *_singular_faces(axes, singular, int(_SINGULAR_SHARE * budget), rng),
         ("random", _snap(axes, rng.uniform(size=(int(_RANDOM_SHARE * budget), len(axes))))),
     ]
     starts, values, kinds = [], [], []
@@ -219,12 +232,7 @@ def find_worst(
             kinds += [kind] * len(u)
     u, e, kinds = np.vstack(starts), np.concatenate(values), np.array(kinds)
     near, near_kinds = _near(axes, u, e, kinds, int(_NEAR_SHARE * budget), rng)
-    u, e, kinds = np.vstack([u, near]), np.concatenate([e, counter(near)]), np.concatenate([kinds, near_kinds])
-    order = _distinct(axes, u, np.argsort(-e, kind="stable"), limit=max(4 * counter.left // _per_start(axes), 1))
-    found = _refine_in_batches(counter, axes, u[order], e[order], kinds[order])
-    candidates = _distinct_candidates(axes, found, max_candidates)
-    counts = dict(zip(*np.unique(kinds, return_counts=True)))
-    return WorstCase(axes, candidates, counter.used, budget, {str(k): int(n) for k, n in counts.items()})
+    return np.vstack([u, near]), np.concatenate([e, counter(near)]), np.concatenate([kinds, near_kinds])
 
 
 class _Counter:

@@ -1,9 +1,10 @@
 """Scene bakes (`bake --scene`, `bake --gltf`): a scene's plan run and written as one file set.
 
-The stages, a module each: a source (scene_toml, gltf_scene) makes the scene model (lutbake/scene/model.py);
-scene_plan makes its jobs; scene_jobs runs them (lutbake/scene/slices.py, lutbake/quality/refine.py); lutbake/tables/atlas.py packs the slices;
-this module keeps the cache (lutbake/scene/cache.py) and writes the set: the atlas, the includes, the 4D
-LUTs and the manifest, committed together (lutbake/io/fileset.py).
+The stages, a module each: a source (lutbake/scene/toml.py, lutbake/scene/gltf/) makes the scene model
+(lutbake/scene/model.py); lutbake/scene/plan.py makes its jobs; lutbake/scene/jobs.py runs them
+(lutbake/scene/slices.py, lutbake/quality/refine.py); lutbake/tables/atlas.py packs the slices; this module
+keeps the cache (lutbake/scene/cache.py) and writes the set: the atlas, the includes, the 4D LUTs and the
+manifest, committed together (lutbake/io/fileset.py).
 
 Incremental: unchanged jobs come from OUT/.lutbake-cache; an unchanged scene writes nothing. "Up to
 date" means the manifest is unedited (its own hash), is this scene's (scene hash) and every member
@@ -140,6 +141,34 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     out = Path(out_dir)
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
+    _make_folder(out)
+    scene_hash = _scene_hash(scene, plan)
+    outputs = scene_outputs(out, scene, plan)
+    with open_set(out, f"scene-{scene.stem}") as files:
+        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
+        if unmet is not None:
+            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
+        run = _JobRun(plan, SceneCache(out), force, backend, progress)
+        entries, slices = run.all(out, files)
+        atlas = _write_atlas(files, outputs, scene, scene_hash, slices, entries)
+        manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
+        written = sorted(files.members)
+    seconds = time.perf_counter() - start
+    return SceneResult(
+        out, written, run.computed, run.reused, False, seconds, _unmet(manifest["materials"]), run.device
+    )
+
+
+def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
+    """What the set's bytes depend on: every job's hash, the materials in order and the source (a glTF's)."""
+    return scene.hash_of(
+        [job.hash for job in plan.jobs],
+        [m.name for m in scene.materials],
+        *([] if scene.source is None else [scene.source]),
+    )
+
+
+def _make_folder(out: Path) -> None:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -148,47 +177,33 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
             out=repr(str(out)),
             why=exc.strerror or type(exc).__name__,
         ) from None
-    scene_hash = scene.hash_of(
-        [job.hash for job in plan.jobs],
-        [m.name for m in scene.materials],
-        *([] if scene.source is None else [scene.source]),
-    )
-    outputs = scene_outputs(out, scene, plan)
-    with open_set(out, f"scene-{scene.stem}") as files:
-        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
-        if unmet is not None:
-            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
-        run = _JobRun(plan, SceneCache(out), force, backend, progress)
-        entries, slices = run.all(out, files)
-        atlas = pack_atlas([values for _, values, _ in slices])
-        warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else scene.stem)
-        if slices:
-            jobs, rects = [job for job, _, _ in slices], atlas["rects"]
-            write_atlas(
-                files.temp(outputs["atlas"]), atlas, atlas_header(scene, scene_hash, jobs, rects), scene.precision
+
+
+def _write_atlas(files, outputs: dict, scene: Scene, scene_hash: str, slices: list, entries: dict) -> dict:
+    """The slices packed into the atlas (lutbake/tables/atlas.py), written into the set where there are any,
+    and each slice's materials' manifest entries added to ``entries``; the packed atlas."""
+    atlas = pack_atlas([values for _, values, _ in slices])
+    warn_texture_size(atlas["width"], atlas["height"], outputs["atlas"].name if slices else scene.stem)
+    if slices:
+        jobs, rects = [job for job, _, _ in slices], atlas["rects"]
+        write_atlas(files.temp(outputs["atlas"]), atlas, atlas_header(scene, scene_hash, jobs, rects), scene.precision)
+        for (job, _, record), rect in zip(slices, rects):
+            entries.update(
+                {name: slice_entry(job, record, rect, atlas, outputs["atlas"].name) for name in job.materials}
             )
-            for (job, _, record), rect in zip(slices, rects):
-                entries.update(
-                    {name: slice_entry(job, record, rect, atlas, outputs["atlas"].name) for name in job.materials}
-                )
-        manifest = _manifest(scene, scene_hash, entries)
-        for lang, text in atlas_includes(manifest, atlas).items():
-            files.temp(outputs[lang]).write_text(text)
-        manifest["files"] = {
-            p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
-        }
-        files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
-        written = sorted(files.members)
-    return SceneResult(
-        out,
-        written,
-        run.computed,
-        run.reused,
-        False,
-        time.perf_counter() - start,
-        _unmet(manifest["materials"]),
-        run.device,
-    )
+    return atlas
+
+
+def _write_manifest(files, outputs: dict, manifest: dict, atlas: dict) -> dict:
+    """The includes, then the manifest listing every other member's SHA-256 and sealed with its own
+    hash, written into the set; the manifest."""
+    for lang, text in atlas_includes(manifest, atlas).items():
+        files.temp(outputs[lang]).write_text(text)
+    manifest["files"] = {
+        p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
+    }
+    files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
+    return manifest
 
 
 class _JobRun:

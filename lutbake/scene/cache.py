@@ -2,10 +2,10 @@
 hash, so a re-bake recomputes only the jobs that changed (docs/scene.md, Incremental).
 
 Nothing in it is trusted: a slice's entry is ``JOB.npy`` (its float64 values) and ``JOB.json`` (its
-record: counts, p99 and bound reached, the searched max, the .npy's SHA-256). The record is read with bounded size and nesting
-(lutbake/io/documents.py); the .npy's header is read first and its shape, dtype and size checked against the
-record's counts before any array is allocated; the bytes must hash to the recorded SHA-256 (a
-zeroed or foreign .npy of the right shape is not reused) and be finite. A 4D job's record holds its
+record: counts, p99 and bound reached, the searched max, the .npy's SHA-256). The record is read with
+bounded size and nesting (lutbake/io/documents.py); the .npy's header is read first and its shape, dtype
+and size checked against the record's counts before any array is allocated; the bytes must hash to the
+recorded SHA-256 (a zeroed or foreign .npy of the right shape is not reused) and be finite. A 4D job's record holds its
 LUT EXR's SHA-256, checked against the file in the output folder. Any failure means "recompute".
 """
 

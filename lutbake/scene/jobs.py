@@ -10,7 +10,7 @@ and takes their p99. A trial slice is scored on the same population: every one o
 integrator (slices.slice_colour: ≤ 1e-5 from the ground truth in RGB, tested; far cheaper than
 lutbake/spectral/reference.py where films are thick). Refinement holds the mixture's ``refine.bound_level`` percentile
 (99.73) to the target: the p99 of a fresh 1,000-point report then stays below it at 99 % of seeds.
-The finished slice's max is searched (report.search_slice) and its local maxima scored against the
+The finished slice's max is searched (measure.search_slice) and its local maxima scored against the
 independent ground truth (lutbake/spectral/reference.py). A 4D job is tuned by ``refine.tune`` the same way (report's
 points for its grid, the same bound), or, read only along a base path, scored where the engine reads
 it (``_path_measure``: single-base points held to the bound, per-channel ones to their p99). What a job
@@ -32,6 +32,7 @@ from lutbake.lut.sample import Atlas
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
+from lutbake.quality.measure import SLICE_SEARCH_BUDGET, search_slice, search_stacks
 from lutbake.quality.refine import (
     REPORT_POINTS,
     Trial,
@@ -42,7 +43,6 @@ from lutbake.quality.refine import (
     trial_lut,
     tune,
 )
-from lutbake.quality.report import SLICE_SEARCH_BUDGET, search_slice, search_stacks
 from lutbake.quality.worstcase import SearchAxis
 from lutbake.scene.plan import MAX_SLICE_COUNT, SCORED_POINTS, SceneJob
 from lutbake.scene.slices import integrate_slice, slice_colour, slice_grid
@@ -128,7 +128,7 @@ def refine_slice(job: SceneJob, integrator) -> tuple:
 
 
 def _searched_slice(job: SceneJob, stack, uniform, best: _ScoredSlice, integrator) -> dict:
-    """The finished slice's searched max (report.search_slice), climbed against its integrator from the
+    """The finished slice's searched max (measure.search_slice), climbed against its integrator from the
     worst scored points of each kind, its local maxima scored against the ground truth."""
     s = job.scene
     worst_u = np.argsort(-best.de00_uniform)[:_SEARCH_STARTS]
@@ -266,7 +266,7 @@ class _PathPoints:
     def searched(self, lut, integrator) -> dict:
         """The max along the path (one base for every channel) over (√cos θ, D, position along the path),
         climbed against the bake's direct rule from the worst single-base points, its local maxima scored
-        against the ground truth (report.search_stacks)."""
+        against the ground truth (measure.search_stacks)."""
         de, _ = self.errors(lut)
         cos_axis, opd_axis = self.spec.axes[:2]
         top = len(self.path["eta3"]) - 1.0

@@ -20,8 +20,8 @@ import numpy as np
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.materials import material
 from lutbake.physics.points import MAX_OPD_NM, FilmPoints
+from lutbake.quality.measure import RESCORED
 from lutbake.quality.refine import TUNE_START_COUNTS
-from lutbake.quality.report import RESCORED
 from lutbake.scene.model import Scene, SceneMaterial
 from lutbake.scene.slices import SliceStack
 
@@ -207,8 +207,9 @@ def _check_optical_path(job: SceneJob, m: SceneMaterial) -> None:
 
 
 def _truth_points(job: SceneJob) -> int:
-    """Ground-truth points a job's bake evaluates (lutbake/spectral/reference.py): the searched max's local maxima and worst
-    scored point (report.search_stacks), and a 4D job tuned over its domain also its report points."""
+    """Ground-truth points a job's bake evaluates (lutbake/spectral/reference.py): the searched max's local
+    maxima and worst scored point (measure.search_stacks), and a 4D job tuned over its domain also its report
+    points."""
     rescored = RESCORED + 1
     return rescored if job.kind == "slice" or "base_path" in job.key else SCORED_POINTS["lut"] + RESCORED
 

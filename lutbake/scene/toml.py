@@ -35,7 +35,7 @@ class _Locator:
 
     def line(self, table: str, key: str | None = None) -> int:
         header = re.compile(r"^\s*\[\s*" + re.escape(table).replace(r"\.", r"\s*\.\s*") + r"\s*\]")
-        start = next((i for i, l in enumerate(self.lines) if header.match(l)), None)
+        start = next((i for i, line in enumerate(self.lines) if header.match(line)), None)
         if start is None:
             return 1
         if key is None:
@@ -114,29 +114,38 @@ def load_scene(path) -> Scene:
         raise ValueError(
             f"{path}:{_top_line(loc, key)}: unknown table or key {key!r}: allowed [scene], [materials.NAME]"
         )
-    settings = doc.get("scene", {})
+    space, observer, precision, eta1, max_de = _settings(loc, doc.get("scene", {}))
+    return Scene(str(path), space, observer, eta1, precision, max_de, _materials(loc, doc.get("materials", {})))
+
+
+def _settings(loc, settings) -> tuple:
+    """The ``[scene]`` table's (space, observer, precision, η1, max_de), each defaulted where absent."""
     _no_unknown(loc, "scene", settings, _SCENE_KEYS)
-    space = _choice(loc, "scene", "space", settings.get("space", "rec709"), SPACES)
-    observer = _choice(loc, "scene", "observer", settings.get("observer", "cie1931"), OBSERVERS)
-    precision = _choice(loc, "scene", "precision", settings.get("precision", "half"), ("float", "half"))
-    eta1 = _number(loc, "scene", "eta1", settings.get("eta1", 1.0), "eta1")
-    max_de = _number(loc, "scene", "max_de", settings.get("max_de", 1.0), "max_de")
-    materials = doc.get("materials", {})
+    return (
+        _choice(loc, "scene", "space", settings.get("space", "rec709"), SPACES),
+        _choice(loc, "scene", "observer", settings.get("observer", "cie1931"), OBSERVERS),
+        _choice(loc, "scene", "precision", settings.get("precision", "half"), ("float", "half")),
+        _number(loc, "scene", "eta1", settings.get("eta1", 1.0), "eta1"),
+        _number(loc, "scene", "max_de", settings.get("max_de", 1.0), "max_de"),
+    )
+
+
+def _materials(loc, materials) -> tuple:
+    """The ``[materials.NAME]`` tables, each a SceneMaterial, in file order (at least one, names valid)."""
     if not isinstance(materials, dict):
         raise ValueError(
-            f"{path}:{_top_line(loc, 'materials')}: materials must be tables [materials.NAME], "
+            f"{loc.path}:{_top_line(loc, 'materials')}: materials must be tables [materials.NAME], "
             f"not {type(materials).__name__}"
         )
     if not materials:
         raise loc.error("scene", None, "no materials: add at least one [materials.NAME] table")
     check_material_names(materials, lambda name, message: loc.error(f"materials.{name}", None, message))
-    parsed = tuple(_material(loc, name, body) for name, body in materials.items())
-    return Scene(str(path), space, observer, eta1, precision, max_de, parsed)
+    return tuple(_material(loc, name, body) for name, body in materials.items())
 
 
 def _top_line(loc, key):
-    for i, l in enumerate(loc.lines):
-        if re.match(r"^\s*\[?\s*" + re.escape(key) + r"\b", l):
+    for i, line in enumerate(loc.lines):
+        if re.match(r"^\s*\[?\s*" + re.escape(key) + r"\b", line):
             return i + 1
     return 1
 

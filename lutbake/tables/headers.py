@@ -34,8 +34,8 @@ from typing import Callable
 
 import numpy as np
 
+from lutbake.grid.axis import AXIS_UNITS, CORNER_AXES
 from lutbake.grid.layout import TILE_ORDERS, TileLayout
-from lutbake.grid.spec import AXIS_UNITS, CORNER_AXES
 from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from lutbake.physics.points import inside_domain
 

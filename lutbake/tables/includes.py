@@ -21,8 +21,8 @@ from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
+from lutbake.grid.axis import ROOT4_WEIGHT
 from lutbake.grid.interpolation import mirrors_low_end
-from lutbake.grid.spec import ROOT4_WEIGHT
 from lutbake.io.names import ADMITTANCE_SPACINGS, shader_comment, shader_identifier, shader_string
 from lutbake.spectral.fourier import NU_HALF_BAND_PER_NM
 from lutbake.tables.headers import EXACT_FORMAT, FORMAT, RUNTIME_FORMAT

@@ -525,7 +525,8 @@ def test_hostile_paths(argv, tmp_path, capfd, monkeypatch):
 
 def test_cells_are_exact_integers_checked_before_work():
     """2^24 × 2^24 × 2 × 2 overflows int64 arithmetic nowhere: the limit sees the exact count."""
-    from lutbake.grid.spec import MAX_COUNT, Axis, BakeSpec
+    from lutbake.grid.axis import MAX_COUNT
+    from lutbake.grid.spec import Axis, BakeSpec
 
     axes = (
         Axis("cos_theta", 0.0, 1.0, MAX_COUNT),

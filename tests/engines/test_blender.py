@@ -1,13 +1,14 @@
 """Blender (issue 25): the node groups of `lutbake blender` return what `lutbake sample` returns.
 
-Without Blender: the node programs (lutbake/blender/nodes.py), evaluated by numpy, equal the atlas
+Without Blender: the node programs (lutbake/blender/programs.py), evaluated by numpy, equal the atlas
 sampler and the LUT's linear rule on random texels, at random points, edges and points past the
 domain; bad input is one line and exit 2. With Blender (a Python with bpy 5.0.1, in its own
 environment because bpy needs numpy < 2: LUTBAKE_BLENDER, else ./.venv-blender/bin/python, which the
-tests create on first need; when they cannot, they fail saying what to install): a scene bake's library rendered in Cycles equals `lutbake sample`
-to 1e-5 (issue 25 asks 1e-3; float32 node arithmetic gives ~6e-7), in EEVEE (llvmpipe) to one
-half-float ulp through an Emission shader and within 2e-3 through the shipped Glossy material (EEVEE's
-10-bit closure G-buffer), and Blender's own thin film is measured against the ground truth beside it.
+tests create on first need; when they cannot, they fail saying what to install): a scene bake's library
+rendered in Cycles equals `lutbake sample` to 1e-5 (issue 25 asks 1e-3; float32 node arithmetic gives
+~6e-7), in EEVEE (llvmpipe) to one half-float ulp through an Emission shader and within 2e-3 through the
+shipped Glossy material (EEVEE's 10-bit closure G-buffer), and Blender's own thin film is measured
+against the ground truth beside it.
 """
 
 import fcntl
@@ -34,7 +35,7 @@ from lutbake.blender.library import (
     verify_osl,
     write_library,
 )
-from lutbake.blender.nodes import LutRead, SliceRead, evaluate, read_manifest
+from lutbake.blender.programs import LutRead, SliceRead, evaluate, read_manifest
 from lutbake.grid.layout import TileLayout
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.lut.sample import Atlas, Lut

@@ -1,4 +1,4 @@
-"""The memory model (lutbake.grid.spec.BakeSpec.memory) against peak RSS measured in fresh processes, and the
+"""The memory model (lutbake/grid/memory.py, BakeSpec.memory) against peak RSS measured in fresh processes, and the
 budget's refusals: a non-finite or non-positive limit, and grids whose arrays would not fit."""
 
 import json

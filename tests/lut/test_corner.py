@@ -13,7 +13,8 @@ import pytest
 
 import lutbake
 from lutbake.errors import ParameterError
-from lutbake.grid.spec import CORNER_COS, Axis, BakeSpec
+from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.grid.texels import CORNER_COS
 from lutbake.lut.sample import Lut
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
@@ -136,7 +137,7 @@ def test_at_the_corner_itself_the_read_matches_the_truth(zoomed):
 def test_blender_node_groups_refuse_a_zoomed_axis():
     """Blender's node groups read scene and glTF bakes, whose LUTs never zoom; a zoomed axis reaching them is
     refused by name rather than read as its plain spacing (which would be wrong by the zoom)."""
-    from lutbake.blender.nodes import _axis_coordinate
+    from lutbake.blender.programs import _axis_coordinate
 
     axis = _axes(True)[1].describe()
     with pytest.raises(ValueError, match="opd_nm: the grazing corner's zoom"):

@@ -15,7 +15,7 @@ from lutbake.lut.bake import default_specs
 from lutbake.lut.sample import Lut
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.report import (
+from lutbake.quality.measure import (
     SEARCH_BUDGET,
     corner_distance,
     held_out_points,
@@ -81,7 +81,7 @@ def test_default_lut_passes_the_readme_gate(name):
 
 @pytest.mark.parametrize("name", [n for n in sorted(default_specs()) if not n.endswith("-metal")])
 def test_dielectric_lut_max_is_within_1_in_the_corner(name):
-    """Inside the corner's neighbourhood ρ < 0.2 (report.corner_distance: for a film over air, beyond ~78°
+    """Inside the corner's neighbourhood ρ < 0.2 (measure.corner_distance: for a film over air, beyond ~78°
     with D below ~60 nm, η3 within ~2 % of η1 and κ3 below ~0.02 together), where an unzoomed grid errs by
     up to ΔE00 100, the search spends its whole budget and finds at most 1 (a seed the report does not use)."""
     lut = Lut.load(LUTS / f"{name}.exr")

@@ -140,9 +140,9 @@ def test_report_writes_html_figures_and_summary(lut_path, tmp_path):
 def test_the_truth_has_no_limit_at_the_corner_and_corner_distance_measures_the_way_there():
     """Ground truth along three rays into cos θ1, D, η3 − η1, κ3 → 0 (η1 = 1, η2 1.33, η3 = η1, κ3 = 0),
     (cos θ1, D) shrinking by a common factor s: R keeps a constant on each ray — 0 with no film, 0.372 with
-    D = 600·cos θ1 nm, 0.998 with D = 20000·cos θ1 nm — so it has no limit at the corner; report.corner_distance
+    D = 600·cos θ1 nm, 0.998 with D = 20000·cos θ1 nm — so it has no limit at the corner; measure.corner_distance
     falls as s."""
-    from lutbake.quality.report import corner_distance
+    from lutbake.quality.measure import corner_distance
 
     s = np.array([1e-3, 1e-4, 1e-5])
     limits = []
@@ -382,7 +382,7 @@ def test_tuned_counts_pass_report_at_three_seeds_tune_never_saw(tmp_path):
 def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():
     """Held-out 'cell-centre' points are at half-integer node coordinates on every axis, η3's taken in its
     admittance coordinate at the point's own cos θ (what the sampler interpolates in)."""
-    from lutbake.quality.report import held_out_points
+    from lutbake.quality.measure import held_out_points
 
     axes = (
         Axis("cos_theta", 0.0, 1.0, 8, "sqrt"),

@@ -91,6 +91,25 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
     """
     asset = read_gltf(path)
     default, named, mapping_file = _metal_mapping(metal_mapping, asset)
+    records, materials = _iridescent_materials(asset, named, default)
+    check_material_names([m.name for m in materials], lambda name, message: asset.error(name, message))
+    max_de = float(check_value("max_de", max_de)[0])
+    source = {
+        "kind": "gltf",
+        "asset": asset.path.name,
+        "metal_mapping": default,
+        "mapping_file": None if mapping_file is None else Path(mapping_file).name,
+        "asset_warnings": asset.warnings,
+        "materials": records,
+    }
+    inputs = () if mapping_file is None else (str(mapping_file),)
+    return Scene(str(asset.path), "rec709", "cie1931", 1.0, "half", max_de, tuple(materials), source, inputs)
+
+
+def _iridescent_materials(asset: GltfAsset, named: dict, default: str) -> tuple:
+    """(the record of every glTF material with the iridescence extension, the scene materials of those
+    the meshes use and that have a film), in the asset's order; a metal base mapped by ``named`` (index →
+    lutbake material), else by the material's extras, else by ``default``."""
     used = asset.used_materials()
     records, materials = [], []
     for index, body in enumerate(asset.materials):
@@ -105,18 +124,7 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
             parts = _Parts(reader, record, named.get(index) or reader.extras_metal(), default)
             materials += parts.materials
         records.append(record)
-    check_material_names([m.name for m in materials], lambda name, message: asset.error(name, message))
-    max_de = float(check_value("max_de", max_de)[0])
-    source = {
-        "kind": "gltf",
-        "asset": asset.path.name,
-        "metal_mapping": default,
-        "mapping_file": None if mapping_file is None else Path(mapping_file).name,
-        "asset_warnings": asset.warnings,
-        "materials": records,
-    }
-    inputs = () if mapping_file is None else (str(mapping_file),)
-    return Scene(str(asset.path), "rec709", "cie1931", 1.0, "half", max_de, tuple(materials), source, inputs)
+    return records, materials
 
 
 def _metal_mapping(value: str, asset: GltfAsset) -> tuple:
