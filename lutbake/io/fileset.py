@@ -36,6 +36,7 @@ import signal
 import stat
 from pathlib import Path
 
+from lutbake.errors import ParameterError
 from lutbake.io.documents import load_json
 from lutbake.io.signals import stop_signals_held
 
@@ -47,6 +48,7 @@ __all__ = [
     "recover",
     "remove_stale_temporaries",
     "pending_commit",
+    "refuse_overwriting_inputs",
     "MAX_JOURNAL_BYTES",
 ]
 
@@ -63,6 +65,35 @@ def sha256_file(path: Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+    """ParameterError, before anything is written, when an output is one of the inputs (``inputs``: what to call
+    it → path), the same file by any path or hard link; an output that does not exist yet is compared by where
+    it would be.
+
+    >>> refuse_overwriting_inputs({"LUT": "x.exr"}, ["report.html"])
+    >>> refuse_overwriting_inputs({"LUT": "x.exr"}, ["./x.exr"])
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: LUT 'x.exr' would be overwritten by the output './x.exr': write the output elsewhere
+    """
+    for what, path in inputs.items():
+        for out in outputs:
+            if _same_file(Path(path), Path(out)):
+                raise ParameterError(
+                    "{what} {path} would be overwritten by the output {out}: write the output elsewhere",
+                    what=what,
+                    path=repr(str(path)),
+                    out=repr(str(out)),
+                )
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare where they would be
+        return a.resolve() == b.resolve()
 
 
 def journal_path(folder: Path, set_name: str) -> Path:

@@ -302,6 +302,7 @@ class LutReport:
     exact_mode_terms: dict = None  # the exact runtime mode's series terms per point, when scored
     search_budget: int = SEARCH_BUDGET
     seed: int = 0
+    device: str | None = None  # the OpenCL device of the searches' stand-in truth (proxy_truth)
 
     def include_points(self, stack: FilmPoints, truth, de00, label: str) -> None:
         """Points scored elsewhere (e.g. the ΔE00 maps' grid) join the LUT row's maximum: where one beats
@@ -316,7 +317,7 @@ class LutReport:
             lut,
             HeldOutPoints(stack, np.full(len(stack), label), truth),
             de00,
-            proxy_truth(lut),
+            proxy_truth(lut, device=self.device),
             self.search_budget,
             self.seed,
             start_label=label,
@@ -353,6 +354,7 @@ def report_lut(
     approximations: bool = True,
     progress=no_progress,
     search_budget: int = SEARCH_BUDGET,
+    device=None,
 ) -> LutReport:
     """Score a LUT (and the approximations) at held-out points against the ground truth, and search
     each row's maximum over the whole domain.
@@ -376,6 +378,8 @@ def report_lut(
         ``progress(done, total, note)`` before each phase.
     search_budget : int
         Evaluations of each row's worst-case search.
+    device : str, optional
+        OpenCL device of the searches' stand-in truth (``proxy_truth``; see ``bake_lut``).
 
     Returns
     -------
@@ -407,7 +411,7 @@ def report_lut(
         reads.update({name: (lambda stack, fn=fn: fn(stack, space, observer)) for name, fn in APPROXIMATIONS.items()})
         if lut.interpolation == "cubic":  # the same texels read by the 4-fetch rule: what cubic reads buy
             reads["lut-linear-reads"] = lambda stack: lut.sample(stack, None, "linear")
-    proxy = proxy_truth(lut)
+    proxy = proxy_truth(lut, device=device)
     stats, rgb = {}, {}
     for name, read in reads.items():
         rgb[name], seconds = _timed(read, pts.stack)
@@ -417,20 +421,22 @@ def report_lut(
     lut_stats = stats.pop("lut")
     terms = _exact_mode_terms(pts, space, observer) if approximations else None
     worst = _worst_points(pts, rgb["lut"], lut_stats)
-    return LutReport(str(path), lut.meta, pts, lut_stats, list(stats.values()), worst, terms, search_budget, seed)
+    return LutReport(
+        str(path), lut.meta, pts, lut_stats, list(stats.values()), worst, terms, search_budget, seed, device
+    )
 
 
-def proxy_truth(lut: Lut, backend: str = "auto"):
+def proxy_truth(lut: Lut, backend: str = "auto", device=None):
     """``stack -> RGB`` by the bake's direct spectral rule at its default sampling, for the LUT's film
-    (OpenCL, else numpy): the truth a worst-case search climbs, ~1e-6 from the ground truth in RGB at
-    60,000 points/s (its maxima are then scored against the ground truth)."""
+    (OpenCL on ``device``, else numpy): the truth a worst-case search climbs, ~1e-6 from the ground truth in
+    RGB at 60,000 points/s (its maxima are then scored against the ground truth)."""
     from lutbake.grid.spec import BakeSpec
     from lutbake.integrate.opencl import backend as make_backend
 
     spec = BakeSpec(
         eta2=lut.eta2, eta1=lut.eta1, axes=tuple(lut.axes), space=lut.meta["space"], observer=lut.meta["observer"]
     )
-    integrator = make_backend(backend)
+    integrator = make_backend(backend, device=device)
     return lambda stack: integrator.evaluate(spec, stack)
 
 
