@@ -70,9 +70,10 @@ class BlenderError(RuntimeError):
 
 
 def find_blender(explicit=None) -> str:
-    """The Blender to run: ``explicit``, else $LUTBAKE_BLENDER, else ``blender`` on PATH; ParameterError
-    (one line, what to install) when there is none."""
-    chosen = explicit or os.environ.get(BLENDER_ENV) or shutil.which("blender")
+    """The Blender to run: ``explicit``, else ``blender`` on PATH; ParameterError (one line, what to install)
+    when there is none. (The command line passes $LUTBAKE_BLENDER as ``explicit`` when --blender is not
+    given; the library reads no environment.)"""
+    chosen = explicit or shutil.which("blender")
     if not chosen:
         raise ParameterError("no Blender found: need {what}", what=_INSTALL)
     path = shutil.which(chosen)

@@ -19,9 +19,9 @@ named after its final name, every digest 64 hex digits, and each temporary must 
 digest before it is renamed. A journal that fails is refused in one line and left as it is, with
 every file it names.
 
-Test hook: with LUTBAKE_TEST_STOP_BEFORE_RENAME=1 in the environment a
-writer stops itself (SIGSTOP) before writing the journal and before each
-rename, so tests can kill it inside every window.
+Test hook: ``commit_step_hook``, when a test sets it in the writer's process, is called before the
+journal is written and before each rename (tests set it to stop the process there, so they can kill it
+inside every window); None, the default, does nothing.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ import hashlib
 import json
 import os
 import re
-import signal
 import stat
+from collections.abc import Callable
 from pathlib import Path
 
 from lutbake.errors import ParameterError
@@ -54,9 +54,9 @@ __all__ = [
 
 _TEMP = re.compile(r"^\..+\.tmp-(\d+)$")
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
-_STOP_HOOK = "LUTBAKE_TEST_STOP_BEFORE_RENAME"
 # A journal line is ~180 bytes per member; a scene with a thousand 4D LUTs stays under 1 MiB.
 MAX_JOURNAL_BYTES = 4 << 20
+commit_step_hook: Callable[[], None] | None = None  # tests only (module docstring)
 
 
 def sha256_file(path: Path) -> str:
@@ -127,7 +127,7 @@ class FileSet:
         entries = [[tmp.name, final.name, sha256_file(tmp)] for final, tmp in self.members.items()]
         journal = journal_path(self.folder, self.name)
         with stop_signals_held():
-            _test_stop()
+            _commit_step()
             _write_durably(temporary_for(journal), json.dumps({"set": self.name, "members": entries}))
             os.replace(temporary_for(journal), journal)
             _roll_forward(self.folder, entries, journal)
@@ -233,7 +233,7 @@ def _roll_forward(folder: Path, entries, journal: Path) -> None:
                 raise ValueError(
                     f"{str(tmp)!r} changed after an interrupted commit: remove {str(journal)!r} and bake again"
                 )
-            _test_stop()
+            _commit_step()
             os.replace(tmp, final)
         elif not (_regular(final) and sha256_file(final) == digest):
             raise ValueError(
@@ -294,6 +294,6 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _test_stop() -> None:
-    if os.environ.get(_STOP_HOOK) == "1":
-        os.kill(os.getpid(), signal.SIGSTOP)
+def _commit_step() -> None:
+    if commit_step_hook is not None:
+        commit_step_hook()
