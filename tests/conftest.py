@@ -124,17 +124,16 @@ LONGEST_FIRST = (
 )
 
 
-@pytest.fixture(autouse=True)
-def _device_choice_restored():
-    """`--device` run in this process sets $LUTBAKE_DEVICE for the rest of the command (cli.py): put it back
-    after each test, so that a later test in the same worker does not inherit a device choice (which
-    outranks PYOPENCL_CTX and the default device)."""
-    saved = os.environ.get("LUTBAKE_DEVICE")
-    yield
-    if saved is None:
-        os.environ.pop("LUTBAKE_DEVICE", None)
-    else:
-        os.environ["LUTBAKE_DEVICE"] = saved
+@pytest.fixture
+def cache_folder():
+    """``cache_folder(path)``: the user cache in ``path`` for this test (lutbake.io.usercache.use_folder), the
+    previous choice restored after it."""
+    from lutbake.io import usercache
+
+    first = usercache.use_folder(None)
+    usercache.use_folder(first)
+    yield usercache.use_folder
+    usercache.use_folder(first)
 
 
 def _run_order(item) -> int:

@@ -42,6 +42,44 @@ def test_public_name_is_documented_with_a_passing_example(name, tmp_path, monkey
     assert examples and result.failed == 0
 
 
+# The modules behind the command line's commands (docs/api.md, "The Python API behaves as the command line
+# does"): the examples in their docstrings run.
+COMMAND_MODULES = [
+    "lutbake.lut.domain",
+    "lutbake.lut.sets",
+    "lutbake.lut.evaluate",
+    "lutbake.lut.readout",
+    "lutbake.scene.source",
+    "lutbake.scene.reports",
+    "lutbake.quality.refine",
+    "lutbake.physics.materials",
+    "lutbake.io.fileset",
+    "lutbake.io.usercache",
+    "lutbake.cli.environment",
+]
+
+
+@pytest.mark.parametrize("module", COMMAND_MODULES)
+def test_the_command_lines_library_calls_run_their_examples(module, tmp_path, monkeypatch):
+    import importlib
+
+    monkeypatch.chdir(tmp_path)
+    result = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert result.attempted and result.failed == 0
+
+
+def test_every_library_call_docs_api_names_exists():
+    import importlib
+
+    text = (ROOT / "docs" / "api.md").read_text()
+    table = text[text.index("| command | the library call |") : text.index("## Units and conventions")]
+    names = set(re.findall(r"`(lutbake(?:\.\w+)+)", table))
+    assert len(names) >= 12
+    for name in names:
+        module, _, attr = name.rpartition(".")
+        assert hasattr(importlib.import_module(module), attr), name
+
+
 def test_every_public_name_is_in_docs_api():
     text = (ROOT / "docs" / "api.md").read_text()
     missing = [name for name in PUBLIC if f"`{name}" not in text]

@@ -44,6 +44,7 @@ __all__ = [
     "RENDER_TOLERANCE",
     "BlenderError",
     "find_blender",
+    "build_library",
     "write_library",
     "render_probes",
     "verify_library",
@@ -70,9 +71,10 @@ class BlenderError(RuntimeError):
 
 
 def find_blender(explicit=None) -> str:
-    """The Blender to run: ``explicit``, else $LUTBAKE_BLENDER, else ``blender`` on PATH; ParameterError
-    (one line, what to install) when there is none."""
-    chosen = explicit or os.environ.get(BLENDER_ENV) or shutil.which("blender")
+    """The Blender to run: ``explicit``, else ``blender`` on PATH; ParameterError (one line, what to install)
+    when there is none. (The command line passes $LUTBAKE_BLENDER as ``explicit`` when --blender is not
+    given; the library reads no environment.)"""
+    chosen = explicit or shutil.which("blender")
     if not chosen:
         raise ParameterError("no Blender found: need {what}", what=_INSTALL)
     path = shutil.which(chosen)
@@ -178,6 +180,30 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None, ru
         "blender": exe,
         "seconds": seconds,
     }
+
+
+def build_library(
+    manifest, out, blender=None, pack: bool = True, exact=None, runtime_table=None, verify: bool = False
+) -> dict:
+    """What `lutbake blender` does: ``write_library`` (the parameters are its), then with ``verify`` every
+    material rendered in Cycles and compared: the scene bake's with ``verify_library`` (key ``verify``, None
+    without a manifest) and each OSL material with ``verify_osl`` (``verify_exact``, ``verify_runtime``).
+
+    Returns ``write_library``'s document with those keys added (each check's ``ok`` says whether it is within
+    RENDER_TOLERANCE); BlenderError when Blender fails, ParameterError for bad input (nothing written).
+    """
+    doc = write_library(manifest, out, blender, pack=pack, exact=exact, runtime_table=runtime_table)
+    if not verify:
+        return doc
+    tables = {"exact": exact, "runtime": runtime_table}
+    checks = {
+        "verify": lambda: verify_library(manifest, out, doc["blender"]) if manifest else None,
+        **{
+            f"verify_{kind}": lambda kind=kind: verify_osl(out, kind, tables[kind], doc["blender"])
+            for kind in doc["osl_materials"]
+        },
+    }
+    return doc | {key: check() for key, check in checks.items()}
 
 
 def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:

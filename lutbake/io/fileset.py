@@ -19,9 +19,9 @@ named after its final name, every digest 64 hex digits, and each temporary must 
 digest before it is renamed. A journal that fails is refused in one line and left as it is, with
 every file it names.
 
-Test hook: with LUTBAKE_TEST_STOP_BEFORE_RENAME=1 in the environment a
-writer stops itself (SIGSTOP) before writing the journal and before each
-rename, so tests can kill it inside every window.
+Test hook: ``commit_step_hook``, when a test sets it in the writer's process, is called before the
+journal is written and before each rename (tests set it to stop the process there, so they can kill it
+inside every window); None, the default, does nothing.
 """
 
 from __future__ import annotations
@@ -32,10 +32,11 @@ import hashlib
 import json
 import os
 import re
-import signal
 import stat
+from collections.abc import Callable
 from pathlib import Path
 
+from lutbake.errors import ParameterError
 from lutbake.io.documents import load_json
 from lutbake.io.signals import stop_signals_held
 
@@ -47,14 +48,15 @@ __all__ = [
     "recover",
     "remove_stale_temporaries",
     "pending_commit",
+    "refuse_overwriting_inputs",
     "MAX_JOURNAL_BYTES",
 ]
 
 _TEMP = re.compile(r"^\..+\.tmp-(\d+)$")
 _DIGEST = re.compile(r"^[0-9a-f]{64}$")
-_STOP_HOOK = "LUTBAKE_TEST_STOP_BEFORE_RENAME"
 # A journal line is ~180 bytes per member; a scene with a thousand 4D LUTs stays under 1 MiB.
 MAX_JOURNAL_BYTES = 4 << 20
+commit_step_hook: Callable[[], None] | None = None  # tests only (module docstring)
 
 
 def sha256_file(path: Path) -> str:
@@ -63,6 +65,35 @@ def sha256_file(path: Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+    """ParameterError, before anything is written, when an output is one of the inputs (``inputs``: what to call
+    it → path), the same file by any path or hard link; an output that does not exist yet is compared by where
+    it would be.
+
+    >>> refuse_overwriting_inputs({"LUT": "x.exr"}, ["report.html"])
+    >>> refuse_overwriting_inputs({"LUT": "x.exr"}, ["./x.exr"])
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: LUT 'x.exr' would be overwritten by the output './x.exr': write the output elsewhere
+    """
+    for what, path in inputs.items():
+        for out in outputs:
+            if _same_file(Path(path), Path(out)):
+                raise ParameterError(
+                    "{what} {path} would be overwritten by the output {out}: write the output elsewhere",
+                    what=what,
+                    path=repr(str(path)),
+                    out=repr(str(out)),
+                )
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one does not exist (yet): compare where they would be
+        return a.resolve() == b.resolve()
 
 
 def journal_path(folder: Path, set_name: str) -> Path:
@@ -96,7 +127,7 @@ class FileSet:
         entries = [[tmp.name, final.name, sha256_file(tmp)] for final, tmp in self.members.items()]
         journal = journal_path(self.folder, self.name)
         with stop_signals_held():
-            _test_stop()
+            _commit_step()
             _write_durably(temporary_for(journal), json.dumps({"set": self.name, "members": entries}))
             os.replace(temporary_for(journal), journal)
             _roll_forward(self.folder, entries, journal)
@@ -202,7 +233,7 @@ def _roll_forward(folder: Path, entries, journal: Path) -> None:
                 raise ValueError(
                     f"{str(tmp)!r} changed after an interrupted commit: remove {str(journal)!r} and bake again"
                 )
-            _test_stop()
+            _commit_step()
             os.replace(tmp, final)
         elif not (_regular(final) and sha256_file(final) == digest):
             raise ValueError(
@@ -263,6 +294,6 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def _test_stop() -> None:
-    if os.environ.get(_STOP_HOOK) == "1":
-        os.kill(os.getpid(), signal.SIGSTOP)
+def _commit_step() -> None:
+    if commit_step_hook is not None:
+        commit_step_hook()

@@ -1,8 +1,14 @@
 """Arrays computed once per machine, kept in the user's cache folder.
 
-$LUTBAKE_CACHE_DIR, else $XDG_CACHE_HOME/lutbake, else ~/.cache/lutbake
-(created private). Entries are named by a hash of everything they depend on
-and written atomically. Nothing in the folder is trusted: an entry is used
+The folder is ~/.cache/lutbake unless ``use_folder`` chose another (created
+private on first use). The library reads no environment variable for it: the
+command line resolves $LUTBAKE_CACHE_DIR, else $XDG_CACHE_HOME/lutbake, and
+hands the result to ``use_folder`` once at start-up; a Python caller that wants
+another folder calls ``use_folder`` itself (numpy is imported where the arrays
+are handled, so that this costs the command line's start-up nothing).
+
+Entries are named by a hash of everything they depend on and written
+atomically. Nothing in the folder is trusted: an entry is used
 only when every array's stored header declares the expected shape and a
 numeric dtype (checked before anything is allocated, so an entry declaring
 an 8 TB array costs nothing), its values are finite, and the SHA-256 stored
@@ -22,11 +28,31 @@ import os
 import zipfile
 from pathlib import Path
 
-import numpy as np
-
-__all__ = ["cached_arrays", "pyopencl_caches_where_writable"]
+__all__ = ["cached_arrays", "use_folder", "default_folder", "pyopencl_caches_where_writable"]
 
 _HASH = "sha256"  # the member holding the SHA-256 of the other arrays
+_chosen: Path | None = None  # use_folder's choice; None: default_folder()
+
+
+def default_folder() -> Path:
+    """~/.cache/lutbake: the folder used until ``use_folder`` names another."""
+    return Path.home() / ".cache" / "lutbake"
+
+
+def use_folder(folder) -> Path | None:
+    """Keep the cache in ``folder`` from now on (None: ``default_folder()`` again); returns the previous choice
+    (None for the default), so a caller can restore it. A folder that cannot be created or written costs
+    each process a rebuild of what it needs, nothing else.
+
+    >>> previous = use_folder("/tmp/lutbake-cache-example")
+    >>> _folder_path()
+    PosixPath('/tmp/lutbake-cache-example')
+    >>> use_folder(previous)
+    PosixPath('/tmp/lutbake-cache-example')
+    """
+    global _chosen
+    previous, _chosen = _chosen, None if folder is None else Path(folder)
+    return previous
 
 
 def _cache_home() -> Path:
@@ -42,8 +68,12 @@ def _usable_folder(folder: Path, mode: int = 0o700) -> bool:
     return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
 
 
+def _folder_path() -> Path:
+    return _chosen or default_folder()
+
+
 def _folder() -> Path | None:
-    folder = Path(os.environ.get("LUTBAKE_CACHE_DIR") or _cache_home() / "lutbake")
+    folder = _folder_path()
     return folder if _usable_folder(folder) else None
 
 
@@ -58,8 +88,10 @@ def pyopencl_caches_where_writable() -> None:
         os.environ["PYOPENCL_NO_CACHE"] = "1"
 
 
-def _digest(arrays: dict) -> np.ndarray:
+def _digest(arrays: dict):
     """SHA-256 over each array's name, dtype, shape and bytes, in name order, as 32 uint8."""
+    import numpy as np
+
     digest = hashlib.sha256()
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
@@ -70,6 +102,8 @@ def _digest(arrays: dict) -> np.ndarray:
 
 def _declared(archive: zipfile.ZipFile, name: str) -> tuple:
     """(shape, dtype) an .npy member of ``archive`` declares, read from its header alone."""
+    import numpy as np
+
     readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
     with archive.open(f"{name}.npy") as member:
         version = np.lib.format.read_magic(member)
@@ -81,6 +115,8 @@ def _declared(archive: zipfile.ZipFile, name: str) -> tuple:
 
 def _load(path: Path, shapes: dict) -> dict | None:
     """The arrays of the entry at ``path`` when it passes every check of the module docstring, else None."""
+    import numpy as np
+
     expected = {**shapes, _HASH: (32,)}
     try:
         with zipfile.ZipFile(path) as archive:
@@ -99,6 +135,8 @@ def _load(path: Path, shapes: dict) -> dict | None:
 
 
 def _save(path: Path, arrays: dict) -> None:
+    import numpy as np
+
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         with open(tmp, "wb") as f:

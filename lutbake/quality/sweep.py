@@ -68,12 +68,12 @@ def _scored(name, read, lut, pts, spec, proxy, budget, seconds=float("nan")) -> 
     return stats.summary()
 
 
-def _measure(name, spec, folder, pts, backend, proxy, budget) -> list:
+def _measure(name, spec, folder, pts, backend, proxy, budget, device=None) -> list:
     """The variant's row by its interpolation rule; a cubic LUT also gets a row for linear reads of the
     same file (same bytes and bake time: what the 4-fetch rule gives up)."""
     path = Path(folder) / f"{spec.content_hash[:16]}.exr"
     start = time.perf_counter()
-    bake(spec, path, backend)
+    bake(spec, path, backend, device=device)
     seconds = time.perf_counter() - start
     lut = Lut.load(path)
     shape = "×".join(str(a.count) for a in spec.axes)
@@ -140,11 +140,13 @@ def sweep(
     backend: str = "auto",
     progress=no_progress,
     search_budget: int = SWEEP_SEARCH_BUDGET,
+    device=None,
 ) -> dict:
     """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
 
     ``progress(done, total, note)`` is called before each step (truth, each variant, plot); each row's
-    max is searched with ``search_budget`` evaluations."""
+    max is searched with ``search_budget`` evaluations. ``device``: the OpenCL device of the bakes and of
+    the searches' stand-in truth (see ``bake_lut``)."""
     from lutbake.io.strictjson import dumps
     from lutbake.quality.figures import pareto_plot
     from lutbake.tables.lutfile import write_text_atomic
@@ -161,12 +163,12 @@ def sweep(
     total = len(grid) + 2
     progress(0, total, f"ground truth at {n_points} uniform points")
     pts = uniform_points(spec, n_points, seed)
-    proxy = proxy_truth(Lut.in_memory(spec, None), backend)  # one stand-in truth for every row's search
+    proxy = proxy_truth(Lut.in_memory(spec, None), backend, device)  # one stand-in truth for every row's search
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
             progress(i, total, f"variant {name} ({'×'.join(str(a.count) for a in v.axes)})")
-            rows += _measure(name, v, tmp, pts, backend, proxy, search_budget)
+            rows += _measure(name, v, tmp, pts, backend, proxy, search_budget, device)
     progress(total - 1, total, "approximations and Pareto plot")
     rows += _approximation_rows(spec, pts, proxy, search_budget)
     doc = {

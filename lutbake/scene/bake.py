@@ -90,7 +90,9 @@ def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) 
         )
 
 
-def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto", progress=no_progress) -> SceneResult:
+def bake_scene(
+    scene: Scene, out_dir, force: bool = False, backend: str = "auto", progress=no_progress, device=None
+) -> SceneResult:
     """Bake what ``scene`` needs into ``out_dir`` as one file set.
 
     Slices go into one atlas (NAME.exr, .json manifest, .glsl/.hlsl includes with the material table);
@@ -110,6 +112,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         'auto', 'opencl' or 'numpy' (see ``bake_lut``).
     progress : callable
         ``progress(done, total, note)`` before each job.
+    device : str, optional
+        OpenCL device (see ``bake_lut``).
 
     Returns
     -------
@@ -139,6 +143,8 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
     """
     start = time.perf_counter()
     out = Path(out_dir)
+    if out.suffix.lower() == ".exr":
+        raise ParameterError("{out_dir} {out}: a scene bakes into a folder", out=repr(str(out_dir)))
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
     _make_folder(out)
@@ -148,7 +154,7 @@ def bake_scene(scene: Scene, out_dir, force: bool = False, backend: str = "auto"
         unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
         if unmet is not None:
             return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
-        run = _JobRun(plan, SceneCache(out), force, backend, progress)
+        run = _JobRun(plan, SceneCache(out), force, backend, progress, device)
         entries, slices = run.all(out, files)
         atlas = _write_atlas(files, outputs, scene, scene_hash, slices, entries)
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
@@ -209,8 +215,9 @@ def _write_manifest(files, outputs: dict, manifest: dict, atlas: dict) -> dict:
 class _JobRun:
     """Every job of a plan, from the cache or computed (and then cached): slice values and 4D LUTs."""
 
-    def __init__(self, plan: ScenePlan, cache: SceneCache, force: bool, backend: str, progress):
+    def __init__(self, plan: ScenePlan, cache: SceneCache, force: bool, backend: str, progress, device=None):
         self.plan, self.cache, self.force, self.backend, self.progress = plan, cache, force, backend, progress
+        self.device_choice = device  # the OpenCL device asked for (``device`` below: the one that ran)
         self.computed, self.reused, self.integrator = [], [], None
 
     @property
@@ -220,7 +227,7 @@ class _JobRun:
 
     def _integrator(self):
         if self.integrator is None:
-            self.integrator = make_backend(self.backend)
+            self.integrator = make_backend(self.backend, device=self.device_choice)
         return self.integrator
 
     def all(self, out: Path, files) -> tuple:
@@ -251,7 +258,7 @@ class _JobRun:
         if record is not None:
             self.reused.append(job.id)
             return record
-        record = tuned_lut(job, path, self.backend, files, self._integrator())
+        record = tuned_lut(job, path, self.backend, files, self._integrator(), self.device_choice)
         self.cache.store_lut(job, record)
         self.computed.append(job.id)
         return record

@@ -164,7 +164,7 @@ def _constant_index_error(job: SceneJob, uniform, integrator) -> float | None:
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
 
-def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrator) -> dict:
+def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrator, device=None) -> dict:
     """Bake the 4D LUT at the smallest counts whose bound meets the target into ``files``: scored at
     `report`'s points of its domain (refine.tune), or along its ``base_path`` where the engine reads it
     only there (``_path_measure``, by ``integrator``); its record (counts, p99, the bound, whether the
@@ -192,10 +192,11 @@ def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrato
             start=job.counts,
             frozen=frozen,
             search_budget=_LUT_SEARCH_BUDGET,
+            device=device,
         )
         worst = result.best.stats["worst_case"]
     axes = tuple(a.resized(c) for a, c in zip(spec.axes, result.counts))
-    write_lut(replace(spec, axes=axes), path, files, backend)
+    write_lut(replace(spec, axes=axes), path, files, backend, device=device)
     scoring = {"path_scoring": result.best.stats} if "base_path" in job.key else {}
     return {
         "counts": list(result.counts),

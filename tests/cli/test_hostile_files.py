@@ -514,10 +514,10 @@ def _entry(folder: Path, kind="t", key=b"k"):
     return folder / f"{kind}-{hashlib.sha256(key).hexdigest()[:24]}.npz"
 
 
-def test_user_cache_entries_are_checked_before_use(tmp_path, monkeypatch):
+def test_user_cache_entries_are_checked_before_use(tmp_path, cache_folder):
     """An entry declaring an 8 TB array is refused from its header (nothing allocated); a zeroed entry of
     the right shape, or one whose values changed, fails its stored hash; each is rebuilt and rewritten."""
-    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    cache_folder(tmp_path)
     built = {"a": np.arange(6.0).reshape(2, 3)}
     calls = []
 
@@ -549,13 +549,12 @@ def test_user_cache_entries_are_checked_before_use(tmp_path, monkeypatch):
     assert usercache._load(path, {"a": (2, 3)}) is not None  # the last rebuild was stored again
 
 
-def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch):
-    (tmp_path / "file").write_text("XDG_CACHE_HOME points at a file")
-    monkeypatch.delenv("LUTBAKE_CACHE_DIR", raising=False)
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
+def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch, cache_folder):
+    (tmp_path / "file").write_text("the cache folder's parent is a file")
+    cache_folder(tmp_path / "file" / "lutbake")
     got = usercache.cached_arrays("t", b"k", {"a": (1,)}, lambda: {"a": np.ones(1)})
     assert got["a"][0] == 1.0
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "ro"))
+    cache_folder(tmp_path / "ro" / "lutbake")
     monkeypatch.setattr(os, "access", lambda path, mode: False)  # a read-only folder, even for root
     assert usercache._folder() is None
     assert usercache.cached_arrays("t", b"k", {"a": (1,)}, lambda: {"a": np.ones(1)})["a"][0] == 1.0
@@ -751,17 +750,14 @@ def test_a_set_killed_in_its_journal_window_rolls_forward_whole(tmp_path):
     import lutbake.lut.bake
 
     lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path), "set", "numpy")
+    from test_fileset import _kill_at, stopping
+
     script = (
-        "import sys; from pathlib import Path; sys.path[:0] = ['tests', 'tests/cli']; import lutbake.lut.bake, "
+        "from pathlib import Path; sys.path[:0] = ['tests', 'tests/cli']; import lutbake.lut.bake, "
         f"test_hostile_files as t; lutbake.lut.bake.bake_set(t._tiny_jobs(Path({str(tmp_path)!r}), 1.1), 'set', "
         "'numpy')"
     )
-    proc = subprocess.Popen(
-        [sys.executable, "-c", script],
-        cwd=Path(__file__).resolve().parents[2],
-        env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"},
-    )
-    from test_fileset import _kill_at
+    proc = subprocess.Popen(stopping(script), cwd=Path(__file__).resolve().parents[2])
 
     _kill_at(proc, 5)  # the journal and the first LUT's four renames pass; killed before the second LUT's
     assert (tmp_path / ".set.commit").exists()
@@ -837,14 +833,14 @@ def test_sigterm_inside_the_journal_window_finishes_the_commit(tmp_path):
     """SIGTERM delivered while the writer stands between two renames is held until the set is whole: exit
     143 with the new set and no journal (without the held signals: exit 143 with a journal and a mixed set)."""
     assert run_cli([*BAKE, "x.exr"], tmp_path)[0] == 0
+    from test_fileset import _wait_stopped, stopping_cli
+
     proc = subprocess.Popen(
-        [sys.executable, "-m", "lutbake.cli", "bake", "--eta2", "1.33", *TINY, "--out", "x.exr"],
+        stopping_cli("bake", "--eta2", "1.33", *TINY, "--out", "x.exr"),
         cwd=tmp_path,
-        env={**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1"},
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
-    from test_fileset import _wait_stopped
 
     for stop in range(3):  # the journal and the first rename pass; stopped before the second
         _wait_stopped(proc)

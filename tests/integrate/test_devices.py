@@ -120,7 +120,7 @@ def test_bake_names_its_device_in_stdout_json_and_sidecar(tmp_path):
 
 
 def _bake_in_process(argv, capfd, monkeypatch):
-    """(exit status, stderr) of the CLI run in this process, $LUTBAKE_DEVICE unset before it (--device sets it)."""
+    """(exit status, stderr) of the CLI run in this process, $LUTBAKE_DEVICE unset (so --device alone names one)."""
     from lutbake import cli
 
     monkeypatch.delenv("LUTBAKE_DEVICE", raising=False)

@@ -39,12 +39,28 @@ STOPS_LUT = 5  # the journal, then four renames
 STOPS_SCENE = 5  # the journal, then atlas, two includes, manifest
 
 
+# A child that stops itself (SIGSTOP) before a set's journal and before each rename: lutbake.io.fileset's test
+# hook, injected in the child before it runs ``code`` (its arguments in sys.argv[1:]).
+_STOPPING = (
+    "import os, signal, sys; import lutbake.io.fileset as fileset; "
+    "fileset.commit_step_hook = lambda: os.kill(os.getpid(), signal.SIGSTOP); "
+)
+
+
+def stopping(code: str) -> list:
+    """The command line of a Python child that runs ``code`` with the stop hook set."""
+    return [sys.executable, "-c", _STOPPING + code]
+
+
+def stopping_cli(*args) -> list:
+    """`lutbake ARGS` in a child with the stop hook set."""
+    return [*stopping("from lutbake.cli import main; main(sys.argv[1:])"), *args]
+
+
 def _start(*args, cwd, stop=False):
-    env = {**os.environ, "LUTBAKE_TEST_STOP_BEFORE_RENAME": "1" if stop else "0"}
     return subprocess.Popen(
-        [sys.executable, "-m", "lutbake.cli", *args],
+        stopping_cli(*args) if stop else [sys.executable, "-m", "lutbake.cli", *args],
         cwd=cwd,
-        env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -461,12 +461,10 @@ def test_admittance_bake_kernel_equals_numpy_and_sampler_is_exact_at_its_nodes(t
 
 
 def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_end():
-    from lutbake.cli import domain_spec
+    from lutbake.lut.domain import lut_spec
 
     def eta3_spacing(eta1):
-        spec = domain_spec(
-            1.5, eta1, None, None, None, None, "rec709", "cie1931", None, "cubic", "float64", "spectral", None
-        )
+        spec = lut_spec(1.5, eta1, space="rec709", observer="cie1931", interpolation="cubic", compute="float64")
         return spec.axis["eta3"].spacing
 
     assert eta3_spacing(1.0) == "sqrt-admittance" and eta3_spacing(1.33) == "uniform"

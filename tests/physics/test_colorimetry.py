@@ -106,10 +106,10 @@ def test_delta_e00_matches_colour_science(space, rng):
     np.testing.assert_allclose(ours, theirs, rtol=1e-9, atol=1e-9)
 
 
-def test_tables_from_the_cache_equal_colour_sciences(tmp_path, monkeypatch):
+def test_tables_from_the_cache_equal_colour_sciences(tmp_path, cache_folder):
     from lutbake.physics import colorimetry as module
 
-    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    cache_folder(tmp_path)
     fresh = module._read_colour_science("cie1964", "p3")
     first = module._colour_science_tables("cie1964", "p3")  # built, stored
     again = module._colour_science_tables("cie1964", "p3")  # read back
@@ -123,6 +123,8 @@ def test_a_bake_with_a_warm_cache_does_not_import_colour_science(tmp_path):
     """colour-science costs ~2 s per process; with its tables cached, baking and scoring never load it."""
     probe = """
 import sys, lutbake
+from lutbake.io.usercache import use_folder
+use_folder(sys.argv[2])
 from lutbake.physics.colorimetry import delta_e00
 spec = lutbake.default_specs()["lutbake-eta2-1.50"]
 from dataclasses import replace
@@ -130,12 +132,10 @@ lutbake.bake_lut(replace(spec, axes=tuple(a.resized(4) for a in spec.axes)), sys
 delta_e00([0.1, 0.2, 0.3], [0.1, 0.2, 0.31])
 print("colour" in sys.modules)
 """
-    env = dict(
-        os.environ, LUTBAKE_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(Path(__file__).resolve().parents[2])
-    )
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
     runs = [
         subprocess.run(
-            [sys.executable, "-c", probe, str(tmp_path / f"{i}.exr")],
+            [sys.executable, "-c", probe, str(tmp_path / f"{i}.exr"), str(tmp_path / "cache")],
             env=env,
             capture_output=True,
             text=True,

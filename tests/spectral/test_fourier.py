@@ -277,10 +277,10 @@ def test_kernel_series_for_another_observer_and_space():
     assert np.max(np.abs(bake_array(spec, "opencl") - bake_array(spec, "opencl", "direct"))) <= 1e-7
 
 
-def test_table_cache_lives_in_the_user_cache_and_survives_corruption(tmp_path, monkeypatch):
-    """The Ŵ table persists in $LUTBAKE_CACHE_DIR (not the shared temp folder); an unreadable or
+def test_table_cache_lives_in_the_user_cache_and_survives_corruption(tmp_path, cache_folder):
+    """The Ŵ table persists in the user cache (not the shared temp folder); an unreadable or
     truncated cache file is rebuilt, giving the same table as a fresh build."""
-    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path / "cache"))
+    cache_folder(tmp_path / "cache")
     args = dict(space="p3", step_nm=50.0, x_max_nm=3000.0)
     weight_transform.cache_clear()
     fresh = weight_transform(**args)

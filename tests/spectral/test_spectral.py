@@ -137,12 +137,12 @@ def test_knotted_rule_cuts_only_where_every_panel_gets_its_nodes():
     assert 21 * MIN_PANEL_NODES > 64
 
 
-def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monkeypatch):
-    """A rule's nodes and weights persist in $LUTBAKE_CACHE_DIR, one entry per distinct rule; a later
+def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monkeypatch, cache_folder):
+    """A rule's nodes and weights persist in the user cache, one entry per distinct rule; a later
     process reads them without building, bit for bit; a damaged entry is rebuilt."""
     import lutbake.spectral.rules as spectral
 
-    monkeypatch.setenv("LUTBAKE_CACHE_DIR", str(tmp_path))
+    cache_folder(tmp_path)
     spectral.wavenumber_rule.cache_clear()
     fresh = wavenumber_rule(256, knots_nm=(450.0,))
     wavenumber_rule(256, knots_nm=(451.0,))

@@ -1,0 +1,230 @@
+"""`lutbake bake` (one LUT, the default set, or a scene's set from a TOML scene or a glTF asset) and
+`lutbake plan` (what a scene bake would bake): flags parsed here, the work in lutbake/lut/sets.py,
+lutbake/lut/domain.py, lutbake/scene/source.py, lutbake/scene/bake.py and lutbake/scene/documents.py.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from lutbake.cli.options import (
+    DOMAIN_FLAGS,
+    EXIT_GATE,
+    BadInput,
+    domain_options,
+    echo_json,
+    progress_meter,
+    progress_options,
+    show_progress,
+)
+
+DEFAULT_OUT_DIR = "lutbake-luts"
+
+
+def scene_source_options(f):
+    """--gltf and --metal-mapping: a glTF asset as the scene's source (docs/gltf.md)."""
+    f = click.option(
+        "--metal-mapping",
+        default=None,
+        metavar="fitted|threejs|FILE.json",
+        help="With --gltf: how a metal's base colour becomes η3 + iκ3 (default fitted; a JSON file "
+        "names a lutbake material per glTF material).",
+    )(f)
+    return click.option(
+        "--gltf",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="glTF asset (.gltf/.glb): bake what its KHR_materials_iridescence materials need.",
+    )(f)
+
+
+@click.command("bake")
+@domain_options
+@click.option(
+    "--scene", type=click.Path(dir_okay=False), help="Scene manifest (TOML): bake what it needs into --out DIR."
+)
+@scene_source_options
+@click.option("--force", is_flag=True, help="With --scene or --gltf: recompute every slice and LUT.")
+@click.option(
+    "--out",
+    "out",
+    type=click.Path(),
+    default=None,
+    help=f"FILE.exr for one LUT; a folder for the default set (default ./{DEFAULT_OUT_DIR}).",
+)
+@click.option("--film", "named_film", hidden=True)
+@click.option("--base", "named_base", hidden=True)
+@progress_options
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON summary.")
+@click.option(
+    "--max-memory-gib",
+    type=click.FloatRange(0.5, 4096),
+    default=8.0,
+    show_default=True,
+    help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).",
+)
+def bake_cmd(scene, gltf, metal_mapping, force, out, named_film, named_base, as_json, backend, device, **flags):
+    """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
+
+    Without --eta2, bakes the default LUT set into a folder. Named materials
+    (--base Cu, --film water) are baked through a scene manifest: --scene.
+    """
+    quiet, force_progress, max_memory_gib = flags.pop("quiet"), flags.pop("force_progress"), flags.pop("max_memory_gib")
+    if named_film or named_base:
+        flag = f"--base {named_base}" if named_base else f"--film {named_film}"
+        raise BadInput(
+            f"bake has no {flag}: a LUT bakes constant indices (--eta2, --eta3 A:B:N); named materials "
+            f"are baked through a scene manifest: lutbake bake --scene FILE.toml --out DIR (docs/scene.md)"
+        )
+    axis_flags = {
+        "--eta2": "eta2",
+        "--cos-theta": "cos_theta",
+        "--opd": "opd_nm",
+        "--eta3": "eta3",
+        "--kappa3": "kappa3",
+    }
+    if scene or gltf:
+        given = [f for f, name in axis_flags.items() if flags[name] is not None]
+        if given:
+            flag = "--scene" if scene else "--gltf"
+            raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
+        source = _scene_source(scene, gltf, metal_mapping)
+        return _bake_scene(
+            source, out, force, backend, device, as_json, progress_meter("bake scene", quiet, force_progress)
+        )
+    if force:
+        raise BadInput("--force applies to --scene and --gltf bakes only (a LUT bake always recomputes)")
+    if metal_mapping is not None:
+        raise BadInput("--metal-mapping applies to --gltf only")
+    run = dict(backend=backend, memory_limit_gib=max_memory_gib, device=device)
+    if flags["eta2"] is None:
+        if any(flags[name] for name in ("cos_theta", "opd_nm", "eta3", "kappa3")):
+            raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
+        from lutbake.lut.sets import bake_default_set
+
+        folder = Path(out or DEFAULT_OUT_DIR)
+        settings = {k: v for k, v in flags.items() if k not in ("eta2", "cos_theta", "opd_nm", "eta3", "kappa3")}
+        results = bake_default_set(folder, show_progress=show_progress(quiet, force_progress), **run, **settings)
+    else:
+        from lutbake.lut.domain import lut_spec
+        from lutbake.lut.sets import bake_luts
+
+        if out is None:
+            raise BadInput("--out FILE.exr is required with --eta2")
+        jobs = [(Path(out), lut_spec(**{k: flags[k] for k in DOMAIN_FLAGS}))]
+        results = bake_luts(jobs, jobs[0][0].name, show_progress=show_progress(quiet, force_progress), **run)
+    _print_bakes(results, as_json)
+    if flags["eta2"] is None and not as_json:
+        click.echo(f"default LUT set in {folder}/")
+
+
+def _print_bakes(results, as_json):
+    """Each LUT's line (a warning beside it when texels past the spectral node cap err visibly), or one JSON."""
+    from lutbake.lut.evaluate import CAPPED_WARNING_RGB
+    from lutbake.lut.sets import summary
+
+    rows = [summary(r) for r in results]
+    if as_json:
+        echo_json({"luts": rows})
+        return
+    for row in rows:
+        click.echo(
+            f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
+            f"{row['cells_per_second']:.3g} cells/s on {row['device']}, "
+            f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})"
+        )
+        if row["capped_error_rgb_max"] > CAPPED_WARNING_RGB:
+            click.echo(
+                f"lutbake: warning: {row['capped_texels']} texels need more spectral nodes than the "
+                f"cap allows; measured error up to {row['capped_error_rgb_max']:.1e} "
+                f"(bound {row['truncation_bound']:.1e}, recorded in the LUT)",
+                err=True,
+            )
+
+
+def _scene_source(scene_path, gltf, metal_mapping):
+    """The scene model from its one source; what its glTF mapping could not honour goes to stderr, a line each."""
+    from lutbake.scene.source import load_scene_source, source_warnings
+
+    scene = load_scene_source(scene_path, gltf, metal_mapping)
+    for line in source_warnings(scene):
+        click.echo(f"lutbake: warning: {line}", err=True)
+    return scene
+
+
+def _bake_scene(scene, out, force, backend, device, as_json, meter):
+    from lutbake.scene.bake import bake_scene
+    from lutbake.scene.documents import bake_summary
+
+    if out is None:
+        raise BadInput("--out DIR is required with --scene or --gltf")
+    result = bake_scene(scene, out, force, backend, meter, device)  # checks every output before it makes the folder
+    meter.close("up to date" if result.up_to_date else "done")
+    if as_json:
+        echo_json(bake_summary(result))
+    elif result.up_to_date:
+        click.echo(f"{scene.path}: up to date in {out}/ (nothing written)")
+    else:
+        click.echo(
+            f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+            f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
+        )
+    if not result.unmet:
+        return 0
+    reached = ", ".join(
+        f"{name} p99 ΔE00 {r['de00_p99']:.3f} (bound {r['de00_p99_bound']:.3f})" for name, r in result.unmet.items()
+    )
+    click.echo(
+        f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
+        "(written; see docs/scene.md)",
+        err=True,
+    )
+    return EXIT_GATE
+
+
+@click.command("plan")
+@click.option(
+    "--scene", "scene_path", type=click.Path(dir_okay=False), default=None, help="Scene manifest (TOML) to plan."
+)
+@scene_source_options
+@click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
+def plan_cmd(scene_path, gltf, metal_mapping, as_json):
+    """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
+
+    The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
+    rate measured now, here; the grids themselves go through the bake's integrator.
+    """
+    from lutbake.io.progress import format_seconds
+    from lutbake.scene.documents import plan_document
+
+    scene = _scene_source(scene_path, gltf, metal_mapping)
+    doc = plan_document(scene)
+    if as_json:
+        echo_json(doc)
+        return
+    s = doc["settings"]
+    click.echo(
+        f"{scene.path}: {s['space']} / {s['observer']}, ambient η1 {s['eta1']:g}, {s['precision']}, "
+        f"target p99 ΔE00 ≤ {s['max_de']:g}"
+    )
+    for job in doc["jobs"]:
+        shape = " × ".join(str(c) for c in job["counts"])
+        click.echo(
+            f"  {job['id']}: {job['kind']} {shape} for {', '.join(job['materials'])} — "
+            f"{job['bytes_start']} bytes, ~{format_seconds(job['truth_seconds_estimate'])} of ground truth"
+        )
+    for row in doc.get("gltf_materials", []):
+        served = row["slice"] or row["lut"] or f"nothing: {row['why_not']}"
+        click.echo(f"  glTF material {row['gltf_index']} {row['name']!r}: {served}")
+    total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
+    click.echo(
+        f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
+        f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes"
+    )
+    click.echo(
+        f"time ~{format_seconds(total)} of ground truth at the held-out points, from "
+        f"{doc['seconds_per_truth_point'] * 1e3:.1f} ms per point measured on this machine just now, plus the "
+        "integration and the OpenCL start-up"
+    )

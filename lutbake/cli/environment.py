@@ -1,0 +1,48 @@
+"""The environment the command line honours, read once at its edge and passed down as values: the library
+reads no environment variable.
+
+- ``LUTBAKE_DEVICE``: the OpenCL device when --device is not given (the value a command passes as
+  ``device=``). PYOPENCL_CTX is pyopencl's own: the OpenCL layer's default rule honours it when no
+  device is named (docs/devices.md).
+- ``LUTBAKE_BLENDER``: the Blender `lutbake blender` runs when --blender is not given.
+- ``LUTBAKE_CACHE_DIR``, else ``XDG_CACHE_HOME``/lutbake: the user cache (lutbake/io/usercache.py), else
+  its default, ~/.cache/lutbake.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["Environment"]
+
+
+@dataclass(frozen=True)
+class Environment:
+    """What the environment asks of lutbake; None where it asks nothing."""
+
+    device: str | None = None
+    blender: str | None = None
+    cache_folder: Path | None = None
+
+    @classmethod
+    def read(cls, environ) -> Environment:
+        """From ``environ`` (a mapping such as os.environ); empty values count as unset.
+
+        >>> Environment.read({"LUTBAKE_DEVICE": "pocl", "XDG_CACHE_HOME": "/c", "LUTBAKE_BLENDER": ""})
+        Environment(device='pocl', blender=None, cache_folder=PosixPath('/c/lutbake'))
+        """
+        cache = environ.get("LUTBAKE_CACHE_DIR") or (
+            Path(environ["XDG_CACHE_HOME"]) / "lutbake" if environ.get("XDG_CACHE_HOME") else None
+        )
+        return cls(
+            device=environ.get("LUTBAKE_DEVICE") or None,
+            blender=environ.get("LUTBAKE_BLENDER") or None,
+            cache_folder=None if cache is None else Path(cache),
+        )
+
+    def apply(self) -> None:
+        """Point the library's process-wide settings at what the environment asks (the user cache's folder)."""
+        from lutbake.io import usercache
+
+        usercache.use_folder(self.cache_folder)

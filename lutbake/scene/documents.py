@@ -1,0 +1,42 @@
+"""The documents the scene commands print: `plan`'s (what a scene bake would bake, and how long its
+ground truth would take here) and `bake --scene`/`--gltf`'s summary of a bake.
+"""
+
+from __future__ import annotations
+
+from lutbake.scene.bake import SceneResult
+from lutbake.scene.model import Scene
+
+__all__ = ["plan_document", "bake_summary"]
+
+
+def plan_document(scene: Scene) -> dict:
+    """`plan --json`: the scene's plan (``ScenePlan.describe``) with each job's ground-truth seconds at the
+    rate measured now on this machine (``seconds_per_truth_point``), and for a glTF scene what each of its
+    materials is served by (``gltf_materials``). Bakes nothing."""
+    from lutbake.scene.plan import plan_scene, truth_rate
+
+    plan = plan_scene(scene)
+    rate = truth_rate(plan)
+    doc = plan.describe(rate)
+    doc["seconds_per_truth_point"] = rate
+    if scene.source is not None:
+        from lutbake.scene.gltf.materials import material_rows
+
+        doc["gltf_materials"] = material_rows(scene, plan)
+    return doc
+
+
+def bake_summary(result: SceneResult) -> dict:
+    """`bake --scene --json`: the folder, whether it was up to date, the jobs computed and reused, the files
+    written, wall seconds, the materials whose target was not met at the resolution cap, the device."""
+    return {
+        "out": str(result.out_dir),
+        "up_to_date": result.up_to_date,
+        "computed": result.computed,
+        "reused": result.reused,
+        "written": [str(p) for p in result.written],
+        "seconds": result.seconds,
+        "target_unmet": result.unmet,
+        "device": result.device,
+    }

@@ -1,0 +1,94 @@
+"""Which report a file gets (`lutbake report PATH`): a glTF bake's manifest (.json) its receipts
+(lutbake/scene/gltf/receipt.py), a scene atlas its per-slice errors, a LUT its full report
+(lutbake/quality/summaries.py).
+
+Everything that can be refused is refused before any work: a gate that is not a number > 0, an output
+folder whose report files would overwrite the input, a file that is none of the three.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from lutbake.io.fileset import refuse_overwriting_inputs
+from lutbake.io.progress import no_progress
+from lutbake.lut.sample import Atlas, Lut, load_table
+from lutbake.quality.refine import check_max_de
+from lutbake.quality.report import REPORT_FILES
+
+__all__ = ["FileReport", "open_report", "GLTF_RECEIPT_POINTS"]
+
+GLTF_RECEIPT_POINTS = 1000  # at most this many points per part of a glTF material's receipt
+
+
+def open_report(path, out_dir=None, max_de: float | None = None) -> FileReport:
+    """The report of the file at ``path``, checked and its table loaded (``FileReport.run`` scores it).
+    ``out_dir``: the folder to write it into; ``max_de``: the p99 ΔE00 gate (a LUT's or an atlas's).
+    ParameterError for a ``max_de`` not > 0 or an ``out_dir`` where the report would overwrite ``path``;
+    ValueError naming the file when it is not a LUT, an atlas or a glTF bake's manifest.
+
+    >>> open_report("lut.exr", out_dir=".", max_de=0.0)
+    Traceback (most recent call last):
+    ...
+    lutbake.errors.ParameterError: max_de 0.0 is not allowed: must be a number > 0
+    """
+    if max_de is not None:
+        check_max_de(max_de)
+    if out_dir:
+        refuse_overwriting_inputs({"LUT": path}, [Path(out_dir) / name for name in REPORT_FILES])
+    table = None if Path(path).suffix.lower() == ".json" else load_table(path)
+    return FileReport(path, table, out_dir, max_de)
+
+
+@dataclass
+class FileReport:
+    """A file to report: ``table`` its Lut or Atlas (None for a glTF bake's manifest)."""
+
+    path: str
+    table: Lut | Atlas | None
+    out_dir: str | None = None
+    max_de: float | None = None
+
+    @property
+    def kind(self) -> str:
+        """'gltf' (receipts), 'atlas' or 'lut'."""
+        return "gltf" if self.table is None else "atlas" if isinstance(self.table, Atlas) else "lut"
+
+    def run(
+        self,
+        n_points: int = 1000,
+        seed: int = 0,
+        approximations: bool = True,
+        search_budget: int | None = None,
+        progress=no_progress,
+        device=None,
+    ) -> dict:
+        """The report's document, written into ``out_dir`` when given: a glTF bake's receipts (at most
+        GLTF_RECEIPT_POINTS points per part; receipts.json and .html), or the summary of an atlas
+        (``atlas_summary``) or a LUT (``lut_summary``: with ``approximations``, the stand-in truth of its
+        searches on OpenCL ``device``), each row's max searched with ``search_budget`` evaluations (None:
+        the report's default for the kind)."""
+        if self.kind == "gltf":
+            from lutbake.scene.gltf.receipt import gltf_receipts, write_receipts
+
+            receipts = gltf_receipts(self.path, min(n_points, GLTF_RECEIPT_POINTS), seed)
+            if self.out_dir:
+                write_receipts(receipts, self.out_dir)
+            return receipts
+        from lutbake.quality.summaries import atlas_summary, lut_summary
+
+        budget = {"search_budget": search_budget} if search_budget else {}
+        if self.kind == "atlas":
+            return atlas_summary(self.table, self.path, n_points, seed, self.out_dir, self.max_de, **budget)
+        return lut_summary(
+            self.path,
+            n_points,
+            seed,
+            self.out_dir,
+            self.max_de,
+            approximations,
+            progress=progress,
+            device=device,
+            **budget,
+        )
