@@ -13,7 +13,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from lutbake.errors import ParameterError
-from lutbake.grid.spec import DEFAULT_MEMORY_LIMIT_GIB, BakeSpec
+from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
+from lutbake.grid.spec import BakeSpec
 from lutbake.io.progress import meter
 from lutbake.lut.bake import BakeResult, bake_set, default_specs
 
