@@ -99,7 +99,9 @@ def default_luts() -> Path:
 
 def _survey_devices():
     """(keys of devices whose compiler builds the kernel, {key: why not} for the rest)."""
-    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, device_label, opencl_devices
+    from lutbake.errors import OpenCLUnavailable
+    from lutbake.integrate.devices import device_key, device_label, opencl_devices
+    from lutbake.integrate.program import built_program
 
     try:
         devices = opencl_devices()
@@ -107,7 +109,7 @@ def _survey_devices():
         return [], {"opencl": str(exc)}
     builds, excluded = [], {}
     for device in devices:
-        built = _program(device, "float64")
+        built = built_program(device, "float64")
         if isinstance(built, OpenCLUnavailable):
             excluded[device_key(device, devices)] = str(built)
         else:

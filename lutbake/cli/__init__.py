@@ -391,7 +391,7 @@ def _use_device(ctx, param, selector):
     if selector:
         import os
 
-        from lutbake.integrate.opencl import device_label, find_device
+        from lutbake.integrate.devices import device_label, find_device
 
         device_label(find_device(selector))
         os.environ["LUTBAKE_DEVICE"] = selector
@@ -1513,7 +1513,7 @@ def check_cmd(backend, as_json, quiet, force_progress):
 def devices_cmd(as_json):
     """OpenCL devices: does each build the kernel and pass its self-check, and how fast is it."""
     from lutbake.grid.spec import Axis, BakeSpec
-    from lutbake.integrate.opencl import survey_devices
+    from lutbake.integrate.survey import survey_devices
 
     probe = BakeSpec(
         eta2=1.5,

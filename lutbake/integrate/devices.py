@@ -37,7 +37,7 @@ FAMILIES = {"Portable Computing Language": ("pocl", "PoCL"), "Intel(R) OpenCL": 
 
 
 @functools.cache
-def _opencl():
+def import_pyopencl():
     """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
     builds Python enums while it initialises, and an exception that a stop signal's handler raises there
     cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
@@ -123,7 +123,7 @@ def _library_of(platform):
 def _origin(library) -> str:
     """'PyPI' for a library inside this Python environment or pyopencl's folder (what pip installed:
     PoCL in pyopencl's .libs, Intel's opencl-rt in lib/), else 'system'."""
-    homes = [Path(sys.prefix).resolve(), Path(_opencl().__file__).resolve().parent]
+    homes = [Path(sys.prefix).resolve(), Path(import_pyopencl().__file__).resolve().parent]
     return "PyPI" if library and any(library.is_relative_to(home) for home in homes) else "system"
 
 
@@ -159,7 +159,7 @@ def _preference(device) -> tuple:
 
 def opencl_devices() -> list:
     """Every OpenCL device of every registered runtime, in the order lutbake tries them (``_preference``)."""
-    cl = _opencl()
+    cl = import_pyopencl()
 
     try:
         with _every_runtime_registered():

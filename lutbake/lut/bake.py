@@ -26,7 +26,8 @@ import numpy as np
 from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import DEFAULT_MEMORY_LIMIT_GIB, Axis, BakeSpec
-from lutbake.integrate.opencl import NumpyBackend, bake_rows_all
+from lutbake.integrate.bands import bake_rows_all
+from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set
 from lutbake.physics.points import FilmPoints
