@@ -1510,10 +1510,26 @@ def check_cmd(backend, as_json, quiet, force_progress):
 
 @cli.command("devices")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def devices_cmd(as_json):
+@click.option(
+    "--icd-folder",
+    is_flag=True,
+    help="Write a vendor folder registering Intel's CPU runtime (the cpu extra) beside the system's runtimes, "
+    "in lutbake's cache folder, and print its path: export OCL_ICD_VENDORS=$(lutbake devices --icd-folder).",
+)
+def devices_cmd(as_json, icd_folder):
     """OpenCL devices: does each build the kernel and pass its self-check, and how fast is it."""
     from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.integrate.icd import SYSTEM_VENDORS, intel_vendor_folder, unregistered_intel
     from lutbake.integrate.survey import survey_devices
+
+    if icd_folder:
+        from lutbake.io.usercache import _folder
+
+        cache = _folder()
+        if cache is None:
+            raise ValueError("no writable cache folder for the vendor folder (set LUTBAKE_CACHE_DIR)")
+        click.echo(intel_vendor_folder(cache, Path(os.environ.get("OPENCL_VENDOR_PATH") or SYSTEM_VENDORS)))
+        return
 
     probe = BakeSpec(
         eta2=1.5,
@@ -1524,9 +1540,11 @@ def devices_cmd(as_json):
             Axis("kappa3", 0.0, 5.0, 4, "sqrt"),
         ),
     )
-    rows = survey_devices(probe)
+    rows, unregistered = survey_devices(probe), unregistered_intel()
     if as_json:
-        echo_json({"throughput_cells": probe.cells, "devices": rows})
+        echo_json(
+            {"throughput_cells": probe.cells, "devices": rows, "unregistered_intel": unregistered and str(unregistered)}
+        )
         return
     for row in rows:
         if row["index"] is None:
@@ -1546,3 +1564,8 @@ def devices_cmd(as_json):
             click.echo(f"    {compute}: {state}")
         if "cells_per_second" in row:
             click.echo(f"    {row['cells_per_second']:.3g} cells/s (float64, {probe.cells} cells over D 0–3000 nm)")
+    if unregistered:
+        click.echo(
+            f"Intel's OpenCL CPU runtime ({unregistered}) is installed but not registered: "
+            "export OCL_ICD_VENDORS=$(lutbake devices --icd-folder) to use it"
+        )

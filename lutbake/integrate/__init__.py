@@ -4,7 +4,7 @@ Stages, one module each:
 
 * devices: the OpenCL devices of every registered runtime, named and ordered; the devices a selector
   names (``opencl_devices``, ``device_key``, ``device_label``, ``find_devices``, ``find_device``,
-  ``Runtime``, ``runtime_of``).
+  ``candidate_devices``, ``Runtime``, ``runtime_of``).
 * icd: Intel's CPU runtime registered with the ICD loader by a vendor folder the user exports
   (``write_vendor_folder``, ``intel_vendor_folder``, ``unregistered_intel``).
 * program: kernels/*.cl and their constants built per device and precision; launches and buffers
@@ -17,4 +17,8 @@ Stages, one module each:
   ``DeviceCannotRun``); numpy_path: the numpy integrator (``NumpyBackend``); bands: what both share
   (``PendingRows``, ``bake_rows_all``); survey: every device surveyed (``survey_devices``).
 * batch: many points through the ground truth or the bake's integrator (``truth_colours``, ``fast_colours``).
+
+The device is an argument (``backend(..., device=...)``, ``OpenCLBackend(device=...)``): a selector, a
+pyopencl Device, or None for the default rule (docs/devices.md); nothing here reads or writes the
+environment.
 """

@@ -1,7 +1,7 @@
 """The OpenCL integrator, and the choice of integrator (``backend``).
 
-``OpenCLBackend`` runs kernels/*.cl through pyopencl on the device ``--device`` or ``PYOPENCL_CTX`` names,
-by default on the first device in lutbake/integrate/devices.py's order
+``OpenCLBackend`` runs kernels/*.cl through pyopencl on the device its ``device`` argument names (a
+selector, a pyopencl Device), by default on the first device in lutbake/integrate/devices.py's order
 (PoCL, the system's before PyPI's, then every other runtime) that builds the kernel
 (lutbake/integrate/program.py) and passes its self-check (lutbake/integrate/selfcheck.py); a GPU's
 driver runs the same source unchanged. It bakes a band of rows by the series and the poles' closed form
@@ -13,20 +13,13 @@ path (lutbake/integrate/numpy_path.py) is the reference and the fallback.
 
 from __future__ import annotations
 
-import os
 import warnings
 
 import numpy as np
 
 from lutbake.errors import OpenCLUnavailable, ParameterError
 from lutbake.integrate.bands import PendingRows, colours_by_level, with_grazing_white
-from lutbake.integrate.devices import (
-    _every_runtime_registered,
-    device_label,
-    find_devices,
-    import_pyopencl,
-    opencl_devices,
-)
+from lutbake.integrate.devices import candidate_devices, device_label
 from lutbake.integrate.direct import DirectOnDevice
 from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.pointwise import kernel_reflectance, kernel_stack_colour
@@ -38,30 +31,10 @@ from lutbake.physics.points import FilmPoints
 __all__ = ["OpenCLBackend", "DeviceCannotRun", "backend"]
 
 
-def _candidate_devices(selector=None):
-    """Devices to try, in order: those ``selector`` (or $LUTBAKE_DEVICE) names, else the one
-    PYOPENCL_CTX names, else every device (``opencl_devices`` order)."""
-    cl = import_pyopencl()
-
-    selector = selector or os.environ.get("LUTBAKE_DEVICE")
-    if selector:
-        return find_devices(selector)
-    if os.environ.get("PYOPENCL_CTX"):
-        try:
-            with _every_runtime_registered():
-                return [cl.create_some_context(interactive=False).devices[0]]
-        except (cl.Error, RuntimeError, ValueError) as exc:  # pyopencl's words for a selector it cannot match
-            raise ValueError(
-                f"PYOPENCL_CTX={os.environ['PYOPENCL_CTX']!r} names no OpenCL device ({exc}): "
-                "unset it, or give a platform:device index such as 0:0"
-            ) from None
-    return opencl_devices()
-
-
 class OpenCLBackend:
-    """kernels/*.cl on an OpenCL device: the first that builds the kernel and passes its self-check
-    among those ``device`` names (see ``devices.find_devices``: one device, or a family such as 'pocl'),
-    else $LUTBAKE_DEVICE's, else PYOPENCL_CTX's, else every device (``devices.opencl_devices`` order).
+    """kernels/*.cl on an OpenCL device: the first that builds the kernel and passes its self-check among
+    those ``device`` names (``devices.candidate_devices``: a pyopencl Device; a selector naming one device
+    or a family such as 'pocl'; None: every device, in ``devices.opencl_devices`` order).
 
     ``integrator`` 'series' (the bake's default) runs the Fourier series where
     its rule allows, the poles' closed form (kernels/poles.cl) where the film
@@ -77,7 +50,7 @@ class OpenCLBackend:
         self.integrator = integrator
         self.dtype = np.float64 if compute == "float64" else np.float32
         reasons = []
-        for candidate in _candidate_devices(device):
+        for candidate in candidate_devices(device):
             self._series = self._direct = None  # a spec's buffers belong to one context
             built = device_program(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
@@ -153,26 +126,26 @@ class OpenCLBackend:
 
 
 class DeviceCannotRun(ParameterError, OpenCLUnavailable):
-    """The OpenCL device named by ``device`` (or $LUTBAKE_DEVICE) does not build the kernel or fails its
-    self-check: bad input (the CLI's exit 2), not a reason to fall back to numpy."""
+    """The OpenCL device a caller named (``device``) does not build the kernel or fails its self-check:
+    bad input (the CLI's exit 2), not a reason to fall back to numpy."""
 
 
 def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):
     """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
-    ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device``
-    the OpenCL device (``devices.find_devices``). A device named here or by $LUTBAKE_DEVICE that cannot run
-    raises DeviceCannotRun, even under 'auto': only the default device falls back."""
+    ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device`` the OpenCL
+    device: a selector (``devices.find_devices``), a pyopencl Device, or None for the first that runs the
+    kernel (docs/devices.md). A device named here that cannot run raises DeviceCannotRun, even under
+    'auto': only the default device falls back."""
     if name == "numpy":
         return NumpyBackend()
-    chosen = device or os.environ.get("LUTBAKE_DEVICE")
     try:
         return OpenCLBackend(compute, integrator, device)
     except (OpenCLUnavailable, ImportError) as exc:
-        if chosen:  # a device the user named is not swapped for another path behind their back
+        if device is not None and device != "":  # a device the user named is not swapped behind their back
             raise DeviceCannotRun(
                 "{device} {selector} cannot run the kernel ({reason}): name another "
                 "(`lutbake devices` lists them) or omit it",
-                selector=repr(chosen),
+                selector=repr(device if isinstance(device, str) else device_label(device)),
                 reason=exc,
             ) from None
         if name == "opencl":

@@ -2,19 +2,21 @@
 device and compute precision, and what a backend launches it through (``DeviceProgram``).
 
 The kernel sources are package resources (lutbake/integrate/kernels/); the constants they share with the
-host come from their one statement in lutbake/spectral/poles.py (``kernel_defines``). ``Kernels`` holds
-one handle per kernel, named as the kernel is in kernels/*.cl. The host's inputs follow the kernels' conventions
+host come from their one statement in lutbake/spectral/poles.py (``kernel_defines``). pyopencl's caches
+are used where the user's cache home can be written and turned off where not (``_pyopencl_caches``: a
+read-only home builds every time, nothing else changes). ``Kernels`` holds one handle per kernel, named
+as the kernel is in kernels/*.cl. The host's inputs follow the kernels' conventions
 (``signed_cos_theta2``, ``split_hi_lo``).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import os
 import warnings
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 
@@ -71,6 +73,29 @@ def kernel_defines() -> list:
     ]
 
 
+def _writable_cache(name: str) -> bool:
+    """The folder pyopencl (or pytools under it) keeps its cache ``name`` in, in the user's cache home,
+    exists or can be made, and this process may write there."""
+    import platformdirs
+
+    folder = Path(platformdirs.user_cache_dir(name, name))
+    try:
+        folder.mkdir(mode=0o755, parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
+
+
+def _pyopencl_caches(cl):
+    """pyopencl's ``cache_dir`` for a build: None (its own folder) where that can be written, else False
+    (no binary cache). Its kernels' invoker store (pytools) takes no argument: where that cannot be
+    written, its switch is turned off (``_PYOPENCL_NO_CACHE``, where pyopencl keeps PYOPENCL_NO_CACHE;
+    read when the first kernel is made): a read-only cache home builds every time, nothing else changes."""
+    if not _writable_cache("pytools"):
+        cl._PYOPENCL_NO_CACHE = True
+    return None if _writable_cache("pyopencl") else False
+
+
 def _build(device, compute: str):
     cl = import_pyopencl()
     if compute == "float64" and "cl_khr_fp64" not in device.extensions:
@@ -78,24 +103,14 @@ def _build(device, compute: str):
     ctx = cl.Context([device])
     source = "\n".join(resources.files("lutbake.integrate").joinpath(name).read_text() for name in KERNEL_SOURCES)
     options = (["-DLUTBAKE_FP64"] if compute == "float64" else []) + kernel_defines()
-    # pyopencl caches binaries in $XDG_CACHE_HOME; where that fails (a file there, a read-only folder) it
-    # reads PYOPENCL_CACHE_FAILURE_FATAL with os.environ[...] and raises KeyError when it is unset. Empty
-    # means "not fatal": it warns (silenced here) and builds without the cache.
-    with warnings.catch_warnings(), _environment(PYOPENCL_CACHE_FAILURE_FATAL=""):
+    with warnings.catch_warnings():  # pyopencl's note of a non-empty build log
         warnings.simplefilter("ignore")
-        return ctx, cl.Program(ctx, source).build(options=options)
-
-
-@contextlib.contextmanager
-def _environment(**defaults):
-    """Environment variables set to ``defaults`` where unset, for the block only."""
-    added = [name for name in defaults if name not in os.environ]
-    os.environ.update({name: defaults[name] for name in added})
-    try:
-        yield
-    finally:
-        for name in added:
-            os.environ.pop(name, None)
+        try:
+            return ctx, cl.Program(ctx, source).build(options=options, cache_dir=_pyopencl_caches(cl))
+        except KeyError as exc:  # its cache failed: pyopencl then reads os.environ[this], unset here
+            if exc.args != ("PYOPENCL_CACHE_FAILURE_FATAL",):
+                raise
+            return ctx, cl.Program(ctx, source).build(options=options, cache_dir=False)
 
 
 @functools.lru_cache(maxsize=16)

@@ -37,12 +37,12 @@ def survey_devices(throughput_spec=None) -> list:
         }
         for compute in ("float64", "float32"):
             try:
-                fast = OpenCLBackend(compute, device=str(index))
+                fast = OpenCLBackend(compute, device=device)
                 row[compute] = {"builds": True, "self_check_error": checked_error(fast, device)}
             except OpenCLUnavailable as exc:  # one device tried: its reason, without its label
                 row[compute] = {"builds": False, "error": str(exc).removeprefix(f"{label}: ")}
         if throughput_spec is not None and row["float64"].get("builds"):
-            fast = OpenCLBackend("float64", device=str(index))
+            fast = OpenCLBackend("float64", device=device)
             fast.bake_rows(throughput_spec, 0, 1)
             start = time.perf_counter()
             bake_rows_all(fast, throughput_spec)

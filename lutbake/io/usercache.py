@@ -9,10 +9,6 @@ an 8 TB array costs nothing), its values are finite, and the SHA-256 stored
 with the arrays matches their bytes; anything else is rebuilt. Without a
 writable folder (a file where it goes, a read-only folder) each process
 rebuilds what it needs; nothing else changes.
-
-pyopencl (and pytools under it) keep their own caches in the same cache home
-and fail with tracebacks where they cannot write there; ``pyopencl_caches_where_writable``
-turns them off in that case (lutbake/integrate/opencl.py calls it before importing pyopencl).
 """
 
 from __future__ import annotations
@@ -24,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["cached_arrays", "pyopencl_caches_where_writable"]
+__all__ = ["cached_arrays"]
 
 _HASH = "sha256"  # the member holding the SHA-256 of the other arrays
 
@@ -45,17 +41,6 @@ def _usable_folder(folder: Path, mode: int = 0o700) -> bool:
 def _folder() -> Path | None:
     folder = Path(os.environ.get("LUTBAKE_CACHE_DIR") or _cache_home() / "lutbake")
     return folder if _usable_folder(folder) else None
-
-
-def pyopencl_caches_where_writable() -> None:
-    """Set PYOPENCL_NO_CACHE=1 (unless the user set it) when pyopencl's kernel cache or pytools' store in
-    the cache home cannot be written: pyopencl then builds without them instead of raising. Call before
-    pyopencl is imported (it reads the variable once)."""
-    home = _cache_home()
-    if "PYOPENCL_NO_CACHE" not in os.environ and not all(
-        _usable_folder(home / name, 0o755) for name in ("pyopencl", "pytools")
-    ):
-        os.environ["PYOPENCL_NO_CACHE"] = "1"
 
 
 def _digest(arrays: dict) -> np.ndarray:

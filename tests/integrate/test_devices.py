@@ -168,6 +168,37 @@ def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_ba
         assert json.loads((out / "a.json").read_text())["baked_on"]["backend"] == "numpy"
 
 
+def test_a_device_passed_as_a_value_runs_alone_and_is_never_swapped(monkeypatch):
+    """``device=`` takes a pyopencl Device as well as a selector: that device runs the kernel, and where it
+    cannot, the caller hears so (DeviceCannotRun naming it) rather than getting another device or numpy."""
+    _, device = _building_devices()[-1]
+    label = runtimes.device_label(device)
+    assert integrate.backend("auto", device=device).device == label
+    real = integrate.device_program
+    monkeypatch.setattr(
+        integrate,
+        "device_program",
+        lambda d, compute: (
+            OpenCLUnavailable(f"{runtimes.device_label(d)}: error: no build") if d == device else real(d, compute)
+        ),
+    )
+    monkeypatch.setattr(integrate, "NumpyBackend", lambda: pytest.fail("a device passed in fell back to numpy"))
+    with pytest.raises(integrate.DeviceCannotRun, match="no build") as refused:
+        integrate.backend("auto", device=device)
+    assert repr(label) in str(refused.value)
+
+
+def test_a_pyopencl_ctx_selector_names_the_device_pyopencl_would():
+    """A selector in PYOPENCL_CTX's syntax (the CLI passes $PYOPENCL_CTX with that origin) names what
+    pyopencl's own platform:device indices name; one naming nothing is refused in PYOPENCL_CTX's words."""
+    cl = runtimes.import_pyopencl()
+    assert runtimes.find_device("0:0", runtimes.PYOPENCL_CTX) == cl.get_platforms()[0].get_devices()[0]
+    with pytest.raises(ValueError) as refused:
+        runtimes.find_devices("garbage", runtimes.PYOPENCL_CTX)
+    assert str(refused.value).startswith("PYOPENCL_CTX='garbage' names no OpenCL device (")
+    assert str(refused.value).endswith("): unset it, or give a platform:device index such as 0:0")
+
+
 def test_unknown_device_is_refused_with_one_line():
     out = _cli("bake", "--eta2", "1.4", "--out", "never.exr", "--device", "no-such-runtime")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
