@@ -107,7 +107,7 @@ def _build(device, compute: str):
         warnings.simplefilter("ignore")
         try:
             return ctx, cl.Program(ctx, source).build(options=options, cache_dir=_pyopencl_caches(cl))
-        except KeyError as exc:  # its cache failed: pyopencl then reads os.environ[this], unset here
+        except KeyError as exc:  # its cache failed: pyopencl then looks this variable up, unset here
             if exc.args != ("PYOPENCL_CACHE_FAILURE_FATAL",):
                 raise
             return ctx, cl.Program(ctx, source).build(options=options, cache_dir=False)

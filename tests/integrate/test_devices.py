@@ -199,6 +199,17 @@ def test_a_pyopencl_ctx_selector_names_the_device_pyopencl_would():
     assert str(refused.value).endswith("): unset it, or give a platform:device index such as 0:0")
 
 
+def test_a_kernel_cache_that_fails_costs_the_cache_only(kernel_device, tmp_path, monkeypatch):
+    """Where pyopencl's binary cache fails (its folder under a file), pyopencl looks
+    PYOPENCL_CACHE_FAILURE_FATAL up in the environment, a KeyError where it is unset: the program is built
+    again without the cache (runtimes that cache builds themselves, PoCL, never reach pyopencl's)."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.delenv("PYOPENCL_CACHE_FAILURE_FATAL", raising=False)
+    monkeypatch.setattr(program, "_pyopencl_caches", lambda cl: str(tmp_path / "file" / "cache"))
+    _, built = program._build(runtimes.find_device(kernel_device), "float64")
+    assert program.Kernels.of(built).plan_rows.function_name == "plan_rows"
+
+
 def test_unknown_device_is_refused_with_one_line():
     out = _cli("bake", "--eta2", "1.4", "--out", "never.exr", "--device", "no-such-runtime")
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1
