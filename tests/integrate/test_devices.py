@@ -199,6 +199,18 @@ def test_a_pyopencl_ctx_selector_names_the_device_pyopencl_would():
     assert str(refused.value).endswith("): unset it, or give a platform:device index such as 0:0")
 
 
+def test_an_unwritable_cache_home_turns_pyopencls_caches_off(tmp_path, monkeypatch):
+    """XDG_CACHE_HOME a file: no binary cache for the build (cache_dir False) and pyopencl's invoker store
+    off (it would raise making its folder when the first kernel is made); a writable home keeps both."""
+    cl = runtimes.import_pyopencl()
+    monkeypatch.setattr(cl, "_PYOPENCL_NO_CACHE", False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "home"))
+    assert program._pyopencl_caches(cl) is None and cl._PYOPENCL_NO_CACHE is False
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
+    assert program._pyopencl_caches(cl) is False and cl._PYOPENCL_NO_CACHE is True
+
+
 def test_a_kernel_cache_that_fails_costs_the_cache_only(kernel_device, tmp_path, monkeypatch):
     """Where pyopencl's binary cache fails (its folder under a file), pyopencl looks
     PYOPENCL_CACHE_FAILURE_FATAL up in the environment, a KeyError where it is unset: the program is built
