@@ -135,19 +135,23 @@ def run_path(path: str, out: Path, compute: str = "float64", device: str = "", g
 
 def devices() -> list:
     """Keys of the OpenCL devices that build the kernel (lutbake devices), the default first."""
-    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, opencl_devices
+    from lutbake.errors import OpenCLUnavailable
+    from lutbake.integrate.devices import device_key, opencl_devices
+    from lutbake.integrate.program import built_program
 
-    return [device_key(d) for d in opencl_devices() if not isinstance(_program(d, "float64"), OpenCLUnavailable)]
+    return [device_key(d) for d in opencl_devices() if not isinstance(built_program(d, "float64"), OpenCLUnavailable)]
 
 
 def not_building() -> dict:
     """{device key: why not} for the OpenCL devices whose compiler does not build the kernel."""
-    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, opencl_devices
+    from lutbake.errors import OpenCLUnavailable
+    from lutbake.integrate.devices import device_key, opencl_devices
+    from lutbake.integrate.program import built_program
 
     return {
         device_key(d): str(built)
         for d in opencl_devices()
-        if isinstance(built := _program(d, "float64"), OpenCLUnavailable)
+        if isinstance(built := built_program(d, "float64"), OpenCLUnavailable)
     }
 
 

@@ -31,15 +31,15 @@ def child(key: str) -> None:
         return round(resident_bytes() / 2**20, 1)
 
     stages = {"imports": mib()}
-    from lutbake.integrate import devices
+    from lutbake.integrate import devices, program
     from lutbake.integrate import opencl as integrate
 
-    cl = devices._opencl()
+    cl = devices.import_pyopencl()
     stages["pyopencl"] = mib()
     found = devices.opencl_devices()
     stages["registered"] = mib()
     device = devices.find_device(key)
-    integrate._program(device, "float64")
+    program.built_program(device, "float64")
     stages["built"] = mib()
     integrate.OpenCLBackend("float64", device=key)
     stages["self_checked"] = mib()

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.opencl import NumpyBackend
+from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
 

@@ -3,11 +3,13 @@
 ``[pocl-pypi]``, ``[intel-pypi]``); the summary names each runtime (which PoCL, which Intel)
 and lists which were exercised and which could not be."""
 
+import atexit
 import fcntl
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -20,6 +22,25 @@ import numpy as np  # noqa: E402
 import pytest
 
 warnings.filterwarnings("ignore", module="colour")
+
+
+def _register_intel_runtime() -> None:
+    """Intel's CPU runtime from the cpu extra registered beside the system's runtimes for this process and
+    those it starts (pytest-xdist's workers, the CLI), as a user registers it (docs/devices.md): a vendor
+    folder from lutbake's own function, named by OCL_ICD_VENDORS before pyopencl loads. An OCL_ICD_VENDORS
+    already set (the caller's choice, or this process's parent's folder) is left as it is."""
+    from lutbake.integrate.icd import SYSTEM_VENDORS, environment_intel_library, write_vendor_folder
+
+    library = environment_intel_library()
+    if "OCL_ICD_VENDORS" in os.environ or library is None:
+        return
+    folder = Path(tempfile.mkdtemp(prefix="lutbake-test-icd-"))
+    atexit.register(shutil.rmtree, folder, True)
+    system = Path(os.environ.get("OPENCL_VENDOR_PATH") or SYSTEM_VENDORS)
+    os.environ["OCL_ICD_VENDORS"] = str(write_vendor_folder(folder, library, system))
+
+
+_register_intel_runtime()
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_LUTS = ROOT / "luts"
@@ -79,7 +100,9 @@ def default_luts() -> Path:
 
 def _survey_devices():
     """(keys of devices whose compiler builds the kernel, {key: why not} for the rest)."""
-    from lutbake.integrate.opencl import OpenCLUnavailable, _program, device_key, device_label, opencl_devices
+    from lutbake.errors import OpenCLUnavailable
+    from lutbake.integrate.devices import device_key, device_label, opencl_devices
+    from lutbake.integrate.program import built_program
 
     try:
         devices = opencl_devices()
@@ -87,7 +110,7 @@ def _survey_devices():
         return [], {"opencl": str(exc)}
     builds, excluded = [], {}
     for device in devices:
-        built = _program(device, "float64")
+        built = built_program(device, "float64")
         if isinstance(built, OpenCLUnavailable):
             excluded[device_key(device, devices)] = str(built)
         else:

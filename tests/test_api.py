@@ -120,8 +120,8 @@ print(json.dumps({"imported_by_import": imported, "handlers_kept": before == aft
 
 def test_library_use_changes_no_process_state(tmp_path):
     """Importing lutbake loads nothing heavy; a bake and a report leave signal handlers, the environment,
-    matplotlib's backend and the temporary folder as they were (the Intel
-    runtime's registration is scoped to the platform query)."""
+    matplotlib's backend and the temporary folder as they were (lutbake registers no OpenCL runtime:
+    OCL_ICD_VENDORS stays unset)."""
     temp = tmp_path / "tmp"
     temp.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("OCL_ICD_VENDORS", "LUTBAKE_DEVICE")}

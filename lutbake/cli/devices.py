@@ -6,16 +6,27 @@ from __future__ import annotations
 
 import click
 
-from lutbake.cli.options import echo_json
+from lutbake.cli.options import echo_json, environment
 
 
 @click.command("devices")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def devices_cmd(as_json):
+@click.option(
+    "--icd-folder",
+    is_flag=True,
+    help="Write a vendor folder registering Intel's CPU runtime (the cpu extra) beside the system's runtimes, "
+    "in lutbake's cache folder, and print its path: export OCL_ICD_VENDORS=$(lutbake devices --icd-folder).",
+)
+def devices_cmd(as_json, icd_folder):
     """OpenCL devices: does each build the kernel and pass its self-check, and how fast is it."""
-    from lutbake.lut.survey import survey
+    from lutbake.io.usercache import writable_folder
+    from lutbake.lut.survey import survey, vendor_folder
 
-    doc = survey()
+    env = environment()
+    if icd_folder:
+        click.echo(vendor_folder(writable_folder(), env.system_vendors))
+        return
+    doc = survey(env.device)
     if as_json:
         echo_json(doc)
         return
@@ -39,3 +50,8 @@ def devices_cmd(as_json):
             click.echo(
                 f"    {row['cells_per_second']:.3g} cells/s (float64, {doc['throughput_cells']} cells over D 0–3000 nm)"
             )
+    if doc["unregistered_intel"]:
+        click.echo(
+            f"Intel's OpenCL CPU runtime ({doc['unregistered_intel']}) is installed but not registered: "
+            "export OCL_ICD_VENDORS=$(lutbake devices --icd-folder) to use it"
+        )

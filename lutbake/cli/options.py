@@ -101,7 +101,7 @@ def _device_choice(ctx, param, selector):
     """--device, validated now; without it, the environment's choice ($LUTBAKE_DEVICE)."""
     if not selector:
         return ctx.obj.device if ctx.obj else None
-    from lutbake.integrate.opencl import device_label, find_device
+    from lutbake.integrate.devices import device_label, find_device
 
     device_label(find_device(selector))
     return selector

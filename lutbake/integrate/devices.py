@@ -1,5 +1,5 @@
-"""OpenCL devices: every CPU runtime registered, each device named by its runtime and where that came
-from, and the order lutbake tries them in (docs/devices.md).
+"""OpenCL devices: every registered runtime's devices, each named by its runtime and where that came from,
+the order lutbake tries them in, and the devices a selector names (docs/devices.md).
 
 Three sources of runtimes on Linux:
 
@@ -9,7 +9,11 @@ Three sources of runtimes on Linux:
 * The system's runtimes: the ``.icd`` files of the vendor folder (``OCL_ICD_VENDORS``, else
   ``OPENCL_VENDOR_PATH``, else /etc/OpenCL/vendors), e.g. Debian's ``pocl-opencl-icd``.
 * Intel's CPU runtime from PyPI (``opencl-rt``, the ``cpu`` extra) lies in the environment's lib/
-  and registers itself nowhere: ``_every_runtime_registered`` adds it.
+  and registers itself nowhere: the user registers it (lutbake/integrate/icd.py).
+
+The device is an argument: ``candidate_devices`` turns what a caller passes (a selector, a pyopencl
+Device, or None for the default rule) into the devices to try. Nothing here reads or writes the
+environment; the command line resolves ``--device``, ``LUTBAKE_DEVICE`` and ``PYOPENCL_CTX``.
 """
 
 from __future__ import annotations
@@ -20,24 +24,29 @@ import functools
 import os
 import re
 import sys
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 from lutbake.errors import OpenCLUnavailable
 from lutbake.io.signals import stop_signals_held
-from lutbake.io.usercache import pyopencl_caches_where_writable
 
-pyopencl_caches_where_writable()  # before pyopencl is imported: it reads PYOPENCL_NO_CACHE once
+__all__ = [
+    "Runtime",
+    "runtime_of",
+    "opencl_devices",
+    "device_key",
+    "device_label",
+    "find_devices",
+    "PyopenclCtx",
+    "find_device",
+    "candidate_devices",
+]
 
-__all__ = ["Runtime", "runtime_of", "opencl_devices", "device_key", "device_label", "find_devices", "find_device"]
-
-SYSTEM_VENDORS = "/etc/OpenCL/vendors"  # the ICD loaders' vendor folder when no variable names one
 FAMILIES = {"Portable Computing Language": ("pocl", "PoCL"), "Intel(R) OpenCL": ("intel", "Intel OpenCL")}
 
 
 @functools.cache
-def _opencl():
+def import_pyopencl():
     """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
     builds Python enums while it initialises, and an exception that a stop signal's handler raises there
     cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
@@ -45,34 +54,6 @@ def _opencl():
     with stop_signals_held():
         import pyopencl
     return pyopencl
-
-
-@contextlib.contextmanager
-def _every_runtime_registered():
-    """Make Intel's CPU runtime from the environment visible beside the system's runtimes, for the
-    platform query inside.
-
-    The loader reads one vendor folder, so Intel's runtime cannot be added to the system's: lutbake
-    writes a private folder holding a link to each of the system folder's .icd files and one .icd
-    naming Intel's library, and points OCL_ICD_VENDORS at it. The loader reads its list once, at the
-    process's first platform query, so the folder and the variable exist only for that query. An
-    explicit OCL_ICD_VENDORS is left alone; a process that queried platforms before lutbake did sees
-    only the runtimes it registered itself.
-    """
-    lib = Path(sys.prefix) / "lib" / "libintelocl.so"
-    if "OCL_ICD_VENDORS" in os.environ or not lib.is_file():
-        yield
-        return
-    system = Path(os.environ.get("OPENCL_VENDOR_PATH") or SYSTEM_VENDORS)
-    with tempfile.TemporaryDirectory(prefix="lutbake-icd-") as vendors:
-        for icd in sorted(system.glob("*.icd")) if system.is_dir() else ():
-            os.symlink(icd, Path(vendors) / icd.name)
-        (Path(vendors) / "lutbake-environment-intel-cpu.icd").write_text(f"{lib}\n")
-        os.environ["OCL_ICD_VENDORS"] = vendors
-        try:
-            yield
-        finally:
-            del os.environ["OCL_ICD_VENDORS"]
 
 
 @dataclass(frozen=True)
@@ -123,7 +104,7 @@ def _library_of(platform):
 def _origin(library) -> str:
     """'PyPI' for a library inside this Python environment or pyopencl's folder (what pip installed:
     PoCL in pyopencl's .libs, Intel's opencl-rt in lib/), else 'system'."""
-    homes = [Path(sys.prefix).resolve(), Path(_opencl().__file__).resolve().parent]
+    homes = [Path(sys.prefix).resolve(), Path(import_pyopencl().__file__).resolve().parent]
     return "PyPI" if library and any(library.is_relative_to(home) for home in homes) else "system"
 
 
@@ -148,10 +129,10 @@ def runtime_of(device) -> Runtime:
     return _RUNTIMES[platform.int_ptr]
 
 
-# The order lutbake tries devices in (docs/devices.md, measured there): PoCL first, the system's
-# before PyPI's (a distribution builds PoCL with its current LLVM and picks the target CPU from the
-# CPU's features, so it compiles where PyPI's PoCL 3.0, LLVM 14, cannot name the CPU), then every
-# other runtime in the loader's order.
+# The order lutbake tries devices in (docs/devices.md, measured there): PoCL first, the system's before
+# PyPI's (a distribution builds PoCL with its current LLVM and picks the target CPU from the CPU's
+# features, so it compiles where PyPI's PoCL 3.0, LLVM 14, cannot name the CPU), then every other
+# runtime in the loader's order.
 def _preference(device) -> tuple:
     runtime = runtime_of(device)
     return runtime.family != "pocl", runtime.origin != "system"
@@ -159,11 +140,9 @@ def _preference(device) -> tuple:
 
 def opencl_devices() -> list:
     """Every OpenCL device of every registered runtime, in the order lutbake tries them (``_preference``)."""
-    cl = _opencl()
-
+    cl = import_pyopencl()
     try:
-        with _every_runtime_registered():
-            platforms = cl.get_platforms()
+        platforms = cl.get_platforms()
     except cl.Error as exc:
         raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
     devices = []
@@ -192,10 +171,22 @@ def device_label(device) -> str:
     return f"{runtime_of(device)} / {device.name.strip()}"
 
 
-def find_devices(selector: str) -> list:
-    """The devices a selector names, in the order lutbake tries them: its index in ``opencl_devices()``,
-    its key ('pocl-system'), a runtime family ('pocl': every PoCL, 'intel'), or a case-insensitive
-    part of its label naming one device."""
+PYOPENCL_CTX = "PYOPENCL_CTX"  # the origin of a selector in pyopencl's own syntax
+
+
+def find_devices(selector: str, origin: str = "device") -> list:
+    """The devices a selector names, in the order lutbake tries them. ``origin`` says whose selector it is:
+
+    * 'device' (``--device``, ``LUTBAKE_DEVICE``, a caller's ``device=``): its index in
+      ``opencl_devices()``, its key ('pocl-system'), a runtime family ('pocl': every PoCL, 'intel'), or
+      a case-insensitive part of its label naming one device;
+    * ``PYOPENCL_CTX``: pyopencl's platform[:device] (indices or parts of names, in the loader's platform
+      order), naming one device.
+
+    A selector naming none (or, but for a family, more than one) is a ValueError listing the devices.
+    """
+    if origin == PYOPENCL_CTX:
+        return [_pyopencl_ctx_device(selector)]
     devices = opencl_devices()
     text = str(selector).strip().lower()
     if text.isdigit() and int(text) < len(devices):
@@ -210,6 +201,35 @@ def find_devices(selector: str) -> list:
     return found
 
 
-def find_device(selector: str):
+def _pyopencl_ctx_device(selector: str):
+    """The device pyopencl's ``create_some_context`` picks for ``selector`` (PYOPENCL_CTX's syntax), given
+    as its answers: pyopencl reads no environment then."""
+    cl = import_pyopencl()
+    try:
+        return cl.create_some_context(interactive=False, answers=str(selector).split(":")).devices[0]
+    except (cl.Error, RuntimeError, ValueError) as exc:  # pyopencl's words for a selector it cannot match
+        raise ValueError(
+            f"{PYOPENCL_CTX}={selector!r} names no OpenCL device ({exc}): "
+            "unset it, or give a platform:device index such as 0:0"
+        ) from None
+
+
+def find_device(selector: str, origin: str = "device"):
     """The first device ``find_devices`` names."""
-    return find_devices(selector)[0]
+    return find_devices(selector, origin)[0]
+
+
+class PyopenclCtx(str):
+    """A device selector in pyopencl's PYOPENCL_CTX syntax (platform[:device]): a string a caller passes as
+    ``device=`` like any other, read by pyopencl's rules (``find_devices(..., PYOPENCL_CTX)``)."""
+
+
+def candidate_devices(device=None) -> list:
+    """The devices to try, in order, for a caller's ``device``: a pyopencl Device is tried alone, a selector
+    string names devices (``find_devices``; a ``PyopenclCtx`` by pyopencl's rules), None or '' leaves every
+    device (``opencl_devices`` order)."""
+    if device is None or isinstance(device, str) and not device:
+        return opencl_devices()
+    if isinstance(device, PyopenclCtx):
+        return find_devices(device, PYOPENCL_CTX)
+    return find_devices(device) if isinstance(device, str) else [device]

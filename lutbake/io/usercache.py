@@ -15,10 +15,6 @@ an 8 TB array costs nothing), its values are finite, and the SHA-256 stored
 with the arrays matches their bytes; anything else is rebuilt. Without a
 writable folder (a file where it goes, a read-only folder) each process
 rebuilds what it needs; nothing else changes.
-
-pyopencl (and pytools under it) keep their own caches in the same cache home
-and fail with tracebacks where they cannot write there; ``pyopencl_caches_where_writable``
-turns them off in that case (lutbake/integrate/opencl.py calls it before importing pyopencl).
 """
 
 from __future__ import annotations
@@ -28,7 +24,7 @@ import os
 import zipfile
 from pathlib import Path
 
-__all__ = ["cached_arrays", "use_folder", "default_folder", "pyopencl_caches_where_writable"]
+__all__ = ["cached_arrays", "use_folder", "default_folder", "writable_folder"]
 
 _HASH = "sha256"  # the member holding the SHA-256 of the other arrays
 _chosen: Path | None = None  # use_folder's choice; None: default_folder()
@@ -55,14 +51,10 @@ def use_folder(folder) -> Path | None:
     return previous
 
 
-def _cache_home() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-
-
-def _usable_folder(folder: Path, mode: int = 0o700) -> bool:
+def _usable_folder(folder: Path) -> bool:
     """``folder`` exists (created if need be) and this process may create files in it."""
     try:
-        folder.mkdir(mode=mode, parents=True, exist_ok=True)
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
     except OSError:
         return False
     return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
@@ -72,20 +64,11 @@ def _folder_path() -> Path:
     return _chosen or default_folder()
 
 
-def _folder() -> Path | None:
+def writable_folder() -> Path | None:
+    """The cache folder (``use_folder``'s choice, else ``default_folder()``), created if need be, or None
+    where this process cannot write it."""
     folder = _folder_path()
     return folder if _usable_folder(folder) else None
-
-
-def pyopencl_caches_where_writable() -> None:
-    """Set PYOPENCL_NO_CACHE=1 (unless the user set it) when pyopencl's kernel cache or pytools' store in
-    the cache home cannot be written: pyopencl then builds without them instead of raising. Call before
-    pyopencl is imported (it reads the variable once)."""
-    home = _cache_home()
-    if "PYOPENCL_NO_CACHE" not in os.environ and not all(
-        _usable_folder(home / name, 0o755) for name in ("pyopencl", "pytools")
-    ):
-        os.environ["PYOPENCL_NO_CACHE"] = "1"
 
 
 def _digest(arrays: dict):
@@ -149,7 +132,7 @@ def _save(path: Path, arrays: dict) -> None:
 def cached_arrays(kind: str, key: bytes, shapes: dict, build) -> dict:
     """The arrays ``build()`` returns (name → array of ``shapes[name]``), from the cache entry for
     (``kind``, ``key``) when it is valid, else built now and stored."""
-    folder = _folder()
+    folder = writable_folder()
     path = folder / f"{kind}-{hashlib.sha256(key).hexdigest()[:24]}.npz" if folder else None
     arrays = _load(path, shapes) if path else None
     if arrays is None:

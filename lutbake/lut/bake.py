@@ -26,7 +26,8 @@ from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.opencl import NumpyBackend, bake_rows_all
+from lutbake.integrate.bands import bake_rows_all
+from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set
 from lutbake.physics.points import FilmPoints

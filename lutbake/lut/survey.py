@@ -1,5 +1,5 @@
 """The device survey `lutbake devices` prints: every OpenCL device, whether it builds the kernel and passes
-its self-check, and its rate baking one probe grid (lutbake/integrate/opencl.py ``survey_devices``).
+its self-check, and its rate baking one probe grid (lutbake/integrate/survey.py ``survey_devices``).
 
 The probe is a small LUT of a glass-like film over dielectric and metal bases (32 × 128 × 4 × 4 cells,
 D to 3000 nm): large enough that launch overheads do not dominate, small enough to time in a second.
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from lutbake.grid.spec import Axis, BakeSpec
 
-__all__ = ["THROUGHPUT_PROBE", "survey"]
+__all__ = ["THROUGHPUT_PROBE", "survey", "vendor_folder"]
 
 THROUGHPUT_PROBE = BakeSpec(
     eta2=1.5,
@@ -22,9 +22,27 @@ THROUGHPUT_PROBE = BakeSpec(
 )
 
 
-def survey() -> dict:
-    """The document `devices --json` prints: the probe's cell count and one row per device (``survey_devices``
-    with ``THROUGHPUT_PROBE``)."""
-    from lutbake.integrate.opencl import survey_devices
+def survey(device=None) -> dict:
+    """The document `devices --json` prints: the probe's cell count, one row per device (``survey_devices``
+    with ``THROUGHPUT_PROBE``; ``default`` marks the one a bake on ``device`` uses) and, where Intel's runtime
+    is installed in this environment but not registered with the ICD loader, its library
+    (``unregistered_intel``)."""
+    from lutbake.integrate.icd import unregistered_intel
+    from lutbake.integrate.survey import survey_devices
 
-    return {"throughput_cells": THROUGHPUT_PROBE.cells, "devices": survey_devices(THROUGHPUT_PROBE)}
+    unregistered = unregistered_intel()
+    return {
+        "throughput_cells": THROUGHPUT_PROBE.cells,
+        "devices": survey_devices(THROUGHPUT_PROBE, device),
+        "unregistered_intel": unregistered and str(unregistered),
+    }
+
+
+def vendor_folder(cache_folder, system_vendors=None):
+    """The ICD vendor folder registering this environment's Intel runtime beside the system's runtimes,
+    written into ``cache_folder`` (lutbake/integrate/icd.py ``intel_vendor_folder``); its path."""
+    from lutbake.integrate.icd import SYSTEM_VENDORS, intel_vendor_folder
+
+    if cache_folder is None:
+        raise ValueError("no writable cache folder for the vendor folder (set LUTBAKE_CACHE_DIR)")
+    return intel_vendor_folder(cache_folder, system_vendors or SYSTEM_VENDORS)

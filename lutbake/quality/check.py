@@ -14,8 +14,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.integrate.devices import device_key
 from lutbake.integrate.opencl import backend as make_backend
-from lutbake.integrate.opencl import device_key
 from lutbake.io.progress import no_progress
 from lutbake.physics.optics import film_reflectance, round_trip_amplitude
 from lutbake.physics.points import FilmPoints

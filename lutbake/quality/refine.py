@@ -199,7 +199,7 @@ def uniform_points(spec, n_points: int, seed: int):
 def trial_lut(spec, counts, integrator) -> tuple:
     """``spec``'s domain at per-axis ``counts``, baked in memory by the bake's integrator and rounded to the
     stored precision: (the Lut as a GPU samples it, texture bytes, integration seconds)."""
-    from lutbake.integrate.opencl import bake_rows_all
+    from lutbake.integrate.bands import bake_rows_all
     from lutbake.lut.sample import Lut
 
     grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, counts)))

@@ -556,7 +556,7 @@ def test_an_unusable_cache_folder_costs_a_rebuild_only(tmp_path, monkeypatch, ca
     assert got["a"][0] == 1.0
     cache_folder(tmp_path / "ro" / "lutbake")
     monkeypatch.setattr(os, "access", lambda path, mode: False)  # a read-only folder, even for root
-    assert usercache._folder() is None
+    assert usercache.writable_folder() is None
     assert usercache.cached_arrays("t", b"k", {"a": (1,)}, lambda: {"a": np.ones(1)})["a"][0] == 1.0
 
 

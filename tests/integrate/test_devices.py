@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 from airy_mp import airy_reflectance_mp
 
+from lutbake.errors import OpenCLUnavailable
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate import devices as runtimes
 from lutbake.integrate import opencl as integrate
+from lutbake.integrate import program, selfcheck
 from lutbake.lut.bake import bake, bake_array
 from lutbake.physics.points import FilmPoints
 
@@ -25,8 +27,8 @@ def _building_devices():
     be one: PoCL 3.0 from PyPI cannot compile on CPUs newer than its LLVM (AMD Zen 5)."""
     return [
         (index, device)
-        for index, device in enumerate(integrate.opencl_devices())
-        if not isinstance(integrate._program(device, "float64"), integrate.OpenCLUnavailable)
+        for index, device in enumerate(runtimes.opencl_devices())
+        if not isinstance(program.built_program(device, "float64"), OpenCLUnavailable)
     ]
 
 
@@ -55,9 +57,9 @@ def test_every_device_writes_the_same_exr_bytes(tmp_path):
     spec = BakeSpec(eta2=1.4, axes=axes, precision="half")
     numpy_image = bake_array(spec, "numpy")
     keys = [
-        integrate.device_key(d)
-        for d in integrate.opencl_devices()
-        if not isinstance(integrate._program(d, "float64"), integrate.OpenCLUnavailable)
+        runtimes.device_key(d)
+        for d in runtimes.opencl_devices()
+        if not isinstance(program.built_program(d, "float64"), OpenCLUnavailable)
     ]
     assert keys, "no OpenCL device builds the kernel"
     files = {}
@@ -75,14 +77,14 @@ def test_a_device_failing_its_self_check_is_refused_and_the_next_is_used(monkeyp
     building = _building_devices()
     assert building, "no OpenCL device builds the kernel"
     (first_index, _), devices = building[0], [d for _, d in building]
-    first = integrate.device_label(devices[0])
-    monkeypatch.setattr(integrate, "_SELF_CHECKED", {})
-    real = integrate.self_check_error
-    monkeypatch.setattr(integrate, "self_check_error", lambda b: 1e-3 if b.device == first else real(b))
-    with pytest.raises(integrate.OpenCLUnavailable, match="self-check"):
+    first = runtimes.device_label(devices[0])
+    monkeypatch.setattr(selfcheck, "_CHECKED", {})
+    real = selfcheck.self_check_error
+    monkeypatch.setattr(selfcheck, "self_check_error", lambda b: 1e-3 if b.device == first else real(b))
+    with pytest.raises(OpenCLUnavailable, match="self-check"):
         integrate.OpenCLBackend("float64", device=str(first_index))
     if len(devices) > 1:
-        assert integrate.OpenCLBackend("float64").device == integrate.device_label(devices[1])
+        assert integrate.OpenCLBackend("float64").device == runtimes.device_label(devices[1])
     else:
         with pytest.warns(RuntimeWarning, match="numpy path"):
             assert integrate.backend("auto").name == "numpy"
@@ -111,7 +113,7 @@ def test_bake_names_its_device_in_stdout_json_and_sidecar(tmp_path):
         str(index),
     ]
     text = _cli(*flags, "--out", str(tmp_path / "a.exr"))
-    label = integrate.device_label(device)
+    label = runtimes.device_label(device)
     assert text.returncode == 0, text.stderr
     assert f"on {label}" in text.stdout
     doc = json.loads(_cli(*flags, "--out", str(tmp_path / "b.exr"), "--json").stdout)
@@ -142,8 +144,8 @@ def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_ba
     index, device = _building_devices()[-1]
     monkeypatch.setattr(
         integrate,
-        "_device_kernels",
-        lambda d, compute: integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build"),
+        "device_program",
+        lambda d, compute: OpenCLUnavailable(f"{runtimes.device_label(d)}: error: no build"),
     )
     grid = ["--eta2", "1.4", "--cos-theta", "0:1:4", "--opd", "0:1000:4", "--eta3", "1:2:2", "--kappa3", "0:1:2"]
     out = tmp_path / "out"
@@ -158,12 +160,66 @@ def test_a_named_device_that_cannot_run_is_refused_and_only_the_default_falls_ba
     assert "no build" in err and "numpy" not in err
     assert not out.exists() if default_set else not any(out.iterdir())
     with pytest.raises(integrate.DeviceCannotRun):  # the library alike, and catchable as OpenCLUnavailable
-        integrate.backend("auto", device=integrate.device_key(device))
+        integrate.backend("auto", device=runtimes.device_key(device))
     if not default_set:
         with pytest.warns(RuntimeWarning, match="baking with the numpy path"):
             status, err = _bake_in_process(["bake", "--quiet", *target], capfd, monkeypatch)
         assert status == 0, err
         assert json.loads((out / "a.json").read_text())["baked_on"]["backend"] == "numpy"
+
+
+def test_a_device_passed_as_a_value_runs_alone_and_is_never_swapped(monkeypatch):
+    """``device=`` takes a pyopencl Device as well as a selector: that device runs the kernel, and where it
+    cannot, the caller hears so (DeviceCannotRun naming it) rather than getting another device or numpy."""
+    _, device = _building_devices()[-1]
+    label = runtimes.device_label(device)
+    assert integrate.backend("auto", device=device).device == label
+    real = integrate.device_program
+    monkeypatch.setattr(
+        integrate,
+        "device_program",
+        lambda d, compute: (
+            OpenCLUnavailable(f"{runtimes.device_label(d)}: error: no build") if d == device else real(d, compute)
+        ),
+    )
+    monkeypatch.setattr(integrate, "NumpyBackend", lambda: pytest.fail("a device passed in fell back to numpy"))
+    with pytest.raises(integrate.DeviceCannotRun, match="no build") as refused:
+        integrate.backend("auto", device=device)
+    assert repr(label) in str(refused.value)
+
+
+def test_a_pyopencl_ctx_selector_names_the_device_pyopencl_would():
+    """A selector in PYOPENCL_CTX's syntax (the CLI passes $PYOPENCL_CTX with that origin) names what
+    pyopencl's own platform:device indices name; one naming nothing is refused in PYOPENCL_CTX's words."""
+    cl = runtimes.import_pyopencl()
+    assert runtimes.find_device("0:0", runtimes.PYOPENCL_CTX) == cl.get_platforms()[0].get_devices()[0]
+    with pytest.raises(ValueError) as refused:
+        runtimes.find_devices("garbage", runtimes.PYOPENCL_CTX)
+    assert str(refused.value).startswith("PYOPENCL_CTX='garbage' names no OpenCL device (")
+    assert str(refused.value).endswith("): unset it, or give a platform:device index such as 0:0")
+
+
+def test_an_unwritable_cache_home_turns_pyopencls_caches_off(tmp_path, monkeypatch):
+    """XDG_CACHE_HOME a file: no binary cache for the build (cache_dir False) and pyopencl's invoker store
+    off (it would raise making its folder when the first kernel is made); a writable home keeps both."""
+    cl = runtimes.import_pyopencl()
+    monkeypatch.setattr(cl, "_PYOPENCL_NO_CACHE", False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "home"))
+    assert program._pyopencl_caches(cl) is None and cl._PYOPENCL_NO_CACHE is False
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
+    assert program._pyopencl_caches(cl) is False and cl._PYOPENCL_NO_CACHE is True
+
+
+def test_a_kernel_cache_that_fails_costs_the_cache_only(kernel_device, tmp_path, monkeypatch):
+    """Where pyopencl's binary cache fails (its folder under a file), pyopencl looks
+    PYOPENCL_CACHE_FAILURE_FATAL up in the environment, a KeyError where it is unset: the program is built
+    again without the cache (runtimes that cache builds themselves, PoCL, never reach pyopencl's)."""
+    (tmp_path / "file").write_text("")
+    monkeypatch.delenv("PYOPENCL_CACHE_FAILURE_FATAL", raising=False)
+    monkeypatch.setattr(program, "_pyopencl_caches", lambda cl: str(tmp_path / "file" / "cache"))
+    _, built = program._build(runtimes.find_device(kernel_device), "float64")
+    assert program.Kernels.of(built).plan_rows.function_name == "plan_rows"
 
 
 def test_unknown_device_is_refused_with_one_line():
@@ -176,13 +232,13 @@ def test_devices_command_lists_every_device():
     out = _cli("devices", "--json")
     assert out.returncode == 0, out.stderr
     rows = json.loads(out.stdout)["devices"]
-    assert [r["label"] for r in rows] == [integrate.device_label(d) for d in integrate.opencl_devices()]
+    assert [r["label"] for r in rows] == [runtimes.device_label(d) for d in runtimes.opencl_devices()]
     assert sum(r["default"] for r in rows) == 1
     assert len({r["key"] for r in rows}) == len(rows)
     for r in rows:
         assert r["key"].startswith(f"{r['runtime']['family']}-{r['runtime']['origin'].lower()}")
         if r["float64"]["builds"]:
-            assert r["float64"]["self_check_error"] <= integrate.SELF_CHECK_TOLERANCE["float64"]
+            assert r["float64"]["self_check_error"] <= selfcheck.SELF_CHECK_TOLERANCE["float64"]
             assert r["cells_per_second"] > 0
 
 
@@ -200,20 +256,20 @@ def test_every_runtime_is_found_and_each_is_named_apart():
     plain = json.loads(
         subprocess.run([sys.executable, "-c", _PLAIN_PYOPENCL], capture_output=True, text=True, check=True).stdout
     )
-    devices = integrate.opencl_devices()
+    devices = runtimes.opencl_devices()
     listed = [[d.platform.name.strip(), d.platform.version.strip(), d.name.strip()] for d in devices]
     assert all(row in listed for row in plain), (plain, listed)
-    keys = [integrate.device_key(d) for d in devices]
+    keys = [runtimes.device_key(d) for d in devices]
     assert len(set(keys)) == len(keys), keys
     origins = {(runtimes.runtime_of(d).family, runtimes.runtime_of(d).origin) for d in devices}
-    pyopencl_icds = Path(runtimes._opencl().__file__).parent / ".libs"
+    pyopencl_icds = Path(runtimes.import_pyopencl().__file__).parent / ".libs"
     if any("pocl" in icd.name for icd in pyopencl_icds.glob("*.icd")):  # pocl-binary-distribution
         assert ("pocl", "PyPI") in origins and "pocl-pypi" in keys
     if (Path(sys.prefix) / "lib" / "libintelocl.so").is_file():  # the cpu extra
         assert ("intel", "PyPI") in origins and "intel-pypi" in keys
     for device in devices:
         runtime = runtimes.runtime_of(device)
-        label = integrate.device_label(device)
+        label = runtimes.device_label(device)
         assert label.startswith(f"{runtime.name} {runtime.version} ({runtime.origin}") and device.name.strip() in label
         if runtime.family == "pocl":  # which PoCL: its version and LLVM's, from the platform's own words
             assert f"PoCL {runtime.version}" in device.platform.version and f"LLVM {runtime.llvm}" in label
@@ -223,11 +279,11 @@ def test_devices_are_tried_pocl_first_the_systems_before_pypis():
     """The stated rule (lutbake/integrate/devices.py, docs/devices.md): PoCL before other runtimes, the system's PoCL
     before PyPI's; the default device is the first in that order whose kernel builds and passes the
     self-check."""
-    devices = integrate.opencl_devices()
+    devices = runtimes.opencl_devices()
     rank = [(runtimes.runtime_of(d).family != "pocl", runtimes.runtime_of(d).origin != "system") for d in devices]
     assert rank == sorted(rank)
     first = next(device for _, device in _building_devices())
-    assert integrate.OpenCLBackend("float64").device == integrate.device_label(first)
+    assert integrate.OpenCLBackend("float64").device == runtimes.device_label(first)
 
 
 def test_device_pocl_means_a_pocl_that_builds(monkeypatch):
@@ -236,19 +292,17 @@ def test_device_pocl_means_a_pocl_that_builds(monkeypatch):
     is left the named family is refused (even where Intel's runtime builds)."""
     pocls = [d for _, d in _building_devices() if runtimes.runtime_of(d).family == "pocl"]
     assert pocls, "no PoCL builds the kernel"
-    real = integrate._device_kernels
+    real = integrate.device_program
     broken = []
     monkeypatch.setattr(
         integrate,
-        "_device_kernels",
+        "device_program",
         lambda d, compute: (
-            integrate.OpenCLUnavailable(f"{integrate.device_label(d)}: error: no build")
-            if d in broken
-            else real(d, compute)
+            OpenCLUnavailable(f"{runtimes.device_label(d)}: error: no build") if d in broken else real(d, compute)
         ),
     )
     for pocl in pocls:
-        assert integrate.OpenCLBackend("float64", device="pocl").device == integrate.device_label(pocl)
+        assert integrate.OpenCLBackend("float64", device="pocl").device == runtimes.device_label(pocl)
         broken.append(pocl)
     with pytest.raises(integrate.DeviceCannotRun, match="no build"):
         integrate.backend("auto", device="pocl")
@@ -269,17 +323,15 @@ def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkey
     or system), that it cannot compile for this CPU, and what does."""
     from lutbake import cli
 
-    devices = integrate.opencl_devices()
+    devices = runtimes.opencl_devices()
     index, pocl = next((i, d) for i, d in enumerate(devices) if runtimes.runtime_of(d).family == "pocl")
     runtime = runtimes.runtime_of(pocl)
-    real = integrate._device_kernels
+    real = integrate.device_program
     monkeypatch.setattr(
         integrate,
-        "_device_kernels",
+        "device_program",
         lambda d, compute: (
-            integrate.OpenCLUnavailable(
-                f"{integrate.device_label(d)}: {integrate._why_not_built(d, RuntimeError(_ZEN5_BUILD_LOG))}"
-            )
+            OpenCLUnavailable(f"{runtimes.device_label(d)}: {program.why_not_built(d, RuntimeError(_ZEN5_BUILD_LOG))}")
             if d == pocl
             else real(d, compute)
         ),
@@ -291,7 +343,7 @@ def test_a_runtime_that_cannot_compile_for_the_cpu_is_one_line_saying_why(monkey
     lines = capsys.readouterr().out.splitlines()
     entry = lines.index(next(line for line in lines if line.startswith(f"{index} ")))
     assert lines[entry] == (
-        f"{index} {integrate.device_key(pocl)}: PoCL {runtime.version} ({runtime.origin}, LLVM {runtime.llvm}) / "
+        f"{index} {runtimes.device_key(pocl)}: PoCL {runtime.version} ({runtime.origin}, LLVM {runtime.llvm}) / "
         f"{pocl.name.strip()}: cannot compile for this CPU: unknown target CPU 'generic' (LLVM {runtime.llvm} does "
         "not know this CPU; Debian's pocl-opencl-icd, which picks the target from the CPU's features, builds on "
         "such CPUs)"

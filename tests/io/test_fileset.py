@@ -275,8 +275,8 @@ class Hook:   # Ctrl-C while pyopencl's modules load (its C++ extension's enums:
         if name == "pyopencl.tools":
             os.kill(os.getpid(), signal.SIGINT)
 sys.meta_path.insert(0, Hook())
-from lutbake.integrate.opencl import _opencl
-_opencl()
+from lutbake.integrate.devices import import_pyopencl
+import_pyopencl()
 print(seen)
 """
 

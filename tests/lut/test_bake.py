@@ -14,7 +14,7 @@ from conftest import LUT_MEMBERS, README_LUTS, default_luts
 
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.opencl import NumpyBackend
+from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.lut.bake import bake, bake_array, default_specs
 from lutbake.lut.sample import Lut
 from lutbake.physics.points import FilmPoints
@@ -334,14 +334,14 @@ def test_row_levels_equal_per_texel_levels(spec):
 
 
 def test_auto_backend_falls_back_to_numpy_with_a_warning(monkeypatch):
+    from lutbake.errors import OpenCLUnavailable
     from lutbake.integrate import opencl as integrate
+    from lutbake.integrate import program
 
-    monkeypatch.setattr(
-        integrate, "_program", lambda device, compute: integrate.OpenCLUnavailable("no platform (simulated)")
-    )
+    monkeypatch.setattr(program, "built_program", lambda device, compute: OpenCLUnavailable("no platform (simulated)"))
     with pytest.warns(RuntimeWarning, match="numpy path"):
         assert isinstance(integrate.backend("auto"), NumpyBackend)
-    with pytest.raises(integrate.OpenCLUnavailable):
+    with pytest.raises(OpenCLUnavailable):
         integrate.backend("opencl")
 
 

@@ -79,7 +79,7 @@ class _WrongFastPath:
     name = "numpy"
 
     def evaluate(self, spec, stack):
-        from lutbake.integrate.opencl import NumpyBackend
+        from lutbake.integrate.numpy_path import NumpyBackend
 
         extra = WRONG_BY if spec.compute == "float32" else 0.0
         return NumpyBackend().evaluate(spec, stack) + _wrong_by("fast", _columns(stack)) + extra

@@ -229,10 +229,10 @@ def test_series_inputs_copied_to_the_device_chunk_by_chunk_are_the_whole(
 ):
     """The series constants go to the device a chunk of columns (and of (cos θ, D) pairs) at a time, each at
     its offset (the host never holds them whole): with 37-row chunks, 56 of each, the bake is the same."""
-    import lutbake.integrate.opencl
+    import lutbake.integrate.series
     from lutbake.lut.bake import bake_array
 
-    monkeypatch.setattr(lutbake.integrate.opencl, "_CHUNK", 37)
+    monkeypatch.setattr(lutbake.integrate.series, "CHUNK", 37)
     assert np.array_equal(bake_array(grid_spec, "opencl", device=kernel_device), series_grid)
 
 

@@ -76,7 +76,7 @@ def test_wavenumber_rule_is_exact_for_polynomials_in_wavenumber():
 def test_ladder_meets_its_error_target_on_random_texels(rng):
     """Per-texel levels (bandwidth × harmonics) hold |ΔRGB| ≤ 1e-5 at 3 samples/cycle."""
     from lutbake.grid.spec import Axis, BakeSpec
-    from lutbake.integrate.opencl import NumpyBackend
+    from lutbake.integrate.numpy_path import NumpyBackend
 
     n = 300
     spec = BakeSpec(

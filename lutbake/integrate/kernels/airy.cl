@@ -1,12 +1,12 @@
 // lutbake: spectral Airy reflectance of a thin film, integrated to RGB.
 //
 // One work-item per LUT texel of a band of image rows. Physics as in
-// lutbake/optics.py (docs/optics.md): admittances Y1, Y2, Y3 per
+// lutbake/physics/optics.py (docs/optics.md): admittances Y1, Y2, Y3 per
 // polarization (s: Y = g, p: Y = g/n^2, g = n cos θ), and
 //     r = [N0 + N1·W] / [D0 + D1·W],  W = (e^{iΦ} − 1)/Y2,
 // where only W depends on wavelength. Everything wavelength-independent is
 // computed once per texel; the loop runs over the host's spectral rule
-// (nodes uniform in wavenumber ν, RGB weights from lutbake.colorimetry).
+// (nodes uniform in wavenumber ν, RGB weights from lutbake.physics.colorimetry).
 //
 // REAL is double (-DLUTBAKE_FP64) or float. The film phase is carried as a
 // float-float product of host-split (hi, lo) inputs and reduced to a quarter
@@ -29,8 +29,8 @@ typedef float2 CPLX;
 #define PI_R ((REAL)3.14159265358979323846)
 
 // Every kernel takes its work-item count last: the host pads the global size to a multiple of one
-// work-group size (lutbake/integrate/opencl.py: _LOCAL_SIZE), so PoCL builds each kernel's work-group function once
-// instead of once per grid size (~0.2 s each), and the padding returns at once.
+// work-group size (lutbake/integrate/program.py: LOCAL_SIZE), so PoCL builds each kernel's work-group
+// function once instead of once per grid size (~0.2 s each), and the padding returns at once.
 #define ITEMS_GUARD const int gid = get_global_id(0); if (gid >= n_items) return;
 
 inline CPLX c_mul(CPLX a, CPLX b) { return (CPLX)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
@@ -233,7 +233,7 @@ __kernel void bake_texels_direct(
     ITEMS_GUARD
     const int index = texels[gid];
     const int x = index % width, y = row0 + index / width;
-    const int i_cos = x % n_cos;                              // the tile packing: lutbake/layout.py
+    const int i_cos = x % n_cos;                              // the tile packing: lutbake/grid/layout.py
     const int i_opd = y % n_opd, i_kappa3 = y / n_opd;
     const int opd_at = i_opd * n_cos + i_cos;
     const Texel t = texel_setup(cos_axis[i_cos], cos2_hi[i_cos], cos2_lo[i_cos], opd_hi[opd_at],
@@ -340,14 +340,14 @@ __kernel void stack_rgb(
 }
 
 // ---------------------------------------------------------------------------
-// Fourier-series integration (lutbake/fourier.py, docs/spectral.md). Per
+// Fourier-series integration (lutbake/spectral/fourier.py, docs/spectral.md). Per
 // polarization |r|² = C0 + 2 Re Σ_m K q^{m−1} e^{i2πmXν}, so
 //     RGB_c = ½ Σ_pol [C0 Ŵ_c(0) + 2 Re Σ_m K q^{m−1} Ŵ_c(mX)],
 // Ŵ_c the Fourier transform of the colour weights, tabulated by the host as
 // quintic pieces of Ŵ_c(x)·e^{−i2πxν0} at x = k·h. Folding e^{i2πXν0} into
 // K and q (host: `turn`) makes each term one complex product and one table
 // evaluation. The host gives C0, K, q, 1 − |q| per (cos θ, η3, κ3) and X per
-// (cos θ, D), in float64 (lutbake.fourier.series_coefficients).
+// (cos θ, D), in float64 (lutbake.spectral.fourier.series_coefficients).
 //
 // X depends on (cos θ, D) only, so a bake evaluates the table once per (cos θ,
 // D) pair and term (pair_transform) and every texel of the pair reads those
@@ -363,8 +363,8 @@ inline SeriesPol series_pol(__global const REAL *c) {
     return p;
 }
 
-// A column's (cos θ, η3, κ3) constants of the rule, from the host (lutbake.integrate._series_chunks; they
-// do not depend on D): |K|/(1 − |q|), |q|, log |q| and |K| per polarization, and `geometric`, the terms
+// A column's (cos θ, η3, κ3) constants of the rule, from the host (lutbake.integrate.series.series_chunks;
+// they do not depend on D): |K|/(1 − |q|), |q|, log |q| and |K| per polarization, and `geometric`, the terms
 // after which the remainder bound with sup |Ŵ| ≤ mass is ≤ tol (+1 for rounding).
 #define COLUMN 24   // REAL per column: s, p (6 each), then the rule's 9, padded
 typedef struct { REAL as, ap, qs, qp, log_qs, log_qp, ks, kp, geometric; } ColumnRule;
@@ -490,7 +490,7 @@ inline void series_rgb(SeriesPol s, SeriesPol p, ColumnRule column, REAL x, CPLX
     SERIES_TEXEL_AT(x, y)
 
 #define SERIES_TEXEL_AT(x, y)                                                                     \
-    const int i_cos = (x) % n_cos, i_eta3 = (x) / n_cos;   /* the tile packing: lutbake/layout.py */ \
+    const int i_cos = (x) % n_cos, i_eta3 = (x) / n_cos;   /* the tile packing: lutbake/grid/layout.py */ \
     const int i_opd = (y) % n_opd, i_kappa3 = (y) / n_opd;                                        \
     const int pair = i_opd * n_cos + i_cos;                                                       \
     __global const REAL *co = coefficients + COLUMN * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \

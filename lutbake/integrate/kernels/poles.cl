@@ -1,6 +1,7 @@
-// lutbake: the spectral integral in closed form by the poles of the Airy series (lutbake/poles.py, whose
-// docstring derives it; docs/spectral.md). Appended to airy.cl; the host defines the tables' geometry
-// (CAUCHY_*, CHEB_NODES, …) from lutbake/poles.py when it builds the program.
+// lutbake: the spectral integral in closed form by the poles of the Airy series (lutbake/spectral/poles.py,
+// whose docstring derives it; docs/spectral.md). Appended to airy.cl; the host defines the tables' geometry
+// (CAUCHY_*, CHEB_NODES, …) from lutbake/spectral/poles.py when it builds the program
+// (lutbake/integrate/program.py: kernel_defines).
 //
 // Per polarization, I_c = Σ_m K q^{m−1} Ŵ_c(mX) = ∫ w_c f dλ with f = K z/(1 − q z), z = e^{i2πX/λ},
 // whose poles are P_n = 1/p_n, p_n = ζ + n/X, ζ = i log q/(2πX), residues R_n = (K/q) P_n²/(i2πX):
@@ -40,7 +41,7 @@ inline void horner3(__global const REAL *c, int d, CPLX u, CPLX g[3]) {
     }
 }
 
-// Γ_c(P) = ∫ w_c(λ)/(λ − P) dλ, Im P > 0, from the tables (lutbake.poles.CauchyTable).
+// Γ_c(P) = ∫ w_c(λ)/(λ − P) dλ, Im P > 0, from the tables (lutbake.spectral.poles.CauchyTable).
 inline void cauchy_gamma(CPLX P, CAUCHY_ARGS, CPLX g[3]) {
     if (P.y < CAUCHY_SHALLOW) {
         const int j = (int)floor(P.x);
@@ -71,7 +72,7 @@ inline void cauchy_gamma(CPLX P, CAUCHY_ARGS, CPLX g[3]) {
 // A polarization's poles: the near ones (position, residue) and the bound M on |h| over E_BOUND_RHO.
 typedef struct { CPLX P[MAX_NEAR]; CPLX R[MAX_NEAR]; int count; CPLX kq, reference; REAL x, M, residues; } Poles;
 
-// Enumerate the poles with Re p_n in the window (lutbake.poles.closed_form): 0 where more than
+// Enumerate the poles with Re p_n in the window (lutbake.spectral.poles.closed_form): 0 where more than
 // MAX_NEAR are near or the window holds more than MAX_WINDOW (the texel goes to the direct quadrature).
 inline int find_poles(CPLX k, CPLX q, REAL x, Poles *s) {
     const CPLX lq = c_log(q);
@@ -104,7 +105,7 @@ inline int find_poles(CPLX k, CPLX q, REAL x, Poles *s) {
             explicit_far += length(R) / (semi_major(rho) - semi_major(BOUND_RHO));
         }
     }
-    // the far tail (lutbake.poles._far_tail) and K/(1 − q)
+    // the far tail (lutbake.spectral.poles._far_tail) and K/(1 − q)
     const REAL tail = length(s->kq) / (2 * PI_R * x * (REAL)129) * 2 * ((REAL)1 / ((REAL)2e-3 * (REAL)2e-3) + x / (REAL)2e-3);
     s->M = length(c_div(k, (CPLX)(1 - q.x, -q.y))) + explicit_far + tail;
     return 1;
