@@ -46,17 +46,18 @@ def test_help_loads_no_numeric_module(args, loaded):
 
 
 def test_the_device_comes_from_the_flag_else_the_environment_and_is_passed_down(monkeypatch):
-    """`check` hands its library call the --device selector, else $LUTBAKE_DEVICE; the environment is left as
-    it was (the command line once wrote --device into it)."""
-    import lutbake.integrate.opencl
+    """`check` hands its library call the --device selector, else $LUTBAKE_DEVICE, else $PYOPENCL_CTX (as a
+    selector pyopencl's rules read); the environment is left as it was (the command line once wrote --device
+    into it)."""
+    import lutbake.integrate.devices
     import lutbake.quality.check as check
 
     seen = []
     monkeypatch.setattr(
         check, "check_fast_path", lambda backend, progress, device: seen.append(device) or check.CheckRun("d", [])
     )
-    monkeypatch.setattr(lutbake.integrate.opencl, "find_device", lambda selector: selector)
-    monkeypatch.setattr(lutbake.integrate.opencl, "device_label", lambda device: device)
+    monkeypatch.setattr(lutbake.integrate.devices, "find_device", lambda selector: selector)
+    monkeypatch.setattr(lutbake.integrate.devices, "device_label", lambda device: device)
     monkeypatch.delenv("LUTBAKE_DEVICE", raising=False)
     for args in (["check", "--device", "named"], ["check"]):  # the flag's choice ends with its command
         assert cli.main(args, standalone_mode=False) == 0
@@ -64,7 +65,11 @@ def test_the_device_comes_from_the_flag_else_the_environment_and_is_passed_down(
     monkeypatch.setenv("LUTBAKE_DEVICE", "from-the-environment")
     for args in (["check"], ["check", "--device", "named"]):
         assert cli.main(args, standalone_mode=False) == 0
-    assert seen == ["named", None, "from-the-environment", "named"]
+    monkeypatch.delenv("LUTBAKE_DEVICE")
+    monkeypatch.setenv("PYOPENCL_CTX", "0:1")
+    assert cli.main(["check"], standalone_mode=False) == 0
+    assert seen == ["named", None, "from-the-environment", "named", "0:1"]
+    assert isinstance(seen[-1], lutbake.integrate.devices.PyopenclCtx)
 
 
 def test_empty_variables_count_as_unset():
