@@ -32,8 +32,8 @@ sys.path.insert(0, str(ROOT / "docs"))
 from gltf_assets import SHOWCASE, khronos_document, stand_in  # noqa: E402
 from make_dropin import write_runtime_table  # noqa: E402
 
-from lutbake.modes.runtime.accuracy import truth  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.quality.runtime_accuracy import truth  # noqa: E402
 from lutbake.tables.headers import check_structure, exr_header  # noqa: E402
 
 PIXELS = 150  # scored per material: the ground truth costs ~3 ms a point, ~10 for a coloured metal

@@ -29,7 +29,9 @@ from lutbake.modes.approximations import belcour_barla_rgb, khr_iridescence_rgb 
 from lutbake.modes.exact import exact_colour  # noqa: E402
 from lutbake.modes.exact import stored_table as exact_table
 from lutbake.modes.runtime import runtime_colour, stored_table  # noqa: E402
-from lutbake.modes.runtime.accuracy import (
+from lutbake.physics.colorimetry import delta_e00  # noqa: E402
+from lutbake.physics.points import FilmPoints  # noqa: E402
+from lutbake.quality.runtime_accuracy import (
     BOXES,
     NAMED_METALS,
     named_error,
@@ -38,8 +40,6 @@ from lutbake.modes.runtime.accuracy import (
     stress_error,
     truth,
 )  # noqa: E402
-from lutbake.physics.colorimetry import delta_e00  # noqa: E402
-from lutbake.physics.points import FilmPoints  # noqa: E402
 
 RESULT = ROOT / "docs" / "runtime-result.json"
 

@@ -30,7 +30,7 @@ from lutbake.blender.programs import BLENDER_SPACES, SceneReads, SliceRead, read
 from lutbake.errors import ParameterError
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
-from lutbake.modes.runtime.accuracy import truth
+from lutbake.quality.runtime_accuracy import truth
 from lutbake.modes.runtime.files import read_runtime_table
 from lutbake.modes.runtime.model import runtime_colour
 from lutbake.physics.colorimetry import delta_e00
@@ -420,7 +420,7 @@ def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed
     'runtime': ``runtime_table=table``) in Cycles with OSL at ``osl_probe_points(n_points, seed)`` and
     compare with what the script computes in numpy (the exact mode: exact.exact_colour, float64; the
     runtime table: runtime.model's float32 model), and ΔE00 against the ground truth (channel c with the
-    base's c-th index, runtime.accuracy.truth; the dielectric probes alone too). All are held at 0 where
+    base's c-th index, quality.runtime_accuracy.truth; the dielectric probes alone too). All are held at 0 where
     negative, as Glossy BSDF clamps."""
     read, expected_colour = _OSL_KINDS[kind]
     cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)

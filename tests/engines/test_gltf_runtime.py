@@ -94,7 +94,7 @@ def test_every_iridescent_material_is_served_as_asked(run):
                 for part, info in record["parts"].items()
             }
             assert served["bake"][str(index)]["parts"] == kinds, (asset, index)
-            assert served["runtime"][str(index)]["parts"] == {part: "runtime" for part in kinds}, (asset, index)
+            assert served["runtime"][str(index)]["parts"] == dict.fromkeys(kinds, "runtime"), (asset, index)
     assert sum(len(m) for m in run["scores"].values()) == 12  # the showcase's and CarConcept's
 
 

@@ -23,10 +23,10 @@ from test_shaders import GLSLANG, PREFIX, compile_shader
 from lutbake.modes.approximations import khr_iridescence_rgb
 from lutbake.modes.exact import base_rgb
 from lutbake.modes.runtime import read_runtime_table, runtime_colour
-from lutbake.modes.runtime.accuracy import BOXES, NAMED_METALS, searched_worst, stress_points, truth
 from lutbake.modes.runtime.costs import path_costs
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
+from lutbake.quality.runtime_accuracy import BOXES, NAMED_METALS, searched_worst, stress_points, truth
 
 sys.path.insert(0, str(ROOT / "bench"))
 from bench_runtime_cost import static_costs, three_source  # noqa: E402

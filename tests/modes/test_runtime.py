@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 
 from lutbake.modes.runtime import read_runtime_table, runtime_colour, stored_table
-from lutbake.modes.runtime.accuracy import (
+from lutbake.modes.runtime.files import BAND_ROWS, TILES_PER_ROW
+from lutbake.modes.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
+from lutbake.quality.runtime_accuracy import (
     BOXES,
     NAMED_METALS,
     named_error,
@@ -27,8 +29,6 @@ from lutbake.modes.runtime.accuracy import (
     stress_error,
     truth,
 )
-from lutbake.modes.runtime.files import BAND_ROWS, TILES_PER_ROW
-from lutbake.modes.runtime.transform import NODES, SLICES, transform_values, z_of_w, zoom_beta
 from lutbake.spectral.fourier import NU0_PER_NM, weight_transform
 
 ROOT = Path(__file__).resolve().parents[2]
