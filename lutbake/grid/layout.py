@@ -34,6 +34,7 @@ _CHUNK_CELLS = 1 << 20  # a band of rows holds about this many texels (the integ
 TILE_ORDERS = ("eta3", "kappa3")  # the axis whose nodes lay the tiles along x
 MAX_SIDE = 4096  # texels a side nearly every WebGL2 device loads (docs/engines.md)
 _Index = np.ndarray | int  # node or texel indices: arrays (broadcast) or one integer
+_Coord = np.ndarray | float  # cos θ and D node coordinates, which may be fractional
 
 
 @dataclass(frozen=True)
@@ -75,19 +76,11 @@ class TileLayout:
     def texel(self, cos_node: int, opd_node: int, eta3_node: int, kappa3_node: int) -> tuple[int, int]: ...
     @overload
     def texel(
-        self,
-        cos_node: np.ndarray | float,
-        opd_node: np.ndarray | float,
-        eta3_node: np.ndarray | int,
-        kappa3_node: np.ndarray | int,
+        self, cos_node: _Coord, opd_node: _Coord, eta3_node: _Index, kappa3_node: _Index
     ) -> tuple[np.ndarray, np.ndarray]: ...
     def texel(
-        self,
-        cos_node: np.ndarray | float,
-        opd_node: np.ndarray | float,
-        eta3_node: np.ndarray | int,
-        kappa3_node: np.ndarray | int,
-    ) -> tuple[np.ndarray | float, np.ndarray | float]:
+        self, cos_node: _Coord, opd_node: _Coord, eta3_node: _Index, kappa3_node: _Index
+    ) -> tuple[_Coord, _Coord]:
         """Image (x, y) of grid node coordinates (arrays broadcast); the cos θ and D coordinates may be
         fractional, measured between texel centres, as a bilinear fetch takes them."""
         tile_x, tile_y = (eta3_node, kappa3_node) if self.tiles_x == "eta3" else (kappa3_node, eta3_node)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Callable, Collection, Iterable
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -153,7 +153,7 @@ class BakeSpec:
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""
         return self.layout.row_chunks(chunk_cells)
 
-    def texel_stacks(self, coords: Sequence[npt.ArrayLike]) -> FilmPoints:
+    def texel_stacks(self, coords: Iterable[npt.ArrayLike]) -> FilmPoints:
         """Film stacks of this spec's film at texel coordinates (arrays in axis order: cos θ1, D, η3,
         κ3), unchecked: for coordinates this validated spec produced (its grid, its cells)."""
         return FilmPoints.texels(eta1=self.eta1, eta2=self.eta2, **dict(zip((a.name for a in self.axes), coords)))
