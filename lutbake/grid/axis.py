@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.errors import ParameterError
 from lutbake.io.names import ADMITTANCE_SPACINGS
@@ -35,6 +37,8 @@ CORNER_AXES = ("opd_nm", "eta3", "kappa3")
 MAX_COUNT = 1 << 24
 _BISECTIONS = 64  # Axis.from_unit with a corner: the base coordinate to 2^-64
 _NEWTON_STEPS = 60  # the uniform-root4 spacing's inverse: converged to rounding (monotone steps)
+# The incidence a spacing follows: (η1, (η1 cos θ1)²), the second a scalar or an array of them.
+_Incidence = tuple[float, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -75,13 +79,13 @@ class Axis:
     hi: float
     count: int
     spacing: str = "uniform"
-    corner: tuple = ()
+    corner: tuple[int, float] | tuple[()] = ()
 
     @property
     def unit(self) -> str:
         return AXIS_UNITS[self.name]
 
-    def values(self, cos_theta=1.0, eta1=1.0) -> np.ndarray:
+    def values(self, cos_theta: npt.ArrayLike = 1.0, eta1: float = 1.0) -> np.ndarray:
         """Node values (float64), exact at both ends, at the incidence cos θ1 under the ambient η1 where the
         spacing follows it (a scalar cos θ1 gives (count,); an array of them (count, *their shape))."""
         u = np.linspace(0.0, 1.0, self.count).reshape((-1,) + (1,) * np.ndim(cos_theta))
@@ -89,67 +93,71 @@ class Axis:
         v[0], v[-1] = self.lo, self.hi
         return v
 
-    def _base_unit(self, v, inc):
+    def _base_unit(self, v: np.ndarray, inc: _Incidence) -> np.ndarray | np.float64:
         a, b = _warp(self.spacing, np.float64(self.lo), inc), _warp(self.spacing, np.float64(self.hi), inc)
         return (_warp(self.spacing, v, inc) - a) / (b - a)
 
-    def _base_value(self, u, inc):
+    def _base_value(self, u: np.ndarray, inc: _Incidence) -> np.ndarray | np.float64:
         a, b = _warp(self.spacing, np.float64(self.lo), inc), _warp(self.spacing, np.float64(self.hi), inc)
         return _unwarp(self.spacing, a + (b - a) * u, inc)
 
-    def _zoom(self, v, cos_theta, inc):
+    def _zoom(self, v: npt.ArrayLike, cos_theta: np.ndarray, inc: _Incidence) -> np.ndarray:
         """H(ρ)/H(ρ_max) of the corner: 0 at lo, 1 at hi, and 1 at any v > lo when cos θ1 = 0."""
         b = self._ratio_denominator(cos_theta, inc)
         return _ratio_h(self._ratio_numerator(v, inc[0]), b) / _ratio_h(self._ratio_numerator(self.hi, inc[0]), b)
 
-    def _ratio_numerator(self, v, eta1):
+    def _ratio_numerator(self, value: npt.ArrayLike, eta1: float) -> np.ndarray:
         """a ≥ 0 of the axis's ratio ρ = a/b to the incidence: D (nm), η3² − η1² or 2η1κ3 (the base's admittance
         squared minus (η1 cos θ1)², in size)."""
-        v = np.asarray(v, float)
+        v = np.asarray(value, float)
         if self.name == "opd_nm":
             return np.maximum(v, 0.0)
         if self.name == "eta3":
             return np.maximum((v - eta1) * (v + eta1), 0.0)
         return np.maximum(2.0 * eta1 * v, 0.0)
 
-    def _ratio_denominator(self, cos_theta, inc):
+    def _ratio_denominator(self, cos_theta: np.ndarray, inc: _Incidence) -> np.ndarray:
         """b of the ratio: scale·cos θ1 (D) or scale·(η1 cos θ1)² (η3, κ3)."""
+        if not self.corner:
+            raise ValueError(f"axis {self.name} has no corner zoom, so no ratio to the incidence")
         return self.corner[1] * (cos_theta if self.name == "opd_nm" else inc[1])
 
-    def value_at_ratio(self, rho, cos_theta, eta1=1.0):
+    def value_at_ratio(
+        self, rho: npt.ArrayLike, cos_theta: npt.ArrayLike, eta1: float = 1.0
+    ) -> np.ndarray | np.float64:
         """The value whose ratio to the incidence cos θ1 is ρ (``_ratio_numerator``'s inverse at a = ρ·b)."""
-        cos_theta = np.asarray(cos_theta, float)
-        a = rho * self._ratio_denominator(cos_theta, (eta1, np.square(eta1 * cos_theta)))
+        cos_t = np.asarray(cos_theta, float)
+        a = np.asarray(rho, float) * self._ratio_denominator(cos_t, (eta1, np.square(eta1 * cos_t)))
         if self.name == "opd_nm":
             return a
         return np.sqrt(eta1 * eta1 + a) if self.name == "eta3" else a / (2.0 * eta1)
 
-    def from_unit(self, u, cos_theta=1.0, eta1=1.0):
+    def from_unit(self, u: npt.ArrayLike, cos_theta: npt.ArrayLike = 1.0, eta1: float = 1.0) -> np.ndarray | np.float64:
         """Value at the normalized coordinate u in [0, 1] at the incidence cos θ1 (under the ambient η1):
         in closed form, or with a corner by bisection on the base coordinate (the zoom is increasing)."""
-        u, cos_theta = np.asarray(u, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
-        inc = (float(eta1), np.square(eta1 * cos_theta))
+        unit, cos_t = np.asarray(u, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
+        inc = (float(eta1), np.square(eta1 * cos_t))
         if not self.corner:
-            return self._base_value(u, inc)
+            return self._base_value(unit, inc)
         beta = self.corner[0] / (self.count - 1)
-        lo, hi = np.zeros(np.broadcast(u, cos_theta).shape), np.ones(np.broadcast(u, cos_theta).shape)
+        lo, hi = np.zeros(np.broadcast(unit, cos_t).shape), np.ones(np.broadcast(unit, cos_t).shape)
         for _ in range(_BISECTIONS):
             mid = 0.5 * (lo + hi)
-            above = (1.0 - beta) * mid + beta * self._zoom(self._base_value(mid, inc), cos_theta, inc) > u
+            above = (1.0 - beta) * mid + beta * self._zoom(self._base_value(mid, inc), cos_t, inc) > unit
             lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
         return self._base_value(0.5 * (lo + hi), inc)
 
-    def to_unit(self, v, cos_theta=1.0, eta1=1.0):
+    def to_unit(self, v: npt.ArrayLike, cos_theta: npt.ArrayLike = 1.0, eta1: float = 1.0) -> np.ndarray | np.float64:
         """Inverse of ``from_unit``: the normalized coordinate in [0, 1] (unclamped) of the value v."""
-        v, cos_theta = np.asarray(v, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
-        inc = (float(eta1), np.square(eta1 * cos_theta))
-        u = self._base_unit(v, inc)
+        value, cos_t = np.asarray(v, float), np.clip(np.asarray(cos_theta, float), 0.0, 1.0)
+        inc = (float(eta1), np.square(eta1 * cos_t))
+        u = self._base_unit(value, inc)
         if not self.corner:
             return u
         beta = self.corner[0] / (self.count - 1)
-        return (1.0 - beta) * u + beta * self._zoom(v, cos_theta, inc)
+        return (1.0 - beta) * u + beta * self._zoom(value, cos_t, inc)
 
-    def resized(self, count: int) -> "Axis":
+    def resized(self, count: int) -> Axis:
         """This axis with ``count`` nodes; a corner zoom keeps its share of them (at least 1, at most N − 2)."""
         corner = self.corner
         if corner:
@@ -166,7 +174,8 @@ class Axis:
             text += f":{self.corner[0]}:{self.corner[1]:g}"
         return text
 
-    def describe(self) -> dict:
+    def describe(self) -> dict[str, Any]:
+        """The header's record of this axis (``axis_from_header``'s input)."""
         out = {
             "name": self.name,
             "unit": self.unit,
@@ -180,7 +189,7 @@ class Axis:
         return out
 
 
-def _warp(spacing: str, v, inc):
+def _warp(spacing: str, v: np.ndarray | np.float64, inc: _Incidence) -> np.ndarray | np.float64:
     """The coordinate in which a ``spacing``'s nodes are uniform, at the incidence ``inc`` = (η1, (η1 cos θ1)²)."""
     if spacing == "sqrt":
         return np.sqrt(np.maximum(v, 0.0))
@@ -194,7 +203,7 @@ def _warp(spacing: str, v, inc):
     return v
 
 
-def _unwarp(spacing: str, w, inc):
+def _unwarp(spacing: str, w: np.ndarray | np.float64, inc: _Incidence) -> np.ndarray | np.float64:
     """``_warp``'s inverse: the value at the coordinate w."""
     if spacing == "sqrt":
         return w * w
@@ -212,7 +221,7 @@ def _unwarp(spacing: str, w, inc):
     return w
 
 
-def _ratio_h(a, b):
+def _ratio_h(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """H = 1 − (1 + ρ)^−¼ of the ratio ρ = a/b (a, b ≥ 0), written with q = b/(a + b) as
     (a/(a + b))/((1 + √q)(1 + q^¼)), which does not cancel at small ρ; 1 where a = b = 0, which happens only
     at grazing (b ∝ cos θ1), where lutbake's ground truth reflects totally whatever the stack. Near ρ = 0
@@ -225,7 +234,7 @@ def _ratio_h(a, b):
     return (a / safe + empty) / ((1.0 + np.sqrt(q)) * (1.0 + np.sqrt(np.sqrt(q))))
 
 
-def axis_from_header(record: dict) -> Axis:
+def axis_from_header(record: dict[str, Any]) -> Axis:
     """The Axis a LUT header's axis record describes (``Axis.describe``'s inverse)."""
     corner = record.get("corner")
     return Axis(
@@ -281,14 +290,15 @@ def validate_axis(axis: Axis) -> Axis:
         )
     if axis.spacing in ADMITTANCE_SPACINGS and axis.name != "eta3":
         raise ParameterError(field + f" spacing {axis.spacing!r} is allowed only on {{eta3}}")
-    if axis.corner:
-        _validate_corner(axis, field)
+    _validate_corner(axis, field)
     return axis
 
 
 def _validate_corner(axis: Axis, field: str) -> None:
     """A corner zoom: on D (from 0), η3 (from η1: checked by BakeSpec) or κ3 (from 0), 1 ≤ nodes ≤ N − 2
-    (the base coordinate keeps a share), a finite scale > 0."""
+    (the base coordinate keeps a share), a finite scale > 0; nothing to check without one."""
+    if not axis.corner:
+        return
     nodes, scale = axis.corner
     if axis.name not in CORNER_AXES:
         raise ParameterError(

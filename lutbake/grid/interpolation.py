@@ -48,7 +48,7 @@ def mirrors_low_end(spacing: str, lo: float, zoomed: bool = False) -> bool:
     return spacing in _EVEN_SPACINGS and lo == 0.0 and not zoomed
 
 
-def cubic_taps(f, count: int, mirror_low: bool):
+def cubic_taps(f: np.ndarray, count: int, mirror_low: bool) -> tuple[np.ndarray, np.ndarray]:
     """First node and (…, 4) Catmull-Rom weights at node coordinates ``f`` in [0, N − 1].
 
     The taps are nodes first … first + 3, clamped to [0, N − 1] (a clamped

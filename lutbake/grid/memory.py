@@ -11,10 +11,14 @@ BakeSpec's ``memory``, ``budget`` and ``check_budget`` are these functions on th
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Protocol, TypedDict
 
 from lutbake.errors import ParameterError
 from lutbake.grid.layout import _CHUNK_CELLS
 from lutbake.spectral.rules import MAX_WAVENUMBER_NODES
+
+if TYPE_CHECKING:
+    from lutbake.grid.spec import BakeSpec
 
 __all__ = ["MEMORY", "DEFAULT_MEMORY_LIMIT_GIB", "estimate_memory", "budget", "check_budget"]
 
@@ -23,7 +27,50 @@ DEFAULT_MEMORY_LIMIT_GIB = 8.0
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 SERIES_CHUNK = 1 << 16  # columns (or pairs) integrate._series_chunks builds at once
 _MIB = 1 << 20
-MEMORY = {
+
+
+class PlanOutcome(Protocol):
+    """What the estimate reads of a bake's plan (integrate.SeriesStats): texels per path and shared terms."""
+
+    @property
+    def closed_form_texels(self) -> int: ...
+    @property
+    def direct_texels(self) -> int: ...
+    @property
+    def shared_terms(self) -> int: ...
+
+
+class _Runtime(TypedDict):
+    numpy: int
+    opencl: dict[str, int]  # per runtime family
+
+
+class _MemoryModel(TypedDict):
+    runtime: _Runtime
+    tables: int
+    column: int
+    pair: int
+    build: int
+    pair_table: int
+    plan_cell: int
+    probes: int
+    probes_per_um: float
+    flight_cell: dict[str, int]  # per integrator
+    numpy_cell: int
+    numpy_chunk: int
+    screen: int
+
+
+class Budget(TypedDict):
+    """A bake's budget (``budget``): cells, output bytes, peak resident bytes, seconds per backend."""
+
+    cells: int
+    output_bytes: int
+    peak_memory_bytes: float
+    seconds_estimate: dict[str, float]
+
+
+MEMORY: _MemoryModel = {
     # interpreter, numpy, OpenEXR, the colour tables; OpenCL: pyopencl, every registered runtime's library,
     # the running one's compiler, program and self-check, per runtime family (docs/devices.md#memory). A bake
     # measures it once its integrator is up; before that the largest stands for whichever will run.
@@ -47,8 +94,12 @@ MEMORY = {
 
 
 def estimate_memory(
-    spec, backend: str = "opencl", integrator: str = "series", runtime_bytes: int = None, plan=None
-) -> dict:
+    spec: BakeSpec,
+    backend: str = "opencl",
+    integrator: str = "series",
+    runtime_bytes: int | None = None,
+    plan: PlanOutcome | None = None,
+) -> dict[str, float]:
     """Estimated peak resident memory of baking ``spec``, bytes, by item (``MEMORY``): ``peak`` is the
     runtime, what persists through the bake, and the larger of its two phases (the plan with the probes
     beside it and the capped texels' screen; the bands), plus the whole image where the file's tiles
@@ -62,7 +113,7 @@ def estimate_memory(
     exr = band * 9 * (2 if spec.precision == "half" else 4)  # stored, its planes and their bytes
     probes = MEMORY["probes"] + MEMORY["probes_per_um"] * spec.axis["opd_nm"].hi / 1000.0
     before_work = MEMORY["runtime"]["numpy"] if backend == "numpy" else max(MEMORY["runtime"]["opencl"].values())
-    items = {"runtime": runtime_bytes or before_work}
+    items: dict[str, float] = {"runtime": runtime_bytes or before_work}
     if backend == "numpy":
         chunk = min(band * MAX_WAVENUMBER_NODES, 1 << 19) * MEMORY["numpy_chunk"]
         items["phases"] = max(probes + MEMORY["screen"], band * MEMORY["numpy_cell"] + exr + chunk)
@@ -74,18 +125,24 @@ def estimate_memory(
         shared = integrator == "series" and n_eta3 * n_kappa3 >= 8
         terms = pairs * 512 if plan is None else plan.shared_terms
         items["pair_table"] = min(MEMORY["pair_table"], terms * 48) if shared else 0
-        plan = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
+        planning = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
         if integrator == "direct":
-            plan += MEMORY["screen"]
+            planning += MEMORY["screen"]
         in_flight = min(spec.cells, 2 * band)  # bake.write_lut: band k written while band k + 1 bakes
-        items["phases"] = max(plan, in_flight * MEMORY["flight_cell"][integrator] + exr)
+        items["phases"] = max(planning, in_flight * MEMORY["flight_cell"][integrator] + exr)
     if spec.file_layout != spec.layout:  # bake.write_lut re-tiles the whole image, as stored, in 3 copies
         items["retile"] = spec.cells * 9 * (2 if spec.precision == "half" else 4)
     items["peak"] = sum(items.values())
     return items
 
 
-def budget(spec, backend: str = "auto", integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+def budget(
+    spec: BakeSpec,
+    backend: str = "auto",
+    integrator: str = "series",
+    runtime_bytes: int | None = None,
+    plan: PlanOutcome | None = None,
+) -> Budget:
     """Cells, output bytes, estimated peak memory (``estimate_memory``) and bake seconds (per backend) of
     baking ``spec``, before any work. ``backend`` 'auto' takes the larger of the two paths' peaks (it may
     fall back to numpy)."""
@@ -100,13 +157,13 @@ def budget(spec, backend: str = "auto", integrator: str = "series", runtime_byte
 
 
 def check_budget(
-    spec,
+    spec: BakeSpec,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
     backend: str = "auto",
     integrator: str = "series",
-    runtime_bytes: int = None,
-    plan=None,
-) -> dict:
+    runtime_bytes: int | None = None,
+    plan: PlanOutcome | None = None,
+) -> Budget:
     """``spec``'s budget, or ParameterError when ``memory_limit_gib`` is not a finite number > 0 or the
     estimated peak memory exceeds it."""
     try:

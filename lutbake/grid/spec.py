@@ -20,19 +20,23 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Callable, Collection, Iterable
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.errors import ParameterError
 from lutbake.grid import memory as memory_model
 from lutbake.grid import texels, truncation
 from lutbake.grid.axis import AXIS_NAMES, SPACINGS, Axis, axis_from_header, parse_axis, validate_axis
 from lutbake.grid.layout import _CHUNK_CELLS, TileLayout
+from lutbake.grid.memory import Budget, PlanOutcome
 from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS
 from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.physics.points import FilmPoints, check_value
-from lutbake.spectral.rules import DEFAULT_SAMPLES_PER_CYCLE, rule_ladder
+from lutbake.spectral.rules import DEFAULT_SAMPLES_PER_CYCLE, RuleLadder, rule_ladder
 
 __all__ = [
     "Axis",
@@ -94,7 +98,7 @@ class BakeSpec:
     """
 
     eta2: float
-    axes: tuple
+    axes: tuple[Axis, ...]
     eta1: float = 1.0
     space: str = "rec709"
     observer: str = "cie1931"
@@ -104,16 +108,17 @@ class BakeSpec:
     method: str = "spectral"
     samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         _check_spec(self)
 
     @property
-    def axis(self) -> dict:
+    def axis(self) -> dict[str, Axis]:
         return {a.name: a for a in self.axes}
 
     @property
-    def shape(self) -> tuple:
-        return tuple(a.count for a in self.axes)
+    def shape(self) -> tuple[int, int, int, int]:
+        n_cos, n_opd, n_eta3, n_kappa3 = (a.count for a in self.axes)
+        return n_cos, n_opd, n_eta3, n_kappa3
 
     @property
     def cells(self) -> int:
@@ -136,19 +141,19 @@ class BakeSpec:
         return TileLayout.for_grid(self.shape)
 
     @property
-    def image_size(self) -> tuple:
+    def image_size(self) -> tuple[int, int]:
         """(width, height) of the integrators' packed image in texels (``layout``)."""
         return self.layout.size
 
     @property
-    def ladder(self):
+    def ladder(self) -> RuleLadder:
         return rule_ladder(self.samples_per_cycle, self.observer, self.space)
 
-    def row_chunks(self, chunk_cells: int = _CHUNK_CELLS):
+    def row_chunks(self, chunk_cells: int = _CHUNK_CELLS) -> list[tuple[int, int]]:
         """Bands [y0, y1) of image rows, each about ``chunk_cells`` cells."""
         return self.layout.row_chunks(chunk_cells)
 
-    def texel_stacks(self, coords) -> FilmPoints:
+    def texel_stacks(self, coords: Iterable[npt.ArrayLike]) -> FilmPoints:
         """Film stacks of this spec's film at texel coordinates (arrays in axis order: cos θ1, D, η3,
         κ3), unchecked: for coordinates this validated spec produced (its grid, its cells)."""
         return FilmPoints.texels(eta1=self.eta1, eta2=self.eta2, **dict(zip((a.name for a in self.axes), coords)))
@@ -162,7 +167,7 @@ class BakeSpec:
         """η3 of each image column (lutbake/grid/texels.py)."""
         return texels.eta3_columns(self)
 
-    def cell_params(self, y0: int, y1: int) -> tuple:
+    def cell_params(self, y0: int, y1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(cos θ1, D, η3, κ3) of every texel in rows [y0, y1) (lutbake/grid/texels.py)."""
         return texels.cell_params(self, y0, y1)
 
@@ -170,7 +175,9 @@ class BakeSpec:
         """Texels of rows [y0, y1) that hold total reflection (lutbake/grid/texels.py)."""
         return texels.grazing_white(self, y0, y1)
 
-    def cell_levels(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+    def cell_levels(
+        self, cos_theta: npt.ArrayLike, opd_nm: npt.ArrayLike, eta3: npt.ArrayLike, kappa3: npt.ArrayLike
+    ) -> np.ndarray:
         """Spectral rule level of each texel (lutbake/grid/truncation.py)."""
         return truncation.cell_levels(self, cos_theta, opd_nm, eta3, kappa3)
 
@@ -178,19 +185,35 @@ class BakeSpec:
         """Levels of every texel in rows [y0, y1), flat (lutbake/grid/truncation.py)."""
         return truncation.row_levels(self, y0, y1)
 
-    def truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+    def truncation_estimate(
+        self, cos_theta: npt.ArrayLike, opd_nm: npt.ArrayLike, eta3: npt.ArrayLike, kappa3: npt.ArrayLike
+    ) -> np.ndarray:
         """Bound on the spectral truncation error of each texel (lutbake/grid/truncation.py)."""
         return truncation.truncation_estimate(self, cos_theta, opd_nm, eta3, kappa3)
 
-    def capped_texels(self, limit: int = 64, keep=None) -> tuple:
+    def capped_texels(
+        self, limit: int = 64, keep: Callable[[tuple[np.ndarray, ...]], np.ndarray] | None = None
+    ) -> tuple[int, float, tuple[np.ndarray, ...]]:
         """Texels past the ladder's cap: (count, largest bound, the worst) (lutbake/grid/truncation.py)."""
         return truncation.capped_texels(self, limit, keep)
 
-    def memory(self, backend: str = "opencl", integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+    def memory(
+        self,
+        backend: str = "opencl",
+        integrator: str = "series",
+        runtime_bytes: int | None = None,
+        plan: PlanOutcome | None = None,
+    ) -> dict[str, float]:
         """Estimated peak resident memory of baking this spec, by item (lutbake/grid/memory.py)."""
         return memory_model.estimate_memory(self, backend, integrator, runtime_bytes, plan)
 
-    def budget(self, backend: str = "auto", integrator: str = "series", runtime_bytes: int = None, plan=None) -> dict:
+    def budget(
+        self,
+        backend: str = "auto",
+        integrator: str = "series",
+        runtime_bytes: int | None = None,
+        plan: PlanOutcome | None = None,
+    ) -> Budget:
         """Cells, output bytes, peak memory and bake seconds, before any work (lutbake/grid/memory.py)."""
         return memory_model.budget(self, backend, integrator, runtime_bytes, plan)
 
@@ -199,13 +222,13 @@ class BakeSpec:
         memory_limit_gib: float = memory_model.DEFAULT_MEMORY_LIMIT_GIB,
         backend: str = "auto",
         integrator: str = "series",
-        runtime_bytes: int = None,
-        plan=None,
-    ) -> dict:
+        runtime_bytes: int | None = None,
+        plan: PlanOutcome | None = None,
+    ) -> Budget:
         """The budget, or ParameterError past ``memory_limit_gib`` (lutbake/grid/memory.py)."""
         return memory_model.check_budget(self, memory_limit_gib, backend, integrator, runtime_bytes, plan)
 
-    def describe(self) -> dict:
+    def describe(self) -> dict[str, Any]:
         """The inputs that define the LUT (hashed into ``content_hash``)."""
         d = asdict(self)
         d["axes"] = [a.describe() for a in self.axes]
@@ -257,6 +280,6 @@ def _check_spec(spec: BakeSpec) -> None:
         raise ValueError(f"grid of {spec.cells} cells exceeds the {MAX_CELLS} cell limit: use fewer nodes")
 
 
-def _choice(name, value, allowed):
+def _choice(name: str, value: str, allowed: Collection[str]) -> None:
     if value not in allowed:
         raise ValueError(f"{name} {value!r} is not one of {', '.join(allowed)}")

@@ -10,30 +10,41 @@ nothing of grids; this module applies them to a BakeSpec's nodes, whose methods 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.grid.texels import eta3_columns, node_values
 from lutbake.physics.optics import normal_admittance, round_trip_amplitude
 from lutbake.spectral.rules import WAVENUMBER_SPAN_PER_NM
+
+if TYPE_CHECKING:
+    from lutbake.grid.spec import BakeSpec
 
 __all__ = ["cell_levels", "row_levels", "truncation_estimate", "capped_texels", "SCREEN_CHUNK"]
 
 SCREEN_CHUNK = 1 << 16  # texels capped_texels screens at once
 
 
-def fringes(spec, cos_theta, opd_nm, eta3, kappa3) -> tuple:
+def fringes(
+    spec: BakeSpec, cos_theta: npt.ArrayLike, opd_nm: npt.ArrayLike, eta3: npt.ArrayLike, kappa3: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """(cycles over the visible span, |r21·r23|) of each texel of ``spec``'s film."""
     g2 = normal_admittance(spec.eta2, 0.0, spec.eta1, cos_theta)
     cycles = np.asarray(opd_nm) * g2.real / spec.eta2 * WAVENUMBER_SPAN_PER_NM
     return cycles, round_trip_amplitude(spec.eta1, spec.eta2, eta3, kappa3, cos_theta)
 
 
-def cell_levels(spec, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+def cell_levels(
+    spec: BakeSpec, cos_theta: npt.ArrayLike, opd_nm: npt.ArrayLike, eta3: npt.ArrayLike, kappa3: npt.ArrayLike
+) -> np.ndarray:
     """Spectral rule level of each texel (spectral.RuleLadder.level), float64 on the host."""
     return spec.ladder.level(*fringes(spec, cos_theta, opd_nm, eta3, kappa3))
 
 
-def row_levels(spec, y0: int, y1: int) -> np.ndarray:
+def row_levels(spec: BakeSpec, y0: int, y1: int) -> np.ndarray:
     """Levels of every texel in rows [y0, y1), flat: equal to cell_levels on cell_params,
     but |r21·r23| is evaluated once per (x, κ3) and cycles once per (cos θ, D)."""
     width, _ = spec.image_size
@@ -49,14 +60,18 @@ def row_levels(spec, y0: int, y1: int) -> np.ndarray:
     return spec.ladder.level(cycles, rt_rows).ravel()
 
 
-def truncation_estimate(spec, cos_theta, opd_nm, eta3, kappa3) -> np.ndarray:
+def truncation_estimate(
+    spec: BakeSpec, cos_theta: npt.ArrayLike, opd_nm: npt.ArrayLike, eta3: npt.ArrayLike, kappa3: npt.ArrayLike
+) -> np.ndarray:
     """Bound on the spectral truncation error of texels past the ladder's cap (else 0). At grazing
     incidence (cos θ1 = 0) R ≡ 1 at every wavenumber, which any rule integrates exactly: 0 there."""
     bound = spec.ladder.truncation_estimate(*fringes(spec, cos_theta, opd_nm, eta3, kappa3))
     return np.where(np.asarray(cos_theta) > 0.0, bound, 0.0)
 
 
-def capped_texels(spec, limit: int = 64, keep=None) -> tuple:
+def capped_texels(
+    spec: BakeSpec, limit: int = 64, keep: Callable[[tuple[np.ndarray, ...]], np.ndarray] | None = None
+) -> tuple[int, float, tuple[np.ndarray, ...]]:
     """Texels of ``spec`` past the ladder's cap (of those for which ``keep(texels)`` is true, given it): (count,
     largest bound, the ``limit`` worst as (cos θ, D, η3, κ3) arrays).
 
@@ -72,7 +87,7 @@ def capped_texels(spec, limit: int = 64, keep=None) -> tuple:
     for start in range(0, width * n_kappa3, SCREEN_CHUNK):
         column = np.arange(start, min(start + SCREEN_CHUNK, width * n_kappa3))  # x major, κ3 minor
         x = column // n_kappa3
-        i_cos = spec.layout.nodes(x, 0)[0]
+        i_cos = np.asarray(spec.layout.nodes(x, 0)[0])  # an array, as x is
         cos_t, eta3, kappa3 = cos_nodes[i_cos], eta3_by_x[x], kappa_nodes[column % n_kappa3, i_cos]
         cols = np.flatnonzero(truncation_estimate(spec, cos_t, np.full(cos_t.shape, opd[-1, 0]), eta3, kappa3))
         step = max(1, SCREEN_CHUNK // n_opd)

@@ -25,12 +25,17 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
 from lutbake.physics.optics import _stack_terms, normal_admittance
+
+if TYPE_CHECKING:
+    from lutbake.physics.points import FilmPoints
 
 __all__ = [
     "WeightTransform",
@@ -81,7 +86,7 @@ class WeightTransform:
     def x_max_nm(self) -> float:
         return self.step_nm * self.coefficients.shape[0]
 
-    def __call__(self, x_nm) -> np.ndarray:
+    def __call__(self, x_nm: npt.ArrayLike) -> np.ndarray:
         """Ŵ_c(x), shape (3, *x.shape), from the table (x in [0, x_max])."""
         x = np.asarray(x_nm, float)
         if np.any((x < 0) | (x > self.x_max_nm)):
@@ -95,7 +100,7 @@ class WeightTransform:
             value = value * t + c[:, j]
         return value * np.exp(2j * np.pi * NU0_PER_NM * x)[None]
 
-    def tail_bound(self, x_nm) -> np.ndarray:
+    def tail_bound(self, x_nm: npt.ArrayLike) -> np.ndarray:
         """Bound on |Ŵ_c(y)| for every channel and every y ≥ x (x > 0), from the largest
         channel's constants (one bound, so the kernel's rule loop stays cheap)."""
         x = 2.0 * np.pi * np.asarray(x_nm, float)
@@ -104,7 +109,7 @@ class WeightTransform:
         return np.minimum(self.mass.max(), decay)
 
 
-def _panel_nodes(x_max_nm):
+def _panel_nodes(x_max_nm: float) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre nodes λ (nm) and dλ weights on every 1 nm panel of the weight table.
 
     e^{i2πx/λ} turns x/λ² times per nm: each panel gets nodes in proportion
@@ -112,18 +117,18 @@ def _panel_nodes(x_max_nm):
     """
     left = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)
     counts = np.maximum(8, np.ceil(_NODES_PER_RADIAN * np.pi * x_max_nm / left**2)).astype(int)
-    lam, quad = [], []
+    lam_parts, quad_parts = [], []
     for n in np.unique(counts):
         x, w = np.polynomial.legendre.leggauss(n)
         edges = left[counts == n]
-        lam.append((edges[:, None] + 0.5 * (x[None, :] + 1.0)).ravel())
-        quad.append(np.tile(0.5 * w, edges.size))
-    lam, quad = np.concatenate(lam), np.concatenate(quad)
+        lam_parts.append((edges[:, None] + 0.5 * (x[None, :] + 1.0)).ravel())
+        quad_parts.append(np.tile(0.5 * w, edges.size))
+    lam, quad = np.concatenate(lam_parts), np.concatenate(quad_parts)
     order = np.argsort(lam)
     return lam[order], quad[order]
 
 
-def _demodulated_samples(weights, nu, step_nm, count):
+def _demodulated_samples(weights: np.ndarray, nu: np.ndarray, step_nm: float, count: int) -> np.ndarray:
     """f, f', f'' (3 each, count) of f(x) = Σ_j weights_cj e^{i2πx(ν_j − ν0)} at x = k·step.
 
     Blocks of x share one phase table: e^{iθ(x_b + k h)} = e^{iθ x_b}·e^{iθ k h}
@@ -139,7 +144,7 @@ def _demodulated_samples(weights, nu, step_nm, count):
     return out.T.reshape(3, 3, count)
 
 
-def _hermite_coefficients(f, h):
+def _hermite_coefficients(f: np.ndarray, h: float) -> np.ndarray:
     """Monomial coefficients in t of the quintic Hermite pieces; f = (f, f', f'') × (3, N+1)."""
     v0, v1 = f[0][:, :-1], f[0][:, 1:]
     d0, d1 = h * f[1][:, :-1], h * f[1][:, 1:]
@@ -156,7 +161,7 @@ def _hermite_coefficients(f, h):
     return np.stack(c, axis=-1).transpose(1, 0, 2)  # (N, 3, 6)
 
 
-def _decay_constants(table_nm, table):
+def _decay_constants(table_nm: np.ndarray, table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(edge, variation) of w̃(ν) = w(1/ν)/ν² for the piecewise-linear table (3, 471).
 
     Integrating Ŵ by parts twice: |Ŵ(x)| ≤ edge/(2πx) + variation/(2πx)², with
@@ -169,7 +174,7 @@ def _decay_constants(table_nm, table):
     alpha = table[:, :-1] - beta * table_nm[:-1]
     nu_hi, nu_lo = 1.0 / table_nm[:-1], 1.0 / table_nm[1:]
 
-    def slope(nu):
+    def slope(nu: np.ndarray) -> np.ndarray:
         return -2 * alpha * nu**-3 - 3 * beta * nu**-4
 
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -222,19 +227,26 @@ class SeriesCoefficients:
     in_scope: np.ndarray  # (n,) film propagating (cos θ2 > 0)
 
 
-def series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> SeriesCoefficients:
-    """C0, K, q of every texel (flat arrays; η1, η2 scalars), both polarizations.
+def series_coefficients(
+    eta1: float | np.ndarray,
+    eta2: float | np.ndarray,
+    cos_theta: npt.ArrayLike,
+    opd_nm: npt.ArrayLike,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+) -> SeriesCoefficients:
+    """C0, K, q of every texel (flat arrays; η1, η2 scalars or flat arrays too), both polarizations.
 
     1 − |a|² = 4 Re(Y1 Ȳ2)/|Y1 + Y2|² and 1 − |b|² likewise, so
     1 − |q|² = (1 − |a|²) + |a|²(1 − |b|²) is a sum of terms ≥ 0 and keeps its
     relative accuracy as |q| → 1; 1 − a² = 4 Y1 Y2/(Y1 + Y2)² exactly. Where
     γ = 0 (grazing incidence: a = −1) the |γ|²/(1 − |q|²) term is 0, not 0/0.
     """
-    cos_theta = np.asarray(cos_theta, float)
-    g2 = normal_admittance(eta2, 0.0, eta1, cos_theta)
+    cos_t = np.asarray(cos_theta, float)
+    g2 = normal_admittance(eta2, 0.0, eta1, cos_t)
     in_scope = (g2.imag == 0) & (g2.real > 0)
-    terms, _, _ = _stack_terms(eta1, eta2, eta3, kappa3, np.where(in_scope, cos_theta, 1.0), 0.0, 500.0)
-    out = {"c0": [], "k": [], "q": [], "one_minus_q": []}
+    terms, _, _ = _stack_terms(eta1, eta2, eta3, kappa3, np.where(in_scope, cos_t, 1.0), 0.0, 500.0)
+    out: dict[str, list[np.ndarray]] = {"c0": [], "k": [], "q": [], "one_minus_q": []}
     for pol in ("s", "p"):
         y1, y2, y3, _ = terms[pol]
         s12, s23 = y1 + y2, y2 + y3
@@ -252,12 +264,11 @@ def series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> SeriesCo
         out["q"].append(q)
         out["one_minus_q"].append(one_q2 / (1 + np.abs(q)))
     x_nm = np.asarray(opd_nm, float) * np.where(in_scope, g2.real, 0.0) / eta2
-    return SeriesCoefficients(
-        *(np.array(out[key]) for key in ("c0", "k", "q", "one_minus_q")), x_nm=x_nm, in_scope=in_scope
-    )
+    c0, k, q, one_minus_q = (np.array(out[key]) for key in ("c0", "k", "q", "one_minus_q"))
+    return SeriesCoefficients(c0, k, q, one_minus_q, x_nm=x_nm, in_scope=in_scope)
 
 
-def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms):
+def _remainder(co: SeriesCoefficients, wt: WeightTransform, terms: np.ndarray) -> np.ndarray:
     """Bound on Σ_pol |Σ_{m>M} K q^{m−1} Ŵ(mX)| after M = ``terms``: |K||q|^M/(1−|q|)·sup_{x≥(M+1)X}|Ŵ|."""
     with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
         geometric = np.abs(co.k) * np.abs(co.q) ** terms / co.one_minus_q
@@ -270,7 +281,7 @@ def series_plan(
     wt: WeightTransform,
     tolerance: float = DEFAULT_SERIES_TOLERANCE,
     budget: int = SERIES_BUDGET,
-):
+) -> np.ndarray:
     """Terms M per texel for the series, or −1 for the direct quadrature.
 
     The rule: the texel is in scope (propagating film) and its remainder
@@ -300,19 +311,21 @@ PATHS = ("series", "closed-form", "direct")  # SeriesResult.path codes 0, 1, 2
 
 @dataclass
 class SeriesResult:
-    values: np.ndarray  # (n, 3); NaN where the texel takes the direct path
+    """What ``series_colour`` gives per texel: its colour, terms, enforced bound and path."""
+
+    values: np.ndarray | None  # (n, 3); NaN where the texel takes the direct path; None: not integrated
     terms: np.ndarray  # (n,) M where the series is summed, else −1
     bound: np.ndarray  # (n,) enforced a-priori |ΔRGB| bound (0 for direct texels)
     path: np.ndarray  # (n,) index into PATHS
 
 
 def series_colour(
-    stack,
-    observer="cie1931",
-    space="rec709",
-    basis="rgb",
-    tolerance=DEFAULT_SERIES_TOLERANCE,
-    budget=SERIES_BUDGET,
+    stack: FilmPoints,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    basis: str = "rgb",
+    tolerance: float = DEFAULT_SERIES_TOLERANCE,
+    budget: int = SERIES_BUDGET,
     integrate: bool = True,
 ) -> SeriesResult:
     """RGB of film stacks of constant indices (points.FilmPoints, flat fields) in float64: by the series
@@ -335,16 +348,18 @@ def series_colour(
         ok = forms[0].ok & forms[1].ok & (np.maximum(forms[0].bound, forms[1].bound) <= tolerance)
         done = todo[ok]
         bound[done], path[done] = (forms[0].bound + forms[1].bound)[ok], 1
-        if integrate:
+        s_integral, p_integral = (f.integral for f in forms)  # None unless integrating
+        if values is not None and s_integral is not None and p_integral is not None:
             w0 = wt(np.zeros(1))[:, 0].real
-            rgb = 0.5 * sum(co.c0[p, todo][:, None] * w0 + 2 * f.integral.real for p, f in enumerate(forms))
+            integrals = (s_integral, p_integral)
+            rgb = 0.5 * sum(co.c0[p, todo][:, None] * w0 + 2 * f.real for p, f in enumerate(integrals))
             values[done] = rgb[ok]
-    if integrate:
+    if values is not None:
         values[path == 2] = np.nan
     return SeriesResult(values, terms, bound, path)
 
 
-def _series_sum(co: SeriesCoefficients, wt: WeightTransform, terms):
+def _series_sum(co: SeriesCoefficients, wt: WeightTransform, terms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(values (n, 3), bound (n,)) of the series with ``terms`` terms per texel (0 where terms < 0)."""
     w0 = wt(np.zeros(1))[:, 0]
     # X = 0: Σ_m K q^{m−1} = K/(1 − q); K = 0 wherever |q| = 1 (γ = 0).

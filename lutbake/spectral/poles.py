@@ -44,6 +44,7 @@ import inspect
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
@@ -86,14 +87,14 @@ DEEP_LIMIT_NM = SHALLOW_NM * 2.0**DEEP_LEVELS
 WINDOW_NU_PER_NM = (-2e-3, 8e-3)
 
 
-def bernstein_rho(P):
+def bernstein_rho(P: npt.ArrayLike) -> np.ndarray:
     """ρ ≥ 1 of the Bernstein ellipse of [360, 830] nm through P (foci at the band's ends)."""
     w = (np.asarray(P, complex) - BAND_CENTRE_NM) / BAND_HALF_NM
     s = np.sqrt(w * w - 1.0)
     return np.maximum(np.abs(w + s), np.abs(w - s))
 
 
-def _semi_major(rho):
+def _semi_major(rho: np.ndarray | float) -> np.ndarray | float:
     """Semi-major axis (nm) of E_ρ."""
     return BAND_HALF_NM * 0.5 * (rho + 1.0 / rho)
 
@@ -116,9 +117,9 @@ class CauchyTable:
     deep: np.ndarray
     bound: np.ndarray
 
-    def __call__(self, P) -> np.ndarray:
-        """Γ_c at P (any shape, Im P > 0, inside the table's domain): (3, *P.shape) complex."""
-        P = np.asarray(P, complex)
+    def __call__(self, pole: npt.ArrayLike) -> np.ndarray:
+        """Γ_c at P = ``pole`` (any shape, Im P > 0, inside the table's domain): (3, *P.shape) complex."""
+        P = np.asarray(pole, complex)
         if np.any((P.imag <= 0) | (P.imag >= DEEP_LIMIT_NM) | (P.real < RE_MIN_NM) | (P.real >= RE_MAX_NM)):
             raise ValueError("P outside the Cauchy table's domain")
         flat = P.ravel()
@@ -128,7 +129,7 @@ class CauchyTable:
         out[:, ~shallow] = self._deep(flat[~shallow])
         return out.reshape((3,) + P.shape)
 
-    def _shallow(self, P):
+    def _shallow(self, P: np.ndarray) -> np.ndarray:
         j = np.floor(P.real).astype(np.int64)
         coef = self.shallow[j - int(RE_MIN_NM)]  # (n, 3, d + 1)
         out = _horner(coef, P - (j + 0.5))
@@ -140,12 +141,12 @@ class CauchyTable:
             out += np.where(inside, term, 0.0)
         return out
 
-    def _deep(self, P):
+    def _deep(self, P: np.ndarray) -> np.ndarray:
         cell, centre = deep_cell(P)
         return _horner(self.deep[cell], P - centre)
 
 
-def _horner(coef, u):
+def _horner(coef: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Σ_m coef[..., m] u^m for coef (n, 3, d + 1), u (n,): (3, n)."""
     out = coef[:, :, -1].T.copy()
     for m in range(coef.shape[2] - 2, -1, -1):
@@ -153,16 +154,16 @@ def _horner(coef, u):
     return out
 
 
-def _deep_levels():
+def _deep_levels() -> tuple[np.ndarray, np.ndarray]:
     """(columns, first cell) of each deep level: two rows of cells 2^ℓ/2 nm wide."""
-    cols = [int(np.ceil((RE_MAX_NM - RE_MIN_NM) / (0.5 * SHALLOW_NM * 2.0**l))) for l in range(DEEP_LEVELS)]
+    cols = [int(np.ceil((RE_MAX_NM - RE_MIN_NM) / (0.5 * SHALLOW_NM * 2.0**level))) for level in range(DEEP_LEVELS)]
     first = np.concatenate([[0], np.cumsum([2 * c for c in cols])])
     return np.array(cols), first
 
 
-def deep_cell(P):
-    """(cell index, centre) of the deep cell holding each P (Im P ≥ 1 nm)."""
-    P = np.asarray(P, complex)
+def deep_cell(pole: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """(cell index, centre) of the deep cell holding each P = ``pole`` (Im P ≥ 1 nm)."""
+    P = np.asarray(pole, complex)
     cols, first = _deep_levels()
     level = np.clip(np.floor(np.log2(P.imag / SHALLOW_NM)).astype(np.int64), 0, DEEP_LEVELS - 1)
     depth = SHALLOW_NM * 2.0**level
@@ -173,7 +174,7 @@ def deep_cell(P):
     return first[level] + row * cols[level] + col, centre
 
 
-def _knots(table):
+def _knots(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(a, b, constant) of Γ = constant + Σ_k (a_k + b_k P) log(k − P) for a (3, 471) table at 1 nm."""
     slope = np.diff(table, axis=1)  # per panel [k, k + 1)
     intercept = table[:, :-1] - slope * np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)
@@ -183,7 +184,15 @@ def _knots(table):
     return intercept_pad[:, :-1] - intercept_pad[:, 1:], slope_pad[:, :-1] - slope_pad[:, 1:], slope.sum(axis=1)
 
 
-def _taylor(a, b, knots, centres, use, degree, radius):
+def _taylor(
+    a: np.ndarray,
+    b: np.ndarray,
+    knots: np.ndarray,
+    centres: np.ndarray,
+    use: np.ndarray,
+    degree: int,
+    radius: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """Taylor coefficients (C, 3, degree + 1) about each of C ``centres`` of Σ_{k in use} (a_k + b_k P)
     log(k − P) (``use`` (C, knots) boolean), and the bound (3,) on the dropped terms for
     |P − c| ≤ radius, the largest over the centres.
@@ -198,10 +207,10 @@ def _taylor(a, b, knots, centres, use, degree, radius):
         log0 = np.log(diff.astype(complex))
     inverse = np.where(use, 1.0 / diff, 0.0)
 
-    def knot_sum(weights, values):  # (3, K) real × (C, K) → (3, C)
+    def knot_sum(weights: np.ndarray, values: np.ndarray) -> np.ndarray:  # (3, K) real × (C, K) → (3, C)
         return (np.ascontiguousarray(values) @ weights.T.astype(complex)).T
 
-    def alpha_sum(values):  # Σ_k (a_k + b_k c) values
+    def alpha_sum(values: np.ndarray) -> np.ndarray:  # Σ_k (a_k + b_k c) values
         return knot_sum(a, values) + centres[None, :] * knot_sum(b, values)
 
     logs = np.where(use, log0, 0.0)
@@ -220,7 +229,7 @@ def _taylor(a, b, knots, centres, use, degree, radius):
     return coef.transpose(1, 0, 2), bound.max(axis=1)
 
 
-def _build_tables(table) -> dict:
+def _build_tables(table: np.ndarray) -> dict[str, np.ndarray]:
     a, b, constant = _knots(table)
     knots = np.arange(WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM + 0.5)
     cells = np.arange(RE_MIN_NM, RE_MAX_NM)
@@ -306,7 +315,7 @@ def chebyshev_rule(
     )
 
 
-def _mass(table) -> np.ndarray:
+def _mass(table: np.ndarray) -> np.ndarray:
     """∫|w_c| dλ, exactly, for the piecewise-linear table (3, 471) on 1 nm panels (split where w_c crosses 0)."""
     w0, w1 = np.abs(table[:, :-1]), np.abs(table[:, 1:])
     same = np.sign(table[:, :-1]) * np.sign(table[:, 1:]) >= 0
@@ -320,13 +329,13 @@ class ClosedForm:
     """Per texel-polarization: I_c (n, 3) complex, the a-priori bound on |ΔI| (n,), and whether the
     closed form applies (``ok``: at most MAX_NEAR_POLES poles near the band; else the direct path)."""
 
-    integral: np.ndarray
+    integral: np.ndarray | None  # None: not integrated (``closed_form(..., integrate=False)``)
     bound: np.ndarray
     ok: np.ndarray
     near_poles: np.ndarray
 
 
-def _far_tail(X, k_over_q):
+def _far_tail(X: np.ndarray, k_over_q: np.ndarray) -> np.ndarray:
     """Bound on Σ |R_n|/dist(P_n, E_BOUND_RHO) over the poles outside the enumerated window.
 
     Outside it |Re p_n| ≥ 2e-3 (left: Re P ≤ 0 or P beyond 500 nm of 0) or Re p_n ≥ 8e-3 (right:
@@ -336,7 +345,15 @@ def _far_tail(X, k_over_q):
     return np.abs(k_over_q) / (2 * np.pi * X * 129.0) * 2.0 * (1.0 / 2e-3**2 + X / 2e-3)
 
 
-def _node_values(k_over_q, X, P_near, R_near, near, lam, reference):
+def _node_values(
+    k_over_q: np.ndarray,
+    X: np.ndarray,
+    P_near: np.ndarray,
+    R_near: np.ndarray,
+    near: np.ndarray,
+    lam: np.ndarray,
+    reference: np.ndarray,
+) -> np.ndarray:
     """h at the Chebyshev nodes (n, nodes): f minus the near poles' terms, f evaluated relative to the
     node's nearest near pole P* (or ``reference``, a pole, where none is near), so no rounding of the
     phase 2πX/λ is amplified near a pole: q z = e^{iθ}, θ = 2πX (P* − λ)/(λ P*) exactly, and
@@ -363,7 +380,14 @@ def _node_values(k_over_q, X, P_near, R_near, near, lam, reference):
     return h - others.sum(axis=2)
 
 
-def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709", integrate: bool = True) -> ClosedForm:
+def closed_form(
+    k: npt.ArrayLike,
+    q: npt.ArrayLike,
+    x_nm: npt.ArrayLike,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    integrate: bool = True,
+) -> ClosedForm:
     """I_c = Σ_m K q^{m−1} Ŵ_c(mX) by the poles (module docstring), for flat arrays K, q (|q| < 1,
     q ≠ 0) and X > 0 of n texel-polarizations, in float64, a chunk of texels at a time (memory stays
     bounded); ``integrate=False`` gives the rule's outcome and bound alone (``integral`` None)."""
@@ -383,18 +407,20 @@ def closed_form(k, q, x_nm, observer: str = "cie1931", space: str = "rec709", in
     return ClosedForm(integral if integrate else None, bound, ok, count)
 
 
-def _window(q, X):
+def _window(q: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """First and last n of each texel's enumerated poles (Re p_n within WINDOW_NU_PER_NM), and ζ."""
     zeta = 1j * np.log(q) / (2 * np.pi * X)
     return np.floor(X * (WINDOW_NU_PER_NM[0] - zeta.real)), np.ceil(X * (WINDOW_NU_PER_NM[1] - zeta.real)), zeta
 
 
-def _window_width(q, X) -> int:
+def _window_width(q: np.ndarray, X: np.ndarray) -> int:
     n_lo, n_hi, _ = _window(q, X)
     return int(min(MAX_WINDOW, (n_hi - n_lo).max(initial=0) + 1))
 
 
-def _closed_form(k, q, X, observer, space, integrate):
+def _closed_form(
+    k: np.ndarray, q: np.ndarray, X: np.ndarray, observer: str, space: str, integrate: bool
+) -> tuple[np.ndarray | float, np.ndarray, np.ndarray]:
     """(integral (n, 3), bound (n,) (inf where the closed form does not apply), near poles (n,))."""
     table, rule = cauchy_table(observer, space), chebyshev_rule(observer, space)
     n_lo, n_hi, zeta = _window(q, X)

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
@@ -41,12 +42,12 @@ class ReferenceResult:
     converged: np.ndarray
 
 
-def spectral_reflectance(points: FilmPoints, wavelength_nm):
+def spectral_reflectance(points: FilmPoints, wavelength_nm: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(R_s, R_p, R) of every point at every wavelength, each (P, M)."""
     return film_reflectance(points.as_column(), np.asarray(wavelength_nm, float))
 
 
-def _integrate(points: FilmPoints, rule) -> np.ndarray:
+def _integrate(points: FilmPoints, rule: SpectralRule) -> np.ndarray:
     out = np.empty((len(points), rule.weights.shape[0]))
     step = max(1, _CELLS_PER_CHUNK // rule.count)
     for start in range(0, len(points), step):
@@ -55,7 +56,7 @@ def _integrate(points: FilmPoints, rule) -> np.ndarray:
     return out
 
 
-def subset(points: FilmPoints, index) -> FilmPoints:
+def subset(points: FilmPoints, index: slice | np.ndarray) -> FilmPoints:
     """The points at ``index`` (a slice or an index array)."""
     return FilmPoints(
         eta1=points.eta1[index],

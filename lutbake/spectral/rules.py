@@ -22,9 +22,11 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, colorimetry
@@ -77,7 +79,11 @@ def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec70
 
 @functools.lru_cache(maxsize=64)
 def wavenumber_rule(
-    count: int, observer: str = "cie1931", space: str = "rec709", basis: str = "rgb", knots_nm: tuple = ()
+    count: int,
+    observer: str = "cie1931",
+    space: str = "rec709",
+    basis: str = "rgb",
+    knots_nm: tuple[float, ...] = (),
 ) -> SpectralRule:
     """Uniform-wavenumber nodes with product-integration weights of local degree-7 interpolation.
 
@@ -128,7 +134,9 @@ def _construction_digest() -> bytes:
     return hashlib.sha256(f"{source}{constants}".encode()).digest()
 
 
-def _panel_rule_arrays(panels, observer, space, basis) -> dict:
+def _panel_rule_arrays(
+    panels: list[tuple[float, float, int]], observer: str, space: str, basis: str
+) -> dict[str, np.ndarray]:
     """Nodes and weights of a rule over ``panels`` ((lo_nm, hi_nm, nodes) each), panel by panel."""
     nodes, weights = [], []
     for lo, hi, n in panels:
@@ -138,7 +146,7 @@ def _panel_rule_arrays(panels, observer, space, basis) -> dict:
     return {"wavelength_nm": 1.0 / np.concatenate(nodes), "weights": np.concatenate(weights, axis=1)}
 
 
-def _product_weights(nu, lo_nm, hi_nm, observer, space, basis) -> np.ndarray:
+def _product_weights(nu: np.ndarray, lo_nm: float, hi_nm: float, observer: str, space: str, basis: str) -> np.ndarray:
     """(rows, nodes) weights: the sensitivity integrated over [lo_nm, hi_nm] exactly against the
     local Lagrange basis through the uniform nodes ``nu`` (ascending, spanning that range)."""
     lam, quad = _projection_points(1.0 / nu, lo_nm, hi_nm)
@@ -152,7 +160,7 @@ def _product_weights(nu, lo_nm, hi_nm, observer, space, basis) -> np.ndarray:
     return weights
 
 
-def _projection_points(node_wavelength_nm, lo_nm, hi_nm):
+def _projection_points(node_wavelength_nm: np.ndarray, lo_nm: float, hi_nm: float) -> tuple[np.ndarray, np.ndarray]:
     """Gauss–Legendre points and weights on every piece of [lo_nm, hi_nm] between consecutive
     breakpoints (the 1 nm CMF samples and the rule's nodes): the integrand — a linear
     sensitivity times a polynomial in ν — is smooth on each piece, so the projection is exact
@@ -184,10 +192,10 @@ class RuleLadder:
     samples_per_cycle: float
     observer: str = "cie1931"
     space: str = "rec709"
-    knots_nm: tuple = ()  # kinks of the materials' spectra (wavenumber_rule), none for constant indices
+    knots_nm: tuple[float, ...] = ()  # kinks of the materials' spectra (wavenumber_rule), none for constant indices
 
     @property
-    def counts(self) -> list:
+    def counts(self) -> list[int]:
         n, out = _MIN_WAVENUMBER_NODES, []
         while n <= MAX_WAVENUMBER_NODES:
             out.append(n)
@@ -197,19 +205,19 @@ class RuleLadder:
     def rule(self, level: int) -> SpectralRule:
         return wavenumber_rule(self.counts[level], self.observer, self.space, knots_nm=self.knots_nm)
 
-    def _needed(self, cycles, round_trip):
+    def _needed(self, cycles: npt.ArrayLike, round_trip: npt.ArrayLike) -> np.ndarray:
         b = np.clip(np.asarray(round_trip, float), 1e-300, 1.0)
         with np.errstate(divide="ignore"):
             harmonics = np.maximum(1.0, np.log(1.0 / _HARMONIC_TOLERANCE) / -np.log(b))
         return self.samples_per_cycle * np.asarray(cycles, float) * harmonics + 1.0
 
-    def level(self, cycles, round_trip):
+    def level(self, cycles: npt.ArrayLike, round_trip: npt.ArrayLike) -> np.ndarray:
         """Rule level per texel from its fringe cycles and |r21·r23| (arrays)."""
         needed = self._needed(cycles, round_trip)
         level = np.ceil(np.log2(np.maximum(needed, 1.0) / _MIN_WAVENUMBER_NODES))
         return np.clip(level, 0, len(self.counts) - 1).astype(np.int32)
 
-    def truncation_estimate(self, cycles, round_trip):
+    def truncation_estimate(self, cycles: npt.ArrayLike, round_trip: npt.ArrayLike) -> np.ndarray:
         """Bound on the |ΔRGB| a texel keeps past the cap (0 below it).
 
         The cap resolves m = (N_max − 1)/(samples_per_cycle · cycles) harmonics
@@ -227,12 +235,13 @@ def rule_ladder(
     samples_per_cycle: float = DEFAULT_SAMPLES_PER_CYCLE,
     observer: str = "cie1931",
     space: str = "rec709",
-    knots_nm: tuple = (),
+    knots_nm: Iterable[float] = (),
 ) -> RuleLadder:
+    """The ladder of wavenumber rules for ``samples_per_cycle`` nodes per fringe cycle (``RuleLadder``)."""
     return RuleLadder(float(samples_per_cycle), observer, space, tuple(knots_nm))
 
 
-def _lagrange_stencils(nodes, x, order=STENCIL_NODES):
+def _lagrange_stencils(nodes: np.ndarray, x: np.ndarray, order: int = STENCIL_NODES) -> tuple[np.ndarray, np.ndarray]:
     """First node of each point's ``order``-node stencil (centred where possible)
     and the Lagrange basis values there, shape (order, len(x))."""
     h = nodes[1] - nodes[0]
