@@ -46,19 +46,7 @@ __all__ = [
     "film_reflectance",
     "film_transmittance",
     "round_trip_amplitude",
-    "opd_from_thickness",
-    "thickness_from_opd",
 ]
-
-
-def opd_from_thickness(thickness_nm, eta2):
-    """Optical path difference at normal incidence, D = 2·η2·d (nm)."""
-    return 2.0 * np.asarray(eta2, dtype=float) * np.asarray(thickness_nm, dtype=float)
-
-
-def thickness_from_opd(opd_nm, eta2):
-    """Physical film thickness d = D / (2·η2) (nm)."""
-    return np.asarray(opd_nm, dtype=float) / (2.0 * np.asarray(eta2, dtype=float))
 
 
 def normal_admittance(eta, kappa, eta1, cos_theta1):

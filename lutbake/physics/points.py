@@ -6,6 +6,8 @@ each wavelength. ``build`` and ``from_csv`` validate user input and raise
 ValueError with one line naming the value and what is allowed; hot paths
 (a bake's texels, refinement loops) take ``texels`` or the plain constructor,
 which check nothing: their coordinates come from a validated spec or LUT.
+``opd_from_thickness`` and ``thickness_from_opd`` convert between a film's thickness d and its optical
+path D = 2·η2·d (a LUT's second axis).
 """
 
 from __future__ import annotations
@@ -20,7 +22,6 @@ import numpy as np
 
 from lutbake.errors import ParameterError
 from lutbake.physics.materials import material
-from lutbake.physics.optics import opd_from_thickness, thickness_from_opd
 
 __all__ = [
     "FilmPoints",
@@ -31,6 +32,8 @@ __all__ = [
     "MAX_CSV_LINE_BYTES",
     "dielectric_film",
     "CSV_COLUMNS",
+    "opd_from_thickness",
+    "thickness_from_opd",
 ]
 
 # The per-point fields (the rest name materials).
@@ -59,6 +62,16 @@ _DOMAIN = {
     "wavelength_nm": (lambda v: (v >= 360) & (v <= 830), "a number in [360, 830]"),
     "max_de": (lambda v: (v >= 0.01) & (v <= 100), "a number in [0.01, 100]"),
 }
+
+
+def opd_from_thickness(thickness_nm, eta2):
+    """Optical path difference at normal incidence, D = 2·η2·d (nm)."""
+    return 2.0 * np.asarray(eta2, dtype=float) * np.asarray(thickness_nm, dtype=float)
+
+
+def thickness_from_opd(opd_nm, eta2):
+    """Physical film thickness d = D / (2·η2) (nm)."""
+    return np.asarray(opd_nm, dtype=float) / (2.0 * np.asarray(eta2, dtype=float))
 
 
 def check_value(name: str, values) -> np.ndarray:
