@@ -6,7 +6,10 @@ set them (``--opd``, ``--out``), so the library never speaks of flags and the
 CLI never re-words a message.
 """
 
+from __future__ import annotations
+
 import re
+from collections.abc import Mapping
 
 __all__ = ["ParameterError", "OpenCLUnavailable"]
 
@@ -22,11 +25,12 @@ class ParameterError(ValueError):
     ('opd_nm range 100:50 is empty or reversed', '--opd range 100:50 is empty or reversed')
     """
 
-    def __init__(self, template: str, **values):
-        self.template, self.values = template, values
+    def __init__(self, template: str, **values: object) -> None:
+        self.template: str = template
+        self.values: dict[str, object] = values
         super().__init__(self.render({}))
 
-    def render(self, names: dict) -> str:
+    def render(self, names: Mapping[str, str]) -> str:
         """The message with each ``{parameter}`` shown as ``names`` gives it (default: its own name)."""
         return _FIELD.sub(
             lambda m: str(self.values[m[1]]) if m[1] in self.values else names.get(m[1], m[1]), self.template

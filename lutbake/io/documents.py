@@ -10,9 +10,11 @@ known nesting, so a depth past ``MAX_NESTING`` is refused up front, with one lin
 from __future__ import annotations
 
 import json
+import os
 import re
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,7 +29,7 @@ _JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
 _TOML_SKIP = re.compile(r'"""(?:[^\\]|\\.)*?"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*', re.S)
 
 
-def read_text(path, what: str, max_bytes: int) -> str:
+def read_text(path: str | os.PathLike[str], what: str, max_bytes: int) -> str:
     """The UTF-8 text of ``path``, refused (ValueError naming ``what``) past ``max_bytes`` before it is read."""
     path = Path(path)
     with open(path, "rb") as fh:
@@ -55,7 +57,7 @@ def _check_depth(blanked: str, what: str) -> None:
         raise ValueError(f"{what} nests {depth} levels deep: at most {MAX_NESTING} are allowed")
 
 
-def load_json(text: str, what: str):
+def load_json(text: str, what: str) -> Any:  # any JSON value: its reader checks its shape
     """``json.loads(text)`` with nesting bounded; ValueError (one line naming ``what``) if it is not JSON."""
     _check_depth(_JSON_STRING.sub('""', text), what)
     try:
@@ -64,7 +66,7 @@ def load_json(text: str, what: str):
         raise ValueError(f"{what} is not JSON: {exc}") from None
 
 
-def load_toml(text: str, what: str) -> dict:
+def load_toml(text: str, what: str) -> dict[str, Any]:
     """``tomllib.loads(text)`` with nesting bounded; ValueError (one line naming ``what``) if it is not TOML.
     Dotted keys and table headers nest without brackets, but tomllib reads them without recursion."""
     _check_depth(_TOML_SKIP.sub('""', text), what)

@@ -33,7 +33,7 @@ import json
 import os
 import re
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 from lutbake.errors import ParameterError
@@ -59,7 +59,8 @@ MAX_JOURNAL_BYTES = 4 << 20
 commit_step_hook: Callable[[], None] | None = None  # tests only (module docstring)
 
 
-def sha256_file(path: Path) -> str:
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    """The SHA-256 of the file at ``path``, as 64 hex digits (read in 1 MiB blocks)."""
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -67,7 +68,9 @@ def sha256_file(path: Path) -> str:
     return digest.hexdigest()
 
 
-def refuse_overwriting_inputs(inputs: dict, outputs) -> None:
+def refuse_overwriting_inputs(
+    inputs: Mapping[str, str | os.PathLike[str]], outputs: Iterable[str | os.PathLike[str]]
+) -> None:
     """ParameterError, before anything is written, when an output is one of the inputs (``inputs``: what to call
     it → path), the same file by any path or hard link; an output that does not exist yet is compared by where
     it would be.
@@ -96,23 +99,26 @@ def _same_file(a: Path, b: Path) -> bool:
         return a.resolve() == b.resolve()
 
 
-def journal_path(folder: Path, set_name: str) -> Path:
+def journal_path(folder: str | os.PathLike[str], set_name: str) -> Path:
+    """Where the set ``set_name``'s commit journal lies in ``folder``: ``.SET.commit``."""
     return Path(folder) / f".{set_name}.commit"
 
 
 def temporary_for(final: Path) -> Path:
+    """The temporary this process writes ``final`` to: ``.NAME.tmp-PID`` beside it."""
     return final.with_name(f".{final.name}.tmp-{os.getpid()}")
 
 
 class FileSet:
     """Members of one set, written to temporaries until ``commit``."""
 
-    def __init__(self, folder: Path, name: str):
+    def __init__(self, folder: str | os.PathLike[str], name: str) -> None:
         _require_plain(name, "set name")
         self.folder, self.name = Path(folder), name
-        self.members = {}  # final path -> temporary path
+        self.members: dict[Path, Path] = {}  # final path -> temporary path
 
-    def temp(self, final) -> Path:
+    def temp(self, final: str | os.PathLike[str]) -> Path:
+        """The temporary to write the member ``final`` (a file in the set's folder) to."""
         final = Path(final)
         if final.parent.resolve() != self.folder.resolve():
             raise ValueError(f"output {str(final)!r} is not in the set's folder {str(self.folder)!r}")
@@ -122,6 +128,7 @@ class FileSet:
         return self.members[final]
 
     def commit(self) -> None:
+        """Journal the members, rename each into place, remove the journal (module docstring)."""
         if not self.members:
             return
         entries = [[tmp.name, final.name, sha256_file(tmp)] for final, tmp in self.members.items()]
@@ -135,13 +142,14 @@ class FileSet:
         self.members = {}
 
     def discard(self) -> None:
+        """Remove the members' temporaries: the folder keeps its previous set."""
         for tmp in self.members.values():
             with contextlib.suppress(FileNotFoundError):
                 tmp.unlink()
 
 
 @contextlib.contextmanager
-def open_set(folder, name: str):
+def open_set(folder: str | os.PathLike[str], name: str) -> Iterator[FileSet]:
     """Lock ``folder``, finish interrupted commits, drop dead temporaries; yield a FileSet
     that is committed when the block succeeds and discarded when it raises (the CLI turns
     SIGTERM into an exception: lutbake/io/signals.py)."""
@@ -162,7 +170,7 @@ def open_set(folder, name: str):
         os.close(fd)
 
 
-def recover(folder: Path) -> None:
+def recover(folder: str | os.PathLike[str]) -> None:
     """Roll every journaled (complete) commit in ``folder`` forward; call with the lock held. A journal
     that is not one lutbake wrote, or whose files changed since, raises ValueError and is left alone."""
     for journal in sorted(Path(folder).glob(".*.commit")):
@@ -172,7 +180,7 @@ def recover(folder: Path) -> None:
             journal.unlink()
 
 
-def read_journal(journal: Path) -> list:
+def read_journal(journal: Path) -> list[list[str]]:
     """The validated (temporary, final, digest) entries of ``journal`` (see the module docstring)."""
     try:
         _require(stat.S_ISREG(os.lstat(journal).st_mode), "not a regular file")
@@ -184,7 +192,7 @@ def read_journal(journal: Path) -> list:
         _require_plain(doc["set"], "set")
         _require(journal.name == f".{doc['set']}.commit", "its name is not that of its set")
         members = doc["members"]
-        _require(isinstance(members, list) and members, "members is not a non-empty list")
+        _require(isinstance(members, list) and len(members) > 0, "members is not a non-empty list")
         for entry in members:
             _require(
                 isinstance(entry, list) and len(entry) == 3 and all(isinstance(v, str) for v in entry),
@@ -205,7 +213,7 @@ def read_journal(journal: Path) -> list:
     return members
 
 
-def pending_commit(path: Path):
+def pending_commit(path: str | os.PathLike[str]) -> Path | None:
     """The journal in ``path``'s folder that names ``path`` as a member (or cannot be read), else None."""
     path = Path(path)
     for journal in sorted(path.parent.glob(".*.commit")):
@@ -217,7 +225,8 @@ def pending_commit(path: Path):
     return None
 
 
-def remove_stale_temporaries(folder: Path) -> None:
+def remove_stale_temporaries(folder: str | os.PathLike[str]) -> None:
+    """Remove the temporaries in ``folder`` whose writing process is dead (call with the lock held)."""
     for path in Path(folder).iterdir():
         match = _TEMP.match(path.name)
         if match and path.is_file() and not _alive(int(match.group(1))):
@@ -225,7 +234,7 @@ def remove_stale_temporaries(folder: Path) -> None:
                 path.unlink()
 
 
-def _roll_forward(folder: Path, entries, journal: Path) -> None:
+def _roll_forward(folder: Path, entries: Iterable[Sequence[str]], journal: Path) -> None:
     for tmp_name, final_name, digest in entries:
         tmp, final = folder / tmp_name, folder / final_name
         if _regular(tmp):
@@ -255,7 +264,7 @@ def _require(ok: bool, why: str) -> None:
         raise ValueError(why)
 
 
-def _require_plain(name, what: str) -> None:
+def _require_plain(name: object, what: str) -> None:
     """``name`` is a plain file name: a string naming an entry of the folder itself."""
     _require(
         isinstance(name, str) and name not in ("", ".", "..") and "/" not in name and "\0" not in name,

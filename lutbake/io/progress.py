@@ -1,7 +1,7 @@
 """Live progress on stderr: what a long command is doing, how far it is, when it will end.
 
 Library functions report through a plain callback ``progress(done, total, note)``
-(``total`` None when unknown); the CLI turns it into a ``Meter``. On a
+(``total`` None when unknown; its type is ``Progress``); the CLI turns it into a ``Meter``. On a
 terminal the meter redraws one line (at most 10 times a second); forced on
 a pipe (``--progress``) it prints one line per update, at most one a second.
 The ETA is the remaining work at the rate measured since the first unit was
@@ -12,8 +12,13 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
+from typing import TextIO
 
-__all__ = ["Meter", "meter", "format_seconds", "no_progress"]
+__all__ = ["Meter", "Progress", "meter", "format_seconds", "no_progress"]
+
+# progress(done, total or None when unknown, note): what every long library function reports through
+Progress = Callable[[int, int | None, str], None]
 
 _TTY_INTERVAL_S, _PIPE_INTERVAL_S, _BAR_WIDTH = 0.1, 1.0, 24
 
@@ -32,15 +37,17 @@ def format_seconds(seconds: float) -> str:
 class Meter:
     """One labelled progress line; call it as ``meter(done, total, note)``."""
 
-    def __init__(self, label: str, stream=None):
+    def __init__(self, label: str, stream: TextIO | None = None) -> None:
         self.label, self.stream = label, stream or sys.stderr
         self.tty = self.stream.isatty()
         self.start = time.perf_counter()
-        self._last_draw, self._width, self._note = -1e9, 0, None
-        self._first = None  # (time, done) of the first update with work done: the rate's origin
+        self._last_draw, self._width = -1e9, 0
+        self._note: str | None = None
+        # (time, done) of the first update with work done: the rate's origin
+        self._first: tuple[float, int] | None = None
         self(0, None, "starting")
 
-    def __call__(self, done, total=None, note: str = "") -> None:
+    def __call__(self, done: int, total: int | None = None, note: str = "") -> None:
         now = time.perf_counter()
         if done and self._first is None:
             self._first = (now, done)
@@ -51,13 +58,13 @@ class Meter:
         self._last_draw, self._note = now, note
         self._write(self._line(done, total, note, now - self.start, self._eta(done, total, now)))
 
-    def _eta(self, done, total, now):
+    def _eta(self, done: int, total: int | None, now: float) -> float | None:
         if not total or self._first is None or done <= self._first[1] or done >= total:
             return None
         t0, d0 = self._first
         return (now - t0) / (done - d0) * (total - done)
 
-    def _line(self, done, total, note, elapsed, eta=None) -> str:
+    def _line(self, done: int, total: int | None, note: str, elapsed: float, eta: float | None = None) -> str:
         parts = [f"{self.label}:"]
         if total:
             filled = int(_BAR_WIDTH * min(done / total, 1.0))
@@ -93,7 +100,7 @@ class Meter:
             self.stream.flush()
 
 
-def no_progress(done, total=None, note: str = "") -> None:
+def no_progress(done: int, total: int | None = None, note: str = "") -> None:
     """The default callback of library functions: report nothing."""
 
 
@@ -107,7 +114,7 @@ class _Silent:
         pass
 
 
-def meter(label: str, show: bool | None):
+def meter(label: str, show: bool | None) -> Meter | _Silent:
     """A Meter when ``show`` (None: only when stderr is a terminal), else a silent stand-in."""
     if show is None:
         show = sys.stderr.isatty()

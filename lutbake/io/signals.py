@@ -8,10 +8,20 @@ ignored, so that clean-up runs to its end. A commit that has written its journal
 signal is handled (lutbake/io/fileset.py blocks them for the renames).
 """
 
+from __future__ import annotations
+
 import contextlib
 import os
 import signal
 import sys
+from typing import TYPE_CHECKING, NoReturn
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+    from types import FrameType
+
+    # what signal.signal takes and signal.getsignal returns
+    _Handler = Callable[[int, FrameType | None], object] | int | signal.Handlers | None
 
 __all__ = [
     "Interrupted",
@@ -24,13 +34,13 @@ __all__ = [
 ]
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_WORDS = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
+_WORDS: dict[int, str] = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
 
 
 class Interrupted(KeyboardInterrupt):
     """The command was stopped by ``signum`` (SIGINT or SIGTERM)."""
 
-    def __init__(self, signum: int = signal.SIGINT):
+    def __init__(self, signum: int = signal.SIGINT) -> None:
         super().__init__(f"signal {signum}")
         self.signum = signum
 
@@ -45,36 +55,32 @@ def message(signum: int) -> str:
     return f"lutbake: {_WORDS.get(signum, 'interrupted')}"
 
 
-def interrupted_at_start_up(signum, frame):
+def interrupted_at_start_up(signum: int, frame: FrameType | None) -> NoReturn:
     """A stop signal while modules load: one line and exit 128 + signum, no traceback (main() takes over)."""
-    try:
+    with contextlib.suppress(AttributeError, OSError):  # stderr closed: the exit status still says it
         sys.stderr.write(message(signum) + "\n")
-    except (AttributeError, OSError):  # stderr closed: the exit status still says it
-        pass
     os._exit(128 + signum)
 
 
-def raise_interrupted(signum, frame):
+def raise_interrupted(signum: int, frame: FrameType | None) -> NoReturn:
     """Unwind like Ctrl-C, once: later stop signals are ignored so discarding temporaries is not cut short."""
     for other in STOP_SIGNALS:
         set_handler(other, signal.SIG_IGN)
     raise Interrupted(signum)
 
 
-def set_handler(signum, handler):
+def set_handler(signum: int, handler: _Handler) -> _Handler:
     """Install ``handler`` for ``signum`` unless the signal is ignored or this is not the main
     thread; return the previous handler."""
     previous = signal.getsignal(signum)
     if previous is not signal.SIG_IGN:
-        try:
+        with contextlib.suppress(ValueError):  # not the main thread
             signal.signal(signum, handler)
-        except ValueError:  # not the main thread
-            pass
     return previous
 
 
 @contextlib.contextmanager
-def stop_signals_held():
+def stop_signals_held() -> Iterator[None]:
     """SIGINT and SIGTERM wait (pending) until the block ends, then arrive: for work that a stop must not cut
     short (a journaled commit, lutbake/io/fileset.py) or that cannot unwind (a C++ extension's initialisation)."""
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)

@@ -12,7 +12,7 @@ import math
 __all__ = ["dumps", "finite_or_none"]
 
 
-def finite_or_none(value):
+def finite_or_none(value: object) -> object:
     """``value`` with every non-finite float (also inside dicts, lists, numpy scalars) as None."""
     if isinstance(value, dict):
         return {k: finite_or_none(v) for k, v in value.items()}
@@ -25,5 +25,6 @@ def finite_or_none(value):
     return value
 
 
-def dumps(doc, indent: int = 2) -> str:
+def dumps(doc: object, indent: int = 2) -> str:
+    """``doc`` as strict JSON text: every non-finite float written as null."""
     return json.dumps(finite_or_none(doc), indent=indent, allow_nan=False)

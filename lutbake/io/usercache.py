@@ -22,7 +22,12 @@ from __future__ import annotations
 import hashlib
 import os
 import zipfile
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["cached_arrays", "use_folder", "default_folder", "writable_folder"]
 
@@ -35,7 +40,7 @@ def default_folder() -> Path:
     return Path.home() / ".cache" / "lutbake"
 
 
-def use_folder(folder) -> Path | None:
+def use_folder(folder: str | os.PathLike[str] | None) -> Path | None:
     """Keep the cache in ``folder`` from now on (None: ``default_folder()`` again); returns the previous choice
     (None for the default), so a caller can restore it. A folder that cannot be created or written costs
     each process a rebuild of what it needs, nothing else.
@@ -71,7 +76,7 @@ def writable_folder() -> Path | None:
     return folder if _usable_folder(folder) else None
 
 
-def _digest(arrays: dict):
+def _digest(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
     """SHA-256 over each array's name, dtype, shape and bytes, in name order, as 32 uint8."""
     import numpy as np
 
@@ -83,7 +88,7 @@ def _digest(arrays: dict):
     return np.frombuffer(digest.digest(), dtype=np.uint8)
 
 
-def _declared(archive: zipfile.ZipFile, name: str) -> tuple:
+def _declared(archive: zipfile.ZipFile, name: str) -> tuple[tuple[int, ...], np.dtype]:
     """(shape, dtype) an .npy member of ``archive`` declares, read from its header alone."""
     import numpy as np
 
@@ -96,7 +101,7 @@ def _declared(archive: zipfile.ZipFile, name: str) -> tuple:
     return shape, dtype
 
 
-def _load(path: Path, shapes: dict) -> dict | None:
+def _load(path: Path, shapes: Mapping[str, Sequence[int]]) -> dict[str, np.ndarray] | None:
     """The arrays of the entry at ``path`` when it passes every check of the module docstring, else None."""
     import numpy as np
 
@@ -117,24 +122,30 @@ def _load(path: Path, shapes: dict) -> dict | None:
     return arrays if np.array_equal(stored_hash, _digest(arrays)) else None
 
 
-def _save(path: Path, arrays: dict) -> None:
+def _save(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
     import numpy as np
 
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         with open(tmp, "wb") as f:
-            np.savez(f, **arrays, **{_HASH: _digest(arrays)})
+            # numpy's stub types **kwds as if they could name savez's allow_pickle: bool
+            np.savez(f, **arrays, **{_HASH: _digest(arrays)})  # type: ignore[arg-type]
         os.replace(tmp, path)
     except OSError:  # a read-only or full cache folder costs a rebuild next time, nothing else
         tmp.unlink(missing_ok=True)
 
 
-def cached_arrays(kind: str, key: bytes, shapes: dict, build) -> dict:
+def cached_arrays(
+    kind: str,
+    key: bytes,
+    shapes: Mapping[str, Sequence[int]],
+    build: Callable[[], Mapping[str, np.ndarray]],
+) -> Mapping[str, np.ndarray]:
     """The arrays ``build()`` returns (name → array of ``shapes[name]``), from the cache entry for
     (``kind``, ``key``) when it is valid, else built now and stored."""
     folder = writable_folder()
     path = folder / f"{kind}-{hashlib.sha256(key).hexdigest()[:24]}.npz" if folder else None
-    arrays = _load(path, shapes) if path else None
+    arrays: Mapping[str, np.ndarray] | None = _load(path, shapes) if path else None
     if arrays is None:
         arrays = build()
         if path:

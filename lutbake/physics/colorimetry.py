@@ -26,11 +26,18 @@ from __future__ import annotations
 
 import functools
 import warnings
+from collections.abc import Mapping
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from lutbake.io.names import OBSERVERS, SPACES
 from lutbake.io.usercache import cached_arrays
+
+if TYPE_CHECKING:
+    from colour.models import RGB_Colourspace
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "OBSERVERS",
@@ -46,7 +53,7 @@ WAVELENGTH_MIN_NM = 360.0
 WAVELENGTH_MAX_NM = 830.0
 
 
-def _colour():
+def _colour() -> ModuleType:
     """colour-science, imported only to fill the cache: it pulls in matplotlib (~2 s in all), which logs
     two warnings when the user's cache home cannot be written (it then uses a temporary folder)."""
     import logging
@@ -73,7 +80,7 @@ _TABLE_SHAPES = {
 }
 
 
-def _colour_science_tables(observer: str, space: str) -> dict:
+def _colour_science_tables(observer: str, space: str) -> Mapping[str, np.ndarray]:
     """CMFs and illuminant on the 1 nm grid, and the space's matrices and white, from colour-science."""
     from importlib.metadata import version
 
@@ -81,7 +88,7 @@ def _colour_science_tables(observer: str, space: str) -> dict:
     return cached_arrays("colour-tables", key, _TABLE_SHAPES, lambda: _read_colour_science(observer, space))
 
 
-def _read_colour_science(observer: str, space: str) -> dict:
+def _read_colour_science(observer: str, space: str) -> dict[str, np.ndarray]:
     colour = _colour()
     colourspace = colour.RGB_COLOURSPACES[SPACES[space]]
     cmfs = colour.MSDS_CMFS[OBSERVERS[observer]]
@@ -94,7 +101,7 @@ def _read_colour_science(observer: str, space: str) -> dict:
     }
 
 
-def _illuminant(colour, colourspace) -> np.ndarray:
+def _illuminant(colour: ModuleType, colourspace: RGB_Colourspace) -> np.ndarray:
     """The space's white as a spectrum on the 1 nm grid.
 
     D65 spaces use the CIE D65 table (colour-science's copy ends at
@@ -117,7 +124,7 @@ def _illuminant(colour, colourspace) -> np.ndarray:
 class Colorimetry:
     """The sensitivities of one (observer, working space) pair on the 1 nm grid."""
 
-    def __init__(self, observer: str = "cie1931", space: str = "rec709"):
+    def __init__(self, observer: str = "cie1931", space: str = "rec709") -> None:
         if observer not in OBSERVERS:
             raise ValueError(f"observer {observer!r} is not one of {', '.join(OBSERVERS)}")
         if space not in SPACES:
@@ -133,17 +140,18 @@ class Colorimetry:
         rgb = self.matrix_xyz_to_rgb @ self.xyz_table
         self.rgb_table = rgb / _trapezoid(rgb, axis=1)[:, None]
 
-    def sensitivity(self, wavelength_nm, basis: str = "rgb") -> np.ndarray:
+    def sensitivity(self, wavelength_nm: ArrayLike, basis: str = "rgb") -> np.ndarray:
         """Continuous w_c(λ) (3, …), linear between the 1 nm table entries."""
         table = self.rgb_table if basis == "rgb" else self.xyz_table
         lam = np.asarray(wavelength_nm, float)
         return np.stack([np.interp(lam, self.wavelength_nm, row, left=0.0, right=0.0) for row in table])
 
-    def rgb_to_xyz(self, rgb) -> np.ndarray:
+    def rgb_to_xyz(self, rgb: ArrayLike) -> np.ndarray:
         """Linear working-space RGB (…, 3) to XYZ (…, 3), Y of the white = 1."""
         return np.asarray(rgb, float) @ self.matrix_rgb_to_xyz.T
 
-    def xyz_to_rgb(self, xyz) -> np.ndarray:
+    def xyz_to_rgb(self, xyz: ArrayLike) -> np.ndarray:
+        """XYZ (…, 3) to linear working-space RGB (…, 3)."""
         return np.asarray(xyz, float) @ self.matrix_xyz_to_rgb.T
 
 
@@ -153,7 +161,7 @@ def colorimetry(observer: str = "cie1931", space: str = "rec709") -> Colorimetry
     return Colorimetry(observer, space)
 
 
-def delta_e00(rgb_a, rgb_b, observer: str = "cie1931", space: str = "rec709") -> np.ndarray:
+def delta_e00(rgb_a: ArrayLike, rgb_b: ArrayLike, observer: str = "cie1931", space: str = "rec709") -> np.ndarray:
     """CIEDE2000 between two linear RGB arrays (…, 3) in CIELAB with the space's white.
 
     Reflectance is taken as Y ≤ 1 (the white reflector has Y = 1).
@@ -164,7 +172,7 @@ def delta_e00(rgb_a, rgb_b, observer: str = "cie1931", space: str = "rec709") ->
     return _ciede2000(_lab(cm.rgb_to_xyz(rgb_a), white), _lab(cm.rgb_to_xyz(rgb_b), white))
 
 
-def _lab(xyz, white) -> np.ndarray:
+def _lab(xyz: ArrayLike, white: np.ndarray) -> np.ndarray:
     """CIE 1976 L*a*b* (CIE 15), with the exact constants ε = 216/24389, κ = 24389/27."""
     t = np.asarray(xyz, float) / white
     f = np.where(t > 216.0 / 24389.0, np.cbrt(t), (24389.0 / 27.0 * t + 16.0) / 116.0)
@@ -173,7 +181,7 @@ def _lab(xyz, white) -> np.ndarray:
     )
 
 
-def _ciede2000(lab1, lab2) -> np.ndarray:
+def _ciede2000(lab1: np.ndarray, lab2: np.ndarray) -> np.ndarray:
     """ΔE00 with kL = kC = kH = 1 (Sharma, Wu & Dalal 2005, eqs. 1–22)."""
     (l1, a1, b1), (l2, a2, b2) = np.moveaxis(lab1, -1, 0), np.moveaxis(lab2, -1, 0)
     c_mean = 0.5 * (np.hypot(a1, b1) + np.hypot(a2, b2))
@@ -210,7 +218,7 @@ def _ciede2000(lab1, lab2) -> np.ndarray:
     return np.sqrt(terms[0] ** 2 + terms[1] ** 2 + terms[2] ** 2 + r_t * terms[1] * terms[2])
 
 
-def _trapezoid(values, axis=-1):
+def _trapezoid(values: ArrayLike, axis: int = -1) -> np.ndarray:
     """∫ over the 1 nm grid of a piecewise-linear function sampled on it."""
     v = np.asarray(values, float)
     return np.sum(v, axis=axis) - 0.5 * (np.take(v, 0, axis=axis) + np.take(v, -1, axis=axis))

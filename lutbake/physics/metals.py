@@ -22,11 +22,15 @@ two-parameter family of conductors); KHR_materials_iridescence, three.js r187 ``
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from lutbake.physics.optics import fresnel_p, fresnel_s, normal_admittance
 from lutbake.physics.points import MAX_INDEX
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["MAPPINGS", "F0_MAX", "gltf_metal_reflectance", "conductor_reflectance", "conductor", "reflectance_error"]
 
@@ -37,13 +41,13 @@ _ETA_STEPS = 256  # coarse search over the free parameter before golden-section 
 _GOLDEN_ITERATIONS = 40
 
 
-def gltf_metal_reflectance(f0, cos_theta):
+def gltf_metal_reflectance(f0: ArrayLike, cos_theta: ArrayLike) -> np.ndarray:
     """glTF's metal Fresnel term: Schlick's curve F0 + (1 − F0)(1 − cos θ)^5."""
     f0, c = np.asarray(f0, float), np.asarray(cos_theta, float)
     return f0 + (1.0 - f0) * (1.0 - c) ** 5
 
 
-def conductor_reflectance(eta, kappa, cos_theta):
+def conductor_reflectance(eta: ArrayLike, kappa: ArrayLike, cos_theta: ArrayLike) -> np.ndarray:
     """Unpolarised Fresnel reflectance of a bare base η + iκ under air (η1 = 1) at cos θ."""
     eta, kappa, c = np.broadcast_arrays(*(np.asarray(v, float) for v in (eta, kappa, cos_theta)))
     g1, g3 = normal_admittance(1.0, 0.0, 1.0, c), normal_admittance(eta, kappa, 1.0, c)
@@ -53,12 +57,12 @@ def conductor_reflectance(eta, kappa, cos_theta):
     return np.nan_to_num(r, nan=0.0)
 
 
-def _kappa_for(f0, eta):
+def _kappa_for(f0: float, eta: np.ndarray | float) -> np.ndarray:
     """κ ≥ 0 giving normal-incidence reflectance ``f0`` at real part ``eta`` (0 where none is needed)."""
     return np.sqrt(np.maximum(f0 * (eta + 1.0) ** 2 - (eta - 1.0) ** 2, 0.0) / (1.0 - f0))
 
 
-def _max_error(f0, eta, cos_grid=_COS_GRID):
+def _max_error(f0: float, eta: ArrayLike, cos_grid: np.ndarray = _COS_GRID) -> np.ndarray:
     """max over ``cos_grid`` of |R(θ) − Schlick(θ)| for the conductor (eta, κ(f0, eta)), per eta."""
     eta = np.atleast_1d(eta)
     r = conductor_reflectance(eta[:, None], _kappa_for(f0, eta)[:, None], cos_grid[None, :])
@@ -66,7 +70,7 @@ def _max_error(f0, eta, cos_grid=_COS_GRID):
 
 
 @functools.lru_cache(maxsize=4096)
-def _fitted(f0: float) -> tuple:
+def _fitted(f0: float) -> tuple[float, float]:
     """(η, κ) of the ``fitted`` mapping for one F0 in [0, F0_MAX['fitted']]: a log-spaced search over
     η between its two κ = 0 ends (every 4th cos θ node), refined by golden sections around the best
     step (every node). Cached: a scene's metals share few distinct F0."""
@@ -86,21 +90,21 @@ def _fitted(f0: float) -> tuple:
     return eta, float(_kappa_for(f0, eta))
 
 
-def conductor(f0, mapping: str) -> tuple:
+def conductor(f0: ArrayLike, mapping: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(η, κ) arrays for base colours ``f0`` (linear, per channel) by ``mapping``, F0 clamped to
     ``F0_MAX[mapping]``; and a bool array: where F0 was clamped."""
-    f0 = np.atleast_1d(np.asarray(f0, float))
-    clamped = f0 > F0_MAX[mapping]
-    f0 = np.clip(f0, 0.0, F0_MAX[mapping])
+    given = np.atleast_1d(np.asarray(f0, float))
+    clamped = given > F0_MAX[mapping]
+    f0_used = np.clip(given, 0.0, F0_MAX[mapping])
     if mapping == "threejs":
-        r = np.sqrt(f0)
-        return np.minimum((1.0 + r) / (1.0 - r), MAX_INDEX), np.zeros_like(f0), clamped  # F0_MAX: η = 10 ± 1 ulp
-    pairs = np.array([_fitted(float(v)) for v in f0]).reshape(-1, 2)
+        r = np.sqrt(f0_used)
+        return np.minimum((1.0 + r) / (1.0 - r), MAX_INDEX), np.zeros_like(f0_used), clamped  # F0_MAX: η = 10 ± 1 ulp
+    pairs = np.array([_fitted(float(v)) for v in f0_used]).reshape(-1, 2)
     return pairs[:, 0], pairs[:, 1], clamped
 
 
 @functools.lru_cache(maxsize=4096)
-def reflectance_error(eta: float, kappa: float, f0: float) -> dict:
+def reflectance_error(eta: float, kappa: float, f0: float) -> dict[str, float]:
     """The searched maximum of |R(θ) − Schlick(θ)| over cos θ ∈ [0, 1] (the 1025-node grid's worst
     node, refined by golden sections between its neighbours): {'max', 'cos_theta'}."""
     err = np.abs(conductor_reflectance(eta, kappa, _COS_GRID) - gltf_metal_reflectance(f0, _COS_GRID))
@@ -108,7 +112,7 @@ def reflectance_error(eta: float, kappa: float, f0: float) -> dict:
     a, b = _COS_GRID[max(i - 1, 0)], _COS_GRID[min(i + 1, _COS_GRID.size - 1)]
     ratio = (np.sqrt(5.0) - 1.0) / 2.0
 
-    def at(c):
+    def at(c: float) -> float:
         return float(abs(conductor_reflectance(eta, kappa, c) - gltf_metal_reflectance(f0, c)))
 
     for _ in range(_GOLDEN_ITERATIONS):

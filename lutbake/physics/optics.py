@@ -36,7 +36,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
     from lutbake.physics.points import FilmPoints
+
+    # per polarization ('s', 'p'): the admittances (Y1, Y2, Y3) and W of the stack
+    _Terms = dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
 
 __all__ = [
     "normal_admittance",
@@ -46,22 +51,10 @@ __all__ = [
     "film_reflectance",
     "film_transmittance",
     "round_trip_amplitude",
-    "opd_from_thickness",
-    "thickness_from_opd",
 ]
 
 
-def opd_from_thickness(thickness_nm, eta2):
-    """Optical path difference at normal incidence, D = 2·η2·d (nm)."""
-    return 2.0 * np.asarray(eta2, dtype=float) * np.asarray(thickness_nm, dtype=float)
-
-
-def thickness_from_opd(opd_nm, eta2):
-    """Physical film thickness d = D / (2·η2) (nm)."""
-    return np.asarray(opd_nm, dtype=float) / (2.0 * np.asarray(eta2, dtype=float))
-
-
-def normal_admittance(eta, kappa, eta1, cos_theta1):
+def normal_admittance(eta: ArrayLike, kappa: ArrayLike, eta1: ArrayLike, cos_theta1: ArrayLike) -> np.ndarray:
     """g = n cos θ = √(n² − η1² sin² θ1) for n = η + iκ, principal root.
 
     The squared term's imaginary part 2ηκ is built as a real ≥ 0 so that a
@@ -81,12 +74,12 @@ def normal_admittance(eta, kappa, eta1, cos_theta1):
     return np.where((offset == 0) & (im == 0), e1 * cos1 + 0j, g)
 
 
-def fresnel_s(g_i, g_j):
+def fresnel_s(g_i: np.ndarray, g_j: np.ndarray) -> np.ndarray:
     """s (TE) amplitude reflection r = (g_i − g_j)/(g_i + g_j) from medium i into j."""
     return (g_i - g_j) / (g_i + g_j)
 
 
-def fresnel_p(g_i, g_j, n_i, n_j):
+def fresnel_p(g_i: np.ndarray, g_j: np.ndarray, n_i: complex | np.ndarray, n_j: complex | np.ndarray) -> np.ndarray:
     """p (TM) amplitude reflection (n_j² g_i − n_i² g_j)/(n_j² g_i + n_i² g_j).
 
     Sign convention of tmm (r_p = r_s at normal incidence would be the other
@@ -96,7 +89,7 @@ def fresnel_p(g_i, g_j, n_i, n_j):
     return (a - b) / (a + b)
 
 
-def _exprel(x):
+def _exprel(x: ArrayLike) -> np.ndarray:
     """(eˣ − 1)/x for complex x with Re x ≤ 0, equal to 1 at x = 0."""
     x = np.asarray(x, complex)
     small = np.abs(x) < 1e-8
@@ -104,7 +97,15 @@ def _exprel(x):
     return np.where(small, 1.0 + x / 2.0, np.expm1(safe) / safe)
 
 
-def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm):
+def _stack_terms(
+    eta1: ArrayLike,
+    eta2: ArrayLike,
+    eta3: ArrayLike,
+    kappa3: ArrayLike,
+    cos_theta1: ArrayLike,
+    thickness_nm: ArrayLike,
+    wavelength_nm: ArrayLike,
+) -> tuple[_Terms, np.ndarray, np.ndarray]:
     """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each (indices resolved)."""
     e1, e2, e3, k3, c1, d, lam = np.broadcast_arrays(
         *(np.asarray(v, dtype=float) for v in (eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm))
@@ -126,19 +127,22 @@ def _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_
     return terms, phi, c1
 
 
-def _ratio(num, den):
+def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     """num/den for complex arrays, scaled first: numpy's complex division
     overflows to inf + nan·i when both are subnormal (cos θ1 ~ 1e-320)."""
     scale = np.maximum(np.abs(np.real(den)), np.abs(np.imag(den)))
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
 
-        def scaled(z):  # real divisions: numpy's complex path overflows here too
+        def scaled(z: np.ndarray) -> np.ndarray:  # real divisions: numpy's complex path overflows here too
             return np.real(z) / scale + 1j * (np.imag(z) / scale)
 
         return scaled(num) / scaled(den)
 
 
-def _airy_amplitude(y1, y2, y3, w, cos_theta1):
+def _airy_amplitude(
+    y1: np.ndarray, y2: np.ndarray, y3: np.ndarray, w: np.ndarray, cos_theta1: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(r, num, den): the Airy amplitude r = num/den of the module docstring."""
     num = 2.0 * (y1 - y3) + (y1 + y2) * (y2 - y3) * w
     den = 2.0 * (y1 + y3) + (y1 - y2) * (y2 - y3) * w
     r = _ratio(num, den)
@@ -147,7 +151,9 @@ def _airy_amplitude(y1, y2, y3, w, cos_theta1):
     return np.where(cos_theta1 == 0.0, -1.0 + 0j, r), num, den
 
 
-def _transmitted_power(y1, y3, den, phi, cos_theta1):
+def _transmitted_power(
+    y1: np.ndarray, y3: np.ndarray, den: np.ndarray, phi: np.ndarray, cos_theta1: np.ndarray
+) -> np.ndarray:
     """Power into the base, 16·Re(Y1)·Re(Y3)·e^{−Im Φ}/|den|² (a product of terms ≥ 0),
     formed as |4·√Re Y1·√Re Y3·e^{−Im Φ/2}/den|² so tiny admittances cannot underflow."""
     amplitude = 4.0 * np.sqrt(y1.real) * np.sqrt(np.maximum(y3.real, 0.0)) * np.exp(-0.5 * phi.imag)
@@ -155,19 +161,20 @@ def _transmitted_power(y1, y3, den, phi, cos_theta1):
     return np.where(cos_theta1 == 0.0, 0.0, t)
 
 
-def _terms(stack: FilmPoints, wavelength_nm):
+def _terms(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[_Terms, np.ndarray, np.ndarray]:
     """``_stack_terms`` of the stack at ``wavelength_nm`` (named materials taken there)."""
     eta2, eta3, kappa3 = stack.indices(wavelength_nm)
     return _stack_terms(stack.eta1, eta2, eta3, kappa3, stack.cos_theta, stack.thickness_nm, wavelength_nm)
 
 
-def film_amplitudes(stack: FilmPoints, wavelength_nm):
+def film_amplitudes(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Complex reflected amplitudes (r_s, r_p) of the film stack at ``wavelength_nm`` (broadcast)."""
     terms, _, c1 = _terms(stack, wavelength_nm)
-    return tuple(_airy_amplitude(*terms[pol], c1)[0] for pol in ("s", "p"))
+    r_s, r_p = (_airy_amplitude(*terms[pol], c1)[0] for pol in ("s", "p"))
+    return r_s, r_p
 
 
-def film_reflectance(stack: FilmPoints, wavelength_nm):
+def film_reflectance(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Reflectances (R_s, R_p, R) with R = (R_s + R_p)/2 (unpolarized), the stack's fields broadcast
     against ``wavelength_nm`` (``stack.as_column()`` against a row of M wavelengths gives (P, M)).
 
@@ -187,7 +194,7 @@ def film_reflectance(stack: FilmPoints, wavelength_nm):
     return out[0], out[1], 0.5 * (out[0] + out[1])
 
 
-def film_transmittance(stack: FilmPoints, wavelength_nm):
+def film_transmittance(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Power transmitted into the base, (T_s, T_p, T), broadcast as ``film_reflectance``.
 
     T = 16·Re(Y1)·Re(Y3)·e^{−Im Φ} / |den|², Macleod's 4·Re(Y1)Re(Y3)/|Y1B + C|²
@@ -203,7 +210,9 @@ def film_transmittance(stack: FilmPoints, wavelength_nm):
     return out[0], out[1], 0.5 * (out[0] + out[1])
 
 
-def round_trip_amplitude(eta1, eta2, eta3, kappa3, cos_theta1):
+def round_trip_amplitude(
+    eta1: ArrayLike, eta2: ArrayLike, eta3: ArrayLike, kappa3: ArrayLike, cos_theta1: ArrayLike
+) -> np.ndarray:
     """max over s, p of |r21·r23|, the Airy sum's ratio: its peaks sharpen as it nears 1."""
     terms, _, _ = _stack_terms(eta1, eta2, eta3, kappa3, cos_theta1, 0.0, 500.0)
     out = 0.0

@@ -6,6 +6,8 @@ each wavelength. ``build`` and ``from_csv`` validate user input and raise
 ValueError with one line naming the value and what is allowed; hot paths
 (a bake's texels, refinement loops) take ``texels`` or the plain constructor,
 which check nothing: their coordinates come from a validated spec or LUT.
+``opd_from_thickness`` and ``thickness_from_opd`` convert between a film's thickness d and its optical
+path D = 2·η2·d (a LUT's second axis).
 """
 
 from __future__ import annotations
@@ -14,13 +16,17 @@ import array
 import csv
 import io
 import itertools
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
 from lutbake.errors import ParameterError
-from lutbake.physics.materials import material
-from lutbake.physics.optics import opd_from_thickness, thickness_from_opd
+from lutbake.physics.materials import DispersiveMaterial, material
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = [
     "FilmPoints",
@@ -31,6 +37,8 @@ __all__ = [
     "MAX_CSV_LINE_BYTES",
     "dielectric_film",
     "CSV_COLUMNS",
+    "opd_from_thickness",
+    "thickness_from_opd",
 ]
 
 # The per-point fields (the rest name materials).
@@ -47,7 +55,8 @@ MAX_THICKNESS_NM, MAX_OPD_NM = 1e5, 2e5
 # A named film whose κ exceeds this somewhere in 360–830 nm is refused: the model's film is lossless.
 MAX_FILM_KAPPA = 0.01
 _INDEX = (lambda v: (v >= MIN_INDEX) & (v <= MAX_INDEX), f"a number in [{MIN_INDEX:g}, {MAX_INDEX:g}]")
-_DOMAIN = {
+# a test takes a scalar or an array (inside_domain tests one value without building an array)
+_DOMAIN: dict[str, tuple[Callable[[float | np.ndarray], bool | np.ndarray], str]] = {
     "eta1": _INDEX,
     "eta2": _INDEX,
     "eta3": _INDEX,
@@ -61,7 +70,17 @@ _DOMAIN = {
 }
 
 
-def check_value(name: str, values) -> np.ndarray:
+def opd_from_thickness(thickness_nm: ArrayLike, eta2: ArrayLike) -> np.ndarray:
+    """Optical path difference at normal incidence, D = 2·η2·d (nm)."""
+    return 2.0 * np.asarray(eta2, dtype=float) * np.asarray(thickness_nm, dtype=float)
+
+
+def thickness_from_opd(opd_nm: ArrayLike, eta2: ArrayLike) -> np.ndarray:
+    """Physical film thickness d = D / (2·η2) (nm)."""
+    return np.asarray(opd_nm, dtype=float) / (2.0 * np.asarray(eta2, dtype=float))
+
+
+def check_value(name: str, values: ArrayLike) -> np.ndarray:
     """Validate an array against the domain of ``name``; return it as float64."""
     arr = np.atleast_1d(np.asarray(values, dtype=float))
     test, allowed = _DOMAIN[name]
@@ -119,8 +138,8 @@ class FilmPoints:
     kappa3: np.ndarray
     cos_theta: np.ndarray
     thickness_nm: np.ndarray
-    film: object = None
-    base: object = None
+    film: DispersiveMaterial | None = None
+    base: DispersiveMaterial | None = None
 
     def __len__(self) -> int:
         return self.cos_theta.size
@@ -130,19 +149,20 @@ class FilmPoints:
         """Optical path difference at normal incidence, D = 2·η2·d (nm): a LUT's second axis."""
         return opd_from_thickness(self.thickness_nm, self.eta2)
 
-    def indices(self, wavelength_nm):
+    def indices(self, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(η2, η3, κ3) at ``wavelength_nm``, broadcast with the stack's fields: a named film or base
         is taken at each wavelength, constant indices as they are."""
         lam = np.asarray(wavelength_nm, float)
         eta2 = self.film.index(lam)[0] if self.film else self.eta2
         eta3, kappa3 = self.base.index(lam) if self.base else (self.eta3, self.kappa3)
-        return tuple(np.broadcast_arrays(eta2, eta3, kappa3, self.cos_theta, self.thickness_nm, lam)[:3])
+        eta2, eta3, kappa3, *_ = np.broadcast_arrays(eta2, eta3, kappa3, self.cos_theta, self.thickness_nm, lam)
+        return eta2, eta3, kappa3
 
-    def as_column(self) -> "FilmPoints":
+    def as_column(self) -> FilmPoints:
         """The stacks with every field as a (P, 1) column: against wavelengths (M,) they give (P, M)."""
         return replace(self, **{f: getattr(self, f)[:, None] for f in _COLUMNS})
 
-    def require(self, owner: str, **fixed) -> "FilmPoints":
+    def require(self, owner: str, **fixed: float | str | None) -> FilmPoints:
         """This stack, when each field in ``fixed`` holds that value at every point: a number for an
         index, a material name or None for ``film`` and ``base``. A LUT, an atlas slice and a spec each
         hold one film: a stack of another is refused (ParameterError naming the field, its value and
@@ -167,40 +187,35 @@ class FilmPoints:
         return self
 
     @classmethod
-    def texels(cls, *, eta1: float, eta2: float, cos_theta, opd_nm, eta3, kappa3) -> "FilmPoints":
+    def texels(
+        cls, *, eta1: float, eta2: float, cos_theta: ArrayLike, opd_nm: ArrayLike, eta3: ArrayLike, kappa3: ArrayLike
+    ) -> FilmPoints:
         """Stacks at LUT coordinates (cos θ1, D = 2·η2·d, η3, κ3) of the film η1 | η2, unchecked and
         broadcast without copies: for coordinates a validated spec or LUT produced (a bake's texels)."""
-        eta1, eta2, cos_theta, opd_nm, eta3, kappa3 = np.broadcast_arrays(
+        e1, e2, cos, opd, e3, k3 = np.broadcast_arrays(
             *(np.asarray(v, float) for v in (eta1, eta2, cos_theta, opd_nm, eta3, kappa3))
         )
-        return cls(
-            eta1=eta1,
-            eta2=eta2,
-            eta3=eta3,
-            kappa3=kappa3,
-            cos_theta=cos_theta,
-            thickness_nm=thickness_from_opd(opd_nm, eta2),
-        )
+        return cls(eta1=e1, eta2=e2, eta3=e3, kappa3=k3, cos_theta=cos, thickness_nm=thickness_from_opd(opd, e2))
 
     @classmethod
     def build(
         cls,
         *,
-        eta1=1.0,
-        eta2=None,
-        thickness_nm=None,
-        opd_nm=None,
-        cos_theta=None,
-        angle_deg=None,
-        eta3=None,
-        kappa3=0.0,
-        film=None,
-        base=None,
-    ) -> "FilmPoints":
+        eta1: ArrayLike = 1.0,
+        eta2: ArrayLike | None = None,
+        thickness_nm: ArrayLike | None = None,
+        opd_nm: ArrayLike | None = None,
+        cos_theta: ArrayLike | None = None,
+        angle_deg: ArrayLike | None = None,
+        eta3: ArrayLike | None = None,
+        kappa3: ArrayLike = 0.0,
+        film: str | None = None,
+        base: str | None = None,
+    ) -> FilmPoints:
         """Validate and broadcast keyword columns (scalars or arrays)."""
         film_mat = dielectric_film(film) if film else None
         base_mat = material(base) if base else None
-        _require_one("thickness_nm", thickness_nm, "opd_nm", opd_nm)
+        _require_one("thickness_nm", thickness_nm, "opd_nm", opd_nm)  # so below, one of each pair is given
         _require_one("cos_theta", cos_theta, "angle_deg", angle_deg)
         if film_mat is None and eta2 is None:
             raise ParameterError("{eta2} is missing: give {eta2} or {film}")
@@ -216,11 +231,11 @@ class FilmPoints:
         }
         if cos_theta is not None:
             cols["cos_theta"] = check_value("cos_theta", cos_theta)
-        else:
+        elif angle_deg is not None:
             cols["cos_theta"] = np.cos(np.radians(check_value("angle_deg", angle_deg)))
         if thickness_nm is not None:
             cols["thickness_nm"] = check_value("thickness_nm", thickness_nm)
-        else:
+        elif opd_nm is not None:
             cols["thickness_nm"] = thickness_from_opd(check_value("opd_nm", opd_nm), cols["eta2"])
         eta2_max = np.max(film_mat.index(np.array([360.0, 830.0]))[0]) if film_mat else cols["eta2"]
         check_value("opd_nm", 2.0 * eta2_max * cols["thickness_nm"])
@@ -228,7 +243,9 @@ class FilmPoints:
         return cls(**{k: np.ascontiguousarray(v) for k, v in arrays.items()}, film=film_mat, base=base_mat)
 
     @classmethod
-    def from_csv(cls, source, defaults=None, **given) -> "FilmPoints":
+    def from_csv(
+        cls, source: str | IO[bytes], defaults: Mapping[str, ArrayLike | None] | None = None, **given: ArrayLike | None
+    ) -> FilmPoints:
         """Stacks from a points CSV whose header names columns from CSV_COLUMNS: ``source`` is its text or a
         binary file object, read line by line within the bounds of ``read_csv_columns``. ``given`` values
         (flags) fill columns the CSV lacks and may not repeat one; ``defaults`` (a LUT's film) fill what
@@ -237,9 +254,10 @@ class FilmPoints:
         repeated = [name for name in columns if name in given]
         if repeated:
             raise ParameterError(
-                "points CSV column {column} and {%s} both give it: give one" % repeated[0], column=repeated[0]
+                "points CSV column {column} and {" + repeated[0] + "} both give it: give one", column=repeated[0]
             )
-        values = {**(defaults or {}), **given, **columns}
+        # name -> a column or a material name; build checks each
+        values: dict[str, Any] = {**(defaults or {}), **given, **columns}
         for named, replaced in (("film", ("eta2",)), ("base", ("eta3", "kappa3"))):
             clash = [name for name in replaced if name in columns]
             if values.get(named) and clash:
@@ -257,14 +275,15 @@ MAX_CSV_LINE_BYTES = 4096
 MAX_CSV_POINTS = 1_000_000
 
 
-def read_csv_columns(source) -> dict:
+def read_csv_columns(source: str | IO[bytes]) -> dict[str, np.ndarray]:
     """Column name → float64 array of a points CSV (``source``: its text or a binary file object).
     Blank lines are skipped; ValueError (one line, naming the line) for anything else that is not
     a header of known, distinct columns over rows of as many numbers, within the bounds above."""
     if isinstance(source, str):
         source = io.BytesIO(source.encode("utf-8"))
     reader = csv.reader(_bounded_lines(source))
-    header, columns = None, {}
+    header: list[str] | None = None
+    columns: dict[str, array.array[float]] = {}
     try:
         for row in reader:
             if not any(cell.strip() for cell in row):
@@ -286,7 +305,7 @@ def read_csv_columns(source) -> dict:
     return {name: np.frombuffer(values, dtype=np.float64).copy() for name, values in columns.items()}
 
 
-def _bounded_lines(stream):
+def _bounded_lines(stream: IO[bytes]) -> Iterator[str]:
     """The lines of a binary ``stream`` as text, each refused past MAX_CSV_LINE_BYTES, a NUL or bad UTF-8."""
     for number in itertools.count(1):
         line = stream.readline(MAX_CSV_LINE_BYTES + 1)
@@ -302,9 +321,9 @@ def _bounded_lines(stream):
             raise ValueError(f"points CSV line {number} is not UTF-8 text") from None
 
 
-def _csv_header(row) -> list:
+def _csv_header(row: list[str]) -> list[str]:
     header = [h.strip() for h in row]
-    seen = set()
+    seen: set[str] = set()
     for name in header:
         if name in seen:
             raise ValueError(f"points CSV column {name!r} appears twice: each column once")
@@ -323,7 +342,7 @@ def _csv_number(cell: str, name: str, line: int) -> float:
         raise ValueError(f"points CSV line {line}: {name} = {shown!r} is not a number") from None
 
 
-def dielectric_film(name: str):
+def dielectric_film(name: str) -> DispersiveMaterial:
     """The named material, refused when it absorbs (κ > MAX_FILM_KAPPA in 360–830 nm): the film layer
     of the model is lossless, so its κ would be dropped silently."""
     film = material(name)
@@ -336,6 +355,6 @@ def dielectric_film(name: str):
     return film
 
 
-def _require_one(name_a, a, name_b, b):
+def _require_one(name_a: str, a: object, name_b: str, b: object) -> None:
     if (a is None) == (b is None):
         raise ValueError(f"give exactly one of {name_a} or {name_b}")

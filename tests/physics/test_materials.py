@@ -55,6 +55,13 @@ def test_unknown_names_list_close_matches():
         material("main/Fe/Nobody")
 
 
+def test_a_page_without_a_refractive_index_is_refused_by_name():
+    # refractiveindex.info pages that give only kappa: the index n cannot be evaluated, so the name is refused
+    # where it is looked up (it ended in an AttributeError when the index was first taken)
+    with pytest.raises(ValueError, match="material 'other/TherminolVP-1/Otanicar' has no refractive index n"):
+        material("other/TherminolVP-1/Otanicar")
+
+
 def test_constant_material_broadcasts():
     eta, kappa = ConstantMaterial(2.7, 2.8).index(np.zeros((2, 3)))
     assert eta.shape == (2, 3) and np.all(kappa == 2.8)
