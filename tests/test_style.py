@@ -12,19 +12,23 @@ from conftest import ROOT
 PACKAGE = ROOT / "lutbake"
 # scripts Blender runs in its own Python (bpy, no stubs), importing nothing of lutbake
 BLENDER_SCRIPTS = {PACKAGE / "blender" / "nodes.py", PACKAGE / "blender" / "probe.py"}
-LIMITS = {"module": 500, "class": 150, "function": 60}   # lines of code, docstrings not counted
+LIMITS = {"module": 500, "class": 150, "function": 60}  # lines of code, docstrings not counted
 
 
 def _tool(*args):
     return subprocess.run([sys.executable, "-m", *args], cwd=ROOT, capture_output=True, text=True, timeout=600)
 
 
-@pytest.mark.parametrize("command", [
-    ("ruff", "check", "lutbake", "tests", "bench", "docs"),
-    ("ruff", "format", "--check", "lutbake", "tests", "bench", "docs"),
-    ("mypy",),
-    ("importlinter.cli",),
-], ids=["ruff-check", "ruff-format", "mypy", "import-linter"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("ruff", "check", "lutbake", "tests", "bench", "docs"),
+        ("ruff", "format", "--check", "lutbake", "tests", "bench", "docs"),
+        ("mypy",),
+        ("importlinter.cli",),
+    ],
+    ids=["ruff-check", "ruff-format", "mypy", "import-linter"],
+)
 def test_tool_passes(command):
     out = _tool(*command)
     assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-2000:]
@@ -82,8 +86,13 @@ def test_modules_classes_and_functions_stay_short():
         if _code_lines(tree) > LIMITS["module"]:
             over.append(f"{path.relative_to(ROOT)}: module {_code_lines(tree)}")
         for node in ast.walk(tree):
-            kind = "class" if isinstance(node, ast.ClassDef) else "function" if isinstance(
-                node, (ast.FunctionDef, ast.AsyncFunctionDef)) else None
+            kind = (
+                "class"
+                if isinstance(node, ast.ClassDef)
+                else "function"
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+                else None
+            )
             if kind and _code_lines(node) > LIMITS[kind]:
                 over.append(f"{path.relative_to(ROOT)}:{node.lineno} {kind} {node.name} {_code_lines(node)}")
     assert not over, "\n".join(over)
