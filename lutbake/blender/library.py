@@ -20,22 +20,26 @@ import shutil
 import subprocess
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
+from os import PathLike
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from lutbake.blender.nodes import OSL_MATERIALS
-from lutbake.blender.programs import BLENDER_SPACES, SceneReads, SliceRead, read_manifest
+from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, read_manifest
 from lutbake.errors import ParameterError
 from lutbake.lut.sample import Atlas, Lut
-from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, exact_colour, read_exact_table
-from lutbake.quality.runtime_accuracy import truth
-from lutbake.modes.runtime.files import read_runtime_table
+from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, ExactTable, exact_colour, read_exact_table
+from lutbake.modes.runtime.files import RuntimeTable, read_runtime_table
 from lutbake.modes.runtime.model import runtime_colour
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
+from lutbake.quality.runtime_accuracy import truth
 from lutbake.tables.includes import osl_source
 from lutbake.tables.lutfile import atomic_path
 
@@ -70,7 +74,7 @@ class BlenderError(RuntimeError):
     """Blender ran and failed (not bad input): the last line of its error output."""
 
 
-def find_blender(explicit=None) -> str:
+def find_blender(explicit: str | None = None) -> str:
     """The Blender to run: ``explicit``, else ``blender`` on PATH; ParameterError (one line, what to install)
     when there is none. (The command line passes $LUTBAKE_BLENDER as ``explicit`` when --blender is not
     given; the library reads no environment.)"""
@@ -85,7 +89,7 @@ def find_blender(explicit=None) -> str:
     return path
 
 
-def _command(blender: str, script: str, args: list) -> list:
+def _command(blender: str, script: str, args: list[str]) -> list[str]:
     """A Python with bpy runs the script itself; a Blender executable runs it headless on an empty file."""
     if Path(blender).name.startswith("python"):
         return [blender, str(_SCRIPTS / script), *args]
@@ -102,7 +106,7 @@ def _command(blender: str, script: str, args: list) -> list:
     ]
 
 
-def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> float:
+def _run(blender: str, script: str, args: list[str], timeout_s: float = 600.0) -> float:
     """Run a script in Blender; its wall seconds. BlenderError with Blender's last error line on failure."""
     start = time.perf_counter()
     try:
@@ -120,7 +124,14 @@ def _run(blender: str, script: str, args: list, timeout_s: float = 600.0) -> flo
     return time.perf_counter() - start
 
 
-def write_library(manifest, out, blender=None, pack: bool = True, exact=None, runtime_table=None) -> dict:
+def write_library(
+    manifest: str | PathLike[str] | None,
+    out: str | PathLike[str],
+    blender: str | None = None,
+    pack: bool = True,
+    exact: str | PathLike[str] | None = None,
+    runtime_table: str | PathLike[str] | None = None,
+) -> dict[str, Any]:
     """Write ``out`` (.blend): one node group and one material per material of the scene bake whose
     manifest is ``manifest`` (lutbake/blender/nodes.py), with ``exact`` (an `exact-table` EXR) the exact mode's
     OSL material and with ``runtime_table`` (a `runtime-table` EXR) the runtime table's; committed
@@ -183,8 +194,14 @@ def write_library(manifest, out, blender=None, pack: bool = True, exact=None, ru
 
 
 def build_library(
-    manifest, out, blender=None, pack: bool = True, exact=None, runtime_table=None, verify: bool = False
-) -> dict:
+    manifest: str | PathLike[str] | None,
+    out: str | PathLike[str],
+    blender: str | None = None,
+    pack: bool = True,
+    exact: str | PathLike[str] | None = None,
+    runtime_table: str | PathLike[str] | None = None,
+    verify: bool = False,
+) -> dict[str, Any]:
     """What `lutbake blender` does: ``write_library`` (the parameters are its), then with ``verify`` every
     material rendered in Cycles and compared: the scene bake's with ``verify_library`` (key ``verify``, None
     without a manifest) and each OSL material with ``verify_osl`` (``verify_exact``, ``verify_runtime``).
@@ -195,18 +212,25 @@ def build_library(
     doc = write_library(manifest, out, blender, pack=pack, exact=exact, runtime_table=runtime_table)
     if not verify:
         return doc
-    tables = {"exact": exact, "runtime": runtime_table}
-    checks = {
+    tables = {kind: table for kind, table in (("exact", exact), ("runtime", runtime_table)) if table is not None}
+    checks: dict[str, Callable[[], dict[str, Any] | None]] = {
         "verify": lambda: verify_library(manifest, out, doc["blender"]) if manifest else None,
         **{
-            f"verify_{kind}": lambda kind=kind: verify_osl(out, kind, tables[kind], doc["blender"])
+            f"verify_{kind}": partial(verify_osl, out, kind, tables[kind], doc["blender"])
             for kind in doc["osl_materials"]
         },
     }
     return doc | {key: check() for key, check in checks.items()}
 
 
-def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
+def _exact_expected(
+    table: ExactTable,
+    cos_theta: np.ndarray,
+    thickness_nm: np.ndarray,
+    eta2: np.ndarray,
+    eta3: np.ndarray,
+    kappa3: np.ndarray,
+) -> np.ndarray:
     """The exact mode's series in float64 (exact.exact_colour takes one film at a time)."""
     out = np.empty((len(cos_theta), 3))
     for film in np.unique(eta2):
@@ -215,7 +239,14 @@ def _exact_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.nd
     return out
 
 
-def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
+def _runtime_expected(
+    table: RuntimeTable,
+    cos_theta: np.ndarray,
+    thickness_nm: np.ndarray,
+    eta2: np.ndarray,
+    eta3: np.ndarray,
+    kappa3: np.ndarray,
+) -> np.ndarray:
     """The runtime include's float32 arithmetic (runtime.model): lutbake_iridescence_rgb, and at a grey base
     (equal channels) lutbake_iridescence with its one index, which the OSL script must equal there."""
     out = runtime_colour(table, cos_theta, thickness_nm, 1.0, eta2, eta3, kappa3)
@@ -228,7 +259,7 @@ def _runtime_expected(table, cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.
 
 # Per OSL kind: the table reader, and what the script computes at probes with η1 = 1 and η3, κ3 (n, 3) per
 # channel.
-_OSL_KINDS = {
+_OSL_KINDS: dict[str, tuple[Callable[[str | PathLike[str]], ExactTable | RuntimeTable], Callable[..., np.ndarray]]] = {
     "exact": (read_exact_table, _exact_expected),
     "runtime": (read_runtime_table, _runtime_expected),
 }
@@ -239,7 +270,7 @@ def _osl_material(kind: str) -> str:
     return OSL_MATERIALS[f"lutbake_{kind}"][0]
 
 
-def osl_script(kind: str, table) -> str:
+def osl_script(kind: str, table: str | PathLike[str]) -> str:
     """The OSL script (shaders/KIND.osl.in, ``kind`` 'exact' or 'runtime') for the table ``table`` (an
     `exact-table` or `runtime-table` EXR), whose absolute path it reads; ValueError names a file that is
     not such a table."""
@@ -250,7 +281,7 @@ def osl_script(kind: str, table) -> str:
     return osl_source(read(path).meta, path)
 
 
-def render_probes(job: dict, blender=None) -> dict:
+def render_probes(job: dict[str, Any], blender: str | None = None) -> dict[str, Any]:
     """Render ``job``'s probe planes in Blender (lutbake/blender/probe.py: the job's format is there)."""
     exe = find_blender(blender)
     with tempfile.TemporaryDirectory(prefix="lutbake-blender-") as folder:
@@ -271,12 +302,12 @@ class Probes:
     material: str
     cos_theta: np.ndarray
     thickness_nm: np.ndarray
-    eta3: np.ndarray | None
+    eta3: np.ndarray | None  # a 4D LUT's only
     kappa3: np.ndarray | None
-    expected: np.ndarray | None  # None where only the points are needed
+    expected: np.ndarray
 
 
-def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
+def probe_points(scene: SceneReads, read: SliceRead | LutRead, n: int, seed: int = 0) -> Probes:
     """``n`` points of one material: cos θ from grazing (0.03) to normal incidence (both included),
     thickness over the baked range and a little past both ends (reads clamp there); for a 4D LUT, η3 and
     κ3 over the LUT's ranges and past them. Expected values: the atlas sampler, or the LUT's linear
@@ -303,7 +334,9 @@ def probe_points(scene: SceneReads, read, n: int, seed: int = 0) -> Probes:
     return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
 
 
-def lutbake_probes(scene: SceneReads, library, probes: list, closure: str = "glossy", first: int = 0) -> tuple:
+def lutbake_probes(
+    scene: SceneReads, library: str | PathLike[str], probes: list[Probes], closure: str = "glossy", first: int = 0
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """(job materials, job probes) rendering ``probes`` (one ``Probes`` per material of ``scene``) with the
     library's materials; probe material indices start at ``first``."""
     materials = [
@@ -318,7 +351,7 @@ def lutbake_probes(scene: SceneReads, library, probes: list, closure: str = "glo
     return materials, [_probe(first + i, p, j) for i, p in enumerate(probes) for j in range(len(p.cos_theta))]
 
 
-def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple:
+def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """(job materials, job probes) rendering ``points`` with Blender's own thin film: a Principled BSDF
     (film over a dielectric base of index η3) or a Metallic BSDF's Physical Conductor (per-channel n, k)
     over an absorbing one. Blender's film and base indices are constants: a named film is taken at
@@ -353,8 +386,13 @@ def blender_thin_film_probes(points: FilmPoints, first: int = 0) -> tuple:
 
 
 def verify_library(
-    manifest, library, blender=None, engine: str = "CYCLES", closure: str = "glossy", n_points: int = 24
-) -> dict:
+    manifest: str | PathLike[str],
+    library: str | PathLike[str],
+    blender: str | None = None,
+    engine: str = "CYCLES",
+    closure: str = "glossy",
+    n_points: int = 24,
+) -> dict[str, Any]:
     """Render every material of ``library`` (written by ``write_library`` for ``manifest``) at
     ``n_points`` probes in ``engine`` and compare with ``lutbake sample``.
 
@@ -396,7 +434,7 @@ def verify_library(
     }
 
 
-def osl_probe_points(n_points: int, seed: int = 0) -> tuple:
+def osl_probe_points(n_points: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(cos θ, d nm, η2, η3 (n, 3), κ3 (n, 3)) of the OSL materials' probes: cos θ 0.03–1 (both ends), d
     0–1000 nm (both ends), films η2 1.2, 1.6, 2.4; every other probe a dielectric base η3 1–2.5, the others
     the metals Au, Ag, Cu, Al, Fe, Cr at their per-channel indices (611/549/464 nm)."""
@@ -415,7 +453,14 @@ def osl_probe_points(n_points: int, seed: int = 0) -> tuple:
     return cos_theta, thickness, eta2, eta3, kappa3
 
 
-def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed: int = 0) -> dict:
+def verify_osl(
+    library: str | PathLike[str],
+    kind: str,
+    table: str | PathLike[str],
+    blender: str | None = None,
+    n_points: int = 48,
+    seed: int = 0,
+) -> dict[str, Any]:
     """Render ``library``'s OSL material of ``kind`` ('exact': ``write_library(..., exact=table)``;
     'runtime': ``runtime_table=table``) in Cycles with OSL at ``osl_probe_points(n_points, seed)`` and
     compare with what the script computes in numpy (the exact mode: exact.exact_colour, float64; the
@@ -462,14 +507,14 @@ def verify_osl(library, kind: str, table, blender=None, n_points: int = 48, seed
     }
 
 
-def _half_ulp(values):
+def _half_ulp(values: np.ndarray) -> np.ndarray:
     """The spacing of half floats at ``values`` (normal range; 2⁻²⁴ below it)."""
     exponent = np.floor(np.log2(np.maximum(np.abs(values), 2.0**-14)))
     return 2.0 ** (exponent - 10)
 
 
-def _probe(material_index: int, p: Probes, j: int) -> dict:
+def _probe(material_index: int, p: Probes, j: int) -> dict[str, Any]:
     probe = {"material": material_index, "cos_theta": float(p.cos_theta[j]), "thickness_nm": float(p.thickness_nm[j])}
-    if p.eta3 is not None:
+    if p.eta3 is not None and p.kappa3 is not None:  # a 4D LUT's probe: both
         probe.update(eta3=float(p.eta3[j]), kappa3=float(p.kappa3[j]))
     return probe

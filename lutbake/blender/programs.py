@@ -28,8 +28,15 @@ EXR's last scanline is v = 0, so scanline y is read at v = 1 − (y + ½)/H.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Protocol
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "MANIFEST_FORMAT",
@@ -56,6 +63,19 @@ BLENDER_SPACES = {
     "p3": "Linear DCI-P3 D65",
 }
 GROUP_PREFIX = "lutbake"
+# A value in a node program: a node socket (nodes.NodeGraph), an array (NumpyGraph) or a float constant;
+# which depends on the graph, so the programs pass it on without looking inside.
+Value = Any
+
+
+class Graph(Protocol):
+    """The interface node programs are written against (nodes.NodeGraph, NumpyGraph)."""
+
+    def math(self, op: str, a: Value, b: Value = None) -> Value: ...
+    def clamp01(self, a: Value) -> Value: ...
+    def mix(self, a: Value, b: Value, t: Value) -> Value: ...
+    def texel(self, image: str, u: Value, v: Value) -> Value: ...
+    def bilinear(self, image: str, size: tuple[int, int], x: Value, y: Value) -> Value: ...
 
 
 # --- what the manifest asks for -------------------------------------------------------------------
@@ -68,11 +88,11 @@ class SliceRead:
 
     material: str
     image: str  # file name, beside the manifest
-    rect: tuple
-    thickness_nm: tuple
+    rect: tuple[int, int, int, int]
+    thickness_nm: tuple[float, float]
 
     @property
-    def inputs(self) -> tuple:
+    def inputs(self) -> tuple[str, ...]:
         return ("Cos Theta", "Thickness (nm)")
 
 
@@ -83,33 +103,35 @@ class LutRead:
 
     material: str
     image: str
-    axes: tuple  # four dicts: name, min, max, count, spacing
+    axes: tuple[dict[str, Any], ...]  # four dicts: name, min, max, count, spacing
     eta1: float
     eta2: float
     tiles_x: str = "eta3"  # the axis whose nodes lay the tiles along x (the header's packing; κ3 since v6)
 
     @property
-    def inputs(self) -> tuple:
+    def inputs(self) -> tuple[str, ...]:
         return ("Cos Theta", "Thickness (nm)", "Eta3", "Kappa3")
 
     @property
-    def thickness_nm(self) -> tuple:
+    def thickness_nm(self) -> tuple[float, float]:
         d = self.axes[1]
         return (d["min"] / (2.0 * self.eta2), d["max"] / (2.0 * self.eta2))
 
 
 @dataclass(frozen=True)
 class SceneReads:
+    """What a scene manifest asks Blender to read: one read per material, in the manifest's order."""
+
     name: str  # the manifest's stem: the scene's name in group names
     folder: Path
     space: str
-    reads: tuple
+    reads: tuple[SliceRead | LutRead, ...]
 
     def group_name(self, material: str) -> str:
         return f"{GROUP_PREFIX} {self.name}/{material}"
 
 
-def read_manifest(path) -> SceneReads:
+def read_manifest(path: str | PathLike[str]) -> SceneReads:
     """The reads a scene manifest (SCENE.json) asks for; ValueError in one line naming the file and the
     field when it is not a lutbake scene manifest, or a file it names is missing."""
     path = Path(path)
@@ -141,7 +163,7 @@ def read_manifest(path) -> SceneReads:
     return SceneReads(path.stem, path.parent, space, reads)
 
 
-def _read_of(folder: Path, name: str, entry: dict):
+def _read_of(folder: Path, name: str, entry: dict[str, Any]) -> SliceRead | LutRead:
     image = entry["file"]
     if not (folder / image).is_file():
         raise ValueError(f"materials.{name}.file {image!r} is not beside the manifest")
@@ -170,7 +192,7 @@ def _read_of(folder: Path, name: str, entry: dict):
 # --- node programs: the maths of each read, once ---------------------------------------------------
 
 
-def bilinear_program(g, image: str, size: tuple, x, y):
+def bilinear_program(g: Graph, image: str, size: tuple[int, int], x: Value, y: Value) -> Value:
     """Bilinear read at texel-space (x, y), y in scanlines from the top, measured between texel centres
     (sample._bilinear): four Closest reads at texel centres, Extend at the image's edges, three lerps."""
     width, height = size
@@ -186,13 +208,13 @@ def bilinear_program(g, image: str, size: tuple, x, y):
     return g.mix(top, bottom, ty)
 
 
-def _node_coordinate(g, value, lo: float, hi: float, count: int):
+def _node_coordinate(g: Graph, value: Value, lo: float, hi: float, count: int) -> Value:
     """clamp((value − lo)/(hi − lo), 0, 1)·(count − 1): a uniform axis's node coordinate."""
     unit = g.clamp01(g.math("DIVIDE", g.math("SUBTRACT", value, lo), hi - lo))
     return g.math("MULTIPLY", unit, count - 1)
 
 
-def slice_program(g, read: SliceRead, size: tuple, cos_theta, thickness_nm):
+def slice_program(g: Graph, read: SliceRead, size: tuple[int, int], cos_theta: Value, thickness_nm: Value) -> Value:
     """A slice's read (sample.Atlas.sample): x = √cos θ·(w − 1), y over the thickness rows, clamped to the
     rect, one bilinear fetch."""
     x0, y0, w, h = read.rect
@@ -203,7 +225,7 @@ def slice_program(g, read: SliceRead, size: tuple, cos_theta, thickness_nm):
     return g.bilinear(read.image, size, x, y)
 
 
-def _warp(g, value, spacing: str, snell):
+def _warp(g: Graph, value: Value, spacing: str, snell: tuple[float, Value]) -> Value:
     """The coordinate in which an axis's nodes are uniform (grid/axis.py, _warp); ``snell`` carries η1 and
     cos θ1 for the admittance spacings, whose v² − (η1 sin θ1)² is (v − η1)(v + η1) + (η1 cos θ1)², as the
     includes write it (no cancellation near v = η1)."""
@@ -224,7 +246,7 @@ def _warp(g, value, spacing: str, snell):
     raise ValueError(f"axis spacing {spacing!r} is not one of uniform, sqrt, root4, admittance, sqrt-admittance")
 
 
-def _axis_coordinate(g, value, axis: dict, snell):
+def _axis_coordinate(g: Graph, value: Value, axis: dict[str, Any], snell: tuple[float, Value]) -> Value:
     """Node coordinate f = clamp(u, 0, 1)·(N − 1) of ``value`` on ``axis`` (docs/lut-format.md, Axes)."""
     if "corner" in axis:  # only the default LUTs zoom into the corner; scene and glTF bakes never do
         raise ValueError(
@@ -237,13 +259,21 @@ def _axis_coordinate(g, value, axis: dict, snell):
     return g.math("MULTIPLY", unit, int(axis["count"]) - 1)
 
 
-def _lower_node(g, f, count: int):
+def _lower_node(g: Graph, f: Value, count: int) -> tuple[Value, Value]:
     """(i, t): i = min(floor(f), N − 2), t = f − i (sample._lower_node)."""
     i = g.math("MINIMUM", g.math("FLOOR", f), count - 2)
     return i, g.math("SUBTRACT", f, i)
 
 
-def lut_program(g, read: LutRead, size: tuple, cos_theta, thickness_nm, eta3, kappa3):
+def lut_program(
+    g: Graph,
+    read: LutRead,
+    size: tuple[int, int],
+    cos_theta: Value,
+    thickness_nm: Value,
+    eta3: Value,
+    kappa3: Value,
+) -> Value:
     """A 4D LUT's linear read (sample.Lut._linear): bilinear in (cos θ, D) inside the tiles of η3 nodes
     a, a + 1 and κ3 nodes b, b + 1, then lerps by t_a and t_b."""
     ax_cos, ax_opd, ax_eta3, ax_kappa3 = read.axes
@@ -254,7 +284,7 @@ def lut_program(g, read: LutRead, size: tuple, cos_theta, thickness_nm, eta3, ka
     a, t_a = _lower_node(g, _axis_coordinate(g, eta3, ax_eta3, snell), int(ax_eta3["count"]))
     b, t_b = _lower_node(g, _axis_coordinate(g, kappa3, ax_kappa3, snell), int(ax_kappa3["count"]))
     n_cos, n_opd = int(ax_cos["count"]), int(ax_opd["count"])
-    corners = {}
+    corners: dict[tuple[int, int], Value] = {}
     for da in (0, 1):
         for db in (0, 1):  # x = tile column·N_cos + f_cos, y = tile row·N_opd + f_opd (layout.TileLayout)
             eta3_node, kappa3_node = g.math("ADD", a, float(da)), g.math("ADD", b, float(db))
@@ -267,7 +297,7 @@ def lut_program(g, read: LutRead, size: tuple, cos_theta, thickness_nm, eta3, ka
     return g.mix(lower, upper, t_b)
 
 
-def read_program(g, read, size: tuple, inputs: dict):
+def read_program(g: Graph, read: SliceRead | LutRead, size: tuple[int, int], inputs: dict[str, Value]) -> Value:
     """The read of ``read`` on the group inputs ``inputs`` (name → value)."""
     if isinstance(read, SliceRead):
         return slice_program(g, read, size, inputs["Cos Theta"], inputs["Thickness (nm)"])
@@ -276,7 +306,7 @@ def read_program(g, read, size: tuple, inputs: dict):
 
 # --- numpy: the programs evaluated (float64), for tests without Blender ---------------------------
 
-_NUMPY_OPS = {
+_NUMPY_OPS: dict[str, Callable[[Any, Any], Any]] = {
     "ADD": lambda a, b: a + b,
     "SUBTRACT": lambda a, b: a - b,
     "MULTIPLY": lambda a, b: a * b,
@@ -288,7 +318,7 @@ _NUMPY_OPS = {
 }
 
 
-def _np():
+def _np() -> ModuleType:  # numpy, imported when a program is evaluated, not when Blender loads this file
     import numpy
 
     return numpy
@@ -299,20 +329,20 @@ class NumpyGraph:
     Extend, rows bottom-up) but in float64. ``images`` maps a file name to its (height, width, 3) texels
     in scanline order, as lutbake reads them."""
 
-    def __init__(self, images: dict):
+    def __init__(self, images: dict[str, np.ndarray]):
         self.images = images
 
-    def math(self, op, a, b=None):
+    def math(self, op: str, a: Value, b: Value = None) -> np.ndarray:
         return _NUMPY_OPS[op](_np().asarray(a, float), None if b is None else _np().asarray(b, float))
 
-    def clamp01(self, a):
+    def clamp01(self, a: Value) -> np.ndarray:
         return _np().clip(a, 0.0, 1.0)
 
-    def mix(self, a, b, t):
+    def mix(self, a: Value, b: Value, t: Value) -> np.ndarray:
         t = _np().asarray(t, float)[..., None]
         return a * (1.0 - t) + b * t
 
-    def texel(self, image, u, v):
+    def texel(self, image: str, u: Value, v: Value) -> np.ndarray:
         np = _np()
         texels = self.images[image]
         height, width = texels.shape[:2]
@@ -320,11 +350,11 @@ class NumpyGraph:
         row_from_bottom = np.clip(np.floor(np.asarray(v) * height), 0, height - 1).astype(int)
         return texels[height - 1 - row_from_bottom, column].astype(float)
 
-    def bilinear(self, image, size, x, y):
+    def bilinear(self, image: str, size: tuple[int, int], x: Value, y: Value) -> np.ndarray:
         return bilinear_program(self, image, size, x, y)
 
 
-def evaluate(read, texels, inputs: dict):
+def evaluate(read: SliceRead | LutRead, texels: np.ndarray, inputs: dict[str, np.ndarray]) -> np.ndarray:
     """RGB (…, 3) that ``read``'s node group returns for ``inputs`` (name → array), evaluated by numpy."""
     height, width = texels.shape[:2]
     return read_program(NumpyGraph({read.image: texels}), read, (width, height), inputs)

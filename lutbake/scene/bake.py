@@ -16,21 +16,34 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.documents import load_json, read_text
-from lutbake.io.fileset import open_set, sha256_file
+from lutbake.io.fileset import FileSet, open_set, sha256_file
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
 from lutbake.scene.cache import SceneCache
 from lutbake.scene.jobs import refine_slice, tuned_lut
 from lutbake.scene.model import Scene
-from lutbake.scene.plan import ScenePlan, plan_scene
+from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
 from lutbake.tables.includes import atlas_includes, warn_texture_size
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from lutbake.scene.slices import Integrator
+
+    # ``progress(done, total, note)``: lutbake.io.progress's Meter, or no_progress.
+    Progress = Callable[[int, int | None, str], None]
+    # A computed or reused slice: its job, values (rows, columns, 3) and record.
+    SliceResult = tuple[SceneJob, np.ndarray, dict[str, Any]]
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
 
@@ -41,17 +54,21 @@ _MAX_MANIFEST_BYTES = 256 << 20
 
 @dataclass
 class SceneResult:
+    """What ``bake_scene`` did: the folder, the files it wrote, the jobs it computed and reused (ids),
+    whether the set was up to date, its wall seconds, what was not met and the device that ran."""
+
     out_dir: Path
-    written: list
-    computed: list
-    reused: list
+    written: list[Path]
+    computed: list[str]
+    reused: list[str]
     up_to_date: bool
     seconds: float
-    unmet: dict = field(default_factory=dict)  # material -> {de00_p99, de00_p99_bound}, where not met
+    # material -> {de00_p99, de00_p99_bound}, where not met
+    unmet: dict[str, dict[str, float]] = field(default_factory=dict)
     device: str | None = None  # the integrator's device, when a job was computed
 
 
-def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict:
+def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict[str, Path]:
     """Role -> path of every file of the scene's set (4D LUTs by job id)."""
     paths = {
         role: out / f"{scene.stem}{suffix}"
@@ -91,7 +108,12 @@ def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) 
 
 
 def bake_scene(
-    scene: Scene, out_dir, force: bool = False, backend: str = "auto", progress=no_progress, device=None
+    scene: Scene,
+    out_dir: str | PathLike[str],
+    force: bool = False,
+    backend: str = "auto",
+    progress: Progress = no_progress,
+    device: str | None = None,
 ) -> SceneResult:
     """Bake what ``scene`` needs into ``out_dir`` as one file set.
 
@@ -185,7 +207,14 @@ def _make_folder(out: Path) -> None:
         ) from None
 
 
-def _write_atlas(files, outputs: dict, scene: Scene, scene_hash: str, slices: list, entries: dict) -> dict:
+def _write_atlas(
+    files: FileSet,
+    outputs: dict[str, Path],
+    scene: Scene,
+    scene_hash: str,
+    slices: list[SliceResult],
+    entries: dict[str, dict[str, Any]],
+) -> dict[str, Any]:
     """The slices packed into the atlas (lutbake/tables/atlas.py), written into the set where there are any,
     and each slice's materials' manifest entries added to ``entries``; the packed atlas."""
     atlas = pack_atlas([values for _, values, _ in slices])
@@ -200,7 +229,9 @@ def _write_atlas(files, outputs: dict, scene: Scene, scene_hash: str, slices: li
     return atlas
 
 
-def _write_manifest(files, outputs: dict, manifest: dict, atlas: dict) -> dict:
+def _write_manifest(
+    files: FileSet, outputs: dict[str, Path], manifest: dict[str, Any], atlas: dict[str, Any]
+) -> dict[str, Any]:
     """The includes, then the manifest listing every other member's SHA-256 and sealed with its own
     hash, written into the set; the manifest."""
     for lang, text in atlas_includes(manifest, atlas).items():
@@ -215,24 +246,35 @@ def _write_manifest(files, outputs: dict, manifest: dict, atlas: dict) -> dict:
 class _JobRun:
     """Every job of a plan, from the cache or computed (and then cached): slice values and 4D LUTs."""
 
-    def __init__(self, plan: ScenePlan, cache: SceneCache, force: bool, backend: str, progress, device=None):
+    def __init__(
+        self,
+        plan: ScenePlan,
+        cache: SceneCache,
+        force: bool,
+        backend: str,
+        progress: Progress,
+        device: str | None = None,
+    ):
         self.plan, self.cache, self.force, self.backend, self.progress = plan, cache, force, backend, progress
         self.device_choice = device  # the OpenCL device asked for (``device`` below: the one that ran)
-        self.computed, self.reused, self.integrator = [], [], None
+        self.computed: list[str] = []
+        self.reused: list[str] = []
+        self.integrator: Integrator | None = None
 
     @property
     def device(self) -> str | None:
         """The integrator's device, when a job was computed (it is made only then)."""
         return None if self.integrator is None else self.integrator.device
 
-    def _integrator(self):
+    def _integrator(self) -> Integrator:
         if self.integrator is None:
             self.integrator = make_backend(self.backend, device=self.device_choice)
         return self.integrator
 
-    def all(self, out: Path, files) -> tuple:
+    def all(self, out: Path, files: FileSet) -> tuple[dict[str, dict[str, Any]], list[SliceResult]]:
         """(manifest entries of the 4D jobs' materials, [(job, values, record)] of the slices)."""
-        entries, slices = {}, []
+        entries: dict[str, dict[str, Any]] = {}
+        slices: list[SliceResult] = []
         for done, job in enumerate(self.plan.jobs):
             self.progress(done, len(self.plan.jobs), f"{job.id} ({job.kind}: {', '.join(job.materials)})")
             if job.kind == "slice":
@@ -242,7 +284,7 @@ class _JobRun:
                 entries.update({name: _lut_entry(job, record) for name in job.materials})
         return entries, slices
 
-    def _slice(self, job) -> tuple:
+    def _slice(self, job: SceneJob) -> tuple[np.ndarray, dict[str, Any]]:
         cached = None if self.force else self.cache.slice(job)
         if cached is not None:
             self.reused.append(job.id)
@@ -251,7 +293,7 @@ class _JobRun:
         self.computed.append(job.id)
         return values, self.cache.store_slice(job, values, record)
 
-    def _lut(self, job, out: Path, files) -> dict:
+    def _lut(self, job: SceneJob, out: Path, files: FileSet) -> dict[str, Any]:
         """The record of a ranged-base 4D LUT: reused when intact, else tuned and written."""
         path = out / f"{job.id}.exr"
         record = None if self.force else self.cache.lut(job, path, lut_members(path))
@@ -264,7 +306,7 @@ class _JobRun:
         return record
 
 
-def _lut_entry(job, record: dict) -> dict:
+def _lut_entry(job: SceneJob, record: dict[str, Any]) -> dict[str, Any]:
     return {
         "kind": "lut",
         "job": job.id,
@@ -276,7 +318,7 @@ def _lut_entry(job, record: dict) -> dict:
     }
 
 
-def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:
+def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]]) -> dict[str, Any]:
     manifest = {
         "format": MANIFEST_FORMAT,
         "format_version": 1,
@@ -290,17 +332,17 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict) -> dict:
     return manifest
 
 
-def _manifest_hash(manifest: dict) -> str:
+def _manifest_hash(manifest: dict[str, Any]) -> str:
     """SHA-256 of the manifest's content without this hash (sorted keys, compact JSON)."""
     body = {k: v for k, v in manifest.items() if k != "manifest_hash"}
     return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
 
 
-def _sealed(manifest: dict) -> dict:
+def _sealed(manifest: dict[str, Any]) -> dict[str, Any]:
     return {**manifest, "manifest_hash": _manifest_hash(manifest)}
 
 
-def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | None:
+def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, dict[str, float]] | None:
     """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
     it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
     try:
@@ -318,7 +360,7 @@ def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict) -> dict | N
         return None
 
 
-def _unmet(entries: dict) -> dict:
+def _unmet(entries: dict[str, dict[str, Any]]) -> dict[str, dict[str, float]]:
     """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
     return {
         name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}

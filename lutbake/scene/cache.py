@@ -14,13 +14,18 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from lutbake.io.documents import load_json, read_text
 from lutbake.io.fileset import sha256_file
 from lutbake.tables.lutfile import atomic_path, write_text_atomic
+
+if TYPE_CHECKING:
+    from lutbake.scene.plan import SceneJob
 
 __all__ = ["SceneCache", "MAX_RECORD_BYTES"]
 
@@ -32,13 +37,13 @@ _NOT_USABLE = (OSError, ValueError, EOFError, KeyError, TypeError)
 class SceneCache:
     """The cache folder of one output folder; ``slice``/``lut`` return None for anything not usable."""
 
-    def __init__(self, out: Path):
+    def __init__(self, out: Path | str):
         self.folder = Path(out) / ".lutbake-cache"
 
-    def paths(self, job) -> tuple:
+    def paths(self, job: SceneJob) -> tuple[Path, Path]:
         return self.folder / f"{job.id}.npy", self.folder / f"{job.id}.json"
 
-    def slice(self, job):
+    def slice(self, job: SceneJob) -> tuple[np.ndarray, dict[str, Any]] | None:
         """(values, record) of the job's slice entry when every check passes, else None."""
         npy, info = self.paths(job)
         try:
@@ -49,7 +54,7 @@ class SceneCache:
             return None
         return (values, record) if np.isfinite(values).all() else None
 
-    def store_slice(self, job, values: np.ndarray, record: dict) -> dict:
+    def store_slice(self, job: SceneJob, values: np.ndarray, record: dict[str, Any]) -> dict[str, Any]:
         """Write the slice's values and record (with the .npy's SHA-256); return the record."""
         self.folder.mkdir(exist_ok=True)
         npy, info = self.paths(job)
@@ -61,7 +66,7 @@ class SceneCache:
         write_text_atomic(info, json.dumps(record, indent=2) + "\n")
         return record
 
-    def lut(self, job, exr: Path, members):
+    def lut(self, job: SceneJob, exr: Path, members: Iterable[Path]) -> dict[str, Any] | None:
         """The record of a 4D job whose LUT set (``members``) is complete and whose EXR has the
         recorded hash, else None."""
         try:
@@ -71,12 +76,12 @@ class SceneCache:
             return None
         return record if ok else None
 
-    def store_lut(self, job, record: dict) -> None:
+    def store_lut(self, job: SceneJob, record: dict[str, Any]) -> None:
         self.folder.mkdir(exist_ok=True)
         write_text_atomic(self.paths(job)[1], json.dumps(record, indent=2) + "\n")
 
 
-def _record(path: Path) -> dict:
+def _record(path: Path) -> dict[str, Any]:
     """A cache record with integer counts, finite errors (p99, its bound, the searched max), whether the
     target was met, where the max is, and a SHA-256; raises otherwise."""
     info = load_json(read_text(path, "cache record", MAX_RECORD_BYTES), str(path))
@@ -92,7 +97,7 @@ def _record(path: Path) -> dict:
     return info
 
 
-def _read_npy(path: Path, shape: tuple, sha256: str) -> np.ndarray:
+def _read_npy(path: Path, shape: tuple[int, ...], sha256: str) -> np.ndarray:
     """The float64 array of ``shape`` in ``path``, refused (ValueError) before it is read when the
     header declares another shape, dtype or order, or the file's size does not match it, and after
     it is read when its bytes do not hash to ``sha256``."""

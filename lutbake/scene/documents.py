@@ -4,13 +4,15 @@ ground truth would take here) and `bake --scene`/`--gltf`'s summary of a bake.
 
 from __future__ import annotations
 
+from typing import Any
+
 from lutbake.scene.bake import SceneResult
 from lutbake.scene.model import Scene
 
 __all__ = ["plan_document", "bake_summary"]
 
 
-def plan_document(scene: Scene) -> dict:
+def plan_document(scene: Scene) -> dict[str, Any]:
     """`plan --json`: the scene's plan (``ScenePlan.describe``) with each job's ground-truth seconds at the
     rate measured now on this machine (``seconds_per_truth_point``), and for a glTF scene what each of its
     materials is served by (``gltf_materials``). Bakes nothing."""
@@ -27,7 +29,7 @@ def plan_document(scene: Scene) -> dict:
     return doc
 
 
-def bake_summary(result: SceneResult) -> dict:
+def bake_summary(result: SceneResult) -> dict[str, Any]:
     """`bake --scene --json`: the folder, whether it was up to date, the jobs computed and reused, the files
     written, wall seconds, the materials whose target was not met at the resolution cap, the device."""
     return {

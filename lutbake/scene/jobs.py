@@ -20,15 +20,18 @@ p99, the bound held, the searched max).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from lutbake.grid.spec import BakeSpec
 from lutbake.integrate.batch import fast_colours
 from lutbake.io.fileset import FileSet, sha256_file
 from lutbake.lut.bake import write_lut
-from lutbake.lut.sample import Atlas
+from lutbake.lut.sample import Atlas, Lut
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
@@ -45,8 +48,14 @@ from lutbake.quality.refine import (
 )
 from lutbake.quality.worstcase import SearchAxis
 from lutbake.scene.plan import MAX_SLICE_COUNT, SCORED_POINTS, SceneJob
-from lutbake.scene.slices import integrate_slice, slice_colour, slice_grid
+from lutbake.scene.slices import SliceStack, integrate_slice, slice_colour, slice_grid
 from lutbake.tables.atlas import slice_header
+
+if TYPE_CHECKING:
+    from lutbake.scene.slices import Integrator
+
+    # A slice's fixed uniform points and their colour by its integrator (``uniform_points``).
+    Uniform = tuple[FilmPoints, np.ndarray]
 
 __all__ = ["uniform_points", "refine_slice", "tuned_lut"]
 
@@ -55,7 +64,7 @@ _SEARCH_STARTS = 100  # the worst scored points of each kind a searched max star
 _LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
 
 
-def uniform_points(job: SceneJob, stack, integrator, seed: int = 0) -> tuple:
+def uniform_points(job: SceneJob, stack: SliceStack, integrator: Integrator, seed: int = 0) -> Uniform:
     """(film stacks, RGB) at the slice's fixed uniform points in (√cos θ, thickness), their colour by
     the slice's integrator (slices.slice_colour)."""
     rng = np.random.default_rng(seed)
@@ -72,17 +81,20 @@ class _ScoredSlice:
     atlas: Atlas
     de00_uniform: np.ndarray
     de00_centres: np.ndarray
-    centres: tuple  # (cos θ, thickness) of every cell centre, in the order of de00_centres
+    # (cos θ, thickness) of every cell centre, in the order of de00_centres
+    centres: tuple[np.ndarray, np.ndarray]
 
 
-def _slice_measure(job: SceneJob, stack, uniform, integrator):
+def _slice_measure(
+    job: SceneJob, stack: SliceStack, uniform: Uniform, integrator: Integrator
+) -> Callable[[tuple[int, ...], str], tuple[Trial, _ScoredSlice]]:
     """``refine``'s measure for a slice: integrated, stored, scored at the uniform points and at every cell
     centre (their colour from the grid of centres, slices.integrate_slice), held to the bound."""
     pts, truth = uniform
     s = job.scene
     stored = np.float16 if s.precision == "half" else np.float32
 
-    def measure(counts, label):
+    def measure(counts: tuple[int, ...], label: str) -> tuple[Trial, _ScoredSlice]:
         values = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space)
         header = {**slice_header(job, [0, 0, counts[0], counts[1]]), "materials": ["slice"]}
         atlas = Atlas(
@@ -102,7 +114,7 @@ def _slice_measure(job: SceneJob, stack, uniform, integrator):
     return measure
 
 
-def refine_slice(job: SceneJob, integrator) -> tuple:
+def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dict[str, Any]]:
     """The slice grown until its stored values meet the scene's target on `report`'s statistic at any
     seed, then its max searched: (values (rows, columns, 3) in float64, record)."""
     s = job.scene
@@ -113,6 +125,7 @@ def refine_slice(job: SceneJob, integrator) -> tuple:
         _slice_measure(job, stack, uniform, integrator), job.counts, s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT
     )
     best = result.artefact
+    assert isinstance(best, _ScoredSlice)  # what _slice_measure builds
     worst = _searched_slice(job, stack, uniform, best, integrator)
     record = {
         "counts": list(result.counts),
@@ -127,7 +140,9 @@ def refine_slice(job: SceneJob, integrator) -> tuple:
     return best.values, record
 
 
-def _searched_slice(job: SceneJob, stack, uniform, best: _ScoredSlice, integrator) -> dict:
+def _searched_slice(
+    job: SceneJob, stack: SliceStack, uniform: Uniform, best: _ScoredSlice, integrator: Integrator
+) -> dict[str, Any]:
     """The finished slice's searched max (measure.search_slice), climbed against its integrator from the
     worst scored points of each kind, its local maxima scored against the ground truth."""
     s = job.scene
@@ -137,14 +152,14 @@ def _searched_slice(job: SceneJob, stack, uniform, best: _ScoredSlice, integrato
     thickness = np.concatenate([uniform[0].thickness_nm[worst_u], best.centres[1][worst_c]])
     de = np.concatenate([best.de00_uniform[worst_u], best.de00_centres[worst_c]])
 
-    def proxy(points):
+    def proxy(points: FilmPoints) -> np.ndarray:
         return slice_colour(stack, points, job.thickness_nm, integrator, s.observer, s.space)
 
     header = best.atlas.meta["slices"][0]
     return search_slice(best.atlas, header, cos_t, thickness, de, SLICE_SEARCH_BUDGET, 0, proxy)
 
 
-def _constant_index_error(job: SceneJob, uniform, integrator) -> float | None:
+def _constant_index_error(job: SceneJob, uniform: Uniform, integrator: Integrator) -> float | None:
     """p99 ΔE00 if the slice's named materials were taken at their 550 nm index (what a constant-index
     LUT would show), at the uniform points; None without named materials."""
     film, base = job.key["film"], job.key["base"]
@@ -164,7 +179,9 @@ def _constant_index_error(job: SceneJob, uniform, integrator) -> float | None:
     return float(np.percentile(delta_e00(approx, truth, job.scene.observer, job.scene.space), 99))
 
 
-def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrator, device=None) -> dict:
+def tuned_lut(
+    job: SceneJob, path: Path, backend: str, files: FileSet, integrator: Integrator, device: str | None = None
+) -> dict[str, Any]:
     """Bake the 4D LUT at the smallest counts whose bound meets the target into ``files``: scored at
     `report`'s points of its domain (refine.tune), or along its ``base_path`` where the engine reads it
     only there (``_path_measure``, by ``integrator``); its record (counts, p99, the bound, whether the
@@ -180,6 +197,7 @@ def tuned_lut(job: SceneJob, path: Path, backend: str, files: FileSet, integrato
             frozen=frozen,
             max_rounds=_LUT_MAX_ROUNDS,
         )
+        assert isinstance(result.artefact, Lut)  # what _path_measure builds
         worst = points.searched(result.artefact, integrator)
     else:
         result = tune(
@@ -231,21 +249,23 @@ class _PathPoints:
     base uniform along the fraction of the path its F0 reaches (what the receipt scores: channel c of
     the colour is channel c of its own stack's)."""
 
-    spec: object
-    path: dict
+    spec: BakeSpec
+    path: dict[str, Any]
     single: FilmPoints
     single_at: np.ndarray  # the single stacks' positions along the path (node units)
-    channels: list
+    channels: list[FilmPoints]
     truth_single: np.ndarray
     truth_channels: np.ndarray
 
     @classmethod
-    def build(cls, spec, path: dict, integrator, n: int = REPORT_POINTS, seed: int = 0) -> "_PathPoints":
+    def build(
+        cls, spec: BakeSpec, path: dict[str, Any], integrator: Integrator, n: int = REPORT_POINTS, seed: int = 0
+    ) -> _PathPoints:
         rng = np.random.default_rng(seed)
         cos_t, opd = rng.uniform(0.0, 1.0, n) ** 2, rng.uniform(spec.axes[1].lo, spec.axes[1].hi, n)
         top = len(path["eta3"]) - 1.0
 
-        def along(at):
+        def along(at: np.ndarray) -> FilmPoints:
             return _path_stack(spec, path, cos_t, opd, at)
 
         single_at = rng.uniform(0.0, top * max(path["channel_reach"]), n)
@@ -256,7 +276,7 @@ class _PathPoints:
         truth = lambda stack: integrator.evaluate(spec, stack)  # noqa: E731 - the bake's direct rule
         return cls(spec, path, single, single_at, channels, truth(single), _composed(truth, channels))
 
-    def errors(self, lut) -> tuple:
+    def errors(self, lut: Lut) -> tuple[np.ndarray, np.ndarray]:
         """ΔE00 of ``lut`` at the single-base points and at the per-channel composed points."""
         space, observer = self.spec.space, self.spec.observer
         return (
@@ -264,7 +284,7 @@ class _PathPoints:
             delta_e00(_composed(lut.sample, self.channels), self.truth_channels, observer, space),
         )
 
-    def searched(self, lut, integrator) -> dict:
+    def searched(self, lut: Lut, integrator: Integrator) -> dict[str, Any]:
         """The max along the path (one base for every channel) over (√cos θ, D, position along the path),
         climbed against the bake's direct rule from the worst single-base points, its local maxima scored
         against the ground truth (measure.search_stacks)."""
@@ -272,7 +292,7 @@ class _PathPoints:
         cos_axis, opd_axis = self.spec.axes[:2]
         top = len(self.path["eta3"]) - 1.0
 
-        def stack_at(unit):
+        def stack_at(unit: np.ndarray) -> FilmPoints:
             return _path_stack(
                 self.spec, self.path, cos_axis.from_unit(unit[:, 0]), opd_axis.from_unit(unit[:, 1]), unit[:, 2] * top
             )
@@ -308,7 +328,9 @@ class _PathPoints:
         }
 
 
-def _path_stack(spec, path: dict, cos_theta, opd_nm, at) -> FilmPoints:
+def _path_stack(
+    spec: BakeSpec, path: dict[str, Any], cos_theta: np.ndarray, opd_nm: np.ndarray, at: np.ndarray
+) -> FilmPoints:
     """Film stacks of ``spec``'s film whose base lies at position ``at`` (node units) along ``path``."""
     nodes = np.arange(len(path["eta3"]))
     return FilmPoints.build(
@@ -321,12 +343,14 @@ def _path_stack(spec, path: dict, cos_theta, opd_nm, at) -> FilmPoints:
     )
 
 
-def _composed(colour, stacks) -> np.ndarray:
+def _composed(colour: Callable[[FilmPoints], np.ndarray], stacks: list[FilmPoints]) -> np.ndarray:
     """RGB whose channel c is channel c of ``colour(stacks[c])``."""
     return np.stack([colour(stack)[:, c] for c, stack in enumerate(stacks)], axis=-1)
 
 
-def _path_measure(spec, points: _PathPoints, integrator):
+def _path_measure(
+    spec: BakeSpec, points: _PathPoints, integrator: Integrator
+) -> Callable[[tuple[int, ...], str], tuple[Trial, Lut]]:
     """``refine``'s measure for a 4D LUT read along a base path: baked in memory (refine.trial_lut), scored
     at both kinds of ``points`` and held to the single-base points' ``p99_bound`` and the per-channel
     points' p99. Not their bound: a channel's base at the curve's F0 → 0 end (η3 → η1, κ3 → 0) sits by the
@@ -334,7 +358,7 @@ def _path_measure(spec, points: _PathPoints, integrator):
     where one channel is that dark the composed colour's ΔE00 magnifies it, and the per-channel 99.73rd
     percentile stayed at 1.26 for (η3, κ3) counts 16² and 32² (IridescenceAbalone) while its p99 fell."""
 
-    def measure(counts, label):
+    def measure(counts: tuple[int, ...], label: str) -> tuple[Trial, Lut]:
         lut, nbytes, seconds = trial_lut(spec, counts, integrator)
         single, channels = points.errors(lut)
         stats = {

@@ -14,8 +14,10 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, TypeAlias
 
 from lutbake.io.names import shader_identifier
 
@@ -23,6 +25,12 @@ __all__ = ["Scene", "SceneMaterial", "check_material_names", "MATERIAL_NAME"]
 
 # Names become shader identifiers (LUTBAKE_<SCENE>_<NAME>): ASCII only, as GLSL and HLSL allow.
 MATERIAL_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,63}")
+# A film: its index η2, or a named (dispersive) dielectric.
+Film: TypeAlias = float | str
+# A base: (η3, κ3), a named material, or ((η3 lo, hi), (κ3 lo, hi)) ranges.
+Base: TypeAlias = tuple[float, float] | str | tuple[tuple[float, float], tuple[float, float]]
+# A ranged base's curve: (η3 nodes, κ3 nodes, the fraction of it each channel reaches).
+BasePath: TypeAlias = tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
 
 
 @dataclass(frozen=True)
@@ -35,17 +43,17 @@ class SceneMaterial:
     curve from its first node): its 4D LUT is then scored there, not over the whole box."""
 
     name: str
-    film: object
-    thickness_nm: tuple
-    base: object
-    origin: dict = field(default_factory=dict, compare=False, hash=False, repr=False)
-    base_path: tuple | None = None  # ranged bases only: (η3 nodes, κ3 nodes, channel reach) the engine reads
+    film: Film
+    thickness_nm: tuple[float, float]
+    base: Base
+    origin: Mapping[str, object] = field(default_factory=dict, compare=False, hash=False, repr=False)
+    base_path: BasePath | None = None  # ranged bases only: (η3 nodes, κ3 nodes, channel reach) the engine reads
 
     @property
     def base_is_range(self) -> bool:
         return isinstance(self.base, tuple) and isinstance(self.base[0], tuple)
 
-    def slice_key(self) -> dict:
+    def slice_key(self) -> dict[str, Any]:
         """Everything the material's pixels depend on (materials equal here share a slice)."""
         key = {"film": self.film, "thickness_nm": list(self.thickness_nm), "base": json.loads(json.dumps(self.base))}
         if self.base_path is not None:
@@ -70,9 +78,9 @@ class Scene:
     eta1: float
     precision: str
     max_de: float
-    materials: tuple
-    source: dict | None = field(default=None, compare=False)  # the source's manifest section
-    inputs: tuple = field(default=(), compare=False)  # files the source read besides ``path``
+    materials: tuple[SceneMaterial, ...]
+    source: dict[str, Any] | None = field(default=None, compare=False)  # the source's manifest section
+    inputs: tuple[str, ...] = field(default=(), compare=False)  # files the source read besides ``path``
 
     @property
     def file_name(self) -> str:
@@ -84,7 +92,7 @@ class Scene:
         """The name of the scene's outputs (SCENE.exr, .json, .glsl, .hlsl)."""
         return Path(self.path).stem
 
-    def settings_key(self) -> dict:
+    def settings_key(self) -> dict[str, str | float]:
         return {
             "space": self.space,
             "observer": self.observer,
@@ -93,17 +101,17 @@ class Scene:
             "max_de": self.max_de,
         }
 
-    def hash_of(self, *parts) -> str:
+    def hash_of(self, *parts: object) -> str:
         from lutbake import __version__
 
         text = json.dumps([self.settings_key(), *parts, __version__], sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()
 
 
-def check_material_names(names, error) -> None:
+def check_material_names(names: Iterable[str], error: Callable[[str, str], Exception]) -> None:
     """Refuse names that are no shader identifier or that collide once sanitised (a-b and A_B);
     ``error(name, message)`` returns the exception to raise."""
-    seen = {}
+    seen: dict[str, str] = {}
     for name in names:
         if not MATERIAL_NAME.fullmatch(name):
             raise error(

@@ -14,6 +14,7 @@ import json
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -47,10 +48,10 @@ class SceneJob:
     """A 2D (cos θ, thickness) slice or a 4D LUT serving one or more materials."""
 
     kind: str  # "slice" or "lut"
-    key: dict
-    materials: list
+    key: dict[str, Any]
+    materials: list[str]
     scene: Scene = field(repr=False)
-    counts: tuple = ()
+    counts: tuple[int, ...] = ()
 
     @cached_property
     def hash(self) -> str:
@@ -61,7 +62,7 @@ class SceneJob:
         return f"{self.kind}-{self.hash[:12]}"
 
     @property
-    def thickness_nm(self) -> tuple:
+    def thickness_nm(self) -> tuple[float, float]:
         return tuple(self.key["thickness_nm"])
 
     @property
@@ -81,7 +82,7 @@ class SceneJob:
         film = self.key["film"]
         return float(np.max(material(film).index(_VISIBLE_NM)[0])) if isinstance(film, str) else float(film)
 
-    def bytes_estimate(self, counts=None) -> int:
+    def bytes_estimate(self, counts: tuple[int, ...] | None = None) -> int:
         per_texel = 6 if self.scene.precision == "half" else 12
         return int(np.prod(counts or self.counts)) * per_texel
 
@@ -100,21 +101,23 @@ class SceneJob:
         return BakeSpec(eta2=eta2, eta1=s.eta1, axes=axes, space=s.space, observer=s.observer, precision=s.precision)
 
 
-def _widen(lo, hi):
+def _widen(lo: float, hi: float) -> tuple[float, float]:
     return (lo, hi) if hi > lo else (lo, lo + 1e-6 * max(1.0, abs(lo)))
 
 
 @dataclass
 class ScenePlan:
-    scene: Scene
-    jobs: list
+    """A scene and the jobs that serve its materials, in material order (``plan_scene``)."""
 
-    def describe(self, seconds_per_truth_point=None) -> dict:
+    scene: Scene
+    jobs: list[SceneJob]
+
+    def describe(self, seconds_per_truth_point: float | None = None) -> dict[str, Any]:
         """Jobs, axes, starting counts and bytes (slices grow until their target holds); with a
         measured ``seconds_per_truth_point`` (``truth_rate``), each job's ground-truth seconds."""
         rows = []
         for job in self.jobs:
-            row = {
+            row: dict[str, Any] = {
                 "id": job.id,
                 "kind": job.kind,
                 "materials": job.materials,
@@ -141,7 +144,7 @@ class ScenePlan:
         }
 
 
-def _initial_counts(job: SceneJob) -> tuple:
+def _initial_counts(job: SceneJob) -> tuple[int, ...]:
     if job.kind == "lut":
         return tuple(2 if i == 1 and job.fixed_thickness else c for i, c in enumerate(TUNE_START_COUNTS))
     if job.fixed_thickness:
@@ -178,7 +181,7 @@ def plan_scene(scene: Scene) -> ScenePlan:
     >>> [(job.kind, job.materials) for job in lutbake.plan_scene(lutbake.load_scene("films.toml")).jobs]
     [('slice', ['soap', 'bubble']), ('lut', ['coating'])]
     """
-    jobs = {}
+    jobs: dict[str, SceneJob] = {}
     for m in scene.materials:
         kind = "lut" if m.base_is_range else "slice"
         key = m.slice_key()
@@ -221,7 +224,7 @@ def truth_rate(plan: ScenePlan, points: int = 16) -> float:
 
     rng = np.random.default_rng(0)
 
-    def sample(job, n):
+    def sample(job: SceneJob, n: int) -> None:
         cos_t, d = rng.uniform(0.0, 1.0, n) ** 2, rng.uniform(*job.thickness_nm, n)
         if job.kind == "slice":
             pts = job.stack().points(cos_t, d)

@@ -8,8 +8,11 @@ folder whose report files would overwrite the input, a file that is none of the 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
+from typing import Any
 
 from lutbake.io.fileset import refuse_overwriting_inputs
 from lutbake.io.progress import no_progress
@@ -22,7 +25,9 @@ __all__ = ["FileReport", "open_report", "GLTF_RECEIPT_POINTS"]
 GLTF_RECEIPT_POINTS = 1000  # at most this many points per part of a glTF material's receipt
 
 
-def open_report(path, out_dir=None, max_de: float | None = None) -> FileReport:
+def open_report(
+    path: str | PathLike[str], out_dir: str | PathLike[str] | None = None, max_de: float | None = None
+) -> FileReport:
     """The report of the file at ``path``, checked and its table loaded (``FileReport.run`` scores it).
     ``out_dir``: the folder to write it into; ``max_de``: the p99 ΔE00 gate (a LUT's or an atlas's).
     ParameterError for a ``max_de`` not > 0 or an ``out_dir`` where the report would overwrite ``path``;
@@ -45,9 +50,9 @@ def open_report(path, out_dir=None, max_de: float | None = None) -> FileReport:
 class FileReport:
     """A file to report: ``table`` its Lut or Atlas (None for a glTF bake's manifest)."""
 
-    path: str
+    path: str | PathLike[str]
     table: Lut | Atlas | None
-    out_dir: str | None = None
+    out_dir: str | PathLike[str] | None = None
     max_de: float | None = None
 
     @property
@@ -61,9 +66,9 @@ class FileReport:
         seed: int = 0,
         approximations: bool = True,
         search_budget: int | None = None,
-        progress=no_progress,
-        device=None,
-    ) -> dict:
+        progress: Callable[[int, int | None, str], None] = no_progress,
+        device: str | None = None,
+    ) -> dict[str, Any]:
         """The report's document, written into ``out_dir`` when given: a glTF bake's receipts (at most
         GLTF_RECEIPT_POINTS points per part; receipts.json and .html), or the summary of an atlas
         (``atlas_summary``) or a LUT (``lut_summary``: with ``approximations``, the stand-in truth of its
@@ -79,7 +84,7 @@ class FileReport:
         from lutbake.quality.summaries import atlas_summary, lut_summary
 
         budget = {"search_budget": search_budget} if search_budget else {}
-        if self.kind == "atlas":
+        if isinstance(self.table, Atlas):  # kind 'atlas'
             return atlas_summary(self.table, self.path, n_points, seed, self.out_dir, self.max_de, **budget)
         return lut_summary(
             self.path,

@@ -28,14 +28,24 @@ converged integration, which shares none of this code.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, TypeAlias
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.physics.materials import material
 from lutbake.physics.optics import normal_admittance, round_trip_amplitude
 from lutbake.physics.points import MAX_INDEX, MAX_OPD_NM, FilmPoints
 from lutbake.spectral.reference import spectral_reflectance, subset
-from lutbake.spectral.rules import WAVENUMBER_SPAN_PER_NM, rule_ladder
+from lutbake.spectral.rules import WAVENUMBER_SPAN_PER_NM, RuleLadder, SpectralRule, rule_ladder
+
+if TYPE_CHECKING:
+    from lutbake.integrate.numpy_path import NumpyBackend
+    from lutbake.integrate.opencl import OpenCLBackend
+
+    # What integrate.opencl.backend returns: the OpenCL kernels, or numpy where no device runs them.
+    Integrator: TypeAlias = OpenCLBackend | NumpyBackend
 
 __all__ = ["SliceStack", "slice_grid", "integrate_slice", "slice_colour"]
 
@@ -50,27 +60,30 @@ _PROBE_COS = np.array([0.01, 0.25, 0.5, 0.75, 1.0])
 class SliceStack:
     """The fixed part of a slice's film stack: ambient η1, film (η2 or a name), base ((η3, κ3) or a name)."""
 
-    def __init__(self, eta1: float, film, base):
+    def __init__(self, eta1: float, film: float | str, base: tuple[float, float] | str):
         self.eta1, self.film, self.base = float(eta1), film, base
-        self.material_levels = {}  # (thickness range, observer, space) -> _material_level, found once
+        # (thickness range, observer, space) -> _material_level, found once
+        self.material_levels: dict[tuple[tuple[float, ...], str, str], int] = {}
 
     @property
     def dispersive(self) -> bool:
         return isinstance(self.film, str) or isinstance(self.base, str)
 
-    def ladder(self, observer: str, space: str):
+    def ladder(self, observer: str, space: str) -> RuleLadder:
         """The rule ladder of this stack: its rules cut at the kinks of its materials' spectra."""
         named = [material(m) for m in (self.film, self.base) if isinstance(m, str)]
-        knots = sorted(set().union(*(m.knots_nm for m in named)))
+        knots = tuple(sorted(set().union(*(m.knots_nm for m in named))))
         return rule_ladder(observer=observer, space=space, knots_nm=knots)
 
-    def points(self, cos_theta, thickness_nm) -> FilmPoints:
+    def points(self, cos_theta: ArrayLike, thickness_nm: ArrayLike) -> FilmPoints:
         film = {"film": self.film} if isinstance(self.film, str) else {"eta2": self.film}
         base = {"base": self.base} if isinstance(self.base, str) else {"eta3": self.base[0], "kappa3": self.base[1]}
         return FilmPoints.build(eta1=self.eta1, cos_theta=cos_theta, thickness_nm=thickness_nm, **film, **base)
 
 
-def slice_grid(counts, thickness_nm, centres: bool = False) -> tuple:
+def slice_grid(
+    counts: tuple[int, ...], thickness_nm: tuple[float, float], centres: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """(cos θ values, thickness values in nm) of a slice with ``counts`` = (n_cos, n_thickness): its nodes,
     uniform in √cos θ over [0, 1] and in thickness over ``thickness_nm`` (one row at the lower end when
     n_thickness is 1), or with ``centres`` the centres of its cells in those coordinates (where bilinear
@@ -85,7 +98,13 @@ def slice_grid(counts, thickness_nm, centres: bool = False) -> tuple:
 
 
 def integrate_slice(
-    stack: SliceStack, counts, thickness_nm, integrator, observer: str, space: str, centres: bool = False
+    stack: SliceStack,
+    counts: tuple[int, ...],
+    thickness_nm: tuple[float, float],
+    integrator: Integrator,
+    observer: str,
+    space: str,
+    centres: bool = False,
 ) -> np.ndarray:
     """RGB (n_thickness, n_cos, 3) in float64 on the slice grid, or with ``centres`` at its cells'
     centres (max(n_thickness − 1, 1), n_cos − 1, 3) (``slice_grid``; the module docstring gives the path)."""
@@ -98,7 +117,12 @@ def integrate_slice(
 
 
 def slice_colour(
-    stack: SliceStack, points: FilmPoints, thickness_nm, integrator, observer: str, space: str
+    stack: SliceStack,
+    points: FilmPoints,
+    thickness_nm: tuple[float, float],
+    integrator: Integrator,
+    observer: str,
+    space: str,
 ) -> np.ndarray:
     """RGB (P, 3) of ``stack`` at any ``points`` of its slice (thickness within ``thickness_nm``) by the
     direct quadrature, each point at its fringe level and at least the slice's material floor: what a
@@ -111,7 +135,7 @@ def slice_colour(
     return _direct_per_wavelength(stack, points, stack.material_levels[key], integrator, observer, space)
 
 
-def _pinned_axis(name: str, value: float, top: float, partner: float | None = None) -> tuple:
+def _pinned_axis(name: str, value: float, top: float, partner: float | None = None) -> tuple[Axis, int]:
     """(two-node Axis with ``value`` exactly at one node, that node's index). The other node is
     ``partner`` when given and distinct, else ``value`` nudged up (down at the domain's top)."""
     if partner is not None and partner != value:
@@ -123,7 +147,7 @@ def _pinned_axis(name: str, value: float, top: float, partner: float | None = No
     return Axis(name, value - step, value, 2), 1
 
 
-def _grid_axis(name: str, values, top: float, spacing: str = "uniform") -> tuple:
+def _grid_axis(name: str, values: np.ndarray, top: float, spacing: str = "uniform") -> tuple[Axis, slice]:
     """(Axis whose nodes are ``values`` — uniform in ``spacing``'s coordinate —, the slice of them): a
     single value is pinned (``_pinned_axis``) and its node alone is taken."""
     if values.size == 1:
@@ -132,7 +156,9 @@ def _grid_axis(name: str, values, top: float, spacing: str = "uniform") -> tuple
     return Axis(name, float(values[0]), float(values[-1]), values.size, spacing), slice(None)
 
 
-def _kernel_tile(stack, cos_t, thickness, integrator, observer, space) -> np.ndarray:
+def _kernel_tile(
+    stack: SliceStack, cos_t: np.ndarray, thickness: np.ndarray, integrator: Integrator, observer: str, space: str
+) -> np.ndarray:
     eta2 = float(stack.film)
     # The η3 tile baked beside the slice's is a base matching the film (r23 = 0 at κ3 = 0): a one-term series.
     eta3_axis, i_eta3 = _pinned_axis("eta3", float(stack.base[0]), MAX_INDEX, partner=eta2)
@@ -150,7 +176,7 @@ def _kernel_tile(stack, cos_t, thickness, integrator, observer, space) -> np.nda
 
 
 def _direct_per_wavelength(
-    stack: SliceStack, points: FilmPoints, floor: int, integrator, observer: str, space: str
+    stack: SliceStack, points: FilmPoints, floor: int, integrator: Integrator, observer: str, space: str
 ) -> np.ndarray:
     """RGB (P, 3) by the direct quadrature with per-node indices (dispersive stacks), at rule levels
     no lower than ``floor``."""
@@ -163,7 +189,7 @@ def _direct_per_wavelength(
     return out
 
 
-def _fringe_levels(stack: SliceStack, points: FilmPoints, ladder) -> np.ndarray:
+def _fringe_levels(stack: SliceStack, points: FilmPoints, ladder: RuleLadder) -> np.ndarray:
     """The ladder level each point's fringes need: cycles at the film's largest index, |r21·r23| at
     its largest over the visible (both per distinct cos θ: the stack is fixed)."""
     cos_values, row = np.unique(points.cos_theta, return_inverse=True)
@@ -175,7 +201,9 @@ def _fringe_levels(stack: SliceStack, points: FilmPoints, ladder) -> np.ndarray:
     return ladder.level(cycles, finesse[row])
 
 
-def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
+def _material_level(
+    stack: SliceStack, thickness_nm: tuple[float, float], integrator: Integrator, ladder: RuleLadder
+) -> int:
     """The coarsest floor that resolves the materials' own spectra (their tables' kinks, which the
     fringe rule does not see): at probe texels spread over the slice (the thinnest and thickest film
     at five angles), each at the level a texel there gets — its fringe level or the floor, the
@@ -184,9 +212,9 @@ def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
     cos_t, d = np.meshgrid(_PROBE_COS, thickness_nm)
     probes = stack.points(cos_t.ravel(), d.ravel())
     fringe, top = _fringe_levels(stack, probes, ladder), len(ladder.counts) - 1
-    colours = {}  # level -> RGB of every probe by that level's rule
+    colours: dict[int, np.ndarray] = {}  # level -> RGB of every probe by that level's rule
 
-    def colour(level):
+    def colour(level: int) -> np.ndarray:
         if level not in colours:
             colours[level] = _rule_colour(stack, probes, ladder.rule(level), integrator)
         return colours[level]
@@ -200,7 +228,7 @@ def _material_level(stack: SliceStack, thickness_nm, integrator, ladder) -> int:
     return top
 
 
-def _rule_colour(stack: SliceStack, points: FilmPoints, rule, integrator) -> np.ndarray:
+def _rule_colour(stack: SliceStack, points: FilmPoints, rule: SpectralRule, integrator: Integrator) -> np.ndarray:
     """RGB (P, 3) of ``stack`` at ``points`` by one rule, indices per node: summed by the kernel on the
     device (numpy without OpenCL)."""
     kernel = getattr(integrator, "stack_colour", None)

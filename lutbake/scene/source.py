@@ -8,13 +8,19 @@ line prints one line each.
 
 from __future__ import annotations
 
+from os import PathLike
+
 from lutbake.errors import ParameterError
 from lutbake.scene.model import Scene
 
 __all__ = ["load_scene_source", "source_warnings"]
 
 
-def load_scene_source(scene_path=None, gltf_path=None, metal_mapping: str | None = None) -> Scene:
+def load_scene_source(
+    scene_path: str | PathLike[str] | None = None,
+    gltf_path: str | PathLike[str] | None = None,
+    metal_mapping: str | None = None,
+) -> Scene:
     """The scene model from exactly one of ``scene_path`` (TOML) and ``gltf_path`` (.gltf/.glb, its metals
     mapped by ``metal_mapping``: 'fitted' (default), 'threejs' or a JSON file naming a lutbake material per
     glTF material). ParameterError for none or both, or a ``metal_mapping`` without a glTF asset.
@@ -34,10 +40,11 @@ def load_scene_source(scene_path=None, gltf_path=None, metal_mapping: str | None
         return load_scene(scene_path)
     from lutbake.scene.gltf.materials import load_gltf_scene
 
+    assert gltf_path  # one of the two, checked above
     return load_gltf_scene(gltf_path, metal_mapping or "fitted")
 
 
-def source_warnings(scene: Scene) -> list:
+def source_warnings(scene: Scene) -> list[str]:
     """What the source could not honour, one line each naming the file: a glTF asset's warnings, then each
     material's (none for a TOML scene)."""
     if scene.source is None:

@@ -9,13 +9,16 @@ found only when a message needs them (a scan per field would make 10^5 materials
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Collection
+from os import PathLike
 from pathlib import Path
+from typing import Any
 
 from lutbake.io.documents import load_toml, read_text
 from lutbake.physics.colorimetry import OBSERVERS, SPACES
 from lutbake.physics.materials import material
 from lutbake.physics.points import check_value, dielectric_film, inside_domain
-from lutbake.scene.model import Scene, SceneMaterial, check_material_names
+from lutbake.scene.model import Base, Film, Scene, SceneMaterial, check_material_names
 
 __all__ = ["load_scene", "MAX_SCENE_BYTES"]
 
@@ -65,7 +68,7 @@ class _Where:
         return f"{self.loc.where(self.table, self.key)}: {self.table}.{self.key}"
 
 
-def load_scene(path) -> Scene:
+def load_scene(path: str | PathLike[str]) -> Scene:
     """Parse and validate a scene manifest (TOML, docs/scene.md).
 
     Parameters
@@ -102,23 +105,23 @@ def load_scene(path) -> Scene:
     >>> [m.name for m in scene.materials], scene.max_de
     (['soap', 'oxide'], 1.0)
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"scene {str(path)!r} does not exist")
-    text = read_text(path, "scene", MAX_SCENE_BYTES)
-    loc = _Locator(str(path), text)
-    doc = load_toml(text, str(path))
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f"scene {str(file)!r} does not exist")
+    text = read_text(file, "scene", MAX_SCENE_BYTES)
+    loc = _Locator(str(file), text)
+    doc = load_toml(text, str(file))
     unknown = set(doc) - {"scene", "materials"}
     if unknown:
         key = sorted(unknown)[0]
         raise ValueError(
-            f"{path}:{_top_line(loc, key)}: unknown table or key {key!r}: allowed [scene], [materials.NAME]"
+            f"{file}:{_top_line(loc, key)}: unknown table or key {key!r}: allowed [scene], [materials.NAME]"
         )
     space, observer, precision, eta1, max_de = _settings(loc, doc.get("scene", {}))
-    return Scene(str(path), space, observer, eta1, precision, max_de, _materials(loc, doc.get("materials", {})))
+    return Scene(str(file), space, observer, eta1, precision, max_de, _materials(loc, doc.get("materials", {})))
 
 
-def _settings(loc, settings) -> tuple:
+def _settings(loc: _Locator, settings: Any) -> tuple[str, str, str, float, float]:
     """The ``[scene]`` table's (space, observer, precision, η1, max_de), each defaulted where absent."""
     _no_unknown(loc, "scene", settings, _SCENE_KEYS)
     return (
@@ -130,7 +133,7 @@ def _settings(loc, settings) -> tuple:
     )
 
 
-def _materials(loc, materials) -> tuple:
+def _materials(loc: _Locator, materials: Any) -> tuple[SceneMaterial, ...]:
     """The ``[materials.NAME]`` tables, each a SceneMaterial, in file order (at least one, names valid)."""
     if not isinstance(materials, dict):
         raise ValueError(
@@ -143,14 +146,14 @@ def _materials(loc, materials) -> tuple:
     return tuple(_material(loc, name, body) for name, body in materials.items())
 
 
-def _top_line(loc, key):
+def _top_line(loc: _Locator, key: str) -> int:
     for i, line in enumerate(loc.lines):
         if re.match(r"^\s*\[?\s*" + re.escape(key) + r"\b", line):
             return i + 1
     return 1
 
 
-def _no_unknown(loc, table, body, allowed):
+def _no_unknown(loc: _Locator, table: str, body: Any, allowed: Collection[str]) -> None:
     if not isinstance(body, dict):
         raise loc.error(table, None, f"{table} must be a table")
     for key in body:
@@ -158,13 +161,13 @@ def _no_unknown(loc, table, body, allowed):
             raise loc.error(table, key, f"unknown field {table}.{key}: allowed {', '.join(sorted(allowed))}")
 
 
-def _choice(loc, table, key, value, allowed):
+def _choice(loc: _Locator, table: str, key: str, value: Any, allowed: Collection[str]) -> str:
     if value not in allowed:
         raise loc.error(table, key, f"{table}.{key} = {value!r} is not one of {', '.join(allowed)}")
     return value
 
 
-def _number(loc, table, key, value, domain):
+def _number(loc: _Locator, table: str, key: str, value: Any, domain: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise loc.error(table, key, f"{table}.{key} = {value!r} is not a number")
     if not inside_domain(domain, value):  # a scalar test: an array per value cost 10x (10^5 materials)
@@ -175,7 +178,7 @@ def _number(loc, table, key, value, domain):
     return float(value)
 
 
-def _range_or_number(loc, table, key, value, domain):
+def _range_or_number(loc: _Locator, table: str, key: str, value: Any, domain: str) -> tuple[float, float]:
     """A number, or [lo, hi] with lo <= hi; returns (lo, hi)."""
     if isinstance(value, list):
         if len(value) != 2:
@@ -188,7 +191,7 @@ def _range_or_number(loc, table, key, value, domain):
     return v, v
 
 
-def _named(loc, table, key, name, lookup=material):
+def _named(loc: _Locator, table: str, key: str, name: Any, lookup: Callable[[str], object] = material) -> str:
     if not isinstance(name, str):
         raise loc.error(table, key, f"{table}.{key} = {name!r} is not a material name")
     try:
@@ -198,31 +201,32 @@ def _named(loc, table, key, name, lookup=material):
     return name
 
 
-def _material(loc, name, body) -> SceneMaterial:
+def _material(loc: _Locator, name: str, body: Any) -> SceneMaterial:
     table = f"materials.{name}"
     _no_unknown(loc, table, body, _MATERIAL_KEYS)
     for key in ("film", "thickness_nm", "base"):
         if key not in body:
             raise loc.error(table, None, f"{table} is missing the field {key!r}")
-    film = body["film"]
-    film = (
-        _named(loc, table, "film", film, dielectric_film)
-        if isinstance(film, str)
-        else _number(loc, table, "film", film, "eta2")
+    given_film = body["film"]
+    film: Film = (
+        _named(loc, table, "film", given_film, dielectric_film)
+        if isinstance(given_film, str)
+        else _number(loc, table, "film", given_film, "eta2")
     )
     thickness = _range_or_number(loc, table, "thickness_nm", body["thickness_nm"], "thickness_nm")
-    base = body["base"]
-    if isinstance(base, str):
-        base = _named(loc, table, "base", base)
-    elif isinstance(base, dict):
+    given = body["base"]
+    base: Base
+    if isinstance(given, str):
+        base = _named(loc, table, "base", given)
+    elif isinstance(given, dict):
         sub = f"{table}.base"
-        for key in base:
+        for key in given:
             if key not in _BASE_KEYS:
                 raise loc.error(table, "base", f"unknown field {sub}.{key}: allowed eta3, kappa3")
-        if "eta3" not in base:
+        if "eta3" not in given:
             raise loc.error(table, "base", f"{sub} is missing the field 'eta3'")
-        eta3 = _range_or_number(loc, table, "eta3", base["eta3"], "eta3")
-        kappa3 = _range_or_number(loc, table, "kappa3", base.get("kappa3", 0.0), "kappa3")
+        eta3 = _range_or_number(loc, table, "eta3", given["eta3"], "eta3")
+        kappa3 = _range_or_number(loc, table, "kappa3", given.get("kappa3", 0.0), "kappa3")
         ranged = eta3[0] != eta3[1] or kappa3[0] != kappa3[1]
         if ranged and isinstance(film, str):
             raise loc.error(
@@ -230,6 +234,6 @@ def _material(loc, name, body) -> SceneMaterial:
             )
         base = (eta3, kappa3) if ranged else (eta3[0], kappa3[0])
     else:
-        base = (_number(loc, table, "base", base, "eta3"), 0.0)
-    origin = {key: _Where(loc, table, key) for key in _MATERIAL_KEYS}
+        base = (_number(loc, table, "base", given, "eta3"), 0.0)
+    origin: dict[str, object] = {key: _Where(loc, table, key) for key in _MATERIAL_KEYS}
     return SceneMaterial(name, film, thickness, base, origin)

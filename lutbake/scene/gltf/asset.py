@@ -18,8 +18,11 @@ hand it the JSON alone), one that is present but shorter than its byteLength is 
 
 from __future__ import annotations
 
+import builtins
 import struct
+from os import PathLike
 from pathlib import Path
+from typing import IO, Any
 
 from lutbake.io.documents import load_json, read_text
 
@@ -33,9 +36,9 @@ _GLB_MAGIC, _JSON_CHUNK, _BIN_CHUNK = 0x46546C67, 0x4E4F534A, 0x004E4942
 class GltfAsset:
     """The JSON document of a glTF asset (``doc``), with typed, checked access to what lutbake reads."""
 
-    def __init__(self, path: Path, doc: dict, bin_bytes: int | None):
+    def __init__(self, path: Path | str, doc: dict[str, Any], bin_bytes: int | None):
         self.path, self.doc, self.bin_bytes = Path(path), doc, bin_bytes
-        self.warnings = []  # what lutbake does not need but an engine will (missing external buffers)
+        self.warnings: list[str] = []  # what lutbake does not need but an engine will (missing external buffers)
         self._check_asset()
         self.materials = self.array("materials", dict)
         self.textures = self.array("textures", dict)
@@ -45,7 +48,7 @@ class GltfAsset:
         joint = "" if not where else " " if message.startswith("= ") else ": "
         return ValueError(f"{self.path}: {where}{joint}{message}")
 
-    def array(self, key: str, item_type, parent: dict | None = None, where: str = "") -> list:
+    def array(self, key: str, item_type: type, parent: dict[str, Any] | None = None, where: str = "") -> list[Any]:
         """``parent[key]`` (the document's by default): a list of at most MAX_ITEMS ``item_type``, or []."""
         parent = self.doc if parent is None else parent
         name = f"{where}.{key}" if where else key
@@ -59,25 +62,25 @@ class GltfAsset:
                 raise self.error(f"{name}[{i}]", f"must be {_TYPE_NAMES[item_type]}, not {type(item).__name__}")
         return value
 
-    def object(self, parent: dict, key: str, where: str) -> dict:
+    def object(self, parent: dict[str, Any], key: str, where: str) -> dict[str, Any]:
         value = parent.get(key, {})
         if not isinstance(value, dict):
             raise self.error(f"{where}.{key}", f"must be an object, not {type(value).__name__}")
         return value
 
-    def index(self, value, count: int, where: str, what: str) -> int:
+    def index(self, value: builtins.object, count: int, where: str, what: str) -> int:
         """An index into an array of ``count`` ``what``."""
         if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < count:
             raise self.error(where, f"= {value!r} is not allowed: the asset has {count} {what}")
         return value
 
-    def used_materials(self) -> dict:
+    def used_materials(self) -> dict[int, list[str]]:
         """Material index → how mesh primitives use it: 'primitive' and/or the names of the
         KHR_materials_variants variants that map it."""
         root = self.object(self.object(self.doc, "extensions", ""), "KHR_materials_variants", "extensions")
         variants = self.array("variants", dict, root, "extensions.KHR_materials_variants")
         names = [str(v.get("name", f"variant {i}")) for i, v in enumerate(variants)]
-        used = {}
+        used: dict[int, list[str]] = {}
         for m, mesh in enumerate(self.array("meshes", dict)):
             for p, prim in enumerate(self.array("primitives", dict, mesh, f"meshes[{m}]")):
                 where = f"meshes[{m}].primitives[{p}]"
@@ -109,7 +112,7 @@ class GltfAsset:
             self._check_buffer(i, buffer)
         self._check_views(buffers)
 
-    def _check_buffer(self, i: int, buffer: dict) -> None:
+    def _check_buffer(self, i: int, buffer: dict[str, Any]) -> None:
         """A buffer's byteLength is a positive integer its data can hold: the .glb's binary chunk
         (no uri), a data: URI, or a file beside the asset."""
         where, length = f"buffers[{i}]", buffer.get("byteLength")
@@ -136,7 +139,7 @@ class GltfAsset:
         if size < length:
             raise self.error(f"{where}.byteLength", f"= {length:,} but {source} holds {size:,} bytes (truncated)")
 
-    def _check_views(self, buffers: list) -> None:
+    def _check_views(self, buffers: list[dict[str, Any]]) -> None:
         """Buffer views inside their buffers, accessors inside their views (no count past the data)."""
         views = self.array("bufferViews", dict)
         for i, view in enumerate(views):
@@ -163,7 +166,7 @@ class GltfAsset:
                     f"{where}.count", f"= {count:,} needs {end:,} bytes; its buffer view has {view['byteLength']:,}"
                 )
 
-    def _size(self, parent: dict, key: str, where: str, default=None) -> int:
+    def _size(self, parent: dict[str, Any], key: str, where: str, default: int | None = None) -> int:
         value = parent.get(key, default)
         if not isinstance(value, int) or isinstance(value, bool) or value < 0:
             raise self.error(f"{where}.{key}", f"= {value!r} is not allowed: must be an integer >= 0")
@@ -175,7 +178,7 @@ _COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 _TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 
 
-def read_gltf(path) -> GltfAsset:
+def read_gltf(path: str | PathLike[str]) -> GltfAsset:
     """The asset at ``path`` (.gltf or .glb, told apart by the GLB magic), checked as far as lutbake
     reads it; ValueError (one line) when it is malformed."""
     path = Path(path)
@@ -193,7 +196,7 @@ def read_gltf(path) -> GltfAsset:
     return GltfAsset(path, doc, bin_bytes)
 
 
-def _glb_json(path: Path) -> tuple:
+def _glb_json(path: Path) -> tuple[str, int | None]:
     """(JSON chunk text, binary chunk length or None) of a .glb, every length checked against the file."""
     size = path.stat().st_size
     with open(path, "rb") as fh:
@@ -221,7 +224,7 @@ def _glb_json(path: Path) -> tuple:
         raise ValueError(f"{path}: GLB JSON chunk is not UTF-8 (byte {exc.start})") from None
 
 
-def _chunk_header(fh, path: Path, size: int) -> tuple:
+def _chunk_header(fh: IO[bytes], path: Path, size: int) -> tuple[int, int]:
     """(length, type) of the chunk at the file position, its data checked to lie inside the file."""
     head = fh.read(8)
     if len(head) < 8:

@@ -25,7 +25,9 @@ negative thickness, an index outside lutbake's domain) is a one-line ValueError.
 from __future__ import annotations
 
 import re
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,7 +36,10 @@ from lutbake.physics.materials import material as named_material
 from lutbake.physics.metals import F0_MAX, MAPPINGS, conductor, reflectance_error
 from lutbake.physics.points import check_value
 from lutbake.scene.gltf.asset import GltfAsset, read_gltf
-from lutbake.scene.model import Scene, SceneMaterial, check_material_names
+from lutbake.scene.model import Base, BasePath, Scene, SceneMaterial, check_material_names
+
+if TYPE_CHECKING:
+    from lutbake.scene.plan import ScenePlan
 
 __all__ = ["load_gltf_scene", "METAL_TABLE_NODES", "FILM_DEFAULTS"]
 
@@ -51,7 +56,7 @@ METAL_TABLE_NODES = 65  # F0 → (η3, κ3) nodes the engine interpolates for a 
 _MAX_MAPPING_BYTES = 1 << 20
 
 
-def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) -> Scene:
+def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0) -> Scene:
     """Read a glTF asset (.gltf or .glb) into a scene: its used iridescent materials, mapped.
 
     Parameters
@@ -106,12 +111,15 @@ def load_gltf_scene(path, metal_mapping: str = "fitted", max_de: float = 1.0) ->
     return Scene(str(asset.path), "rec709", "cie1931", 1.0, "half", max_de, tuple(materials), source, inputs)
 
 
-def _iridescent_materials(asset: GltfAsset, named: dict, default: str) -> tuple:
+def _iridescent_materials(
+    asset: GltfAsset, named: dict[int, str], default: str
+) -> tuple[list[dict[str, Any]], list[SceneMaterial]]:
     """(the record of every glTF material with the iridescence extension, the scene materials of those
     the meshes use and that have a film), in the asset's order; a metal base mapped by ``named`` (index →
     lutbake material), else by the material's extras, else by ``default``."""
     used = asset.used_materials()
-    records, materials = [], []
+    records: list[dict[str, Any]] = []
+    materials: list[SceneMaterial] = []
     for index, body in enumerate(asset.materials):
         ext = asset.object(
             asset.object(body, "extensions", f"materials[{index}]"), _EXT, f"materials[{index}].extensions"
@@ -127,7 +135,7 @@ def _iridescent_materials(asset: GltfAsset, named: dict, default: str) -> tuple:
     return records, materials
 
 
-def _metal_mapping(value: str, asset: GltfAsset) -> tuple:
+def _metal_mapping(value: str, asset: GltfAsset) -> tuple[str, dict[int, str], Path | None]:
     """(default mapping, {material index: lutbake material name}, the mapping file or None)."""
     if value in MAPPINGS:
         return value, {}, None
@@ -144,7 +152,7 @@ def _metal_mapping(value: str, asset: GltfAsset) -> tuple:
     if default not in MAPPINGS:
         raise ValueError(f"{path}: default = {default!r} is not one of {', '.join(MAPPINGS)}")
     by_name = {m.get("name"): i for i, m in enumerate(asset.materials)}
-    named = {}
+    named: dict[int, str] = {}
     for key, name in doc.get("materials", {}).items():
         index = int(key) if key.isdigit() else by_name.get(key)
         if index is None or index >= len(asset.materials):
@@ -153,7 +161,7 @@ def _metal_mapping(value: str, asset: GltfAsset) -> tuple:
     return default, named, path
 
 
-def _named_metal(name, where: str) -> str:
+def _named_metal(name: object, where: str) -> str:
     if not isinstance(name, str):
         raise ValueError(f"{where} = {name!r} is not a lutbake material name")
     try:
@@ -166,10 +174,11 @@ def _named_metal(name, where: str) -> str:
 class _MaterialReader:
     """One glTF material's values, with defaults flagged and every value checked where it is read."""
 
-    def __init__(self, asset: GltfAsset, index: int, body: dict, ext: dict):
+    def __init__(self, asset: GltfAsset, index: int, body: dict[str, Any], ext: dict[str, Any]):
         self.asset, self.index, self.body, self.ext = asset, index, body, ext
         self.label = f"materials[{index}] {str(body.get('name', ''))!r}"
-        self.read, self.warnings = {}, []
+        self.read: dict[str, object] = {}  # key -> {value, default} (a texture: whether present)
+        self.warnings: list[str] = []
 
     def error(self, key: str, message: str) -> ValueError:
         return ValueError(f"{self.asset.path}: {self.label}: {key} {message}")
@@ -177,14 +186,14 @@ class _MaterialReader:
     def warn(self, message: str) -> None:
         self.warnings.append(f"{self.label}: {message}")
 
-    def number(self, parent: dict, key: str, default: float, where: str) -> float:
+    def number(self, parent: dict[str, Any], key: str, default: float, where: str) -> float:
         value = parent.get(key, default)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
             raise self.error(f"{where}{key}", f"= {value!r} is not a number")
         self.read[key] = {"value": value, "default": key not in parent}
         return float(value)
 
-    def texture(self, parent: dict, key: str, where: str) -> bool:
+    def texture(self, parent: dict[str, Any], key: str, where: str) -> bool:
         if key not in parent:
             self.read[key] = False
             return False
@@ -201,7 +210,7 @@ class _MaterialReader:
         name = lutbake.get("metal") if isinstance(lutbake, dict) else None
         return None if name is None else _named_metal(name, f"{self.asset.path}: {self.label}: extras.lutbake.metal")
 
-    def record(self, used_by: list) -> dict:
+    def record(self, used_by: list[str]) -> dict[str, Any]:
         """What was read (defaults flagged), the film and thickness, and why nothing is baked if so."""
         ext, where = self.ext, f"{_EXT}."
         for key in ext:
@@ -229,7 +238,7 @@ class _MaterialReader:
         self.thickness_key = (
             "iridescenceThicknessMinimum" if textured and d_min > d_max else "iridescenceThicknessMaximum"
         )
-        record = {
+        record: dict[str, Any] = {
             "gltf_index": self.index,
             "name": self.body.get("name"),
             "used_by": used_by,
@@ -260,7 +269,7 @@ class _Parts:
     """The scene materials serving one glTF material: a dielectric part and a metal part, as its
     metalness needs them; ``record['parts']`` says which scene material serves each."""
 
-    def __init__(self, reader: _MaterialReader, record: dict, named: str | None, default: str):
+    def __init__(self, reader: _MaterialReader, record: dict[str, Any], named: str | None, default: str):
         self.reader, self.record = reader, record
         body, pbr_where = reader.body, "pbrMetallicRoughness."
         pbr = reader.asset.object(body, "pbrMetallicRoughness", reader.label)
@@ -276,14 +285,14 @@ class _Parts:
         record["metalness"] = list(metalness)
         self.stem = _material_stem(reader.index, body.get("name"))
         self.thickness = tuple(record["thickness_nm"])
-        self.materials = []
+        self.materials: list[SceneMaterial] = []
         if metalness[0] < 1.0:
             reader._domain("eta3", ior, "KHR_materials_ior.ior")
             record["parts"]["dielectric"] = {"base": [ior, 0.0], "material": self._add("dielectric", (ior, 0.0), "ior")}
         if metalness[1] > 0.0:
             record["parts"]["metal"] = self._metal(colour, colour_textured, named, default)
 
-    def _base_colour(self, pbr: dict) -> list:
+    def _base_colour(self, pbr: dict[str, Any]) -> list[float]:
         value = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
         ok = (
             isinstance(value, list)
@@ -295,7 +304,7 @@ class _Parts:
         self.reader.read["baseColorFactor"] = {"value": value, "default": "baseColorFactor" not in pbr}
         return [min(max(float(v), 0.0), 1.0) for v in value[:3]]
 
-    def _add(self, part: str, base, field: str, base_path=None) -> str:
+    def _add(self, part: str, base: Base, field: str, base_path: BasePath | None = None) -> str:
         name = f"{self.stem}-{part}"
         origin = {
             "film": f"{self.reader.asset.path}: {self.reader.label}: {_EXT}.iridescenceIor",
@@ -305,7 +314,7 @@ class _Parts:
         self.materials.append(SceneMaterial(name, self.record["film"], self.thickness, base, origin, base_path))
         return name
 
-    def _metal(self, f0, textured: bool, named: str | None, mapping: str) -> dict:
+    def _metal(self, f0: list[float], textured: bool, named: str | None, mapping: str) -> dict[str, Any]:
         if named is not None:
             if textured:
                 self.reader.warn(f"baseColorTexture does not change the named metal {named!r}")
@@ -314,7 +323,8 @@ class _Parts:
             return self._metal_range(f0, mapping)
         eta, kappa, clamped = conductor(f0, mapping)
         self._report_clamp(f0, clamped, mapping)
-        names, channels = {}, []
+        names: dict[tuple[float, float], str] = {}
+        channels: list[str] = []
         for c, key in enumerate(zip(eta, kappa)):
             if key not in names:
                 part = "metal" if len(set(zip(eta, kappa))) == 1 else f"metal-{'rgb'[c]}"
@@ -332,16 +342,17 @@ class _Parts:
             ),
         }
 
-    def _metal_range(self, f0_factor, mapping: str) -> dict:
+    def _metal_range(self, f0_factor: list[float], mapping: str) -> dict[str, Any]:
         """A texture-driven base colour: F0 per channel anywhere in [0, factor]; one 4D job over the
         (η3, κ3) box the mapping's curve reaches there, and the curve as a table for the engine."""
         top = min(max(f0_factor), F0_MAX[mapping])
         self._report_clamp(f0_factor, np.asarray(f0_factor) > F0_MAX[mapping], mapping)
         nodes = np.linspace(0.0, top, METAL_TABLE_NODES)
         eta, kappa, _ = conductor(nodes, mapping)
-        box = ((float(eta.min()), float(eta.max())), (float(kappa.min()), float(kappa.max())))
-        if box[0][0] == box[0][1] and box[1][0] == box[1][1]:  # a black texture range: one constant base
-            box = (box[0][0], box[1][0])
+        ranges = ((float(eta.min()), float(eta.max())), (float(kappa.min()), float(kappa.max())))
+        box: Base = ranges
+        if ranges[0][0] == ranges[0][1] and ranges[1][0] == ranges[1][1]:  # a black texture range: one constant base
+            box = (ranges[0][0], ranges[1][0])
         # The curve's nodes and how far along it each channel's F0 reaches (the scoring of its 4D job).
         path = (
             None
@@ -357,7 +368,7 @@ class _Parts:
             "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()},
         }
 
-    def _report_clamp(self, f0, clamped, mapping: str) -> None:
+    def _report_clamp(self, f0: list[float], clamped: np.ndarray, mapping: str) -> None:
         if np.any(clamped):
             self.reader.warn(
                 f"base colour F0 up to {max(f0):g} has no finite conductor: clamped to "
@@ -365,18 +376,19 @@ class _Parts:
             )
 
 
-def _material_stem(index: int, name) -> str:
+def _material_stem(index: int, name: object) -> str:
     """'m<index>' and the glTF name as far as it is an identifier (ASCII, '-' for the rest), ≤ 40 chars."""
     slug = re.sub(r"[^A-Za-z0-9_]+", "-", str(name or "")).strip("-")[:30]
     return f"m{index}-{slug}" if slug else f"m{index}"
 
 
-def material_rows(scene: Scene, plan) -> list:
+def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
     """`plan --gltf --json`: per glTF material with KHR_materials_iridescence, what it read (defaults
     flagged), its film, thickness range and bases, the mapping, and ``slice`` (the name `lutbake sample
     ATLAS --material` accepts: the dielectric part's, else the metal's) or ``lut`` (a 4D job's file), or
     ``why_not``."""
     kind = {name: job for job in plan.jobs for name in job.materials}
+    assert scene.source is not None  # a glTF scene's
     rows = []
     for r in scene.source["materials"]:
         parts = r["parts"]

@@ -17,7 +17,10 @@ A metal part's colour is per channel: channel c of the stack whose base is chann
 from __future__ import annotations
 
 import html
+from collections.abc import Callable, Mapping
+from os import PathLike
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,9 +36,11 @@ from lutbake.spectral.reference import reference_colour
 __all__ = ["gltf_receipts", "write_receipts"]
 
 _MAX_MANIFEST_BYTES = 256 << 20
+# A channel's base as FilmPoints.build keywords: {eta3, kappa3} (numbers or arrays) or {base: a name}.
+Bases = dict[str, Any]
 
 
-def gltf_receipts(manifest_path, n_points: int = 300, seed: int = 0) -> dict:
+def gltf_receipts(manifest_path: str | PathLike[str], n_points: int = 300, seed: int = 0) -> dict[str, Any]:
     """The receipts of the glTF bake whose manifest is ``manifest_path`` (ValueError if it is not one)."""
     path = Path(manifest_path)
     manifest = load_json(read_text(path, "manifest", _MAX_MANIFEST_BYTES), str(path))
@@ -53,8 +58,10 @@ def gltf_receipts(manifest_path, n_points: int = 300, seed: int = 0) -> dict:
     }
 
 
-def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
-    row = {
+def _receipt(
+    record: dict[str, Any], manifest: dict[str, Any], folder: Path, n: int, rng: np.random.Generator
+) -> dict[str, Any]:
+    row: dict[str, Any] = {
         k: record.get(k)
         for k in ("gltf_index", "name", "used_by", "film", "thickness_nm", "metalness", "why_not", "warnings")
     }
@@ -64,12 +71,16 @@ def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
     if record["film"] is None:
         return row
     cos_t = rng.uniform(0.0, 1.0, n) ** 2
-    thickness = rng.uniform(*record["thickness_nm"], n)
+    d_lo, d_hi = record["thickness_nm"]
+    thickness = rng.uniform(d_lo, d_hi, n)
     for part, info in record["parts"].items():
         bases, baked = _part(part, info, manifest, folder, record["film"], cos_t, thickness, rng)
         stacks = _stacks(record["film"], cos_t, thickness, bases)
         truth = _per_channel(lambda s: reference_colour(s).values, stacks)
-        costs = {"baked": _stats(baked, truth), "threejs": _stats(_per_channel(khr_iridescence_rgb, stacks), truth)}
+        costs: dict[str, Mapping[str, float | str]] = {
+            "baked": _stats(baked, truth),
+            "threejs": _stats(_per_channel(khr_iridescence_rgb, stacks), truth),
+        }
         if info.get("mapping") in MAPPINGS:
             other = next(m for m in MAPPINGS if m != info["mapping"])
             costs["other_mapping"] = {
@@ -80,7 +91,16 @@ def _receipt(record: dict, manifest: dict, folder: Path, n: int, rng) -> dict:
     return row
 
 
-def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_t, thickness, rng) -> tuple:
+def _part(
+    part: str,
+    info: dict[str, Any],
+    manifest: dict[str, Any],
+    folder: Path,
+    eta2: float,
+    cos_t: np.ndarray,
+    thickness: np.ndarray,
+    rng: np.random.Generator,
+) -> tuple[list[Bases], np.ndarray]:
     """(base keywords per channel, baked RGB) of one part at the points."""
     if part == "dielectric":
         name = info["material"]
@@ -98,7 +118,7 @@ def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_
     if info["mapping"] == "named":
         bases = [{"base": info["named"]}] * 3
     else:
-        unique = {}
+        unique: dict[tuple[float, float], Bases] = {}
         bases = [unique.setdefault((e, k), {"eta3": e, "kappa3": k}) for e, k in zip(info["eta3"], info["kappa3"])]
     baked = np.stack(
         [
@@ -110,15 +130,25 @@ def _part(part: str, info: dict, manifest: dict, folder: Path, eta2: float, cos_
     return bases, baked
 
 
-def _sample_slice(manifest, folder, name, eta2, cos_t, thickness, base) -> np.ndarray:
+def _sample_slice(
+    manifest: dict[str, Any],
+    folder: Path,
+    name: str,
+    eta2: float,
+    cos_t: np.ndarray,
+    thickness: np.ndarray,
+    base: Bases,
+) -> np.ndarray:
     entry = manifest["materials"][name]
     atlas = Atlas.load(folder / entry["file"])
     return atlas.sample(name, FilmPoints.build(eta2=eta2, cos_theta=cos_t, thickness_nm=thickness, **base))
 
 
-def _other_truth(info, mapping, eta2, cos_t, thickness, bases) -> np.ndarray:
+def _other_truth(
+    info: dict[str, Any], mapping: str, eta2: float, cos_t: np.ndarray, thickness: np.ndarray, bases: list[Bases]
+) -> np.ndarray:
     """The ground truth with each channel's F0 mapped by ``mapping`` instead."""
-    other = {}
+    other: dict[int, Bases] = {}
     for b in bases:
         if id(b) not in other:
             f0 = ((b["eta3"] - 1.0) ** 2 + b["kappa3"] ** 2) / ((b["eta3"] + 1.0) ** 2 + b["kappa3"] ** 2)
@@ -131,28 +161,28 @@ def _other_truth(info, mapping, eta2, cos_t, thickness, bases) -> np.ndarray:
     return _per_channel(lambda s: reference_colour(s).values, stacks)
 
 
-def _stacks(eta2, cos_t, thickness, bases) -> list:
+def _stacks(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, bases: list[Bases]) -> list[FilmPoints]:
     """One FilmPoints per channel; channels sharing a base (the same dict) share one object."""
-    built = {}
+    built: dict[int, FilmPoints] = {}
     for b in bases:
         if id(b) not in built:
             built[id(b)] = FilmPoints.build(eta2=eta2, cos_theta=cos_t, thickness_nm=thickness, **b)
     return [built[id(b)] for b in bases]
 
 
-def _per_channel(colour, stacks) -> np.ndarray:
+def _per_channel(colour: Callable[[FilmPoints], np.ndarray], stacks: list[FilmPoints]) -> np.ndarray:
     """RGB with channel c from ``colour(stacks[c])`` (one evaluation when the stacks are one)."""
     if all(s is stacks[0] for s in stacks):
         return colour(stacks[0])
     return np.stack([colour(s)[:, c] for c, s in enumerate(stacks)], axis=-1)
 
 
-def _stats(rgb, truth) -> dict:
+def _stats(rgb: np.ndarray, truth: np.ndarray) -> dict[str, float]:
     de = delta_e00(rgb, truth)
     return {"de00_p99": float(np.percentile(de, 99)), "de00_max": float(de.max()), "de00_mean": float(de.mean())}
 
 
-def write_receipts(receipts: dict, out_dir) -> None:
+def write_receipts(receipts: dict[str, Any], out_dir: str | PathLike[str]) -> None:
     """receipts.json and receipts.html in ``out_dir``."""
     from lutbake.tables.lutfile import write_text_atomic
 
@@ -162,7 +192,7 @@ def write_receipts(receipts: dict, out_dir) -> None:
     write_text_atomic(out / "receipts.html", _html(receipts))
 
 
-def _html(receipts: dict) -> str:
+def _html(receipts: dict[str, Any]) -> str:
     esc = html.escape
     parts = [
         f"<!doctype html><meta charset=utf-8><title>lutbake receipts: {esc(receipts['asset'])}</title>",
