@@ -13,9 +13,15 @@ before pyopencl: importing this module loads nothing of OpenCL.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pyopencl
 
 __all__ = [
     "SYSTEM_VENDORS",
@@ -49,7 +55,7 @@ def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path 
     system = sorted(system_vendors.glob("*.icd")) if system_vendors.is_dir() else []
     entries = {icd.name: icd for icd in system if icd.name != INTEL_ICD}
     for name, icd in entries.items():
-        _replace(folder / name, lambda tmp, icd=icd: os.symlink(icd.absolute(), tmp))
+        _replace(folder / name, functools.partial(os.symlink, icd.absolute()))  # make(tmp): tmp -> icd
     _replace(folder / INTEL_ICD, lambda tmp: tmp.write_text(f"{Path(intel_library).resolve()}\n"))
     for stale in folder.glob("*.icd"):
         if stale.name not in entries and stale.name != INTEL_ICD:
@@ -67,7 +73,7 @@ def intel_vendor_folder(cache_folder: Path, system_vendors: Path = SYSTEM_VENDOR
     return write_vendor_folder(Path(cache_folder) / VENDOR_FOLDER, library, system_vendors)
 
 
-def _replace(path: Path, make) -> None:
+def _replace(path: Path, make: Callable[[Path], object]) -> None:
     """``make(tmp)`` writes a temporary beside ``path``, which then takes ``path``'s place in one rename."""
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     tmp.unlink(missing_ok=True)
@@ -78,7 +84,7 @@ def _replace(path: Path, make) -> None:
         tmp.unlink(missing_ok=True)
 
 
-def unregistered_intel(devices=None) -> Path | None:
+def unregistered_intel(devices: list[pyopencl.Device] | None = None) -> Path | None:
     """Intel's library in this environment when none of ``devices`` (default: every listed device,
     ``devices.opencl_devices()``) runs on it, i.e. it is installed but not registered; else None."""
     from lutbake.errors import OpenCLUnavailable
