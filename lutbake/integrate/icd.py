@@ -17,6 +17,7 @@ import functools
 import os
 import sys
 from collections.abc import Callable
+from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -43,7 +44,11 @@ def environment_intel_library(prefix: str = sys.prefix) -> Path | None:
     return library if library.is_file() else None
 
 
-def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path = SYSTEM_VENDORS) -> Path:
+def write_vendor_folder(
+    folder: str | PathLike[str],
+    intel_library: str | PathLike[str],
+    system_vendors: str | PathLike[str] = SYSTEM_VENDORS,
+) -> Path:
     """Make ``folder`` (created if need be) a vendor folder holding a link to each ``.icd`` of
     ``system_vendors`` and ``INTEL_ICD`` naming ``intel_library``; return it. Writing again brings it up
     to date: each entry is replaced atomically (a loader reading meanwhile sees the old one or the new),
@@ -63,7 +68,9 @@ def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path 
     return folder
 
 
-def intel_vendor_folder(cache_folder: Path, system_vendors: Path = SYSTEM_VENDORS) -> Path:
+def intel_vendor_folder(
+    cache_folder: str | PathLike[str], system_vendors: str | PathLike[str] = SYSTEM_VENDORS
+) -> Path:
     """The vendor folder registering this environment's Intel runtime beside ``system_vendors``' runtimes,
     written (or brought up to date) as ``cache_folder``/opencl-vendors; a ValueError where the runtime is
     not installed."""
