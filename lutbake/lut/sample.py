@@ -73,7 +73,7 @@ class Lut:
     """
 
     meta: dict
-    image: np.ndarray  # (height, width, 3), as stored
+    image: np.ndarray | None  # (height, width, 3), as stored; None: a grid without texels (``in_memory``)
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Lut:
@@ -82,9 +82,10 @@ class Lut:
         return cls(meta, image)
 
     @classmethod
-    def in_memory(cls, spec: BakeSpec, image: np.ndarray) -> Lut:
+    def in_memory(cls, spec: BakeSpec, image: np.ndarray | None) -> Lut:
         """The LUT of ``spec`` whose texels are ``image`` (as stored, packed as the integrators pack it:
-        ``spec.layout``), without a file: what tune scores."""
+        ``spec.layout``), without a file: what tune scores. With ``image`` None it has the grid's axes and
+        coordinates but nothing to sample (what a search over the grid's domain needs)."""
         return cls(
             {
                 "axes": [a.describe() for a in spec.axes],
@@ -150,6 +151,12 @@ class Lut:
             return self._cubic(f)
         return self._linear(f, filter_bits)
 
+    def _texels(self) -> np.ndarray:
+        """The image, or ValueError for a LUT made without one (``in_memory(spec, None)``)."""
+        if self.image is None:
+            raise ValueError("this LUT was made without texels (Lut.in_memory(spec, None)): nothing to sample")
+        return self.image
+
     def _linear(self, f: list[np.ndarray], filter_bits: int | None) -> np.ndarray:
         """(cos θ, D) by hardware bilinear inside the 4 tiles around (η3, κ3), then 3 lerps."""
         f_cos, f_opd, f_eta3, f_kappa3 = f
@@ -160,7 +167,7 @@ class Lut:
         for de in (0, 1):
             for dk in (0, 1):  # (cos θ, D) bilinear within the tile of η3 node i_e + de, κ3 node i_k + dk
                 x, y = layout.texel(f_cos, f_opd, i_e + de, i_k + dk)
-                corners[de, dk] = _bilinear(self.image, x, y, filter_bits)
+                corners[de, dk] = _bilinear(self._texels(), x, y, filter_bits)
         lower = _lerp(corners[0, 0], corners[1, 0], t_e)
         upper = _lerp(corners[0, 1], corners[1, 1], t_e)
         return _lerp(lower, upper, t_k)
@@ -178,7 +185,7 @@ class Lut:
         for k in itertools.product(range(4), repeat=4):
             weight = np.prod([w[..., j] for (_, w), j in zip(taps, k)], axis=0)[..., None]
             x, y = layout.texel(*(n[j] for n, j in zip(nodes, k)))
-            texel = self.image[y, x].astype(np.float64)
+            texel = self._texels()[y, x].astype(np.float64)
             out += weight * texel
             low, high = np.minimum(low, texel), np.maximum(high, texel)
         return np.clip(out, low, high)
