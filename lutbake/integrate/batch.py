@@ -14,6 +14,8 @@ caller can warn.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from lutbake.errors import ParameterError
@@ -21,6 +23,12 @@ from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.io.progress import no_progress
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour, subset
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from lutbake.integrate.bands import Integrator
+    from lutbake.physics.colorimetry import Colorimetry
 
 __all__ = ["truth_colours", "fast_colours"]
 
@@ -34,11 +42,13 @@ _ANY_AXES = (
 )
 
 
-def _batches(n: int):
+def _batches(n: int) -> list[tuple[int, int]]:
     return [(s, min(s + _BATCH_POINTS, n)) for s in range(0, n, _BATCH_POINTS)]
 
 
-def truth_colours(points: FilmPoints, observer: str, space: str, progress=no_progress) -> tuple:
+def truth_colours(
+    points: FilmPoints, observer: str, space: str, progress: Callable[[int, int, str], None] = no_progress
+) -> tuple[np.ndarray, np.ndarray]:
     """Converged (RGB, XYZ), each (P, 3), batch by batch with ``progress(rows done, rows)``."""
     n = len(points)
     out = np.empty((n, 6))
@@ -49,7 +59,13 @@ def truth_colours(points: FilmPoints, observer: str, space: str, progress=no_pro
     return out[:, :3], out[:, 3:]
 
 
-def fast_colours(points: FilmPoints, observer: str, space: str, backend="auto", progress=no_progress) -> tuple:
+def fast_colours(
+    points: FilmPoints,
+    observer: str,
+    space: str,
+    backend: str | Integrator = "auto",
+    progress: Callable[[int, int, str], None] = no_progress,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(RGB, XYZ, truncation bound) of constant-index points through the bake's integrator: ``backend``
     names one ('auto', 'opencl', 'numpy') or is one already made (integrate.backend)."""
     from lutbake.integrate.opencl import backend as make_backend
@@ -79,7 +95,7 @@ def fast_colours(points: FilmPoints, observer: str, space: str, backend="auto", 
     return rgb, rgb @ _rgb_to_xyz_matrix(colorimetry(observer, space)), bound
 
 
-def _rgb_to_xyz_matrix(cm) -> np.ndarray:
+def _rgb_to_xyz_matrix(cm: Colorimetry) -> np.ndarray:
     """M with XYZ = RGB @ M for the integrated tables: each RGB channel is rescaled to make
     a flat reflector white (lutbake/physics/colorimetry.py), so the space's own matrix is off by ~1e-4."""
     return np.linalg.lstsq(cm.rgb_table.T, cm.xyz_table.T, rcond=None)[0]

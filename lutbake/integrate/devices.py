@@ -26,9 +26,19 @@ import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from lutbake.errors import OpenCLUnavailable
 from lutbake.io.signals import stop_signals_held
+
+if TYPE_CHECKING:
+    from typing import TypeAlias
+
+    import pyopencl
+
+    # What a caller passes as ``device``: a selector, a pyopencl Device, or None for the default rule.
+    DeviceChoice: TypeAlias = str | pyopencl.Device | None
 
 __all__ = [
     "Runtime",
@@ -46,7 +56,7 @@ FAMILIES = {"Portable Computing Language": ("pocl", "PoCL"), "Intel(R) OpenCL": 
 
 
 @functools.cache
-def import_pyopencl():
+def import_pyopencl() -> ModuleType:
     """pyopencl, imported once with SIGINT and SIGTERM held (signals.stop_signals_held): its C++ extension
     builds Python enums while it initialises, and an exception that a stop signal's handler raises there
     cannot unwind through C++ (std::terminate: the process aborts where it should exit 130). Held, the
@@ -68,7 +78,7 @@ class Runtime:
     version: str
     llvm: str = ""
 
-    def __str__(self):
+    def __str__(self) -> str:
         """'PoCL 3.1+debian (system, LLVM 15.0.6)'."""
         return f"{self.name} {self.version} ({self.origin}{f', LLVM {self.llvm}' if self.llvm else ''})"
 
@@ -82,7 +92,7 @@ class _DlInfo(ctypes.Structure):
     ]
 
 
-def _library_of(platform):
+def _library_of(platform: pyopencl.Platform) -> Path | None:
     """The shared library that serves ``platform``, or None where that cannot be told. An ICD
     platform (cl_khr_icd) begins with its dispatch table, whose second entry is the runtime's own
     clGetPlatformInfo (Khronos cl_icd.h); dladdr names the file that holds that function."""
@@ -101,17 +111,17 @@ def _library_of(platform):
     return Path(os.fsdecode(info.dli_fname)).resolve()
 
 
-def _origin(library) -> str:
+def _origin(library: Path | None) -> str:
     """'PyPI' for a library inside this Python environment or pyopencl's folder (what pip installed:
     PoCL in pyopencl's .libs, Intel's opencl-rt in lib/), else 'system'."""
-    homes = [Path(sys.prefix).resolve(), Path(import_pyopencl().__file__).resolve().parent]
+    homes = [Path(sys.prefix).resolve(), Path(import_pyopencl().__path__[0]).resolve()]
     return "PyPI" if library and any(library.is_relative_to(home) for home in homes) else "system"
 
 
-_RUNTIMES = {}
+_RUNTIMES: dict[int, Runtime] = {}
 
 
-def runtime_of(device) -> Runtime:
+def runtime_of(device: pyopencl.Device) -> Runtime:
     """The runtime of ``device``'s platform (read once per platform and process)."""
     platform = device.platform
     if platform.int_ptr not in _RUNTIMES:
@@ -133,26 +143,26 @@ def runtime_of(device) -> Runtime:
 # PyPI's (a distribution builds PoCL with its current LLVM and picks the target CPU from the CPU's
 # features, so it compiles where PyPI's PoCL 3.0, LLVM 14, cannot name the CPU), then every other
 # runtime in the loader's order.
-def _preference(device) -> tuple:
+def _preference(device: pyopencl.Device) -> tuple[bool, bool]:
     runtime = runtime_of(device)
     return runtime.family != "pocl", runtime.origin != "system"
 
 
-def opencl_devices() -> list:
+def opencl_devices() -> list[pyopencl.Device]:
     """Every OpenCL device of every registered runtime, in the order lutbake tries them (``_preference``)."""
     cl = import_pyopencl()
     try:
         platforms = cl.get_platforms()
     except cl.Error as exc:
         raise OpenCLUnavailable(f"no OpenCL platform: {exc}") from None
-    devices = []
+    devices: list[pyopencl.Device] = []
     for platform in platforms:
         with contextlib.suppress(cl.Error):  # a platform offering no device (PoCL with POCL_DEVICES=none)
             devices += platform.get_devices()
     return sorted(devices, key=_preference)
 
 
-def device_key(device, devices=None) -> str:
+def device_key(device: pyopencl.Device, devices: list[pyopencl.Device] | None = None) -> str:
     """Short stable name of a device: its runtime's family and origin ('pocl-system', 'pocl-pypi',
     'intel-pypi'), plus ':N' for the N-th further device of that name."""
     key = _runtime_key(device)
@@ -161,12 +171,12 @@ def device_key(device, devices=None) -> str:
     return key if index == 0 else f"{key}:{index}"
 
 
-def _runtime_key(device) -> str:
+def _runtime_key(device: pyopencl.Device) -> str:
     runtime = runtime_of(device)
     return f"{runtime.family}-{runtime.origin.lower()}"
 
 
-def device_label(device) -> str:
+def device_label(device: pyopencl.Device) -> str:
     """'runtime / device', e.g. 'PoCL 3.1+debian (system, LLVM 15.0.6) / pthread-skylake-avx512-AMD EPYC'."""
     return f"{runtime_of(device)} / {device.name.strip()}"
 
@@ -174,7 +184,7 @@ def device_label(device) -> str:
 PYOPENCL_CTX = "PYOPENCL_CTX"  # the origin of a selector in pyopencl's own syntax
 
 
-def find_devices(selector: str, origin: str = "device") -> list:
+def find_devices(selector: str, origin: str = "device") -> list[pyopencl.Device]:
     """The devices a selector names, in the order lutbake tries them. ``origin`` says whose selector it is:
 
     * 'device' (``--device``, ``LUTBAKE_DEVICE``, a caller's ``device=``): its index in
@@ -201,7 +211,7 @@ def find_devices(selector: str, origin: str = "device") -> list:
     return found
 
 
-def _pyopencl_ctx_device(selector: str):
+def _pyopencl_ctx_device(selector: str) -> pyopencl.Device:
     """The device pyopencl's ``create_some_context`` picks for ``selector`` (PYOPENCL_CTX's syntax), given
     as its answers: pyopencl reads no environment then."""
     cl = import_pyopencl()
@@ -214,7 +224,7 @@ def _pyopencl_ctx_device(selector: str):
         ) from None
 
 
-def find_device(selector: str, origin: str = "device"):
+def find_device(selector: str, origin: str = "device") -> pyopencl.Device:
     """The first device ``find_devices`` names."""
     return find_devices(selector, origin)[0]
 
@@ -224,7 +234,7 @@ class PyopenclCtx(str):
     ``device=`` like any other, read by pyopencl's rules (``find_devices(..., PYOPENCL_CTX)``)."""
 
 
-def candidate_devices(device=None) -> list:
+def candidate_devices(device: DeviceChoice = None) -> list[pyopencl.Device]:
     """The devices to try, in order, for a caller's ``device``: a pyopencl Device is tried alone, a selector
     string names devices (``find_devices``; a ``PyopenclCtx`` by pyopencl's rules), None or '' leaves every
     device (``opencl_devices`` order)."""

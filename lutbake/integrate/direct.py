@@ -5,9 +5,16 @@ every texel under ``integrator='direct'``, and what the series and the closed fo
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from lutbake.integrate.program import DeviceProgram, signed_cos_theta2, split_hi_lo
+
+if TYPE_CHECKING:
+    import pyopencl
+
+    from lutbake.grid.spec import BakeSpec
 
 __all__ = ["DirectOnDevice"]
 
@@ -16,7 +23,7 @@ class DirectOnDevice:
     """The direct quadrature's inputs for one spec on one device: the grid's nodes and every rule level's
     nodes and weights."""
 
-    def __init__(self, program: DeviceProgram, spec):
+    def __init__(self, program: DeviceProgram, spec: BakeSpec):
         self.program, self.spec = program, spec
         rules = [spec.ladder.rule(k) for k in range(len(spec.ladder.counts))]
         nu = np.concatenate([1.0 / r.wavelength_nm for r in rules])
@@ -36,7 +43,7 @@ class DirectOnDevice:
         ]
         self._inputs = [program.input(a) for a in arrays]
 
-    def enqueue(self, y0: int, texels, levels, out) -> list:
+    def enqueue(self, y0: int, texels: np.ndarray, levels: np.ndarray, out: pyopencl.Buffer) -> list[pyopencl.Buffer]:
         """Enqueue the quadrature at ``texels`` (indices in the band starting at row y0), each at its rule
         level, into ``out``; the buffers it reads (to keep until it is done)."""
         program, spec, real = self.program, self.spec, self.program.dtype

@@ -13,9 +13,16 @@ before pyopencl: importing this module loads nothing of OpenCL.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
+from collections.abc import Callable
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pyopencl
 
 __all__ = [
     "SYSTEM_VENDORS",
@@ -37,7 +44,11 @@ def environment_intel_library(prefix: str = sys.prefix) -> Path | None:
     return library if library.is_file() else None
 
 
-def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path = SYSTEM_VENDORS) -> Path:
+def write_vendor_folder(
+    folder: str | PathLike[str],
+    intel_library: str | PathLike[str],
+    system_vendors: str | PathLike[str] = SYSTEM_VENDORS,
+) -> Path:
     """Make ``folder`` (created if need be) a vendor folder holding a link to each ``.icd`` of
     ``system_vendors`` and ``INTEL_ICD`` naming ``intel_library``; return it. Writing again brings it up
     to date: each entry is replaced atomically (a loader reading meanwhile sees the old one or the new),
@@ -49,7 +60,7 @@ def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path 
     system = sorted(system_vendors.glob("*.icd")) if system_vendors.is_dir() else []
     entries = {icd.name: icd for icd in system if icd.name != INTEL_ICD}
     for name, icd in entries.items():
-        _replace(folder / name, lambda tmp, icd=icd: os.symlink(icd.absolute(), tmp))
+        _replace(folder / name, functools.partial(os.symlink, icd.absolute()))  # make(tmp): tmp -> icd
     _replace(folder / INTEL_ICD, lambda tmp: tmp.write_text(f"{Path(intel_library).resolve()}\n"))
     for stale in folder.glob("*.icd"):
         if stale.name not in entries and stale.name != INTEL_ICD:
@@ -57,7 +68,9 @@ def write_vendor_folder(folder: Path, intel_library: Path, system_vendors: Path 
     return folder
 
 
-def intel_vendor_folder(cache_folder: Path, system_vendors: Path = SYSTEM_VENDORS) -> Path:
+def intel_vendor_folder(
+    cache_folder: str | PathLike[str], system_vendors: str | PathLike[str] = SYSTEM_VENDORS
+) -> Path:
     """The vendor folder registering this environment's Intel runtime beside ``system_vendors``' runtimes,
     written (or brought up to date) as ``cache_folder``/opencl-vendors; a ValueError where the runtime is
     not installed."""
@@ -67,7 +80,7 @@ def intel_vendor_folder(cache_folder: Path, system_vendors: Path = SYSTEM_VENDOR
     return write_vendor_folder(Path(cache_folder) / VENDOR_FOLDER, library, system_vendors)
 
 
-def _replace(path: Path, make) -> None:
+def _replace(path: Path, make: Callable[[Path], object]) -> None:
     """``make(tmp)`` writes a temporary beside ``path``, which then takes ``path``'s place in one rename."""
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     tmp.unlink(missing_ok=True)
@@ -78,7 +91,7 @@ def _replace(path: Path, make) -> None:
         tmp.unlink(missing_ok=True)
 
 
-def unregistered_intel(devices=None) -> Path | None:
+def unregistered_intel(devices: list[pyopencl.Device] | None = None) -> Path | None:
     """Intel's library in this environment when none of ``devices`` (default: every listed device,
     ``devices.opencl_devices()``) runs on it, i.e. it is installed but not registered; else None."""
     from lutbake.errors import OpenCLUnavailable

@@ -14,8 +14,10 @@ path (lutbake/integrate/numpy_path.py) is the reference and the fallback.
 from __future__ import annotations
 
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.errors import OpenCLUnavailable, ParameterError
 from lutbake.integrate.bands import PendingRows, colours_by_level, with_grazing_white
@@ -27,6 +29,11 @@ from lutbake.integrate.program import device_program
 from lutbake.integrate.selfcheck import SELF_CHECK_TOLERANCE, checked_error
 from lutbake.integrate.series import SeriesOnDevice, SeriesStats
 from lutbake.physics.points import FilmPoints
+
+if TYPE_CHECKING:
+    from lutbake.grid.spec import BakeSpec
+    from lutbake.integrate.devices import DeviceChoice
+    from lutbake.spectral.rules import SpectralRule
 
 __all__ = ["OpenCLBackend", "DeviceCannotRun", "backend"]
 
@@ -45,13 +52,15 @@ class OpenCLBackend:
 
     name = "opencl"
 
-    def __init__(self, compute: str = "float64", integrator: str = "series", device=None):
+    def __init__(self, compute: str = "float64", integrator: str = "series", device: DeviceChoice = None):
         self.compute = compute
         self.integrator = integrator
         self.dtype = np.float64 if compute == "float64" else np.float32
         reasons = []
         for candidate in candidate_devices(device):
-            self._series = self._direct = None  # a spec's buffers belong to one context
+            # a spec's buffers belong to one context
+            self._series: SeriesOnDevice | None = None
+            self._direct: DirectOnDevice | None = None
             built = device_program(candidate, compute)
             if isinstance(built, OpenCLUnavailable):
                 reasons.append(str(built))
@@ -71,35 +80,36 @@ class OpenCLBackend:
         """The device that runs the kernel, as 'platform / device'."""
         return device_label(self.program.device)
 
-    def _series_of(self, spec) -> SeriesOnDevice:
+    def _series_of(self, spec: BakeSpec) -> SeriesOnDevice:
         """The series' buffers and plan for ``spec`` (made once per spec)."""
         if self._series is None or self._series.spec.content_hash != spec.content_hash:
             self._series = SeriesOnDevice(self.program, spec)
         return self._series
 
-    def _direct_of(self, spec) -> DirectOnDevice:
+    def _direct_of(self, spec: BakeSpec) -> DirectOnDevice:
         """The direct quadrature's buffers for ``spec`` (made once per spec)."""
         if self._direct is None or self._direct.spec.content_hash != spec.content_hash:
             self._direct = DirectOnDevice(self.program, spec)
         return self._direct
 
-    def series_plan(self, spec) -> SeriesStats:
+    def series_plan(self, spec: BakeSpec) -> SeriesStats:
         """The rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
         if self.integrator == "direct":
             return NumpyBackend.series_plan(spec)
         return self._series_of(spec).plan().stats
 
-    def bake_rows(self, spec, y0, y1):
+    def bake_rows(self, spec: BakeSpec, y0: int, y1: int) -> np.ndarray:
         return self.begin_rows(spec, y0, y1).result()
 
-    def begin_rows(self, spec, y0, y1) -> PendingRows:
+    def begin_rows(self, spec: BakeSpec, y0: int, y1: int) -> PendingRows:
         """Enqueue the band [y0, y1) and return at once (unless some of its texels take the direct
         quadrature, whose rule levels the host computes): the caller writes the previous band while the
         device works."""
         width, _ = spec.image_size
         out = np.empty((y1 - y0, width, 3), self.dtype)
         out_buf = self.program.scratch(out.nbytes)
-        keep = [out_buf]
+        keep: list[object] = [out_buf]
+        texels: np.ndarray | None  # the band's texels left for the direct quadrature, if any
         if self.integrator == "direct":
             texels, levels = np.arange((y1 - y0) * width, dtype=np.int32), spec.row_levels(y0, y1)
         else:
@@ -112,15 +122,22 @@ class OpenCLBackend:
         copy = self.program.read(out, out_buf, blocking=False)
         return PendingRows(out, copy, keep, lambda rows: with_grazing_white(spec, y0, rows))
 
-    def evaluate(self, spec, stack: FilmPoints):
+    def evaluate(self, spec: BakeSpec, stack: FilmPoints) -> np.ndarray:
         """RGB (P, 3) of P stacks of the spec's film (flat fields): the kernel's R at each one's rule nodes."""
         return colours_by_level(spec, stack, self.reflectance)
 
-    def reflectance(self, stack: FilmPoints, wavelength_nm):
+    def reflectance(self, stack: FilmPoints, wavelength_nm: npt.ArrayLike) -> np.ndarray:
         """The kernel's unpolarized R of the stacks at ``wavelength_nm`` (pointwise.kernel_reflectance)."""
         return kernel_reflectance(self.program, stack, wavelength_nm)
 
-    def stack_colour(self, eta1, cos_theta, thickness_nm, node_indices, rule):
+    def stack_colour(
+        self,
+        eta1: float,
+        cos_theta: npt.ArrayLike,
+        thickness_nm: npt.ArrayLike,
+        node_indices: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike],
+        rule: SpectralRule,
+    ) -> np.ndarray:
         """RGB (P, 3) of one film stack at points (cos θ1, d) by ``rule`` (pointwise.kernel_stack_colour)."""
         return kernel_stack_colour(self.program, eta1, cos_theta, thickness_nm, node_indices, rule)
 
@@ -130,7 +147,9 @@ class DeviceCannotRun(ParameterError, OpenCLUnavailable):
     bad input (the CLI's exit 2), not a reason to fall back to numpy."""
 
 
-def backend(name: str = "auto", compute: str = "float64", integrator: str = "series", device=None):
+def backend(
+    name: str = "auto", compute: str = "float64", integrator: str = "series", device: DeviceChoice = None
+) -> OpenCLBackend | NumpyBackend:
     """The integrator for ``name`` ('opencl', 'numpy' or 'auto': OpenCL, else numpy with a warning);
     ``integrator`` picks the OpenCL kernel ('series' or 'direct', see OpenCLBackend), ``device`` the OpenCL
     device: a selector (``devices.find_devices``), a pyopencl Device, or None for the first that runs the

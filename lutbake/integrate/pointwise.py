@@ -5,10 +5,16 @@ lutbake/scene/slices.py)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.integrate.program import DeviceProgram, signed_cos_theta2, split_hi_lo
 from lutbake.physics.points import FilmPoints
+
+if TYPE_CHECKING:
+    from lutbake.spectral.rules import SpectralRule
 
 __all__ = ["kernel_reflectance", "kernel_stack_colour"]
 
@@ -17,7 +23,7 @@ STACK_BLOCK = 256
 STACK_TERMS = 18  # reals per (cos θ1, node) in stack_terms' output (STACK_TERMS in airy.cl)
 
 
-def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm) -> np.ndarray:
+def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm: npt.ArrayLike) -> np.ndarray:
     """The kernel's unpolarized R of the stacks at ``wavelength_nm`` (broadcast as
     optics.film_reflectance; one ambient η1, named materials taken at each wavelength): its physics,
     node by node."""
@@ -47,7 +53,14 @@ def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm)
     return out.astype(np.float64).reshape(shape)
 
 
-def kernel_stack_colour(program: DeviceProgram, eta1, cos_theta, thickness_nm, node_indices, rule) -> np.ndarray:
+def kernel_stack_colour(
+    program: DeviceProgram,
+    eta1: float,
+    cos_theta: npt.ArrayLike,
+    thickness_nm: npt.ArrayLike,
+    node_indices: tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike],
+    rule: SpectralRule,
+) -> np.ndarray:
     """RGB (P, 3) of one film stack at points (cos θ1, d), by ``rule`` with the film's and base's
     indices per node (``node_indices`` = (η2, η3, κ3), each (N,): dispersive materials): the
     kernel's reflectance summed on the device, its Fresnel side once per distinct cos θ1 × node."""

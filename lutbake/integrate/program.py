@@ -17,12 +17,19 @@ import os
 import warnings
 from importlib import resources
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.errors import OpenCLUnavailable
 from lutbake.integrate.devices import device_label, import_pyopencl, runtime_of
 from lutbake.physics.optics import normal_admittance
+
+if TYPE_CHECKING:
+    import pyopencl
+    from pyopencl.typing import KernelArg
 
 __all__ = [
     "KERNEL_SOURCES",
@@ -42,7 +49,7 @@ KERNEL_SOURCES = ("kernels/airy.cl", "kernels/poles.cl")
 LOCAL_SIZE = 64
 
 
-def kernel_defines() -> list:
+def kernel_defines() -> list[str]:
     """The closed form's geometry (lutbake/spectral/poles.py) as build options: one statement of each constant."""
     from lutbake.spectral import poles
 
@@ -86,17 +93,17 @@ def _writable_cache(name: str) -> bool:
     return folder.is_dir() and os.access(folder, os.W_OK | os.X_OK)
 
 
-def _pyopencl_caches(cl):
+def _pyopencl_caches(cl: ModuleType) -> bool | None:
     """pyopencl's ``cache_dir`` for a build: None (its own folder) where that can be written, else False
     (no binary cache). Its kernels' invoker store (pytools) takes no argument: where that cannot be
     written, its switch is turned off (``_PYOPENCL_NO_CACHE``, where pyopencl keeps PYOPENCL_NO_CACHE;
     read when the first kernel is made): a read-only cache home builds every time, nothing else changes."""
     if not _writable_cache("pytools"):
-        cl._PYOPENCL_NO_CACHE = True
+        cl._PYOPENCL_NO_CACHE = True  # type: ignore[attr-defined]  # pyopencl's private switch: unannotated
     return None if _writable_cache("pyopencl") else False
 
 
-def _build(device, compute: str):
+def _build(device: pyopencl.Device, compute: str) -> tuple[pyopencl.Context, pyopencl.Program]:
     cl = import_pyopencl()
     if compute == "float64" and "cl_khr_fp64" not in device.extensions:
         raise OpenCLUnavailable(f"device {device.name.strip()!r} has no float64: bake with compute float32")
@@ -114,7 +121,9 @@ def _build(device, compute: str):
 
 
 @functools.lru_cache(maxsize=16)
-def built_program(device, compute: str):
+def built_program(
+    device: pyopencl.Device, compute: str
+) -> tuple[pyopencl.Context, pyopencl.Program] | OpenCLUnavailable:
     """(context, program) built for one device, or the OpenCLUnavailable saying why not."""
     cl = import_pyopencl()
     try:
@@ -123,7 +132,7 @@ def built_program(device, compute: str):
         return OpenCLUnavailable(f"{device_label(device)}: {why_not_built(device, exc)}")
 
 
-def why_not_built(device, exc) -> str:
+def why_not_built(device: pyopencl.Device, exc: Exception) -> str:
     """One line: the build log's first error, and where the runtime's LLVM cannot name this CPU (PoCL 3.0
     from PyPI, LLVM 14, on AMD Zen 5: "unknown target CPU 'generic'"), what builds instead."""
     lines = [line.strip() for line in str(exc).strip().splitlines()] or ["build failed"]
@@ -141,20 +150,20 @@ def why_not_built(device, exc) -> str:
 class Kernels:
     """One handle per kernel of kernels/*.cl, named as the kernel is there."""
 
-    bake_texels_direct: object
-    reflectance_points: object
-    stack_terms: object
-    stack_rgb: object
-    pair_transform: object
-    bake_rows_series: object
-    bake_rows_series_table: object
-    plan_rows: object
-    max_chunks: object
-    plan_texels_closed: object
-    bake_texels_closed: object
+    bake_texels_direct: pyopencl.Kernel
+    reflectance_points: pyopencl.Kernel
+    stack_terms: pyopencl.Kernel
+    stack_rgb: pyopencl.Kernel
+    pair_transform: pyopencl.Kernel
+    bake_rows_series: pyopencl.Kernel
+    bake_rows_series_table: pyopencl.Kernel
+    plan_rows: pyopencl.Kernel
+    max_chunks: pyopencl.Kernel
+    plan_texels_closed: pyopencl.Kernel
+    bake_texels_closed: pyopencl.Kernel
 
     @classmethod
-    def of(cls, program) -> Kernels:
+    def of(cls, program: pyopencl.Program) -> Kernels:
         cl = import_pyopencl()
         return cls(**{field.name: cl.Kernel(program, field.name) for field in dataclasses.fields(cls)})
 
@@ -164,55 +173,56 @@ class DeviceProgram:
     weights' tables uploaded to it (``tables``, by key: every backend on the device shares them, so the
     default set's six bakes upload them once), and the launches and buffers the backends use."""
 
-    def __init__(self, ctx, program, compute: str):
+    def __init__(self, ctx: pyopencl.Context, program: pyopencl.Program, compute: str):
         cl = import_pyopencl()
         self.ctx, self.program, self.compute = ctx, program, compute
         self.device = ctx.devices[0]
         self.dtype = np.float64 if compute == "float64" else np.float32
         self.queue = cl.CommandQueue(ctx)
         self.kernels = Kernels.of(program)
-        self.tables = {}
+        # (kind, observer, space) -> buffers and scalars passed to kernels as they are
+        self.tables: dict[tuple[str, str, str], list] = {}
 
-    def run(self, kernel, n_items: int, *args) -> None:
+    def run(self, kernel: pyopencl.Kernel, n_items: int, *args: KernelArg) -> None:
         """``kernel`` over ``n_items`` work-items in work-groups of LOCAL_SIZE (see there), or of the most the
         device allows for that kernel where that is fewer."""
         cl = import_pyopencl()
         local = min(LOCAL_SIZE, kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, self.device))
         kernel(self.queue, (-(-n_items // local) * local,), (local,), *args, np.int32(n_items))
 
-    def input(self, array, dtype=None):
+    def input(self, array: npt.ArrayLike, dtype: npt.DTypeLike | None = None) -> pyopencl.Buffer:
         """A read-only buffer holding ``array`` as ``dtype`` (default: the program's real type)."""
         cl = import_pyopencl()
         host = np.ascontiguousarray(array, self.dtype if dtype is None else dtype)
         return cl.Buffer(self.ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=host)
 
-    def scratch(self, nbytes: int, access: str = "rw"):
+    def scratch(self, nbytes: int, access: str = "rw") -> pyopencl.Buffer:
         """An uninitialised buffer of ``nbytes`` that kernels read and write ('rw'), write ('w') or read
         once the host has copied into it ('r')."""
         cl = import_pyopencl()
         flags = {"rw": cl.mem_flags.READ_WRITE, "w": cl.mem_flags.WRITE_ONLY, "r": cl.mem_flags.READ_ONLY}
         return cl.Buffer(self.ctx, flags[access], nbytes)
 
-    def zeros(self, n: int = 1, dtype=np.int32):
+    def zeros(self, n: int = 1, dtype: npt.DTypeLike = np.int32) -> pyopencl.Buffer:
         """A buffer of ``n`` zeros the kernels read and write (one: a counter they count into)."""
         cl = import_pyopencl()
         return cl.Buffer(self.ctx, cl.mem_flags.READ_WRITE | cl.mem_flags.COPY_HOST_PTR, hostbuf=np.zeros(n, dtype))
 
-    def read(self, host: np.ndarray, buffer, blocking: bool = True):
+    def read(self, host: np.ndarray, buffer: pyopencl.Buffer, blocking: bool = True) -> pyopencl.Event:
         """Copy ``buffer`` into ``host``; the copy's event."""
         return import_pyopencl().enqueue_copy(self.queue, host, buffer, is_blocking=blocking)
 
-    def write(self, buffer, host: np.ndarray, offset_bytes: int = 0) -> None:
+    def write(self, buffer: pyopencl.Buffer, host: np.ndarray, offset_bytes: int = 0) -> None:
         """Copy ``host`` into ``buffer`` from byte ``offset_bytes`` on."""
         import_pyopencl().enqueue_copy(self.queue, buffer, host, device_offset=offset_bytes)
 
-    def count(self, buffer) -> int:
+    def count(self, buffer: pyopencl.Buffer) -> int:
         """The int32 a counter buffer holds."""
         count = np.empty(1, np.int32)
         self.read(count, buffer)
         return int(count[0])
 
-    def largest(self, values, count: int) -> float:
+    def largest(self, values: pyopencl.Buffer, count: int) -> float:
         """The largest of ``count`` values in a device buffer (max_chunks, then the host)."""
         chunk = 4096
         parts = np.empty(max(1, -(-count // chunk)), self.dtype)
@@ -222,10 +232,10 @@ class DeviceProgram:
         return float(parts.max())
 
 
-_DEVICE_PROGRAMS = {}
+_DEVICE_PROGRAMS: dict[tuple[int, str], DeviceProgram] = {}
 
 
-def device_program(device, compute: str):
+def device_program(device: pyopencl.Device, compute: str) -> DeviceProgram | OpenCLUnavailable:
     """The DeviceProgram of ``built_program(device, compute)``, made once per program, or the
     OpenCLUnavailable saying why the program does not build."""
     built = built_program(device, compute)
@@ -238,13 +248,13 @@ def device_program(device, compute: str):
     return _DEVICE_PROGRAMS[key]
 
 
-def signed_cos_theta2(eta1, eta2, cos_theta):
+def signed_cos_theta2(eta1: npt.ArrayLike, eta2: npt.ArrayLike, cos_theta: npt.ArrayLike) -> np.ndarray:
     """|cos θ2| of the film, negated where the film is evanescent (the kernels' convention)."""
     g2 = normal_admittance(eta2, 0.0, eta1, cos_theta)  # exactly as the numpy path
     return np.where(g2.imag > 0, -g2.imag, g2.real) / eta2
 
 
-def split_hi_lo(values, dtype):
+def split_hi_lo(values: npt.ArrayLike, dtype: npt.DTypeLike) -> tuple[np.ndarray, np.ndarray]:
     """(hi, lo) with hi + lo ≈ values to twice the precision of ``dtype`` (the kernels' float-float inputs)."""
     values = np.asarray(values, np.float64)
     hi = values.astype(dtype)

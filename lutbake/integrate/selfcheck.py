@@ -5,6 +5,8 @@ builds the kernel but fails here is not used (docs/devices.md)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from lutbake.integrate.bands import bake_rows_all
@@ -12,6 +14,11 @@ from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import series_colour
+
+if TYPE_CHECKING:
+    import pyopencl
+
+    from lutbake.integrate.opencl import OpenCLBackend
 
 __all__ = ["SELF_CHECK_TOLERANCE", "self_check_error", "checked_error"]
 
@@ -33,7 +40,7 @@ _SELF_CHECK = np.array(
 SELF_CHECK_TOLERANCE = {"float64": 1e-10, "float32": 2e-5}
 
 
-def self_check_error(backend) -> float:
+def self_check_error(backend: OpenCLBackend) -> float:
     """Largest error of the kernel against numpy: R at the self-check stacks (films η2 1.5 under
     η1 1 and η2 1.2 under η1 1.6), and the baked RGB of a small grid through the backend's
     integrator (series or direct) against the numpy path's direct quadrature."""
@@ -64,10 +71,10 @@ def self_check_error(backend) -> float:
     return max(worst, float(np.max(np.abs(bake_rows_all(backend, grid) - expected))))
 
 
-_CHECKED = {}
+_CHECKED: dict[tuple[int, str, str], float] = {}
 
 
-def checked_error(backend, device) -> float:
+def checked_error(backend: OpenCLBackend, device: pyopencl.Device) -> float:
     """``self_check_error`` once per device, compute precision and integrator per process."""
     key = (device.int_ptr, backend.compute, backend.integrator)
     if key not in _CHECKED:

@@ -10,7 +10,11 @@ and what both leave goes to the direct quadrature (lutbake/integrate/direct.py).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.grid.memory import SERIES_CHUNK
 from lutbake.integrate.program import DeviceProgram, signed_cos_theta2
@@ -21,6 +25,12 @@ from lutbake.spectral.fourier import (
     series_coefficients,
     weight_transform,
 )
+
+if TYPE_CHECKING:
+    import pyopencl
+
+    from lutbake.grid.spec import BakeSpec
+    from lutbake.spectral.fourier import SeriesCoefficients
 
 __all__ = ["SeriesStats", "BakePlan", "SeriesOnDevice", "series_shapes", "series_chunks"]
 
@@ -36,12 +46,12 @@ class SeriesStats:
     """The rule's outcome over a bake: texels per path (the series, the poles' closed form, the direct
     quadrature) and the largest a-priori bound each of the first two enforces."""
 
-    def __init__(self, texels=(0, 0, 0), bounds=(0.0, 0.0)):
+    def __init__(self, texels: Iterable[int] = (0, 0, 0), bounds: Iterable[float] = (0.0, 0.0)):
         self.texels = list(texels)
         self.bounds = list(bounds)
         self.shared_terms = 0  # Ŵ(mX) values the (cos θ, D) pairs share (0: the texels evaluate the table)
 
-    def add(self, counts, bounds):
+    def add(self, counts: npt.ArrayLike, bounds: npt.ArrayLike) -> None:
         """Fold in per-group counts (groups, 3) and largest bounds (groups, 2)."""
         self.texels = [t + int(c) for t, c in zip(self.texels, np.asarray(counts).sum(axis=0))]
         self.bounds = [max(b, float(m)) for b, m in zip(self.bounds, np.asarray(bounds).max(axis=0, initial=0.0))]
@@ -64,22 +74,22 @@ class BakePlan:
     """A spec's rule outcome on one device: stats, and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and
     enough texels share each pair, their running term offsets (else None: texels evaluate the table)."""
 
-    def __init__(self, stats, pair_terms, texels_per_pair):
+    def __init__(self, stats: SeriesStats, pair_terms: np.ndarray, texels_per_pair: int):
         self.stats = stats
         offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
         fits = offsets[-1] * 48 <= PAIR_TABLE_BYTES
         self.offsets = offsets.astype(np.int32) if fits and texels_per_pair >= MIN_TEXELS_PER_PAIR else None
         stats.shared_terms = int(offsets[-1]) if self.offsets is not None else 0
-        self.buffers = None
+        self.buffers: list[pyopencl.Buffer] | None = None  # the shared table on the device, once made
 
 
-def series_shapes(spec) -> tuple:
+def series_shapes(spec: BakeSpec) -> tuple[tuple[int, int], tuple[int, int]]:
     """Shapes of the series kernels' two inputs (series_chunks): coefficients, film."""
     n_cos, n_opd, n_eta3, n_kappa3 = spec.shape
     return (n_kappa3 * n_eta3 * n_cos, COLUMN), (n_opd * n_cos, 3)
 
 
-def series_chunks(spec, dtype=np.float64):
+def series_chunks(spec: BakeSpec, dtype: npt.DTypeLike = np.float64) -> Iterator[tuple[int, int, np.ndarray]]:
     """Host inputs of kernels/airy.cl's series in the kernel's layout, as ``dtype``, a chunk of rows at a
     time, so that neither they nor their temporaries scale with the grid on the host: yields (input,
     first row, rows) with input 0 the coefficients, 1 the film (shapes: series_shapes).
@@ -115,7 +125,7 @@ def series_chunks(spec, dtype=np.float64):
         yield 1, start, np.stack([x_nm, turn.real, turn.imag], -1).astype(dtype)
 
 
-def _column_rule(co, mass) -> np.ndarray:
+def _column_rule(co: SeriesCoefficients, mass: float) -> np.ndarray:
     """(n, 9): the rule's constants of each column, float64: |K|/(1 − |q|) (0 where K = 0), |q|, log |q|,
     |K| per polarization (s, p), then the terms after which (Σ_pol |K|/(1 − |q|)) max|q|^m · mass ≤ tol
     (a bound on the series' terms: sup |Ŵ| ≤ mass), +1 for the rounding of the logs."""
@@ -134,8 +144,9 @@ class SeriesOnDevice:
     """The series kernels' inputs for one spec on one device (uploaded chunk by chunk: the host never
     holds them whole), the spec's plan (made on first use), and its bands' passes."""
 
-    def __init__(self, program: DeviceProgram, spec):
-        self.program, self.spec, self._plan = program, spec, None
+    def __init__(self, program: DeviceProgram, spec: BakeSpec):
+        self.program, self.spec = program, spec
+        self._plan: BakePlan | None = None
         real = program.dtype
         size = np.dtype(real).itemsize
         inputs = [program.scratch(rows * width * size, "r") for rows, width in series_shapes(spec)]
@@ -193,7 +204,7 @@ class SeriesOnDevice:
             self._plan = BakePlan(stats, pair_terms, n_eta3 * n_kappa3)
         return self._plan
 
-    def _plan_band(self, y0: int, y1: int, terms) -> tuple:
+    def _plan_band(self, y0: int, y1: int, terms: pyopencl.Buffer) -> tuple[list[list[int]], list[list[float]]]:
         """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]]),
         the pairs' term counts raised in ``terms``."""
         program, kernels = self.program, self.program.kernels
@@ -213,19 +224,20 @@ class SeriesOnDevice:
         closed, direct = np.bincount(path, minlength=3)[1:3]
         return [[cells - left, closed, direct]], [[series_bound, float(bound[path == 1].max(initial=0.0))]]
 
-    def _pair_table(self, plan: BakePlan) -> list:
-        """The pairs' shared Ŵ(mX) for bake_rows_series (pair_transform, once per spec): [offsets, values]."""
+    def _pair_table(self, plan: BakePlan, pair_offsets: np.ndarray) -> list[pyopencl.Buffer]:
+        """The pairs' shared Ŵ(mX) for bake_rows_series (pair_transform, once per spec), given the plan's
+        ``pair_offsets`` (its offsets, when the pairs share a table): [offsets, values]."""
         if plan.buffers is None:
             program = self.program
-            offsets = program.input(plan.offsets, np.int32)
-            table = program.scratch(max(1, 6 * int(plan.offsets[-1])) * np.dtype(program.dtype).itemsize)
+            offsets = program.input(pair_offsets, np.int32)
+            table = program.scratch(max(1, 6 * int(pair_offsets[-1])) * np.dtype(program.dtype).itemsize)
             program.run(
-                program.kernels.pair_transform, plan.offsets.size - 1, self._film, offsets, *self._transform, table
+                program.kernels.pair_transform, pair_offsets.size - 1, self._film, offsets, *self._transform, table
             )
             plan.buffers = [offsets, table]
         return plan.buffers
 
-    def enqueue_band(self, y0: int, y1: int, out) -> tuple:
+    def enqueue_band(self, y0: int, y1: int, out: pyopencl.Buffer) -> tuple[list[object], np.ndarray | None]:
         """Enqueue the series on rows [y0, y1) into ``out``, then the closed form at what it leaves: (the
         buffers to keep until they are done, the band's texels left for the direct quadrature, sorted, or
         None where the plan expects none: the band's own count of them is then among the buffers kept,
@@ -235,14 +247,14 @@ class SeriesOnDevice:
         lists = [program.scratch(max(1, cells) * 4) for _ in range(2)]
         counts = [program.zeros(), program.zeros()]
         if plan.offsets is not None:
-            args = [*self._band_args(y0), *self._pair_table(plan), out, lists[0], counts[0]]
+            args = [*self._band_args(y0), *self._pair_table(plan, plan.offsets), out, lists[0], counts[0]]
             program.run(kernels.bake_rows_series, cells, *args)
         else:
             program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), out, lists[0], counts[0])
         if plan.stats.closed_form_texels or plan.stats.direct_texels:
             args = [*self._band_args(y0), *self._cauchy(), lists[0], counts[0], out, lists[1], counts[1]]
             program.run(kernels.bake_texels_closed, cells, *args)
-        keep = lists + counts
+        keep: list[object] = [*lists, *counts]
         left = program.count(counts[1]) if plan.stats.direct_texels else 0
         if left:
             texels = np.empty(left, np.int32)

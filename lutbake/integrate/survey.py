@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import OpenCLUnavailable
 from lutbake.integrate.bands import bake_rows_all
@@ -12,24 +13,29 @@ from lutbake.integrate.devices import device_key, device_label, opencl_devices, 
 from lutbake.integrate.opencl import OpenCLBackend
 from lutbake.integrate.selfcheck import checked_error
 
+if TYPE_CHECKING:
+    from lutbake.grid.spec import BakeSpec
+    from lutbake.integrate.devices import DeviceChoice
+
 __all__ = ["survey_devices"]
 
 
-def survey_devices(throughput_spec=None, device=None) -> list:
+def survey_devices(throughput_spec: BakeSpec | None = None, device: DeviceChoice = None) -> list[dict]:
     """Every OpenCL device: whether the kernel builds (float64, float32), passes the self-check,
     and, given a spec, its measured cells per second baking it (after a warm-up band); ``default`` marks
     the device a bake asking for ``device`` (a selector, or None: the default rule) runs on."""
     try:
-        devices = opencl_devices() or ["no OpenCL platform offers a device"]
+        devices = opencl_devices()
+        error = "" if devices else "no OpenCL platform offers a device"
     except (OpenCLUnavailable, ImportError) as exc:
-        devices = [str(exc)]
-    if isinstance(devices[0], str):
-        return [{"index": None, "key": "opencl", "label": "no OpenCL device", "error": devices[0]}]
+        devices, error = [], str(exc)
+    if error:
+        return [{"index": None, "key": "opencl", "label": "no OpenCL device", "error": error}]
     default = _default_device_key(device)
     rows = []
     for index, device in enumerate(devices):
         key, label = device_key(device, devices), device_label(device)
-        row = {
+        row: dict[str, Any] = {  # a JSON object (`lutbake devices --json`)
             "index": index,
             "key": key,
             "label": label,
@@ -52,7 +58,7 @@ def survey_devices(throughput_spec=None, device=None) -> list:
     return rows
 
 
-def _default_device_key(device=None):
+def _default_device_key(device: DeviceChoice = None) -> str | None:
     """Key of the device ``OpenCLBackend(device=device)`` picks, or None."""
     try:
         return device_key(OpenCLBackend("float64", device=device).program.device)

@@ -16,9 +16,12 @@ it and the largest a-priori bound it enforced.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,7 +29,7 @@ from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.bands import bake_rows_all
+from lutbake.integrate.bands import PendingRows, bake_rows_all
 from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set
@@ -37,6 +40,14 @@ from lutbake.spectral.rules import STENCIL_NODES
 from lutbake.tables.exr import exr_rows
 from lutbake.tables.headers import FORMAT
 from lutbake.tables.lutfile import write_companions
+
+if TYPE_CHECKING:
+    from lutbake.integrate.devices import DeviceChoice
+
+# on_band(rows done in this call, the image's rows): a bake's progress, band by band
+OnBand = Callable[[int, int], object]
+# what bake_set bakes: (the EXR to write, its spec, {"on_band": ..., "chunk_cells": ...})
+BakeJob = tuple[Path | str, BakeSpec, dict]
 
 __all__ = [
     "BakeResult",
@@ -157,7 +168,7 @@ _METAL_COUNTS = {1.33: (40, 146, 16, 28), 1.5: (36, 160, 16, 25), 2.0: (30, 200,
 _CORNER = {"opd_nm": (24, 100.0), "eta3": (8, 1.0), "kappa3": (14, 0.3)}
 
 
-def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
+def _dielectric_axes(n_cos: int, n_opd: int, n_eta3: int, n_kappa3: int) -> tuple[Axis, Axis, Axis, Axis]:
     return (
         Axis("cos_theta", 0.0, 1.0, n_cos, "uniform-root4"),
         Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt", _CORNER["opd_nm"]),
@@ -166,7 +177,7 @@ def _dielectric_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
     )
 
 
-def _metal_axes(n_cos, n_opd, n_eta3, n_kappa3) -> tuple:
+def _metal_axes(n_cos: int, n_opd: int, n_eta3: int, n_kappa3: int) -> tuple[Axis, Axis, Axis, Axis]:
     return (
         Axis("cos_theta", 0.0, 1.0, n_cos, "sqrt"),
         Axis("opd_nm", 0.0, 3000.0, n_opd, "sqrt"),
@@ -197,7 +208,7 @@ def spectral_error(spec: BakeSpec) -> float:
     return _error_at(spec, _probe_points(spec))
 
 
-def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
+def capped_error(spec: BakeSpec, direct_texels: int | None = None) -> tuple[int, float, float]:
     """(texels past the node cap among those the direct quadrature integrates, their a-priori bound, the
     error measured at the worst 64).
 
@@ -208,7 +219,9 @@ def capped_error(spec: BakeSpec, direct_texels: int = None) -> tuple:
     if direct_texels == 0:
         return 0, 0.0, 0.0
 
-    def direct(texels):  # float32 kernels have no closed form: what the series leaves is direct there
+    def direct(
+        texels: Sequence[np.ndarray],
+    ) -> np.ndarray:  # float32 kernels have no closed form: what the series leaves is direct there
         path = series_colour(spec.texel_stacks(texels), spec.observer, spec.space, integrate=False).path
         return path == 2 if spec.compute == "float64" else path > 0
 
@@ -251,7 +264,9 @@ def _format_version(spec: BakeSpec) -> int:
     return 4
 
 
-def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0), series: dict = None) -> dict:
+def metadata(
+    spec: BakeSpec, error_rgb_max: float, capped: tuple[int, float, float] = (0, 0.0, 0.0), series: dict | None = None
+) -> dict:
     illuminant = "D65" if spec.space != "acescg" else "ACES white (CIE daylight series)"
     return {
         "format": FORMAT,
@@ -286,12 +301,12 @@ def metadata(spec: BakeSpec, error_rgb_max: float, capped: tuple = (0, 0.0, 0.0)
 
 def bake(
     spec: BakeSpec,
-    out_path,
+    out_path: str | PathLike[str],
     backend: str = "auto",
-    on_band=None,
-    chunk_cells=None,
+    on_band: OnBand | None = None,
+    chunk_cells: int | None = None,
     integrator: str = "series",
-    device=None,
+    device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
 ) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set.
@@ -341,13 +356,13 @@ def bake(
 
 
 def bake_set(
-    jobs,
+    jobs: Sequence[BakeJob],
     set_name: str,
     backend: str = "auto",
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
     integrator: str = "series",
-    device=None,
-) -> list:
+    device: DeviceChoice = None,
+) -> list[BakeResult]:
     """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
     committed together or, when any bake fails or is interrupted, none is (lutbake/io/fileset.py).
 
@@ -392,37 +407,38 @@ def write_lut(
     out_path: Path,
     files: FileSet,
     backend: str = "auto",
-    on_band=None,
-    chunk_cells=None,
+    on_band: OnBand | None = None,
+    chunk_cells: int | None = None,
     integrator: str = "series",
-    device=None,
+    device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
 ) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
     the memory budget is checked again with the runtime's resident memory as measured."""
     start = time.perf_counter()
-    path = integrator
     if on_band:
         on_band(0, spec.image_size[1])
-    integrator = make_backend(backend, spec.compute, integrator, device)
+    fast = make_backend(backend, spec.compute, integrator, device)
     runtime = resident_bytes()
-    spec.check_budget(memory_limit_gib, integrator.name, path, runtime)
+    spec.check_budget(memory_limit_gib, fast.name, integrator, runtime)
     with ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
         probes = host.submit(spectral_error, spec)
-        plan = integrator.series_plan(spec)
+        plan = fast.series_plan(spec)
         error = probes.result()
-    spec.check_budget(memory_limit_gib, integrator.name, path, runtime, plan)
+    spec.check_budget(memory_limit_gib, fast.name, integrator, runtime, plan)
     capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
-    sidecar = {**meta, "baked_on": {"backend": integrator.name, "device": integrator.device}}
+    sidecar = {**meta, "baked_on": {"backend": fast.name, "device": fast.device}}
     height = spec.image_size[1]
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision) as exr:
+    width, file_height = spec.file_layout.size
+    with exr_rows(files.temp(out_path), width, file_height, meta, spec.precision) as exr:
         # band k is written while the device bakes band k + 1
-        pending, retiled = None, spec.file_layout != spec.layout
+        pending: PendingRows | None = None
+        retiled = spec.file_layout != spec.layout
         held = []  # the bands, as stored, when the file's tiles run in another order than the integrators'
         for band in [*chunks, None]:
-            started = integrator.begin_rows(spec, *band) if band else None
+            started = fast.begin_rows(spec, *band) if band else None
             if pending is not None:
                 rows = pending.result()
                 if retiled:
@@ -435,9 +451,7 @@ def write_lut(
         if retiled:
             exr.write_rows(spec.file_layout.retile(np.concatenate(held), spec.layout))
     write_companions(files, out_path, meta, sidecar)
-    return BakeResult(
-        out_path, spec.cells, time.perf_counter() - start, integrator.name, integrator.device, error, *capped
-    )
+    return BakeResult(out_path, spec.cells, time.perf_counter() - start, fast.name, fast.device, error, *capped)
 
 
 def resident_bytes(peak: bool = False) -> int:
@@ -454,12 +468,14 @@ def resident_bytes(peak: bool = False) -> int:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
-def lut_members(out_path: Path) -> list:
+def lut_members(out_path: Path) -> list[Path]:
     """The files of a LUT set."""
     return [out_path.with_suffix(f".{s}") for s in ("exr", "json", "glsl", "hlsl")]
 
 
-def bake_array(spec: BakeSpec, backend: str = "auto", integrator: str = "series", device=None) -> np.ndarray:
+def bake_array(
+    spec: BakeSpec, backend: str = "auto", integrator: str = "series", device: DeviceChoice = None
+) -> np.ndarray:
     """The whole image (height, width, 3) in float64, packed as the file is, in memory (tests, benchmarks)."""
     return spec.file_layout.retile(
         bake_rows_all(make_backend(backend, spec.compute, integrator, device), spec), spec.layout

@@ -9,6 +9,7 @@ inside the domain (a spec refused with the zoom is built again without it on the
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import Axis, BakeSpec, parse_axis
@@ -25,7 +26,7 @@ def lut_spec(
     opd_nm: str | None = None,
     eta3: str | None = None,
     kappa3: str | None = None,
-    **settings,
+    **settings: Any,  # BakeSpec's other fields, each of its own type
 ) -> BakeSpec:
     """The BakeSpec of film ``eta2`` under ambient ``eta1`` over the axes given as `bake` spells them
     ('A:B:N[:SPACING[:NODES:SCALE]]', ``grid.spec.parse_axis``); an axis given as None is the default set's
@@ -42,7 +43,7 @@ def lut_spec(
         raise ParameterError("{eta2} is required (the film index)")
     given = {"cos_theta": cos_theta, "opd_nm": opd_nm, "eta3": eta3, "kappa3": kappa3}
     template = next(iter(default_specs().values())).axes
-    axes = tuple(parse_axis(a.name, given[a.name]) if given[a.name] else _default_axis(a, eta1) for a in template)
+    axes = tuple(parse_axis(a.name, text) if (text := given[a.name]) else _default_axis(a, eta1) for a in template)
     settings = {**settings, "precision": settings.get("precision") or "float"}
     settings = {k: v for k, v in settings.items() if v is not None}
     try:

@@ -9,10 +9,19 @@ warn above ``CAPPED_WARNING_RGB``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
 from lutbake.integrate.batch import fast_colours, truth_colours
 from lutbake.io.progress import no_progress
 from lutbake.physics.points import FilmPoints, check_value
 from lutbake.spectral.reference import spectral_reflectance
+
+if TYPE_CHECKING:
+    from lutbake.integrate.bands import Integrator
+    from lutbake.integrate.devices import DeviceChoice
 
 __all__ = ["CAPPED_WARNING_RGB", "point_colours", "point_reflectances"]
 
@@ -25,9 +34,9 @@ def point_colours(
     space: str = "rec709",
     fast: bool = False,
     backend: str = "auto",
-    progress=no_progress,
-    device=None,
-) -> tuple:
+    progress: Callable[[int, int, str], None] = no_progress,
+    device: DeviceChoice = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(RGB, XYZ, bound) of ``points``, each RGB and XYZ (P, 3): the converged ground truth (bound None), or
     with ``fast`` the bake's integrator ('auto', 'opencl' or 'numpy' ``backend`` on OpenCL ``device``;
     constant indices only) and each point's truncation bound past the spectral node cap (0 below it).
@@ -44,11 +53,13 @@ def point_colours(
     if not (points.film or points.base):  # fast_colours refuses named materials before a backend is made
         from lutbake.integrate.opencl import backend as make_backend
 
-        backend = make_backend(backend, device=device)
-    return fast_colours(points, observer, space, backend, progress)
+        integrator: str | Integrator = make_backend(backend, device=device)
+    else:
+        integrator = backend
+    return fast_colours(points, observer, space, integrator, progress)
 
 
-def point_reflectances(points: FilmPoints, wavelength_nm: float) -> tuple:
+def point_reflectances(points: FilmPoints, wavelength_nm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(R_s, R_p, R) of ``points`` at one wavelength (nm; checked), each (P,), and the wavelength as checked.
 
     >>> rs, rp, r, at = point_reflectances(FilmPoints.build(eta2=1.5, opd_nm=0.0, cos_theta=1.0, eta3=1.5), 550)

@@ -8,6 +8,8 @@ domain are clamped to it, as an engine's sampler clamps, and flagged.
 
 from __future__ import annotations
 
+from os import PathLike
+
 from lutbake.errors import ParameterError
 from lutbake.lut.sample import Atlas, load_table
 from lutbake.physics.points import FilmPoints
@@ -37,9 +39,15 @@ class TableReads:
 without filtering): add interpolation linear
     """
 
-    def __init__(self, path, material: str | None = None, filter_bits: int | None = None, interpolation=None):
+    def __init__(
+        self,
+        path: str | PathLike[str],
+        material: str | None = None,
+        filter_bits: int | None = None,
+        interpolation: str | None = None,
+    ):
         self.path, self.table, self.material, self.filter_bits = path, load_table(path), material, filter_bits
-        if self.is_atlas:
+        if isinstance(self.table, Atlas):
             if material is None:
                 raise ParameterError(
                     "{material} is required with a scene atlas: allowed {names}", names=", ".join(self.table.materials)
@@ -65,15 +73,15 @@ without filtering): add interpolation linear
 
     def film(self) -> dict:
         """``FilmPoints.build`` keywords the table fixes: a LUT's ambient and film, a slice's and its base."""
-        if self.is_atlas:
-            return self.table.film_stack(self.material)
+        if isinstance(self.table, Atlas):
+            return self.table.film_stack(self._atlas_material())
         return {"eta1": self.table.eta1, "eta2": self.table.eta2}
 
     def sample(self, points: FilmPoints) -> dict:
         """The document `sample --json` prints: the table, its space, and per point its coordinates, RGB and
         whether it lies inside the table's domain."""
-        if self.is_atlas:
-            return self._sample_atlas(points)
+        if isinstance(self.table, Atlas):
+            return self._sample_atlas(self.table, points)
         rgb = self.table.sample(points, self.filter_bits, self.interpolation)
         inside = self.table.in_domain(points)
         columns = {
@@ -89,12 +97,18 @@ without filtering): add interpolation linear
         space = self.table.meta["space"]
         return {"lut": str(self.path), "space": space, "interpolation": self.interpolation, "points": rows}
 
-    def _sample_atlas(self, points: FilmPoints) -> dict:
-        material = self.material
-        rgb = self.table.sample(material, points, self.filter_bits)
-        inside = self.table.in_domain(material, points)
+    def _atlas_material(self) -> str:
+        """The material read in an atlas (required when the reads were made)."""
+        if self.material is None:
+            raise ValueError("an atlas is read in a material")  # __init__ refused an atlas without one
+        return self.material
+
+    def _sample_atlas(self, atlas: Atlas, points: FilmPoints) -> dict:
+        material = self._atlas_material()
+        rgb = atlas.sample(material, points, self.filter_bits)
+        inside = atlas.in_domain(material, points)
         rows = [
             {"cos_theta": float(c), "thickness_nm": float(t), "rgb": v.tolist(), "in_domain": bool(i)}
             for c, t, v, i in zip(points.cos_theta, points.thickness_nm, rgb, inside)
         ]
-        return {"atlas": str(self.path), "material": material, "space": self.table.meta["space"], "points": rows}
+        return {"atlas": str(self.path), "material": material, "space": atlas.meta["space"], "points": rows}

@@ -18,8 +18,11 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from os import PathLike
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.grid.interpolation import cubic_taps, mirrors_low_end
 from lutbake.grid.layout import TileLayout
@@ -27,6 +30,10 @@ from lutbake.grid.spec import axis_from_header
 from lutbake.physics.points import FilmPoints
 from lutbake.tables.headers import ATLAS_FORMAT, FORMAT
 from lutbake.tables.lutfile import read_lut
+
+if TYPE_CHECKING:
+    from lutbake.grid.axis import Axis
+    from lutbake.grid.spec import BakeSpec
 
 __all__ = ["Lut", "Atlas", "load_table"]
 
@@ -66,18 +73,19 @@ class Lut:
     """
 
     meta: dict
-    image: np.ndarray  # (height, width, 3), as stored
+    image: np.ndarray | None  # (height, width, 3), as stored; None: a grid without texels (``in_memory``)
 
     @classmethod
-    def load(cls, path) -> "Lut":
+    def load(cls, path: str | PathLike[str]) -> Lut:
         """Read a LUT EXR (refused in one line when it is not a complete, valid lutbake LUT)."""
         meta, image = read_lut(path)
         return cls(meta, image)
 
     @classmethod
-    def in_memory(cls, spec, image) -> "Lut":
+    def in_memory(cls, spec: BakeSpec, image: np.ndarray | None) -> Lut:
         """The LUT of ``spec`` whose texels are ``image`` (as stored, packed as the integrators pack it:
-        ``spec.layout``), without a file: what tune scores."""
+        ``spec.layout``), without a file: what tune scores. With ``image`` None it has the grid's axes and
+        coordinates but nothing to sample (what a search over the grid's domain needs)."""
         return cls(
             {
                 "axes": [a.describe() for a in spec.axes],
@@ -91,13 +99,14 @@ class Lut:
         )
 
     @property
-    def axes(self) -> list:
+    def axes(self) -> list[Axis]:
         return [axis_from_header(a) for a in self.meta["axes"]]
 
     @property
     def layout(self) -> TileLayout:
         """How the image packs the grid (the header's packing record)."""
-        return TileLayout(*(a["count"] for a in self.meta["axes"]), tiles_x=self.meta["packing"]["tiles_x"])
+        n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in self.meta["axes"])
+        return TileLayout(n_cos, n_opd, n_eta3, n_kappa3, tiles_x=self.meta["packing"]["tiles_x"])
 
     @property
     def eta1(self) -> float:
@@ -107,7 +116,7 @@ class Lut:
     def eta2(self) -> float:
         return self.meta["constants"]["eta2"]
 
-    def coordinates(self, stack: FilmPoints) -> list:
+    def coordinates(self, stack: FilmPoints) -> tuple[np.ndarray, ...]:
         """The stacks' LUT coordinates in axis order (cos θ1, D, η3, κ3), broadcast; a stack of another
         film than the LUT's (η1, η2, constant indices) is refused (ParameterError)."""
         stack.require("LUT", film=None, base=None, eta1=self.eta1, eta2=self.eta2)
@@ -115,12 +124,12 @@ class Lut:
 
     def in_domain(self, stack: FilmPoints) -> np.ndarray:
         """True where every coordinate lies inside the LUT's axis ranges."""
-        ok = True
+        ok: bool | np.ndarray = True
         for axis, v in zip(self.axes, self.coordinates(stack)):
             ok = ok & (v >= axis.lo) & (v <= axis.hi)
         return np.asarray(ok)
 
-    def node_coords(self, stack: FilmPoints) -> list:
+    def node_coords(self, stack: FilmPoints) -> list[np.ndarray]:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
         values = self.coordinates(stack)
         return [
@@ -133,7 +142,7 @@ class Lut:
         """The header's interpolation rule ('cubic' or 'linear'; files before format v3 are linear)."""
         return self.meta.get("interpolation", "linear")
 
-    def sample(self, stack: FilmPoints, filter_bits=None, interpolation=None) -> np.ndarray:
+    def sample(self, stack: FilmPoints, filter_bits: int | None = None, interpolation: str | None = None) -> np.ndarray:
         """Linear RGB (…, 3) of film stacks of the LUT's film (``FilmPoints``, fields broadcast), by the
         header's interpolation rule (or ``interpolation``). ``filter_bits`` applies to linear reads only:
         cubic reads take texels exactly."""
@@ -142,7 +151,13 @@ class Lut:
             return self._cubic(f)
         return self._linear(f, filter_bits)
 
-    def _linear(self, f, filter_bits):
+    def _texels(self) -> np.ndarray:
+        """The image, or ValueError for a LUT made without one (``in_memory(spec, None)``)."""
+        if self.image is None:
+            raise ValueError("this LUT was made without texels (Lut.in_memory(spec, None)): nothing to sample")
+        return self.image
+
+    def _linear(self, f: list[np.ndarray], filter_bits: int | None) -> np.ndarray:
         """(cos θ, D) by hardware bilinear inside the 4 tiles around (η3, κ3), then 3 lerps."""
         f_cos, f_opd, f_eta3, f_kappa3 = f
         layout = self.layout
@@ -152,12 +167,12 @@ class Lut:
         for de in (0, 1):
             for dk in (0, 1):  # (cos θ, D) bilinear within the tile of η3 node i_e + de, κ3 node i_k + dk
                 x, y = layout.texel(f_cos, f_opd, i_e + de, i_k + dk)
-                corners[de, dk] = _bilinear(self.image, x, y, filter_bits)
+                corners[de, dk] = _bilinear(self._texels(), x, y, filter_bits)
         lower = _lerp(corners[0, 0], corners[1, 0], t_e)
         upper = _lerp(corners[0, 1], corners[1, 1], t_e)
         return _lerp(lower, upper, t_k)
 
-    def _cubic(self, f):
+    def _cubic(self, f: list[np.ndarray]) -> np.ndarray:
         """Clamped Catmull-Rom in all four axes (lutbake/grid/interpolation.py): 4⁴ texel reads, summed tile
         by tile, then clamped per channel to the range of the texels read."""
         axes = self.axes
@@ -170,7 +185,7 @@ class Lut:
         for k in itertools.product(range(4), repeat=4):
             weight = np.prod([w[..., j] for (_, w), j in zip(taps, k)], axis=0)[..., None]
             x, y = layout.texel(*(n[j] for n, j in zip(nodes, k)))
-            texel = self.image[y, x].astype(np.float64)
+            texel = self._texels()[y, x].astype(np.float64)
             out += weight * texel
             low, high = np.minimum(low, texel), np.maximum(high, texel)
         return np.clip(out, low, high)
@@ -206,7 +221,7 @@ class Atlas:
     image: np.ndarray  # (height, width, 3), as stored
 
     @classmethod
-    def load(cls, path) -> "Atlas":
+    def load(cls, path: str | PathLike[str]) -> Atlas:
         """Read a scene atlas EXR (refused in one line when it is not a valid lutbake atlas)."""
         meta, image = read_lut(path, (ATLAS_FORMAT,))
         return cls(meta, image)
@@ -228,7 +243,7 @@ class Atlas:
         base = {"base": s["base"]} if isinstance(s["base"], str) else dict(zip(("eta3", "kappa3"), s["base"]))
         return {"eta1": self.meta["eta1"], **film, **base}
 
-    def coordinates(self, material: str, stack: FilmPoints) -> list:
+    def coordinates(self, material: str, stack: FilmPoints) -> tuple[np.ndarray, ...]:
         """The stacks' slice coordinates (cos θ1, thickness in nm), broadcast; a stack of another ambient,
         film or base than the material's is refused (ParameterError)."""
         stack.require(f"material {material!r}", **{"film": None, "base": None, **self.film_stack(material)})
@@ -239,7 +254,7 @@ class Atlas:
         c, t = self.coordinates(material, stack)
         return np.asarray((c >= 0) & (c <= 1) & (t >= th["min"]) & (t <= th["max"]))
 
-    def sample(self, material: str, stack: FilmPoints, filter_bits=None) -> np.ndarray:
+    def sample(self, material: str, stack: FilmPoints, filter_bits: int | None = None) -> np.ndarray:
         """Linear RGB (…, 3) of film stacks of the material: node coordinates (√cos θ, thickness) clamped
         to the rect, one bilinear fetch."""
         s = self.slice_of(material)
@@ -251,13 +266,13 @@ class Atlas:
         return _bilinear(self.image, x0 + fx, y0 + fy, filter_bits)
 
 
-def load_table(path):
+def load_table(path: str | PathLike[str]) -> Lut | Atlas:
     """A Lut or an Atlas, whichever the EXR holds."""
     meta, image = read_lut(path, (FORMAT, ATLAS_FORMAT))
     return (Atlas if meta["format"] == ATLAS_FORMAT else Lut)(meta, image)
 
 
-def _bilinear(image, x, y, filter_bits):
+def _bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray, filter_bits: int | None) -> np.ndarray:
     """Hardware bilinear at texel-space (x, y) measured between texel centres, clamp-to-edge."""
     h, w, _ = image.shape
     x0, y0 = np.floor(x), np.floor(y)
@@ -268,7 +283,7 @@ def _bilinear(image, x, y, filter_bits):
     x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
     x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
 
-    def tap(y, x):  # gather first, widen only the taps (not the whole image)
+    def tap(y: np.ndarray, x: np.ndarray) -> np.ndarray:  # gather first, widen only the taps (not the whole image)
         return image[y, x].astype(np.float64)
 
     top = _lerp(tap(y0, x0), tap(y0, x1), ax)
@@ -276,11 +291,11 @@ def _bilinear(image, x, y, filter_bits):
     return _lerp(top, bottom, ay)
 
 
-def _lower_node(f, count):
+def _lower_node(f: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     i = np.minimum(np.floor(f), count - 2).astype(np.int64)
     return i, f - i
 
 
-def _lerp(a, b, t):
+def _lerp(a: np.ndarray, b: np.ndarray, t: npt.ArrayLike) -> np.ndarray:
     t = np.asarray(t, float)[..., None]
     return a * (1.0 - t) + b * t

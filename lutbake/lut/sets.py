@@ -9,8 +9,11 @@ the default set goes into a folder made for it, removed again when the bake fail
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Iterator, Sequence
 from dataclasses import replace
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
 from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
@@ -18,13 +21,20 @@ from lutbake.grid.spec import BakeSpec
 from lutbake.io.progress import meter
 from lutbake.lut.bake import BakeResult, bake_set, default_specs
 
+if TYPE_CHECKING:
+    from lutbake.integrate.devices import DeviceChoice
+
 __all__ = ["DEFAULT_SET_NAME", "bake_default_set", "bake_luts", "default_set_jobs", "summary"]
 
 DEFAULT_SET_NAME = "lutbake-default-set"  # the default set's name in its commit journal
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early
 
 
-def default_set_jobs(folder, precision: str | None = None, **settings) -> list:
+def default_set_jobs(
+    folder: str | PathLike[str],
+    precision: str | None = None,
+    **settings: Any,  # BakeSpec's fields, each of its own type
+) -> list[tuple[Path, BakeSpec]]:
     """(path, spec) of each LUT of the default set in ``folder``: ``default_specs(precision)`` (None: 'half')
     with ``settings`` (eta1, space, observer, interpolation, compute, method, samples_per_cycle; None
     keeps a spec's own) replaced in every spec.
@@ -41,14 +51,14 @@ def default_set_jobs(folder, precision: str | None = None, **settings) -> list:
 
 
 def bake_default_set(
-    folder,
+    folder: str | PathLike[str],
     precision: str | None = None,
     backend: str = "auto",
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
-    device=None,
+    device: DeviceChoice = None,
     show_progress: bool | None = False,
-    **settings,
-) -> list:
+    **settings: Any,  # BakeSpec's fields, each of its own type
+) -> list[BakeResult]:
     """Bake the default set into ``folder`` (made if missing) as one file set, `lutbake bake` without
     --eta2: ``default_set_jobs(folder, precision, **settings)``, every LUT's memory budget checked before the
     folder is made, then ``bake_luts``. ParameterError for a ``folder`` named like one .exr, or that cannot
@@ -66,13 +76,13 @@ def bake_default_set(
 
 
 def bake_luts(
-    jobs,
+    jobs: Sequence[tuple[Path, BakeSpec]],
     set_name: str,
     backend: str = "auto",
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
-    device=None,
+    device: DeviceChoice = None,
     show_progress: bool | None = False,
-) -> list:
+) -> list[BakeResult]:
     """Bake (path, BakeSpec) ``jobs`` (one folder) as one file set named ``set_name`` (``bake_set``), each in
     bands of at most 1/32 of its image. ``show_progress``: a line per LUT on stderr with the rows done and
     the ETA from the measured rate (True; None: on a terminal only; False: none). Returns the BakeResults."""
@@ -107,7 +117,7 @@ def _banded(path: Path, spec: BakeSpec, show_progress: bool | None) -> dict:
     rows_per_band = min(spec.row_chunks()[0][1], -(-height // _PROGRESS_BANDS))  # never above the memory bound
     line, done = None, 0
 
-    def on_band(rows, total):  # called with 0 rows when this LUT's bake starts: its clock starts then
+    def on_band(rows: int, total: int) -> None:  # called with 0 rows when this LUT's bake starts: its clock starts then
         nonlocal line, done
         line = line or meter(f"baking {path.name}", show_progress)
         done += rows
@@ -119,7 +129,7 @@ def _banded(path: Path, spec: BakeSpec, show_progress: bool | None) -> dict:
 
 
 @contextlib.contextmanager
-def _made_for_the_set(folder: Path):
+def _made_for_the_set(folder: Path) -> Iterator[None]:
     """``folder``, made if missing, and removed again if it is still empty when the block fails (a device
     that cannot run, an interrupt): a failed bake leaves nothing behind."""
     made = not folder.exists()

@@ -7,7 +7,14 @@ D to 3000 nm): large enough that launch overheads do not dominate, small enough 
 
 from __future__ import annotations
 
+from os import PathLike
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 from lutbake.grid.spec import Axis, BakeSpec
+
+if TYPE_CHECKING:
+    from lutbake.integrate.devices import DeviceChoice
 
 __all__ = ["THROUGHPUT_PROBE", "survey", "vendor_folder"]
 
@@ -22,7 +29,7 @@ THROUGHPUT_PROBE = BakeSpec(
 )
 
 
-def survey(device=None) -> dict:
+def survey(device: DeviceChoice = None) -> dict:
     """The document `devices --json` prints: the probe's cell count, one row per device (``survey_devices``
     with ``THROUGHPUT_PROBE``; ``default`` marks the one a bake on ``device`` uses) and, where Intel's runtime
     is installed in this environment but not registered with the ICD loader, its library
@@ -38,7 +45,7 @@ def survey(device=None) -> dict:
     }
 
 
-def vendor_folder(cache_folder, system_vendors=None):
+def vendor_folder(cache_folder: str | PathLike[str] | None, system_vendors: str | PathLike[str] | None = None) -> Path:
     """The ICD vendor folder registering this environment's Intel runtime beside the system's runtimes,
     written into ``cache_folder`` (lutbake/integrate/icd.py ``intel_vendor_folder``); its path."""
     from lutbake.integrate.icd import SYSTEM_VENDORS, intel_vendor_folder

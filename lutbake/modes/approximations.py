@@ -30,11 +30,21 @@ outputs (…, 3) linear RGB in ``space``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.modes.exact import exact_mode_rgb
 from lutbake.modes.runtime.model import runtime_rgb
 from lutbake.physics.colorimetry import colorimetry
+
+if TYPE_CHECKING:
+    from lutbake.physics.points import FilmPoints
+
+# (r, φ) of one polarization's Fresnel amplitude: its intensity and phase, each (…)
+Fresnel = tuple[np.ndarray, np.ndarray]
 
 __all__ = ["belcour_barla_rgb", "khr_iridescence_rgb", "APPROXIMATIONS"]
 
@@ -49,7 +59,7 @@ _XYZ_TO_REC709 = np.array(
 )
 
 
-def eval_sensitivity(opd_nm, shift):
+def eval_sensitivity(opd_nm: npt.ArrayLike, shift: npt.ArrayLike) -> np.ndarray:
     """XYZ (…, 3) of the fitted sensitivities at OPD (nm) and phase shift; (1, 1, 1) at 0."""
     opd, shift = np.broadcast_arrays(np.asarray(opd_nm, float), np.asarray(shift, float))
     phase = 2.0 * np.pi * opd * 1e-9
@@ -64,7 +74,7 @@ def eval_sensitivity(opd_nm, shift):
     return xyz / _NORM
 
 
-def _fresnel_dielectric(cos1, n1, n2):
+def _fresnel_dielectric(cos1: np.ndarray, n1: np.ndarray, n2: np.ndarray) -> list[Fresnel]:
     """(R, φ) per polarization (p, s), as the paper's shader (total reflection: R = 1)."""
     sin2 = 1.0 - cos1**2
     nr = n1 / n2
@@ -81,7 +91,7 @@ def _fresnel_dielectric(cos1, n1, n2):
     return out
 
 
-def _fresnel_conductor(cos1, n1, n2, k_bw):
+def _fresnel_conductor(cos1: np.ndarray, n1: np.ndarray, n2: np.ndarray, k_bw: np.ndarray) -> list[Fresnel]:
     """Born & Wolf conductor (R, φ) per polarization (p, s); index n2·(1 + i·k_bw)."""
     a = n2**2 * (1 - k_bw**2) - n1**2 * (1 - cos1**2)
     b = np.sqrt(a**2 + (2 * n2**2 * k_bw) ** 2)
@@ -103,7 +113,7 @@ def _fresnel_conductor(cos1, n1, n2, k_bw):
     ]
 
 
-def _to_space(xyz_e, space, observer):
+def _to_space(xyz_e: np.ndarray, space: str, observer: str) -> np.ndarray:
     """XYZ with white E to the working space, Bradford-adapted to its white."""
     cm = colorimetry(observer, space)
     white = cm.rgb_to_xyz(np.ones(3))
@@ -113,7 +123,7 @@ def _to_space(xyz_e, space, observer):
     return cm.xyz_to_rgb(xyz_e @ adapt.T)
 
 
-def _columns(stack, method: str):
+def _columns(stack: FilmPoints, method: str) -> tuple[np.ndarray, ...]:
     """(η1, η2, η3, κ3, cos θ1, D) of a constant-index stack, broadcast."""
     stack.require(method, film=None, base=None)
     return np.broadcast_arrays(
@@ -124,7 +134,7 @@ def _columns(stack, method: str):
     )
 
 
-def belcour_barla_rgb(stack, space="rec709", observer="cie1931"):
+def belcour_barla_rgb(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
     """Belcour & Barla (2017) real-time evaluation, orders 0–3."""
     e1, e2, e3, k3, c1, opd = _columns(stack, "belcour-barla-2017")
     # The shader fades the film to the ambient as D → 0 (its 0.03 µm = 30 nm).
@@ -149,13 +159,13 @@ def belcour_barla_rgb(stack, space="rec709", observer="cie1931"):
     return _to_space(np.nan_to_num(xyz), space, observer)
 
 
-def _schlick(f0, cos):
+def _schlick(f0: np.ndarray, cos: np.ndarray) -> np.ndarray:
     """three.js's F_Schlick (r187): the exp2 fit of (1 − cos)^5 (Epic, SIGGRAPH 2013), not the power itself."""
     fresnel = np.exp2((-5.55473 * cos - 6.98316) * cos)
     return f0 * (1 - fresnel) + fresnel
 
 
-def khr_iridescence_rgb(stack, space="rec709", observer="cie1931"):
+def khr_iridescence_rgb(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
     """KHR_materials_iridescence as in three.js' evalIridescence, orders 0–2."""
     e1, e2, e3, k3, c1, opd = _columns(stack, "khr-iridescence-threejs")
     thickness = opd / (2 * e2)
@@ -184,7 +194,7 @@ def khr_iridescence_rgb(stack, space="rec709", observer="cie1931"):
     return rgb
 
 
-APPROXIMATIONS = {
+APPROXIMATIONS: dict[str, Callable[[FilmPoints, str, str], np.ndarray]] = {
     "belcour-barla-2017": belcour_barla_rgb,
     "khr-iridescence-threejs": khr_iridescence_rgb,
     "lutbake-exact-mode": exact_mode_rgb,

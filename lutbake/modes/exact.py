@@ -29,9 +29,12 @@ import functools
 import hashlib
 import json
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake import __version__
 from lutbake.errors import ParameterError
@@ -44,6 +47,9 @@ from lutbake.spectral.fourier import (
 )
 from lutbake.tables.headers import EXACT_FORMAT, EXACT_FORMAT_VERSION
 from lutbake.tables.lutfile import read_lut, write_table_set
+
+if TYPE_CHECKING:
+    from lutbake.physics.points import FilmPoints
 
 __all__ = [
     "TABLE_STEP_NM",
@@ -88,14 +94,14 @@ class ExactTable:
     def x_max_nm(self) -> float:
         return self.step_nm * (self.samples.shape[1] - 1)
 
-    def tail_bound(self, x_nm) -> np.ndarray:
+    def tail_bound(self, x_nm: npt.ArrayLike) -> np.ndarray:
         """The include's bound on sup_{y ≥ x} |Ŵ_c(y)| (one for all channels)."""
         tail = self.meta["tail"]
         x = 2.0 * np.pi * np.asarray(x_nm, float)
         with np.errstate(divide="ignore"):
             return np.minimum(tail["mass"], (tail["edge"] + tail["variation"] / x) / x)
 
-    def demodulated(self, x_nm) -> np.ndarray:
+    def demodulated(self, x_nm: npt.ArrayLike) -> np.ndarray:
         """Linear interpolation between texels, (3, *x.shape), as the include does it."""
         s = np.asarray(x_nm, float) / self.step_nm
         i = np.minimum(np.floor(s).astype(np.int64), self.samples.shape[1] - 2)
@@ -110,7 +116,7 @@ class ExactResult:
     bound: np.ndarray  # (n,) the rule's remainder bound where it stopped (> tolerance: capped or past the table)
 
 
-def base_rgb(name: str):
+def base_rgb(name: str) -> tuple[np.ndarray, np.ndarray]:
     """(η3, κ3), each (3,), of a named material at RGB_WAVELENGTHS_NM."""
     from lutbake.physics.materials import material
 
@@ -189,7 +195,7 @@ def table_metadata(
 
 
 def write_exact_table(
-    out_path,
+    out_path: str | PathLike[str],
     observer: str = "cie1931",
     space: str = "rec709",
     precision: str = "float",
@@ -210,7 +216,13 @@ def write_exact_table(
     return meta
 
 
-def _stored(observer, space, precision, tolerance=DEFAULT_TOLERANCE, max_terms=DEFAULT_MAX_TERMS) -> tuple:
+def _stored(
+    observer: str,
+    space: str,
+    precision: str,
+    tolerance: float = DEFAULT_TOLERANCE,
+    max_terms: int = DEFAULT_MAX_TERMS,
+) -> tuple[dict, np.ndarray]:
     """(header, image as stored) of the table `exact-table` writes."""
     exact = table_samples(observer, space)
     stored = _pack(exact).astype(np.float16 if precision == "half" else np.float32)
@@ -224,7 +236,7 @@ def stored_table(observer: str = "cie1931", space: str = "rec709", precision: st
     return ExactTable(meta, _unpack(stored))
 
 
-def exact_mode(stack, space: str = "rec709", observer: str = "cie1931") -> ExactResult:
+def exact_mode(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> ExactResult:
     """The exact runtime mode (the default float table and include settings) at film stacks of one
     constant film η1 | η2 and constant bases, taken as the approximations are: what `report` and
     `sweep` score beside a LUT."""
@@ -236,18 +248,25 @@ def exact_mode(stack, space: str = "rec709", observer: str = "cie1931") -> Exact
     return exact_colour(stored_table(observer, space), cos_theta, thickness, eta1, eta2, eta3, kappa3)
 
 
-def exact_mode_rgb(stack, space="rec709", observer="cie1931") -> np.ndarray:
+def exact_mode_rgb(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
     """``exact_mode``'s linear RGB (n, 3)."""
     return exact_mode(stack, space, observer).values
 
 
-def read_exact_table(path) -> ExactTable:
+def read_exact_table(path: str | PathLike[str]) -> ExactTable:
     """The table as stored, validated (ValueError names the file and the field)."""
     meta, image = read_lut(path, formats=(EXACT_FORMAT,))
     return ExactTable(meta, _unpack(image))
 
 
-def _channel_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> SeriesCoefficients:
+def _channel_coefficients(
+    eta1: float,
+    eta2: float,
+    cos_theta: npt.ArrayLike,
+    opd_nm: npt.ArrayLike,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+) -> SeriesCoefficients:
     """Series constants per channel: arrays (2, n, 3). eta3/kappa3 of shape (n,) or (n, 3) (per channel)."""
     n = np.size(cos_theta)
     eta3 = np.broadcast_to(np.asarray(eta3, float).reshape(n, -1), (n, 3))
@@ -258,7 +277,15 @@ def _channel_coefficients(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> Series
 
 
 def exact_colour(
-    table: ExactTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3, tolerance: float = None, max_terms: int = None
+    table: ExactTable,
+    cos_theta: npt.ArrayLike,
+    thickness_nm: npt.ArrayLike,
+    eta1: float,
+    eta2: float,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+    tolerance: float | None = None,
+    max_terms: int | None = None,
 ) -> ExactResult:
     """RGB by the include's math in float64: η1, η2 scalars; the rest arrays (n,); η3, κ3 (n,) or (n, 3).
 
@@ -299,7 +326,9 @@ def exact_colour(
     return ExactResult(values, terms, np.where(x > 0, bound, 0.0))
 
 
-def _resummed_tail(table: ExactTable, x, terms, co: SeriesCoefficients, power) -> np.ndarray:
+def _resummed_tail(
+    table: ExactTable, x: np.ndarray, terms: np.ndarray, co: SeriesCoefficients, power: np.ndarray
+) -> np.ndarray:
     """Re of the terms past the cap, K e^{iθ} z^M Σ_{j≥0} z^j A(x_M + jX) (x_M = (M+1)X, z = q e^{iθ}),
     in closed form where that is the smaller error: (2, n, 3).
 

@@ -1,5 +1,5 @@
 """tables: the files of every table lutbake writes, the 4D LUT, a scene's atlas, the exact mode's table and
-the runtime table, told apart by their header's ``format``.
+the runtime table, told apart by their header's ``format`` (docs/lut-format.md).
 
 Stages, lowest first: headers (each kind's schema and the header checks: ``KINDS``, ``exr_header``,
 ``check_structure``, ``check_metadata``) → exr (pixel rows in and out: ``exr_rows``, ``write_image``,

@@ -9,7 +9,9 @@ by tables/includes.py.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -21,8 +23,34 @@ __all__ = ["pack_atlas", "atlas_header", "slice_header", "slice_entry", "write_a
 # What a job's record says about its error, copied into each of its materials' manifest entries.
 ERROR_KEYS = ("de00_p99", "de00_p99_bound", "target_met", "de00_max", "worst_case")
 
+Rect = Sequence[int]  # [x0, y0, width, height] in texels
 
-def pack_atlas(slices) -> dict:
+
+class SliceJob(Protocol):
+    """What the atlas reads of a scene's slice job (lutbake/scene/plan.py's SceneJob, a layer above)."""
+
+    @property
+    def id(self) -> str: ...
+    @property
+    def key(self) -> dict: ...
+    @property
+    def materials(self) -> list: ...
+
+
+class AtlasSettings(Protocol):
+    """What the atlas header reads of a scene (lutbake/scene/model.py's Scene, a layer above)."""
+
+    @property
+    def space(self) -> str: ...
+    @property
+    def observer(self) -> str: ...
+    @property
+    def precision(self) -> str: ...
+    @property
+    def eta1(self) -> float: ...
+
+
+def pack_atlas(slices: Sequence[np.ndarray]) -> dict:
     """A scene atlas's layout: slices (each (rows, columns, 3)) stacked vertically, left-aligned, each a
     rect [x0, y0, width, height] of texels that sampling stays inside; the image zero elsewhere."""
     if not slices:
@@ -37,7 +65,7 @@ def pack_atlas(slices) -> dict:
     return {"width": width, "height": height, "rects": rects, "image": image}
 
 
-def slice_header(job, rect) -> dict:
+def slice_header(job: SliceJob, rect: Rect) -> dict:
     """What the atlas header says about a slice (a scene_plan.SceneJob in ``rect``): enough to sample
     it by material name."""
     x0, y0, w, h = rect
@@ -55,7 +83,7 @@ def slice_header(job, rect) -> dict:
     }
 
 
-def atlas_header(scene, scene_hash: str, jobs, rects) -> dict:
+def atlas_header(scene: AtlasSettings, scene_hash: str, jobs: Sequence[SliceJob], rects: Sequence[Rect]) -> dict:
     """The atlas EXR's metadata: the scene's settings and one ``slice_header`` per slice job."""
     return {
         "format": ATLAS_FORMAT,
@@ -70,7 +98,7 @@ def atlas_header(scene, scene_hash: str, jobs, rects) -> dict:
     }
 
 
-def slice_entry(job, record: dict, rect, atlas: dict, exr_name: str) -> dict:
+def slice_entry(job: SliceJob, record: dict, rect: Rect, atlas: dict, exr_name: str) -> dict:
     """A slice material's manifest entry: where its rect is (texels and uv), its axes, film, base and
     what its ``record`` (scene_jobs.refine_slice) reached: p99 ΔE00, the bound held to the target, the
     searched max and where."""

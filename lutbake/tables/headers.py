@@ -29,8 +29,10 @@ from __future__ import annotations
 
 import re
 import struct
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable
+from os import PathLike
+from typing import IO, Any
 
 import numpy as np
 
@@ -78,7 +80,7 @@ MAX_ATTRIBUTE_BYTES = 64 << 20
 _HEX = re.compile(r"^[0-9a-f]+$")
 
 
-def exr_header(path) -> dict:
+def exr_header(path: str | PathLike[str]) -> dict:
     """The header of the EXR at ``path``: {"flags", "attributes": {name: (type, bytes)}, "size"}.
     ValueError (the reason) when the file is not an EXR or its header is cut short."""
     with open(path, "rb") as fh:
@@ -87,7 +89,7 @@ def exr_header(path) -> dict:
         magic, flags = struct.unpack("<iI", _read(fh, 8))
         _need(magic == _MAGIC, "not an EXR file (magic number)")
         name_limit = 255 if flags & _LONG_NAMES else 31
-        attributes = {}
+        attributes: dict[str, tuple[str, bytes]] = {}
         while True:
             name = _read_name(fh, name_limit)
             if not name:
@@ -99,13 +101,13 @@ def exr_header(path) -> dict:
     return {"flags": flags, "attributes": attributes, "size": size}
 
 
-def _read(fh, n: int) -> bytes:
+def _read(fh: IO[bytes], n: int) -> bytes:
     data = fh.read(n)
     _need(len(data) == n, "header cut short")
     return data
 
 
-def _read_name(fh, limit: int) -> str:
+def _read_name(fh: IO[bytes], limit: int) -> str:
     name = bytearray()
     while (byte := _read(fh, 1)) != b"\0":
         name += byte
@@ -126,7 +128,7 @@ def _channels(data: bytes) -> dict:
     return out
 
 
-def check_structure(header: dict, channel_sets=("RGB",)) -> dict:
+def check_structure(header: dict, channel_sets: Iterable[str] = ("RGB",)) -> dict:
     """(width, height, channels, pixel type, metadata text) of a header that holds one lutbake image whose
     channels are one of ``channel_sets`` ("RGB", "RGBA"); ValueError naming what is not (see the module
     docstring)."""
@@ -142,7 +144,8 @@ def check_structure(header: dict, channel_sets=("RGB",)) -> dict:
     channels = _channels(attributes["channels"][1])
     names = next((c for c in channel_sets if sorted(c) == sorted(channels)), None)
     expected = " or ".join(", ".join(c) for c in channel_sets)
-    _need(names is not None, f"channels {', '.join(sorted(channels)) or 'none'}, expected {expected}")
+    if names is None:
+        raise ValueError(f"channels {', '.join(sorted(channels)) or 'none'}, expected {expected}")
     kinds = {kind for kind, _, _ in channels.values()}
     _need(
         len(kinds) == 1 and kinds <= set(_PIXEL_BYTES),
@@ -168,7 +171,8 @@ def check_structure(header: dict, channel_sets=("RGB",)) -> dict:
         raise ValueError("lutbake.metadata is not UTF-8") from None
 
 
-def _need(ok: bool, why: str) -> None:
+def _need(ok: object, why: str) -> None:
+    """ValueError(why) unless ``ok`` is true (a value's truth, as ``if`` reads it)."""
     if not ok:
         raise ValueError(why)
 
@@ -182,7 +186,7 @@ class TableKind:
     (``schema(meta, structure)`` raises ValueError naming the field), and how a message names a file of it
     (``noun`` before a missing file's name, ``title`` after "is not a" for a file that is not one)."""
 
-    versions: tuple
+    versions: tuple[int, ...]
     channels: str
     schema: Callable[[dict, dict], None]
     noun: str = "LUT"
@@ -221,7 +225,8 @@ def _check_lut(meta: dict, shape: dict) -> None:
     packing = _dict(meta, "packing")
     orders = TILE_ORDERS if meta["format_version"] >= 6 else TILE_ORDERS[:1]  # κ3 along x since v6
     _need(packing.get("tiles_x") in orders, "packing.tiles_x")
-    expected = TileLayout(*(a["count"] for a in axes), tiles_x=packing["tiles_x"]).packing()
+    n_cos, n_opd, n_eta3, n_kappa3 = (a["count"] for a in axes)
+    expected = TileLayout(n_cos, n_opd, n_eta3, n_kappa3, tiles_x=packing["tiles_x"]).packing()
     for key, value in expected.items():
         _need(packing.get(key) == value, f"packing.{key}")
     _need((shape["width"], shape["height"]) == (expected["width"], expected["height"]), "packing (image size)")
@@ -318,12 +323,12 @@ def _check_atlas(meta: dict, shape: dict) -> None:
     _domain(_at(meta, "eta1"), "eta1", "eta1")
     slices = _at(meta, "slices")
     _need(isinstance(slices, list) and slices and all(isinstance(s, dict) for s in slices), "slices")
-    names = set()
+    names: set[str] = set()
     for i, s in enumerate(slices):
         _slice(s, f"slices[{i}]", shape, names)
 
 
-def _slice(s: dict, field: str, shape: dict, names: set) -> None:
+def _slice(s: dict, field: str, shape: dict, names: set[str]) -> None:
     if "id" in s:
         _text(s["id"], f"{field}.id")
     rect = _at(s, "rect", field)
@@ -424,7 +429,7 @@ def _storage(meta: dict) -> None:
     _choice(meta, "precision", ("float", "half"))
 
 
-def _at(container: dict, key: str, parent: str = ""):
+def _at(container: dict, key: str, parent: str = "") -> Any:  # a JSON value, of whatever type it holds
     """``container[key]``, or ValueError naming the missing field."""
     if key not in container:
         raise ValueError(f"{parent}.{key}" if parent else key)
@@ -437,23 +442,23 @@ def _dict(container: dict, key: str, parent: str = "") -> dict:
     return value
 
 
-def _choice(container: dict, key: str, allowed, parent: str = "") -> str:
+def _choice(container: dict, key: str, allowed: Iterable[str], parent: str = "") -> str:
     value = _at(container, key, parent)
     _need(isinstance(value, str) and value in allowed, f"{parent}.{key}" if parent else key)
     return value
 
 
-def _text(value, field: str) -> bool:
+def _text(value: object, field: str) -> bool:
     """A non-empty printable string (no newline or escape sequence reaches a terminal)."""
     _need(isinstance(value, str) and value != "" and value.isprintable(), field)
     return True
 
 
-def _is_hex(value, digits: int) -> bool:
+def _is_hex(value: object, digits: int) -> bool:
     return isinstance(value, str) and len(value) == digits and _HEX.match(value) is not None
 
 
-def _number(value, field: str, low=None, positive=False) -> float:
+def _number(value: Any, field: str, low: float | None = None, positive: bool = False) -> float:
     _need(
         isinstance(value, (int, float))
         and not isinstance(value, bool)
@@ -465,7 +470,7 @@ def _number(value, field: str, low=None, positive=False) -> float:
     return float(value)
 
 
-def _integer(value, field: str, low=None, high=None) -> int:
+def _integer(value: Any, field: str, low: int | None = None, high: int | None = None) -> int:
     _need(
         isinstance(value, int)
         and not isinstance(value, bool)
@@ -476,7 +481,7 @@ def _integer(value, field: str, low=None, high=None) -> int:
     return value
 
 
-def _domain(value, name: str, field: str) -> float:
+def _domain(value: Any, name: str, field: str) -> float:
     """A number inside the input domain of ``name`` (docs/stability.md, Input domain)."""
     _need(inside_domain(name, _number(value, field)), field)
     return float(value)

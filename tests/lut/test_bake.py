@@ -468,3 +468,22 @@ def test_default_eta3_axis_falls_back_to_uniform_under_an_ambient_above_its_low_
         return spec.axis["eta3"].spacing
 
     assert eta3_spacing(1.0) == "sqrt-admittance" and eta3_spacing(1.33) == "uniform"
+
+
+def test_a_lut_made_without_texels_has_coordinates_but_refuses_to_sample():
+    """Lut.in_memory(spec, None) (a search over the grid's domain) knows its axes, never reads texels."""
+    spec = BakeSpec(
+        eta2=1.5,
+        axes=(
+            Axis("cos_theta", 0.0, 1.0, 4),
+            Axis("opd_nm", 0.0, 600.0, 8),
+            Axis("eta3", 1.0, 2.0, 2),
+            Axis("kappa3", 0.0, 1.0, 2),
+        ),
+    )
+    lut = Lut.in_memory(spec, None)
+    stack = FilmPoints.build(eta2=1.5, opd_nm=300.0, cos_theta=0.5, eta3=1.5, kappa3=0.5)
+    assert [a.count for a in lut.axes] == [4, 8, 2, 2] and bool(lut.in_domain(stack).all())
+    for rule in ("cubic", "linear"):
+        with pytest.raises(ValueError, match="without texels"):
+            lut.sample(stack, interpolation=rule)

@@ -74,7 +74,7 @@ def cost_table_text(rows: list) -> str:
     return "\n".join(lines)
 
 
-def cost_table_html(rows) -> str:
+def cost_table_html(rows: list | None) -> str:
     """The rows as report.html shows them (nothing without rows: a report without the approximations)."""
     if not rows:
         return ""

@@ -21,6 +21,7 @@ import functools
 import hashlib
 import json
 from dataclasses import dataclass
+from os import PathLike
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ class RuntimeTable:
     meta: dict
     image: np.ndarray
 
-    def tile_origin(self, pair, channel):
+    def tile_origin(self, pair: int, channel: int) -> tuple[int, int]:
         """(x, y) texel of node (0, 0) of slice pair ``pair`` in channel band ``channel`` (scanlines from
         the top)."""
         row = pair // TILES_PER_ROW + channel * BAND_ROWS
@@ -129,7 +130,7 @@ def stored_table(observer: str = "cie1931", space: str = "rec709") -> RuntimeTab
     return RuntimeTable(_metadata(observer, space, exact, stored, white), stored.astype(np.float32))
 
 
-def write_runtime_table(out_path, observer: str = "cie1931", space: str = "rec709") -> dict:
+def write_runtime_table(out_path: str | PathLike[str], observer: str = "cie1931", space: str = "rec709") -> dict:
     """Write NAME.exr, NAME.json, NAME.glsl and NAME.hlsl as one set; return the metadata."""
     from lutbake.lut.bake import _check_writable
 
@@ -140,7 +141,7 @@ def write_runtime_table(out_path, observer: str = "cie1931", space: str = "rec70
     return table.meta
 
 
-def read_runtime_table(path) -> RuntimeTable:
+def read_runtime_table(path: str | PathLike[str]) -> RuntimeTable:
     """The table as stored, its header checked against its schema before its pixels are read (ValueError
     names the file and what is wrong)."""
     meta, image = read_lut(path, (RUNTIME_FORMAT,))

@@ -9,9 +9,15 @@ row of the reports.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.modes.runtime.files import RuntimeTable, stored_table
+
+if TYPE_CHECKING:
+    from lutbake.physics.points import FilmPoints
 
 __all__ = ["runtime_colour", "runtime_rgb"]
 
@@ -120,7 +126,9 @@ def _bilinear(image, x, y, bits):
     return top * (F(1) - ty) + bottom * ty
 
 
-def _read(table: RuntimeTable, film, w, band, bits):
+def _read(
+    table: RuntimeTable, film: dict, w: tuple[np.ndarray, np.ndarray], band: npt.ArrayLike, bits: int | None
+) -> tuple[np.ndarray, np.ndarray]:
     """V (re, im) of channel band ``band`` (an array or int) at table coordinate w, between the pair's slices."""
     t = table.meta["table"]
     half = F(0.5 * (t["nodes"] - 1))
@@ -132,7 +140,14 @@ def _read(table: RuntimeTable, film, w, band, bits):
 
 
 def runtime_colour(
-    table: RuntimeTable, cos_theta, thickness_nm, eta1, eta2, eta3, kappa3, filter_bits: int | None = None
+    table: RuntimeTable,
+    cos_theta: npt.ArrayLike,
+    thickness_nm: npt.ArrayLike,
+    eta1: npt.ArrayLike,
+    eta2: npt.ArrayLike,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+    filter_bits: int | None = None,
 ) -> np.ndarray:
     """Linear RGB (n, 3) as the include computes it. η3, κ3 of shape (n,) call ``lutbake_iridescence``,
     (n, 3) ``lutbake_iridescence_rgb``; everything is rounded to float32 first, as a GPU receives it."""
@@ -159,7 +174,7 @@ def runtime_colour(
     return colour.astype(float)
 
 
-def runtime_rgb(stack, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
+def runtime_rgb(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
     """The runtime path (the default table) at film stacks of constant indices: what `report` and `sweep`
     score beside a LUT (approximations.APPROXIMATIONS)."""
     stack.require("runtime table", film=None, base=None)

@@ -25,11 +25,17 @@ How U is computed:
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.io.usercache import cached_arrays
 from lutbake.physics.colorimetry import colorimetry
 from lutbake.spectral.fourier import NU0_PER_NM, TABLE_MAX_NM, weight_transform
+
+if TYPE_CHECKING:
+    from lutbake.spectral.fourier import WeightTransform
 
 __all__ = [
     "X_MAX_NM",
@@ -63,23 +69,23 @@ def node_grid() -> np.ndarray:
     return axis[None, :] + 1j * axis[:, None]
 
 
-def zoom_beta(x_nm):
+def zoom_beta(x_nm: npt.ArrayLike) -> np.ndarray:
     """β = 1 − α of the zoom at X: 2X/(2X + L) (0 at X = 0, → 1 for X ≫ L)."""
     x = np.asarray(x_nm, float)
     return 2.0 * x / (2.0 * x + ZOOM_NM)
 
 
-def z_of_w(w, beta):
+def z_of_w(w: np.ndarray, beta: np.ndarray) -> np.ndarray:
     """z for table coordinate w at zoom β (the inverse Möbius map; 1 − z = β(1 − w)/(1 + (1 − β)w))."""
     return 1.0 - beta * (1.0 - w) / (1.0 + (1.0 - beta) * w)
 
 
-def _demodulated(wt, x):
+def _demodulated(wt: WeightTransform, x: np.ndarray) -> np.ndarray:
     """A_c(x) = Ŵ_c(x) e^{−i2πν0x}, (3, n)."""
     return wt(x) * np.exp(-2j * np.pi * NU0_PER_NM * x)[None]
 
 
-def _series(wt, x_nm: float, z: np.ndarray) -> np.ndarray:
+def _series(wt: WeightTransform, x_nm: float, z: np.ndarray) -> np.ndarray:
     """U(X, z) for X > 0 at |z| ≤ 1: A(X) + Σ_m z^m ΔA_m, blocks of terms as matrix products, (3, n).
 
     A node leaves the sum once |z|^m Σ_{m' ≥ m}|ΔA_m'| ≤ 1e-12 (nodes sorted by |z|, so the ones still
@@ -154,7 +160,7 @@ def transform_table(observer: str = "cie1931", space: str = "rec709") -> np.ndar
     )
     shape = (3, SLICES, NODES, NODES)
 
-    def build():
+    def build() -> dict[str, np.ndarray]:
         u = np.stack([slice_values(x, observer, space) for x in slice_positions()], axis=1)
         return {"re": u.real, "im": u.imag}
 
