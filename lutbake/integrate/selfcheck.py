@@ -67,6 +67,7 @@ def self_check_error(backend: OpenCLBackend) -> float:
     if getattr(backend, "integrator", "direct") == "series":
         stacks = grid.texel_stacks(np.ravel(p) for p in grid.cell_params(0, grid.image_size[1]))
         series = series_colour(stacks, grid.observer, grid.space).values
+        assert series is not None  # integrate=True (the default) always fills it
         expected = np.where(np.isnan(series), expected.reshape(-1, 3), series).reshape(expected.shape)
     return max(worst, float(np.max(np.abs(bake_rows_all(backend, grid) - expected))))
 

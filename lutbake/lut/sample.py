@@ -133,7 +133,7 @@ class Lut:
         """Continuous node coordinates in [0, N − 1] per axis (clamped, like the shaders)."""
         values = self.coordinates(stack)
         return [
-            np.clip(axis.to_unit(v, values[0], self.eta1), 0.0, 1.0) * (axis.count - 1)
+            np.asarray(np.clip(axis.to_unit(v, values[0], self.eta1), 0.0, 1.0) * (axis.count - 1))
             for axis, v in zip(self.axes, values)
         ]
 

@@ -294,7 +294,11 @@ class _PathPoints:
 
         def stack_at(unit: np.ndarray) -> FilmPoints:
             return _path_stack(
-                self.spec, self.path, cos_axis.from_unit(unit[:, 0]), opd_axis.from_unit(unit[:, 1]), unit[:, 2] * top
+                self.spec,
+                self.path,
+                np.asarray(cos_axis.from_unit(unit[:, 0])),
+                np.asarray(opd_axis.from_unit(unit[:, 1])),
+                unit[:, 2] * top,
             )
 
         starts = np.argsort(-de)[:_SEARCH_STARTS]
