@@ -28,6 +28,14 @@ if TYPE_CHECKING:
     from lutbake.scene.model import Scene
 
 DEFAULT_OUT_DIR = "lutbake-luts"
+# flag → parameter: what sets a LUT's film and axes (a scene or glTF file sets them instead)
+_AXIS_FLAGS = {
+    "--eta2": "eta2",
+    "--cos-theta": "cos_theta",
+    "--opd": "opd_nm",
+    "--eta3": "eta3",
+    "--kappa3": "kappa3",
+}
 
 
 def scene_source_options(f: F) -> F:
@@ -97,15 +105,8 @@ def bake_cmd(
             f"bake has no {flag}: a LUT bakes constant indices (--eta2, --eta3 A:B:N); named materials "
             f"are baked through a scene manifest: lutbake bake --scene FILE.toml --out DIR (docs/scene.md)"
         )
-    axis_flags = {
-        "--eta2": "eta2",
-        "--cos-theta": "cos_theta",
-        "--opd": "opd_nm",
-        "--eta3": "eta3",
-        "--kappa3": "kappa3",
-    }
     if scene or gltf:
-        given = [f for f, name in axis_flags.items() if flags[name] is not None]
+        given = [f for f, name in _AXIS_FLAGS.items() if flags[name] is not None]
         if given:
             flag = "--scene" if scene else "--gltf"
             raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
