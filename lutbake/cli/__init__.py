@@ -1,12 +1,15 @@
-"""The `lutbake` command line: parse flags, call the library, print.
+"""The `lutbake` command line: parse flags, call the library, print (README.md; docs/api.md: the Python API
+behaves as it does).
 
 Exit codes: 0 success; 1 a check or gate failed; 2 bad input (one line on
 stderr naming the value and what is allowed; nothing written).
 
-One module per group of commands (bake.py: bake and plan; points.py: eval, sample, inspect, materials;
-report.py: report, sweep, tune, check; tables.py: runtime-table and exact-table; blender.py; devices.py),
-loaded on first use: `lutbake --help` imports click and the command modules, none of the library's numeric
-modules. The environment is read once, here (environment.py), and handed to the commands as values.
+Stages, a module each: ``environment`` (Environment: the environment, read once, here, and handed to the
+commands as values), ``options`` (the exit codes, BadInput and the flags more than one command takes),
+then one module per group of commands (bake.py: bake and plan; points.py: eval, sample, inspect,
+materials; report.py: report, sweep, tune, check; tables.py: runtime-table and exact-table; blender.py;
+devices.py), loaded on first use: `lutbake --help` imports click and the command modules, none of the
+library's numeric modules. Public names: ``main`` (the entry point) and ``cli`` (the click group).
 """
 
 from __future__ import annotations
@@ -14,6 +17,8 @@ from __future__ import annotations
 import os
 import signal
 import sys
+from collections.abc import Sequence
+from typing import IO, Any, NoReturn
 
 from lutbake.io.signals import (
     STOP_SIGNALS,
@@ -36,7 +41,7 @@ from lutbake.errors import OpenCLUnavailable  # noqa: E402
 __all__ = ["main", "cli"]
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> NoReturn:
     """Entry point: turn ValueError and click usage errors into one-line exit-2 errors.
 
     The context is driven directly rather than through ``cli.main``, which maps a
@@ -79,7 +84,7 @@ def main(argv=None):
     sys.exit(rv or 0)
 
 
-def _flush(stream) -> None:
+def _flush(stream: IO[str] | None) -> None:
     """Flush ``stream`` unless it is closed (`lutbake inspect X >&-`: Python then sets it to None)."""
     if stream is not None:
         stream.flush()
@@ -124,13 +129,13 @@ def _in_flags(exc: Exception) -> str:
     return exc.render(FLAG_OF_PARAMETER) if isinstance(exc, ParameterError) else str(exc)
 
 
-def _quiet_broken_pipe():
+def _quiet_broken_pipe() -> None:
     """The reader went away (`lutbake inspect X | head -1`): not an error. Point stdout at
     /dev/null so the interpreter's final flush does not fail again."""
     os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
 
 
-def _print_version(ctx, param, value):
+def _print_version(ctx: click.Context, param: click.Parameter, value: bool) -> None:
     if value and not ctx.resilient_parsing:
         from lutbake import __version__
 
@@ -142,14 +147,14 @@ class LazyGroup(click.Group):
     """A group whose commands are imported on first use: ``lazy`` maps a command's name to
     "module:function" (a module of this package and its click command)."""
 
-    def __init__(self, *args, lazy: dict, **kwargs):
+    def __init__(self, *args: Any, lazy: dict[str, str], **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.lazy = lazy
 
-    def list_commands(self, ctx) -> list:
+    def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(self.lazy)
 
-    def get_command(self, ctx, cmd_name):
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         if cmd_name not in self.lazy:
             return None
         from importlib import import_module
@@ -186,7 +191,7 @@ COMMANDS = {
     help="Show the version and exit.",
 )
 @click.pass_context
-def cli(ctx):
+def cli(ctx: click.Context) -> None:
     """Bake thin-film iridescence (exact spectral Airy summation) into EXR LUTs."""
     if ctx.obj is None:  # the environment, read once, before a command parses its flags
         ctx.obj = Environment.read(os.environ)

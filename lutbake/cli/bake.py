@@ -5,7 +5,9 @@ lutbake/lut/domain.py, lutbake/scene/source.py, lutbake/scene/bake.py and lutbak
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -20,10 +22,23 @@ from lutbake.cli.options import (
     show_progress,
 )
 
+if TYPE_CHECKING:
+    from lutbake.cli.options import F, Meter
+    from lutbake.lut.bake import BakeResult
+    from lutbake.scene.model import Scene
+
 DEFAULT_OUT_DIR = "lutbake-luts"
+# flag → parameter: what sets a LUT's film and axes (a scene or glTF file sets them instead)
+_AXIS_FLAGS = {
+    "--eta2": "eta2",
+    "--cos-theta": "cos_theta",
+    "--opd": "opd_nm",
+    "--eta3": "eta3",
+    "--kappa3": "kappa3",
+}
 
 
-def scene_source_options(f):
+def scene_source_options(f: F) -> F:
     """--gltf and --metal-mapping: a glTF asset as the scene's source (docs/gltf.md)."""
     f = click.option(
         "--metal-mapping",
@@ -65,7 +80,19 @@ def scene_source_options(f):
     show_default=True,
     help="Refuse grids whose estimated peak memory exceeds this (docs/lut-format.md, Limits).",
 )
-def bake_cmd(scene, gltf, metal_mapping, force, out, named_film, named_base, as_json, backend, device, **flags):
+def bake_cmd(
+    scene: str | None,
+    gltf: str | None,
+    metal_mapping: str | None,
+    force: bool,
+    out: str | None,
+    named_film: str | None,
+    named_base: str | None,
+    as_json: bool,
+    backend: str,
+    device: str | None,
+    **flags: Any,
+) -> int | None:
     """Bake the spectral Airy reflectance over (cos θ, D, η3, κ3) into an EXR LUT.
 
     Without --eta2, bakes the default LUT set into a folder. Named materials
@@ -78,15 +105,8 @@ def bake_cmd(scene, gltf, metal_mapping, force, out, named_film, named_base, as_
             f"bake has no {flag}: a LUT bakes constant indices (--eta2, --eta3 A:B:N); named materials "
             f"are baked through a scene manifest: lutbake bake --scene FILE.toml --out DIR (docs/scene.md)"
         )
-    axis_flags = {
-        "--eta2": "eta2",
-        "--cos-theta": "cos_theta",
-        "--opd": "opd_nm",
-        "--eta3": "eta3",
-        "--kappa3": "kappa3",
-    }
     if scene or gltf:
-        given = [f for f, name in axis_flags.items() if flags[name] is not None]
+        given = [f for f, name in _AXIS_FLAGS.items() if flags[name] is not None]
         if given:
             flag = "--scene" if scene else "--gltf"
             raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
@@ -98,7 +118,7 @@ def bake_cmd(scene, gltf, metal_mapping, force, out, named_film, named_base, as_
         raise BadInput("--force applies to --scene and --gltf bakes only (a LUT bake always recomputes)")
     if metal_mapping is not None:
         raise BadInput("--metal-mapping applies to --gltf only")
-    run = dict(backend=backend, memory_limit_gib=max_memory_gib, device=device)
+    run = {"backend": backend, "memory_limit_gib": max_memory_gib, "device": device}
     if flags["eta2"] is None:
         if any(flags[name] for name in ("cos_theta", "opd_nm", "eta3", "kappa3")):
             raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
@@ -118,9 +138,10 @@ def bake_cmd(scene, gltf, metal_mapping, force, out, named_film, named_base, as_
     _print_bakes(results, as_json)
     if flags["eta2"] is None and not as_json:
         click.echo(f"default LUT set in {folder}/")
+    return None
 
 
-def _print_bakes(results, as_json):
+def _print_bakes(results: Sequence[BakeResult], as_json: bool) -> None:
     """Each LUT's line (a warning beside it when texels past the spectral node cap err visibly), or one JSON."""
     from lutbake.lut.evaluate import CAPPED_WARNING_RGB
     from lutbake.lut.sets import summary
@@ -144,7 +165,7 @@ def _print_bakes(results, as_json):
             )
 
 
-def _scene_source(scene_path, gltf, metal_mapping):
+def _scene_source(scene_path: str | None, gltf: str | None, metal_mapping: str | None) -> Scene:
     """The scene model from its one source; what its glTF mapping could not honour goes to stderr, a line each."""
     from lutbake.scene.source import load_scene_source, source_warnings
 
@@ -154,7 +175,9 @@ def _scene_source(scene_path, gltf, metal_mapping):
     return scene
 
 
-def _bake_scene(scene, out, force, backend, device, as_json, meter):
+def _bake_scene(
+    scene: Scene, out: str | None, force: bool, backend: str, device: str | None, as_json: bool, meter: Meter
+) -> int:
     from lutbake.scene.bake import bake_scene
     from lutbake.scene.documents import bake_summary
 
@@ -190,7 +213,7 @@ def _bake_scene(scene, out, force, backend, device, as_json, meter):
 )
 @scene_source_options
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
-def plan_cmd(scene_path, gltf, metal_mapping, as_json):
+def plan_cmd(scene_path: str | None, gltf: str | None, metal_mapping: str | None, as_json: bool) -> None:
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a

@@ -4,6 +4,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import click
 
 from lutbake.cli.options import EXIT_GATE, echo_json, environment
@@ -38,7 +41,16 @@ from lutbake.cli.options import EXIT_GATE, echo_json, environment
     "any differs from `lutbake sample` (the OSL materials: their numpy evaluation) by more than 1e-3.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def blender_cmd(manifest, out, exact, runtime_table, blender, link, verify, as_json):
+def blender_cmd(
+    manifest: str | None,
+    out: str,
+    exact: str | None,
+    runtime_table: str | None,
+    blender: str | None,
+    link: bool,
+    verify: bool,
+    as_json: bool,
+) -> int:
     """Node groups that render a scene bake in Blender (Cycles and EEVEE): docs/blender.md."""
     from lutbake.blender.library import BlenderError, build_library
 
@@ -57,7 +69,9 @@ def blender_cmd(manifest, out, exact, runtime_table, blender, link, verify, as_j
     return EXIT_GATE if not all(v["ok"] for v in verified) else 0
 
 
-def _print_library(doc, out, tables, verified):
+def _print_library(
+    doc: Mapping[str, Any], out: str, tables: Mapping[str, str | None], verified: Sequence[Mapping[str, Any]]
+) -> None:
     if doc["groups"]:
         click.echo(
             f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "

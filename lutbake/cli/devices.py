@@ -17,7 +17,7 @@ from lutbake.cli.options import echo_json, environment
     help="Write a vendor folder registering Intel's CPU runtime (the cpu extra) beside the system's runtimes, "
     "in lutbake's cache folder, and print its path: export OCL_ICD_VENDORS=$(lutbake devices --icd-folder).",
 )
-def devices_cmd(as_json, icd_folder):
+def devices_cmd(as_json: bool, icd_folder: bool) -> None:
     """OpenCL devices: does each build the kernel and pass its self-check, and how fast is it."""
     from lutbake.io.usercache import writable_folder
     from lutbake.lut.survey import survey, vendor_folder

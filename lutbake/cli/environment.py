@@ -13,8 +13,13 @@ reads no environment variable.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from lutbake.integrate.devices import PyopenclCtx
 
 __all__ = ["Environment"]
 
@@ -29,7 +34,7 @@ class Environment:
     system_vendors: Path | None = None
 
     @classmethod
-    def read(cls, environ) -> Environment:
+    def read(cls, environ: Mapping[str, str]) -> Environment:
         """From ``environ`` (a mapping such as os.environ); empty values count as unset.
 
         >>> Environment.read({"LUTBAKE_DEVICE": "pocl", "XDG_CACHE_HOME": "/c", "LUTBAKE_BLENDER": ""})
@@ -55,7 +60,7 @@ class Environment:
         usercache.use_folder(self.cache_folder)
 
 
-def _pyopencl_ctx(value):
+def _pyopencl_ctx(value: str | None) -> PyopenclCtx | None:
     """PYOPENCL_CTX as a device selector read by pyopencl's rules, or None where it is unset."""
     if not value:
         return None

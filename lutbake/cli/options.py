@@ -6,32 +6,53 @@ Imported by `lutbake --help`: nothing here imports the library's numeric modules
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import IO, TYPE_CHECKING, Any, TypeVar
+
 import click
 
 from lutbake.io.names import INTERPOLATIONS, OBSERVERS, SPACES
 
+if TYPE_CHECKING:
+    from typing import Protocol
+
+    from lutbake.cli.environment import Environment
+
+    class Meter(Protocol):
+        """What progress.meter returns: a Meter, or its silent stand-in."""
+
+        def __call__(self, done: float, total: float | None = None, note: str = "") -> None: ...
+
+        def clear(self) -> None: ...
+
+        def close(self, note: str = "done") -> None: ...
+
+
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
+
+# a click command's function, as an option decorator takes and returns it
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 class BadInput(click.ClickException):
     exit_code = EXIT_BAD_INPUT
 
-    def show(self, file=None):
+    def show(self, file: IO[Any] | None = None) -> None:
         click.echo(f"lutbake: error: {self.message}", err=True)
 
 
-def echo_json(doc):
+def echo_json(doc: object) -> None:
     from lutbake.io.strictjson import dumps
 
     click.echo(dumps(doc))
 
 
-def environment():
+def environment() -> Environment:
     """The Environment the group read (lutbake/cli/environment.py)."""
     return click.get_current_context().obj
 
 
-def colour_options(f):
+def colour_options(f: F) -> F:
     f = click.option(
         "--observer",
         type=click.Choice(list(OBSERVERS)),
@@ -48,7 +69,7 @@ def colour_options(f):
     )(f)
 
 
-def progress_options(f):
+def progress_options(f: F) -> F:
     """--quiet / --progress: live progress on stderr, shown by default only on a terminal."""
     f = click.option(
         "--progress", "force_progress", is_flag=True, help="Show progress on stderr even when it is not a terminal."
@@ -56,7 +77,7 @@ def progress_options(f):
     return click.option("--quiet", is_flag=True, help="No progress on stderr.")(f)
 
 
-def progress_meter(label, quiet, force_progress):
+def progress_meter(label: str, quiet: bool, force_progress: bool) -> Meter:
     """The Meter for a command's progress flags (conflicting flags are refused)."""
     from lutbake.io.progress import meter
 
@@ -67,37 +88,38 @@ class MeterOnFirstUse:
     """A progress meter started by its first update (or its close) rather than at once, so that what the
     library prints before its first step (a fallback warning while it makes its integrator) comes first."""
 
-    def __init__(self, label, quiet, force_progress):
-        self.label, self.show, self.meter = label, show_progress(quiet, force_progress), None
+    def __init__(self, label: str, quiet: bool, force_progress: bool) -> None:
+        self.label, self.show = label, show_progress(quiet, force_progress)
+        self.meter: Meter | None = None
 
-    def _started(self):
+    def _started(self) -> Meter:
         from lutbake.io.progress import meter
 
         self.meter = self.meter or meter(self.label, self.show)
         return self.meter
 
-    def __call__(self, done, total=None, note: str = "") -> None:
+    def __call__(self, done: float, total: float | None = None, note: str = "") -> None:
         self._started()(done, total, note)
 
     def close(self, note: str = "done") -> None:
         self._started().close(note)
 
 
-def show_progress(quiet, force_progress):
+def show_progress(quiet: bool, force_progress: bool) -> bool | None:
     """progress.meter's ``show`` for the flags: False, True, or None (on a terminal only)."""
     if quiet and force_progress:
         raise BadInput("--quiet and --progress contradict each other: give one")
     return False if quiet else (True if force_progress else None)
 
 
-def backend_option(help_text: str):
+def backend_option(help_text: str) -> Callable[[F], F]:
     """--backend: which integrator runs the kernel's work ('auto': OpenCL, else numpy with a warning)."""
     return click.option(
         "--backend", type=click.Choice(["auto", "opencl", "numpy"]), default="auto", show_default=True, help=help_text
     )
 
 
-def _device_choice(ctx, param, selector):
+def _device_choice(ctx: click.Context, param: click.Parameter, selector: str | None) -> str | None:
     """--device, validated now; without it, the environment's choice ($LUTBAKE_DEVICE)."""
     if not selector:
         return ctx.obj.device if ctx.obj else None
@@ -119,7 +141,7 @@ device_option = click.option(
 )
 
 
-def axis_option(flag, name):
+def axis_option(flag: str, name: str) -> Callable[[F], F]:
     return click.option(
         flag,
         name,
@@ -151,7 +173,7 @@ DOMAIN_FLAGS = (
 )
 
 
-def domain_options(f):
+def domain_options(f: F) -> F:
     """The flags that define a LUT: film, axes, colour, precision, method, backend, device."""
     opts = [
         click.option("--eta2", type=float, help="Film index (constant, real)."),

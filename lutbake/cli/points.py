@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import contextlib
 import sys
+from collections.abc import Iterator, Mapping
+from typing import IO, TYPE_CHECKING, Any
 
 import click
 
@@ -20,8 +22,15 @@ from lutbake.cli.options import (
 )
 from lutbake.io.names import INTERPOLATIONS
 
+if TYPE_CHECKING:
+    import numpy as np
 
-def point_options(f, named=True):
+    from lutbake.cli.options import F
+    from lutbake.lut.sample import Atlas
+    from lutbake.physics.points import FilmPoints
+
+
+def point_options(f: F, named: bool = True) -> F:
     """Point flags shared by eval and sample (``named``: the --film/--base material flags)."""
     opts = [
         click.option(
@@ -50,7 +59,7 @@ def point_options(f, named=True):
     return f
 
 
-def constant_point_options(f):
+def constant_point_options(f: F) -> F:
     """Point flags of commands that take constant indices only (sample)."""
     return point_options(f, named=False)
 
@@ -63,13 +72,13 @@ _POINT_CONFLICTS = (
 )
 
 
-def _refuse_conflicts(flags, conflicts):
+def _refuse_conflicts(flags: Mapping[str, Any], conflicts: tuple[tuple[str, str, str], ...]) -> None:
     for a, b, why in conflicts:
         if flags.get(a) is not None and flags.get(b) not in (None, False):
             raise BadInput(f"--{a.replace('_', '-')} cannot be combined with --{b}: {why}")
 
 
-def build_points(points_csv, defaults=None, **flags):
+def build_points(points_csv: str | None, defaults: Mapping[str, Any] | None = None, **flags: Any) -> FilmPoints:
     """FilmPoints from the point flags and --points CSV; ``defaults`` (a LUT's or material's film) fill
     what neither gives."""
     from lutbake.physics.points import FilmPoints
@@ -83,7 +92,7 @@ def build_points(points_csv, defaults=None, **flags):
 
 
 @contextlib.contextmanager
-def _open_points(points_csv):
+def _open_points(points_csv: str) -> Iterator[IO[bytes]]:
     """The --points CSV as a binary stream (stdin for '-'), read line by line by points.read_csv_columns."""
     if points_csv == "-":
         if sys.stdin is None:
@@ -91,7 +100,7 @@ def _open_points(points_csv):
         yield sys.stdin.buffer
         return
     try:
-        stream = open(points_csv, "rb")
+        stream = open(points_csv, "rb")  # noqa: SIM115  (closed by the with below; only opening is bad input)
     except OSError as exc:
         raise BadInput(
             f"--points {points_csv!r} cannot be read ({exc.strerror}): give a CSV file or '-' for stdin"
@@ -115,7 +124,18 @@ def _open_points(points_csv):
 @backend_option("With --fast: auto: OpenCL, else numpy with a warning.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
 @progress_options
-def eval_cmd(points_csv, space, observer, wavelength_nm, fast, backend, as_json, quiet, force_progress, **flags):
+def eval_cmd(
+    points_csv: str | None,
+    space: str,
+    observer: str,
+    wavelength_nm: float | None,
+    fast: bool,
+    backend: str,
+    as_json: bool,
+    quiet: bool,
+    force_progress: bool,
+    **flags: Any,
+) -> None:
     """Reflectance of film stacks: the converged spectral integral (ground truth), or --fast."""
     from lutbake.lut.evaluate import point_colours, point_reflectances
 
@@ -141,7 +161,7 @@ def eval_cmd(points_csv, space, observer, wavelength_nm, fast, backend, as_json,
         _print_eval_table(rows)
 
 
-def _warn_past_the_cap(bound) -> None:
+def _warn_past_the_cap(bound: np.ndarray | None) -> None:
     from lutbake.lut.evaluate import CAPPED_WARNING_RGB
 
     if bound is not None and bound.max() > CAPPED_WARNING_RGB:
@@ -152,7 +172,7 @@ def _warn_past_the_cap(bound) -> None:
         )
 
 
-def _point_rows(points):
+def _point_rows(points: FilmPoints) -> list[dict[str, Any]]:
     """One dict per point (columns converted to Python floats once, not per element)."""
     cols = {
         "eta1": points.eta1.tolist(),
@@ -167,7 +187,7 @@ def _point_rows(points):
     return [dict(zip(cols, values)) for values in zip(*cols.values())]
 
 
-def _print_eval_table(rows):
+def _print_eval_table(rows: list[dict[str, Any]]) -> None:
     for row in rows:
         inputs = " ".join(
             f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
@@ -199,7 +219,15 @@ def _print_eval_table(rows):
 )
 @click.option("--material", help="With a scene atlas: the material whose slice to sample.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
-def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, **flags):
+def sample_cmd(
+    lut: str,
+    points_csv: str | None,
+    filter_bits: int | None,
+    interpolation: str | None,
+    material: str | None,
+    as_json: bool,
+    **flags: Any,
+) -> None:
     """Sample a LUT or a scene atlas as a GPU would (reference sampler)."""
     from lutbake.lut.readout import TableReads
 
@@ -230,7 +258,7 @@ def sample_cmd(lut, points_csv, filter_bits, interpolation, material, as_json, *
 @click.command("inspect")
 @click.argument("lut", type=click.Path())
 @click.option("--json", "as_json", is_flag=True, help="Print the metadata as JSON.")
-def inspect_cmd(lut, as_json):
+def inspect_cmd(lut: str, as_json: bool) -> None:
     """Show a LUT's or scene atlas's metadata (read from the EXR header alone)."""
     from lutbake.lut.sample import Atlas, load_table
 
@@ -243,7 +271,7 @@ def inspect_cmd(lut, as_json):
         _print_lut(lut, table.meta)
 
 
-def _print_lut(path, meta):
+def _print_lut(path: str, meta: Mapping[str, Any]) -> None:
     packing = meta["packing"]
     click.echo(f"{path}: {meta['format']} v{meta['format_version']} (lutbake {meta['lutbake_version']})")
     click.echo(f"  film eta2 = {meta['constants']['eta2']!r}, ambient eta1 = {meta['constants']['eta1']!r}")
@@ -284,7 +312,7 @@ def _print_lut(path, meta):
     click.echo(f"  content hash {meta['content_hash']}")
 
 
-def _print_atlas(path, atlas):
+def _print_atlas(path: str, atlas: Atlas) -> None:
     meta = atlas.meta
     height, width, _ = atlas.image.shape
     click.echo(f"{path}: {meta['format']} v{meta['format_version']}, scene hash {meta['scene_hash'][:16]}")
@@ -302,7 +330,7 @@ def _print_atlas(path, atlas):
 
 @click.command("materials")
 @click.option("--json", "as_json", is_flag=True, help="Print the list as one JSON document.")
-def materials_cmd(as_json):
+def materials_cmd(as_json: bool) -> None:
     """Named materials for --film/--base (any case) and the wavelengths their data cover."""
     from lutbake.physics.materials import catalogue
 

@@ -5,7 +5,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -20,6 +22,10 @@ from lutbake.cli.options import (
     progress_meter,
     progress_options,
 )
+
+if TYPE_CHECKING:
+    from lutbake.cli.options import F
+    from lutbake.quality.refine import Trial
 
 
 @click.command("report")
@@ -46,7 +52,18 @@ from lutbake.cli.options import (
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON document.")
 @progress_options
-def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_budget, as_json, quiet, force_progress):
+def report_cmd(
+    lut: str,
+    n_points: int,
+    seed: int,
+    out_dir: str | None,
+    max_de: float | None,
+    no_approximations: bool,
+    search_budget: int | None,
+    as_json: bool,
+    quiet: bool,
+    force_progress: bool,
+) -> int:
     """How wrong a LUT or scene atlas is: ΔE00 against the ground truth at held-out points, max searched."""
     from lutbake.scene.reports import open_report
 
@@ -72,7 +89,7 @@ def report_cmd(lut, n_points, seed, out_dir, max_de, no_approximations, search_b
     return EXIT_GATE if gate_failed else 0
 
 
-def _print_summary(summary, kind):
+def _print_summary(summary: Mapping[str, Any], kind: str) -> None:
     """The error table (the LUT's or atlas's row, then the approximations' or the slices'), the runtime
     paths' costs, and where the searched max lies."""
     rows = summary["slices"] if kind == "atlas" else summary["approximations"]
@@ -92,7 +109,7 @@ def _print_summary(summary, kind):
     )
 
 
-def _print_receipts(receipts, out_dir, as_json):
+def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: bool) -> int:
     """`report OUT/ASSET.json`: the receipts of a glTF bake (lutbake/scene/gltf/receipt.py)."""
     if as_json:
         echo_json(receipts)
@@ -109,7 +126,7 @@ def _print_receipts(receipts, out_dir, as_json):
     return 0
 
 
-def _print_error_rows(rows, summary):
+def _print_error_rows(rows: Sequence[Mapping[str, Any]], summary: Mapping[str, Any]) -> None:
     kinds = " + ".join(f"{n} {k}" for k, n in summary.get("point_kinds", {}).items())
     click.echo(
         f"ΔE00 against the ground truth at {summary['points']} held-out points" + (f" ({kinds})" if kinds else "")
@@ -122,7 +139,7 @@ def _print_error_rows(rows, summary):
         )
 
 
-def search_budget_option(default: int):
+def search_budget_option(default: int) -> Callable[[F], F]:
     """--search-budget of sweep and tune: evaluations of each searched max (report.search_max)."""
     return click.option(
         "--search-budget",
@@ -133,10 +150,10 @@ def search_budget_option(default: int):
     )
 
 
-def held_out_options(default_points: int, help_text: str):
+def held_out_options(default_points: int, help_text: str) -> Callable[[F], F]:
     """--points/--seed of sweep and tune."""
 
-    def options(f):
+    def options(f: F) -> F:
         f = click.option("--seed", type=int, default=0, show_default=True, help="Seed of the held-out points.")(f)
         return click.option(
             "--points",
@@ -163,7 +180,18 @@ def held_out_options(default_points: int, help_text: str):
 @search_budget_option(5000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rows as one JSON document.")
 @progress_options
-def sweep_cmd(out_dir, n_points, seed, search_budget, as_json, quiet, force_progress, backend, device, **flags):
+def sweep_cmd(
+    out_dir: str,
+    n_points: int,
+    seed: int,
+    search_budget: int,
+    as_json: bool,
+    quiet: bool,
+    force_progress: bool,
+    backend: str,
+    device: str | None,
+    **flags: Any,
+) -> None:
     """Error against bake time and bytes over LUT variants of one domain, plus engine approximations."""
     from lutbake.lut.domain import lut_spec
     from lutbake.quality.sweep import sweep
@@ -195,7 +223,18 @@ def sweep_cmd(out_dir, n_points, seed, search_budget, as_json, quiet, force_prog
 @search_budget_option(20000)
 @click.option("--json", "as_json", is_flag=True, help="Print the rounds and result as one JSON document.")
 @progress_options
-def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progress, backend, device, **flags):
+def tune_cmd(
+    max_de: float,
+    n_points: int,
+    seed: int,
+    search_budget: int,
+    as_json: bool,
+    quiet: bool,
+    force_progress: bool,
+    backend: str,
+    device: str | None,
+    **flags: Any,
+) -> int:
     """Smallest per-axis counts whose p99 ΔE00 meets --max-de (exit 1 if not reached).
 
     Each accepted round is printed as it happens (with --json: one document at the end).
@@ -206,7 +245,7 @@ def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progre
     check_max_de(max_de)
     meter = progress_meter("tune", quiet, force_progress)
 
-    def print_round(trial):
+    def print_round(trial: Trial) -> None:
         r = trial.row()
         meter.clear()
         click.echo(
@@ -242,7 +281,7 @@ def tune_cmd(max_de, n_points, seed, search_budget, as_json, quiet, force_progre
     return 0 if result.met else EXIT_GATE
 
 
-def _print_tuned(doc, max_de, met):
+def _print_tuned(doc: Mapping[str, Any], max_de: float, met: bool) -> None:
     from lutbake.grid.spec import axis_from_header
 
     best = doc["result"]
@@ -261,7 +300,7 @@ def _print_tuned(doc, max_de, met):
 @device_option
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON document.")
 @progress_options
-def check_cmd(backend, device, as_json, quiet, force_progress):
+def check_cmd(backend: str, device: str | None, as_json: bool, quiet: bool, force_progress: bool) -> int:
     """Stiff and extreme cases: every path finite and accurate (exit 1 on any failure)."""
     from lutbake.quality.check import check_fast_path
 

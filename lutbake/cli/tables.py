@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from lutbake.cli.options import colour_options, echo_json
@@ -24,7 +26,15 @@ from lutbake.cli.options import colour_options, echo_json
 )
 @click.option("--max-terms", type=int, default=None, help="The includes' default term cap (default 64).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
-def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_json):
+def exact_table_cmd(
+    space: str,
+    observer: str,
+    out: str,
+    precision: str,
+    tolerance: float | None,
+    max_terms: int | None,
+    as_json: bool,
+) -> None:
     """Write the exact runtime mode's table (Fourier transform of the colour weights) and its includes.
 
     Shaders call lutbake_exact(table, cos θ, d, η1, η2, η3, κ3): the exact series per pixel, any
@@ -32,7 +42,7 @@ def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_js
     """
     from lutbake.modes.exact import write_exact_table
 
-    given = {k: v for k, v in {"tolerance": tolerance, "max_terms": max_terms}.items() if v is not None}
+    given: dict[str, Any] = {k: v for k, v in {"tolerance": tolerance, "max_terms": max_terms}.items() if v is not None}
     meta = write_exact_table(out, observer, space, precision, **given)
     if as_json:
         echo_json(meta)
@@ -49,7 +59,7 @@ def exact_table_cmd(space, observer, out, precision, tolerance, max_terms, as_js
 @colour_options
 @click.option("--out", "out", type=click.Path(), required=True, help="FILE.exr (with FILE.json, .glsl, .hlsl).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table's metadata as JSON.")
-def runtime_table_cmd(space, observer, out, as_json):
+def runtime_table_cmd(space: str, observer: str, out: str, as_json: bool) -> None:
     """Write the runtime table and its includes: any film, any base, 6 bilinear reads per pixel.
 
     Shaders call lutbake_iridescence(table, cos θ, d, η1, η2, η3, κ3) or lutbake_iridescence_rgb(…, η3

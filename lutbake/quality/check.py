@@ -9,9 +9,12 @@ tolerance. docs/stability.md lists the cases and what the code does at each.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.devices import device_key
@@ -21,6 +24,12 @@ from lutbake.physics.optics import film_reflectance, round_trip_amplitude
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, series_colour
 from lutbake.spectral.reference import reference_colour
+
+if TYPE_CHECKING:
+    from pyopencl import Device
+
+    from lutbake.integrate.numpy_path import NumpyBackend
+    from lutbake.integrate.opencl import OpenCLBackend
 
 __all__ = ["CheckResult", "CheckRun", "run_checks", "check_fast_path"]
 
@@ -47,7 +56,7 @@ class CheckResult:
     def passed(self) -> bool:
         return bool(np.isfinite(self.error) and self.error <= self.tolerance)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {**asdict(self), "passed": self.passed}
 
 
@@ -88,7 +97,14 @@ class _Paths:
         return result.values, bool(result.converged.all())
 
 
-def _stack(eta1, eta2, cos_theta, opd_nm, eta3, kappa3) -> FilmPoints:
+def _stack(
+    eta1: npt.ArrayLike,
+    eta2: npt.ArrayLike,
+    cos_theta: npt.ArrayLike,
+    opd_nm: npt.ArrayLike,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+) -> FilmPoints:
     """The film stacks of a case: the tables below list each as (η1, η2, cos θ1, D, η3, κ3)."""
     return FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3)
 
@@ -415,7 +431,11 @@ def _fourier_limits(paths):
     return out
 
 
-def run_checks(backend="auto", progress=no_progress, device=None) -> list:
+def run_checks(
+    backend: str | OpenCLBackend | NumpyBackend = "auto",
+    progress: Callable[..., None] = no_progress,
+    device: str | Device | None = None,
+) -> list[CheckResult]:
     """Every stiff and extreme case, each against an independent reference and a stated tolerance.
 
     Parameters
@@ -442,7 +462,7 @@ def run_checks(backend="auto", progress=no_progress, device=None) -> list:
     (True, True)
     """
     paths = _Paths(backend, device)
-    results = []
+    results: list[CheckResult] = []
     groups = (_high_finesse, _thick_films, _degenerate, _angles, _float32, _truncation, _fourier)
     for i, group in enumerate(groups):
         progress(i, len(groups), group.__name__.strip("_").replace("_", " "))
@@ -455,18 +475,20 @@ class CheckRun:
     """What `lutbake check` reports: the device that ran the fast path, and every case's result."""
 
     device: str
-    results: list
+    results: list[CheckResult]
 
     @property
     def passed(self) -> bool:
         return all(r.passed for r in self.results)
 
-    def document(self) -> dict:
+    def document(self) -> dict[str, Any]:
         """The JSON document `check --json` prints."""
         return {"passed": self.passed, "device": self.device, "checks": [r.as_dict() for r in self.results]}
 
 
-def check_fast_path(backend: str = "auto", progress=no_progress, device=None) -> CheckRun:
+def check_fast_path(
+    backend: str = "auto", progress: Callable[..., None] = no_progress, device: str | Device | None = None
+) -> CheckRun:
     """`lutbake check`: the fast path made once (one fallback warning, and its device named in the result),
     then ``run_checks`` on it; the parameters are ``run_checks``'s."""
     fast = make_backend(backend, device=device)

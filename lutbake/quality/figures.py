@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.io.progress import no_progress
 from lutbake.lut.sample import Lut
@@ -14,41 +18,46 @@ from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from lutbake.quality.report import LutReport
+
 __all__ = ["MapPanel", "delta_e_map_panels", "delta_e_maps", "swatch_strips", "pareto_plot", "display_srgb"]
 
 
-def _figure(figsize):
+def _figure(figsize: tuple[float, float]) -> Figure:
     """A figure outside pyplot: no global backend switch, nothing to close (PNG through Agg on save)."""
     from matplotlib.figure import Figure
 
     return Figure(figsize=figsize, layout="constrained")
 
 
-def display_srgb(rgb, exposure=1.0):
+def display_srgb(rgb: npt.ArrayLike, exposure: float = 1.0) -> np.ndarray:
     """Linear RGB to clipped sRGB-encoded values for display."""
     v = np.clip(np.asarray(rgb, float) * exposure, 0.0, 1.0)
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
 
 
-def _slices(lut: Lut):
+def _slices(lut: Lut) -> list[tuple[float, float]]:
     """Three (η3, κ3) slices: dielectric low, mid, and the most metallic corner."""
     ax = {a.name: a for a in lut.axes}
     e, k = ax["eta3"], ax["kappa3"]
     return [(e.lo, k.lo), (0.5 * (e.lo + e.hi), k.from_unit(0.37)), (e.hi, k.hi)]
 
 
-def _stack(lut, cos_t, opd, eta3, kappa3) -> FilmPoints:
+def _stack(lut: Lut, cos_t: npt.ArrayLike, opd: npt.ArrayLike, eta3: float, kappa3: float) -> FilmPoints:
     return FilmPoints.build(eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_t, opd_nm=opd, eta3=eta3, kappa3=kappa3)
 
 
-def _truth(lut, stack: FilmPoints):
+def _truth(lut: Lut, stack: FilmPoints) -> np.ndarray:
     return reference_colour(stack, lut.meta["observer"], lut.meta["space"]).values
 
 
-def _worst_slices(rep, count: int = 3) -> list:
+def _worst_slices(rep: LutReport, count: int = 3) -> list[tuple[float, float]]:
     """(η3, κ3) of the worst points (the searched maximum first, then held-out and searched ones),
     distinct, worst first: where the LUT is most wrong."""
-    out = []
+    out: list[tuple[float, float]] = []
     for w in rep.worst:
         key = (w["eta3"], w["kappa3"])
         if key not in out:
@@ -75,7 +84,7 @@ class MapPanel:
     de00: np.ndarray = field(repr=False)  # (n, n): rows along D, columns along cos θ
 
 
-def delta_e_map_panels(rep, n: int = 48, progress=no_progress) -> list:
+def delta_e_map_panels(rep: LutReport, n: int = 48, progress: Callable[..., None] = no_progress) -> list[MapPanel]:
     """The maps' data: ΔE00 over (cos θ, D) at cell centres of an n × n grid in node coordinates, at the
     (η3, κ3) of the report's worst points (the searched maximum's first)."""
     lut = Lut.load(rep.path)
@@ -93,7 +102,7 @@ def delta_e_map_panels(rep, n: int = 48, progress=no_progress) -> list:
     return panels
 
 
-def delta_e_maps(rep, panels: list, out_png: Path) -> Path:
+def delta_e_maps(rep: LutReport, panels: list[MapPanel], out_png: str | PathLike[str]) -> Path:
     """Draw ``panels`` on one colour scale, each titled with its own p99 and max, the searched maximum
     marked (×) where its panel holds it; the title states the searched max, as the table and JSON do."""
     lut = Lut.load(rep.path)
@@ -126,7 +135,7 @@ def delta_e_maps(rep, panels: list, out_png: Path) -> Path:
     return Path(out_png)
 
 
-def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
+def swatch_strips(lut_path: str | PathLike[str], out_png: str | PathLike[str], n: int = 96) -> Path:
     """Colour along D at fixed angles: ground truth, LUT, and each approximation."""
     lut = Lut.load(lut_path)
     ax = {a.name: a for a in lut.axes}
@@ -153,7 +162,7 @@ def swatch_strips(lut_path, out_png: Path, n: int = 96) -> Path:
     return Path(out_png)
 
 
-def pareto_plot(doc: dict, out_png: Path) -> Path:
+def pareto_plot(doc: dict[str, Any], out_png: str | PathLike[str]) -> Path:
     """p99 ΔE00 against bake time and bytes (LUT variants, cubic and linear reads), approximation rows as lines.
 
     Labels sit in a numbered key beside each panel, so close points never overlap."""
@@ -198,17 +207,18 @@ def pareto_plot(doc: dict, out_png: Path) -> Path:
     return Path(out_png)
 
 
-def _coincident(x, y) -> dict:
+def _coincident(x: np.ndarray, y: np.ndarray) -> dict[tuple[float, float], list[str]]:
     """Point numbers (1-based) grouped where points fall within ~2 % of each other on log axes,
     so one label lists them all instead of several labels printing over each other."""
-    groups = {}
+    groups: dict[tuple[float, float], tuple[float, float, list[str]]] = {}
     for i, (xv, yv) in enumerate(zip(x, y), start=1):
         cell = (round(float(np.log10(max(xv, 1e-300))), 2), round(float(np.log10(max(yv, 1e-300))), 2))
         groups.setdefault(cell, (xv, yv, []))[2].append(str(i))
     return {(xv, yv): numbers for xv, yv, numbers in groups.values()}
 
 
-def _pareto_front(x, y):
+def _pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+
     order = np.argsort(x, kind="stable")
     front, best = [], np.inf
     for i in order:

@@ -18,15 +18,27 @@ lutbake/quality/report.py's.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
+from lutbake.grid.axis import Axis
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.worstcase import SearchAxis, find_worst
+from lutbake.quality.worstcase import Places, SearchAxis, WorstCase, find_worst
 from lutbake.spectral.reference import reference_colour
+
+if TYPE_CHECKING:
+    from pyopencl import Device
+
+# stack -> RGB (n, 3): a table's read, a truth or a proxy for it
+Colours = Callable[[FilmPoints], np.ndarray]
+# stack -> mask (n,): points a search leaves out
+Exclusion = Callable[[FilmPoints], np.ndarray]
 
 __all__ = [
     "HeldOutPoints",
@@ -57,14 +69,14 @@ class HeldOutPoints:
 
     stack: FilmPoints
     kind: np.ndarray  # "uniform" or "cell-centre"
-    truth: np.ndarray = None
+    truth: np.ndarray
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.kind.size
 
 
 def held_out_points(
-    axes,
+    axes: Sequence[Axis],
     eta1: float,
     eta2: float,
     observer: str,
@@ -72,7 +84,7 @@ def held_out_points(
     n_points: int,
     seed: int,
     centre_fraction: float = 0.5,
-    truth=None,
+    truth: Colours | None = None,
 ) -> HeldOutPoints:
     """Uniform over the axes' domain, and a ``centre_fraction`` at centres of random cells of
     this grid (in node coordinates), where its interpolation error peaks, as float32 values (what a
@@ -93,7 +105,7 @@ def held_out_points(
     return HeldOutPoints(stack, kind, rgb)
 
 
-def lut_stacks(axes, eta1: float, eta2: float, unit) -> FilmPoints:
+def lut_stacks(axes: Sequence[Axis], eta1: float, eta2: float, unit: npt.ArrayLike) -> FilmPoints:
     """Film stacks at unit node coordinates ``unit`` (n, 4) of the axes (each axis's node coordinate
     over N − 1; η3's "admittance" cells and the corner zoom's lie along cos θ1, so the other values follow
     the point's cos θ1)."""
@@ -103,13 +115,13 @@ def lut_stacks(axes, eta1: float, eta2: float, unit) -> FilmPoints:
     return FilmPoints.texels(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd, eta3=eta3, kappa3=kappa3)
 
 
-def singular_places(axes, eta1: float) -> dict:
+def singular_places(axes: Sequence[Axis], eta1: float) -> Places:
     """Where a LUT's content is singular, as worst-case search places (unit coordinates): a film of no
     thickness (D → 0), grazing incidence (cos θ1 → 0), a base that matches the ambient (η3 → η1) and a
     lossless one (κ3 → 0), each where the domain reaches it. Together they are the corner where the truth
     has no limit (docs/accuracy.md)."""
     cos_theta, opd, eta3, kappa3 = axes
-    out = {}
+    out: Places = {}
     if opd.lo == 0.0:
         out["D → 0"] = {"opd_nm": 0.0}
     if cos_theta.lo == 0.0:
@@ -139,16 +151,16 @@ def corner_distance(stack: FilmPoints, wavelength_nm: float = 550.0) -> np.ndarr
 
 
 def search_max(
-    read,
+    read: Colours,
     lut: Lut,
     pts: HeldOutPoints,
-    de00,
-    proxy,
+    de00: np.ndarray,
+    proxy: Colours,
     budget: int = SEARCH_BUDGET,
     seed: int = 0,
     start_label: str = "held-out point",
-    exclude=None,
-) -> dict:
+    exclude: Exclusion | None = None,
+) -> dict[str, Any]:
     """The searched maximum of ΔE00 between ``read(stack)`` and the ground truth over ``lut``'s domain.
 
     ``proxy(stack)`` (RGB) stands in for the ground truth while searching; the search starts from the
@@ -198,12 +210,21 @@ def search_max(
     }
 
 
-def _climb(read, lut: Lut, pts: HeldOutPoints, de00, proxy, budget: int, seed: int, exclude):
+def _climb(
+    read: Colours,
+    lut: Lut,
+    pts: HeldOutPoints,
+    de00: np.ndarray,
+    proxy: Colours,
+    budget: int,
+    seed: int,
+    exclude: Exclusion | None,
+) -> WorstCase:
     """worstcase.find_worst of ΔE00 between ``read`` and ``proxy`` over ``lut``'s node coordinates, from
     the points ``pts`` (ΔE00 ``de00``), at the inputs a shader is given; ``exclude``'s points count as 0."""
     space, observer, axes = lut.meta["space"], lut.meta["observer"], lut.axes
 
-    def error(unit):
+    def error(unit: np.ndarray) -> np.ndarray:
         stack = shader_inputs(lut_stacks(axes, lut.eta1, lut.eta2, unit))
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN (a 0/0 in an approximation) is the worst
             de = delta_e00(read(stack), proxy(stack), observer, space)
@@ -235,7 +256,7 @@ def shader_inputs(stack: FilmPoints) -> FilmPoints:
     )
 
 
-def stack_point(stack: FilmPoints, i: int) -> dict:
+def stack_point(stack: FilmPoints, i: int) -> dict[str, float]:
     """Stack ``i``'s (cos θ1, D, η3, κ3) by name, JSON-ready."""
     return {
         "cos_theta": float(stack.cos_theta[i]),
@@ -254,9 +275,9 @@ class ErrorStats:
     de00: np.ndarray = field(repr=False)
     rgb_abs_max: float
     seconds_per_eval: float = float("nan")
-    worst_case: dict = None
+    worst_case: dict[str, Any] | None = None
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         de = self.de00
         searched = self.worst_case or {}
         return {
@@ -279,7 +300,7 @@ def score(
     return ErrorStats(name, de, float(np.max(np.abs(rgb - pts.truth))), seconds_per_eval)
 
 
-def proxy_truth(lut: Lut, backend: str = "auto", device=None):
+def proxy_truth(lut: Lut, backend: str = "auto", device: str | Device | None = None) -> Colours:
     """``stack -> RGB`` by the bake's direct spectral rule at its default sampling, for the LUT's film
     (OpenCL on ``device``, else numpy): the truth a worst-case search climbs, ~1e-6 from the ground truth in RGB at
     60,000 points/s (its maxima are then scored against the ground truth)."""
@@ -293,13 +314,22 @@ def proxy_truth(lut: Lut, backend: str = "auto", device=None):
     return lambda stack: integrator.evaluate(spec, stack)
 
 
-def search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, seed: int, proxy=None) -> dict:
+def search_slice(
+    atlas: Atlas,
+    s: dict[str, Any],
+    cos_t: np.ndarray,
+    thickness: np.ndarray,
+    de00: np.ndarray,
+    budget: int,
+    seed: int,
+    proxy: Colours | None = None,
+) -> dict[str, Any]:
     """A slice's searched max (``search_stacks``) over its (√cos θ, thickness) grid, from its held-out points
     (``de00`` their ΔE00), the grid's corners and edges and grazing incidence (and d → 0 where it reaches)."""
     material, (_, _, w, h) = s["materials"][0], s["rect"]
     lo, hi = s["axes"]["thickness_nm"]["min"], s["axes"]["thickness_nm"]["max"]
 
-    def stack_at(unit):
+    def stack_at(unit: np.ndarray) -> FilmPoints:
         return FilmPoints.build(
             cos_theta=unit[:, 0] ** 2, thickness_nm=lo + (hi - lo) * unit[:, 1], **atlas.film_stack(material)
         )
@@ -330,8 +360,18 @@ def search_slice(atlas: Atlas, s: dict, cos_t, thickness, de00, budget: int, see
 
 
 def search_stacks(
-    stack_at, read, axes, given, de00, places, budget: int, seed: int, space: str, observer: str, proxy=None
-) -> dict:
+    stack_at: Callable[[np.ndarray], FilmPoints],
+    read: Colours,
+    axes: Sequence[SearchAxis],
+    given: np.ndarray,
+    de00: np.ndarray,
+    places: Places,
+    budget: int,
+    seed: int,
+    space: str,
+    observer: str,
+    proxy: Colours | None = None,
+) -> dict[str, Any]:
     """The searched max of ΔE00 between ``read(stack)`` and the ground truth over the unit box of ``axes``
     (``stack_at(unit) -> FilmPoints``): from the ``given`` points (unit coordinates, ``de00`` their ΔE00),
     the box's corners and edges and the singular ``places`` (worstcase.find_worst), climbed against the
@@ -340,10 +380,11 @@ def search_stacks(
     of which is the max (``held_out_max`` that point's). Returns ``de00_max``, ``at`` (the stack there),
     ``found_by``, ``held_out_max``, ``evaluations``, ``budget``."""
 
-    def ground_truth(stack):
+    def ground_truth(stack: FilmPoints) -> np.ndarray:
         return reference_colour(stack, observer, space).values
 
-    def error(unit, truth=proxy or ground_truth):
+    def error(unit: np.ndarray, truth: Colours = proxy or ground_truth) -> np.ndarray:
+
         stack = stack_at(unit)
         return delta_e00(read(stack), truth(stack), observer, space)
 

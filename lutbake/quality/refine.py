@@ -25,12 +25,25 @@ ground-truth probes.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from lutbake.errors import ParameterError
 from lutbake.io.progress import no_progress
+
+if TYPE_CHECKING:
+    from pyopencl import Device
+
+    from lutbake.grid.spec import BakeSpec
+    from lutbake.integrate.numpy_path import NumpyBackend
+    from lutbake.integrate.opencl import OpenCLBackend
+    from lutbake.lut.sample import Lut
+    from lutbake.quality.measure import Colours, HeldOutPoints
+
+    Integrator = OpenCLBackend | NumpyBackend
 
 __all__ = [
     "Trial",
@@ -61,12 +74,12 @@ def bound_level(report_points: int = REPORT_POINTS) -> float:
     return 100.0 * min(0.99 + _SEEDS_Z * np.sqrt(0.99 * 0.01 / report_points), 1.0)
 
 
-def p99_bound(de00, report_points: int = REPORT_POINTS) -> float:
+def p99_bound(de00: np.ndarray, report_points: int = REPORT_POINTS) -> float:
     """``de00``'s percentile at ``bound_level``: what a target is held to, so that it holds at any seed."""
     return float(np.percentile(de00, bound_level(report_points)))
 
 
-def mixture_percentile(samples, percent: float) -> float:
+def mixture_percentile(samples: Sequence[np.ndarray], percent: float) -> float:
     """The ``percent``-th percentile of the equal-weight mixture of ``samples`` (1-D arrays; each value
     of sample k weighs 1/(K·n_k)): the population a `report` draws from when it takes as many points of
     each kind. The smallest value at which the mixture's distribution reaches ``percent``."""
@@ -74,7 +87,7 @@ def mixture_percentile(samples, percent: float) -> float:
     weights = np.concatenate([np.full(len(s), 1.0 / (len(samples) * len(s))) for s in samples])
     order = np.argsort(values, kind="stable")
     reached = np.searchsorted(np.cumsum(weights[order]), percent / 100.0 * (1.0 - 1e-12))
-    return float(values[order][min(reached, len(values) - 1)])
+    return float(values[order][min(int(reached), len(values) - 1)])
 
 
 @dataclass(frozen=True)
@@ -83,19 +96,19 @@ class Trial:
     texture bytes as stored, integration seconds, the caller's full error statistics and the statistic
     the target holds (``gated``; the p99 itself when None)."""
 
-    counts: tuple
+    counts: tuple[int, ...]
     de00_p99: float
     bytes: int
     seconds: float
-    stats: dict = field(default_factory=dict, compare=False)
-    gated: float = None
+    stats: dict[str, Any] = field(default_factory=dict, compare=False)
+    gated: float | None = None
 
     @property
     def held(self) -> float:
         """What ``refine`` compares with its target."""
         return self.de00_p99 if self.gated is None else self.gated
 
-    def row(self) -> dict:
+    def row(self) -> dict[str, Any]:
         return {
             "shape": "×".join(map(str, self.counts)),
             "de00_p99": self.de00_p99,
@@ -113,37 +126,41 @@ class Refinement:
     target_de00_p99: float
     met: bool
     best: Trial
-    rounds: list
+    rounds: list[Trial]
     artefact: object = field(default=None, repr=False)
 
     @property
-    def counts(self) -> tuple:
+    def counts(self) -> tuple[int, ...]:
         return self.best.counts
 
 
+# measure(counts, label) -> (the trial, what was built for it)
+Measure = Callable[[tuple[int, ...], str], tuple[Trial, object]]
+
+
 def refine(
-    measure,
-    start,
+    measure: Measure,
+    start: Sequence[int],
     target: float,
     *,
-    frozen=(),
+    frozen: Iterable[int] = (),
     cap: int | None = None,
     max_rounds: int = 12,
-    progress=no_progress,
-    on_round=None,
+    progress: Callable[..., None] = no_progress,
+    on_round: Callable[[Trial], object] | None = None,
 ) -> Refinement:
     """Grow ``start`` counts with ``measure(counts, label) -> (Trial, artefact)`` until ``Trial.held`` (the
     p99, or the bound the measure gates on) ≤ ``target``.
 
     Axes in ``frozen`` keep their count; ``cap`` bounds every count; ``on_round(trial)`` sees each
     accepted trial as it happens, ``progress(done, None, note)`` each trial before it is measured."""
-    accepted = []
+    accepted: list[Trial] = []
 
-    def run(label, counts):
+    def run(label: str, counts: Sequence[int]) -> tuple[Trial, object]:
         progress(len(accepted), None, f"{label}: {'×'.join(map(str, counts))}")
         return measure(tuple(counts), label)
 
-    def accept(trial, artefact):
+    def accept(trial: Trial, artefact: object) -> tuple[Trial, object]:
         accepted.append(trial)
         if on_round:
             on_round(trial)
@@ -175,7 +192,7 @@ def refine(
     return Refinement(target, met, best, accepted, artefact)
 
 
-def _scaled_counts(counts, axis: int, factor: float, cap) -> tuple:
+def _scaled_counts(counts: tuple[int, ...], axis: int, factor: float, cap: int | None) -> tuple[int, ...]:
     out = list(counts)
     out[axis] = max(2, int(round(counts[axis] * factor)))
     if cap:
@@ -186,7 +203,7 @@ def _scaled_counts(counts, axis: int, factor: float, cap) -> tuple:
 # --- tune: the engine over a 4D LUT's counts --------------------------------------------------
 
 
-def uniform_points(spec, n_points: int, seed: int):
+def uniform_points(spec: BakeSpec, n_points: int, seed: int) -> HeldOutPoints:
     """Held-out points uniform over the domain of ``spec`` with their ground truth (lutbake/quality/measure.py): what
     `sweep` scores every variant at (a cell centre of one grid is a node of another)."""
     from lutbake.quality.measure import held_out_points
@@ -196,7 +213,7 @@ def uniform_points(spec, n_points: int, seed: int):
     )
 
 
-def trial_lut(spec, counts, integrator) -> tuple:
+def trial_lut(spec: BakeSpec, counts: Sequence[int], integrator: Integrator) -> tuple[Lut, int, float]:
     """``spec``'s domain at per-axis ``counts``, baked in memory by the bake's integrator and rounded to the
     stored precision: (the Lut as a GPU samples it, texture bytes, integration seconds)."""
     from lutbake.integrate.bands import bake_rows_all
@@ -208,7 +225,7 @@ def trial_lut(spec, counts, integrator) -> tuple:
     return Lut.in_memory(grid, image), image.nbytes, time.perf_counter() - start
 
 
-def lut_measure(spec, n_points: int, seed: int, integrator, truth):
+def lut_measure(spec: BakeSpec, n_points: int, seed: int, integrator: Integrator, truth: Colours) -> Measure:
     """``measure`` for 4D grids over ``spec``'s domain: baked in memory (``trial_lut``), sampled as a GPU
     would at `report`'s points for that grid (half uniform, the same for every trial; half at centres of
     its cells; their colour by ``truth``) and scored there, gated on ``p99_bound``."""
@@ -227,7 +244,7 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
         truth=truth,
     )
 
-    def measure(counts, label):
+    def measure(counts: tuple[int, ...], label: str) -> tuple[Trial, object]:
         lut, nbytes, seconds = trial_lut(spec, counts, integrator)
         centres = held_out_points(
             lut.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_centre, seed, centre_fraction=1.0, truth=truth
@@ -247,7 +264,7 @@ def lut_measure(spec, n_points: int, seed: int, integrator, truth):
     return measure
 
 
-def check_max_de(max_de) -> None:
+def check_max_de(max_de: float) -> None:
     """ParameterError unless ``max_de`` (a target or gate on p99 ΔE00) is a number > 0.
 
     >>> check_max_de(0.5)
@@ -261,18 +278,18 @@ def check_max_de(max_de) -> None:
 
 
 def tune(
-    spec,
+    spec: BakeSpec,
     max_de: float,
     n_points: int = REPORT_POINTS,
     seed: int = 0,
     backend: str = "auto",
     max_rounds: int = 12,
-    progress=no_progress,
-    on_round=None,
-    start=TUNE_START_COUNTS,
-    frozen=(),
-    search_budget: int = None,
-    device=None,
+    progress: Callable[..., None] = no_progress,
+    on_round: Callable[[Trial], object] | None = None,
+    start: Sequence[int] = TUNE_START_COUNTS,
+    frozen: Iterable[int] = (),
+    search_budget: int | None = None,
+    device: str | Device | None = None,
 ) -> Refinement:
     """Smallest per-axis counts (greedy, ``refine``) that `report` finds within ``max_de`` at any seed:
     ``p99_bound`` of `report`'s kind of held-out points (``n_points``: half uniform, half at the trial
@@ -303,7 +320,15 @@ def tune(
     return replace(result, best=best, artefact=None)
 
 
-def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, backend: str, device) -> dict:
+def _searched(
+    spec: BakeSpec,
+    result: Refinement,
+    n_points: int,
+    seed: int,
+    budget: int,
+    backend: str,
+    device: str | Device | None,
+) -> dict[str, Any]:
     """measure.search_max of the winning grid, from its held-out points."""
     from lutbake.lut.sample import Lut
     from lutbake.quality.measure import held_out_points, proxy_truth, score, search_max
@@ -315,7 +340,7 @@ def _searched(spec, result: Refinement, n_points: int, seed: int, budget: int, b
     return search_max(lut.sample, lut, pts, de, proxy_truth(lut, backend, device), budget, seed)
 
 
-def tune_document(spec, result: Refinement) -> dict:
+def tune_document(spec: BakeSpec, result: Refinement) -> dict[str, Any]:
     """`tune --json`: the target, the counts found and their axes, the best trial's statistics, the rounds."""
     axes = [a.resized(c).describe() for a, c in zip(spec.axes, result.counts)]
     return {

@@ -16,8 +16,12 @@ from __future__ import annotations
 
 import html
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +34,7 @@ from lutbake.physics.points import FilmPoints
 from lutbake.quality.measure import (
     SEARCH_BUDGET,
     SLICE_SEARCH_BUDGET,
+    Colours,
     ErrorStats,
     HeldOutPoints,
     held_out_points,
@@ -41,10 +46,14 @@ from lutbake.quality.measure import (
 )
 from lutbake.spectral.reference import reference_colour
 
+if TYPE_CHECKING:
+    from numpy.random import Generator
+    from pyopencl import Device
+
 __all__ = ["LutReport", "report_lut", "write_report", "report_atlas", "gate", "REPORT_FILES"]
 
 
-def _timed(fn, *args):
+def _timed(fn: Colours, *args: FilmPoints) -> tuple[np.ndarray, float]:
     start = time.perf_counter()
     out = fn(*args)
     return out, time.perf_counter() - start
@@ -53,21 +62,22 @@ def _timed(fn, *args):
 @dataclass
 class LutReport:
     path: str
-    meta: dict
+    meta: dict[str, Any]
     points: HeldOutPoints
     lut: ErrorStats
-    approximations: list
-    worst: list
-    exact_mode_terms: dict = None  # the exact runtime mode's series terms per point, when scored
+    approximations: list[ErrorStats]
+    worst: list[dict[str, Any]]
+    exact_mode_terms: dict[str, float] | None = None  # the exact runtime mode's series terms per point, when scored
     search_budget: int = SEARCH_BUDGET
     seed: int = 0
-    device: str | None = None  # the OpenCL device of the searches' stand-in truth (proxy_truth)
+    device: str | Device | None = None  # the OpenCL device of the searches' stand-in truth (proxy_truth)
 
-    def include_points(self, stack: FilmPoints, truth, de00, label: str) -> None:
+    def include_points(self, stack: FilmPoints, truth: np.ndarray, de00: np.ndarray, label: str) -> None:
         """Points scored elsewhere (e.g. the ΔE00 maps' grid) join the LUT row's maximum: where one beats
         the searched max (the search missed it), the search climbs from them and the max, its place and
         the worst points follow. The table, the maps and the JSON then state one max."""
         worst = self.lut.worst_case
+        assert worst is not None  # report_lut searched the LUT row's max
         if de00.max() <= worst["de00_max"]:
             return
         lut = Lut.load(self.path)
@@ -84,7 +94,7 @@ class LutReport:
         self.lut.worst_case = {**found, "held_out_max": worst["held_out_max"]}
         self.worst = sorted(self.worst + _searched_points(found), key=lambda w: -w["de00"])[: len(self.worst)]
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         kinds, counts = np.unique(self.points.kind, return_counts=True)
         out = {
             "lut": self.path,
@@ -107,13 +117,13 @@ class LutReport:
 
 
 def report_lut(
-    path,
+    path: str | PathLike[str],
     n_points: int = 1000,
     seed: int = 0,
     approximations: bool = True,
-    progress=no_progress,
+    progress: Callable[..., None] = no_progress,
     search_budget: int = SEARCH_BUDGET,
-    device=None,
+    device: str | Device | None = None,
 ) -> LutReport:
     """Score a LUT (and the approximations) at held-out points against the ground truth, and search
     each row's maximum over the whole domain.
@@ -174,27 +184,34 @@ def report_lut(
     )
 
 
-def _rows(lut: Lut, approximations: bool) -> dict:
+def _rows(lut: Lut, approximations: bool) -> dict[str, Colours]:
     """A report's rows, name → ``read(stack) -> RGB``: the LUT, and with ``approximations`` the engines'
     approximations, the exact runtime mode, the runtime table and, for a LUT read cubic, its texels read
     by the linear rule."""
     space, observer = lut.meta["space"], lut.meta["observer"]
-    reads = {"lut": lut.sample}
+    reads: dict[str, Colours] = {"lut": lut.sample}
     if approximations:
-        reads.update({name: (lambda stack, fn=fn: fn(stack, space, observer)) for name, fn in APPROXIMATIONS.items()})
+        reads.update({name: partial(fn, space=space, observer=observer) for name, fn in APPROXIMATIONS.items()})
         if lut.interpolation == "cubic":  # the same texels read by the 4-fetch rule: what cubic reads buy
             reads["lut-linear-reads"] = lambda stack: lut.sample(stack, None, "linear")
     return reads
 
 
 def _scored_rows(
-    lut: Lut, pts: HeldOutPoints, reads: dict, search_budget: int, seed: int, progress, device=None
-) -> tuple:
+    lut: Lut,
+    pts: HeldOutPoints,
+    reads: dict[str, Colours],
+    search_budget: int,
+    seed: int,
+    progress: Callable[..., None],
+    device: str | Device | None = None,
+) -> tuple[dict[str, ErrorStats], dict[str, np.ndarray]]:
     """(ErrorStats, RGB at the held-out points) of each row of ``reads``, timed, its max searched over the
     whole domain (``search_max``, climbing the bake's own spectral rule: ``proxy_truth`` on ``device``)."""
     space, observer = lut.meta["space"], lut.meta["observer"]
     proxy = proxy_truth(lut, device=device)
-    stats, rgb = {}, {}
+    stats: dict[str, ErrorStats] = {}
+    rgb: dict[str, np.ndarray] = {}
     for name, read in reads.items():
         rgb[name], seconds = _timed(read, pts.stack)
         stats[name] = score(name, rgb[name], pts, space, observer, seconds / len(pts))
@@ -203,7 +220,7 @@ def _scored_rows(
     return stats, rgb
 
 
-def _worst_points(pts: HeldOutPoints, rgb, stats: ErrorStats, count: int = 10) -> list:
+def _worst_points(pts: HeldOutPoints, rgb: np.ndarray, stats: ErrorStats, count: int = 10) -> list[dict[str, Any]]:
     """The worst held-out points (LUT ``rgb`` there) and the search's local maxima, worst first."""
     held = [
         {
@@ -215,10 +232,11 @@ def _worst_points(pts: HeldOutPoints, rgb, stats: ErrorStats, count: int = 10) -
         }
         for i in np.argsort(-stats.de00, kind="stable")[:count]
     ]
+    assert stats.worst_case is not None  # every row's max is searched (_scored_rows)
     return sorted(held + _searched_points(stats.worst_case), key=lambda w: -w["de00"])[:count]
 
 
-def _searched_points(worst_case: dict) -> list:
+def _searched_points(worst_case: dict[str, Any]) -> list[dict[str, Any]]:
     """A search's local maxima as worst points (kind ``searched: how it was found``)."""
     return [
         {
@@ -229,7 +247,7 @@ def _searched_points(worst_case: dict) -> list:
     ]
 
 
-def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict:
+def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict[str, float]:
     """What the exact mode's row costs per pixel: series terms at the held-out points (each term is
     4 texel fetches and ~100 scalar operations in the include, docs/engines.md)."""
     from lutbake.modes.exact import exact_mode
@@ -244,14 +262,19 @@ def _exact_mode_terms(pts: HeldOutPoints, space: str, observer: str) -> dict:
 
 
 def report_atlas(
-    atlas: Atlas, path, n_points: int = 1000, seed: int = 0, search_budget: int = SLICE_SEARCH_BUDGET
-) -> dict:
+    atlas: Atlas,
+    path: str | PathLike[str],
+    n_points: int = 1000,
+    seed: int = 0,
+    search_budget: int = SLICE_SEARCH_BUDGET,
+) -> dict[str, Any]:
     """Score each slice of a scene atlas, as stored, at held-out (cos θ, thickness) points against the
     ground truth of its film and base: half uniform, half at cell centres; each slice's max searched
     over its (√cos θ, thickness) node coordinates against the ground truth (``search_budget``)."""
     space, observer = atlas.meta["space"], atlas.meta["observer"]
     rng = np.random.default_rng(seed)
-    slices, all_de = [], []
+    slices: list[dict[str, Any]] = []
+    all_de: list[np.ndarray] = []
     for s in atlas.meta["slices"]:
         cos_t, thickness = _slice_held_out(s, n_points, rng)
         material = s["materials"][0]
@@ -276,11 +299,11 @@ def report_atlas(
     }
 
 
-def _untimed(stats: ErrorStats) -> dict:
+def _untimed(stats: ErrorStats) -> dict[str, Any]:
     return {k: v for k, v in stats.summary().items() if k != "ns_per_eval"}
 
 
-def _slice_held_out(s: dict, n_points: int, rng):
+def _slice_held_out(s: dict[str, Any], n_points: int, rng: Generator) -> tuple[np.ndarray, np.ndarray]:
     """Uniform in (√cos θ, thickness) and at centres of random cells of the slice's grid."""
     _, _, w, h = s["rect"]
     th = s["axes"]["thickness_nm"]
@@ -292,7 +315,7 @@ def _slice_held_out(s: dict, n_points: int, rng):
     return u**2, th["min"] + (th["max"] - th["min"]) * v
 
 
-def gate(summary: dict, max_de) -> dict:
+def gate(summary: dict[str, Any], max_de: float | None) -> dict[str, Any]:
     """``summary`` with the gate verdict (p99 ΔE00 ≤ ``max_de``) added when a gate is set."""
     if max_de is not None:
         summary["gate"] = {"max_de00_p99": max_de, "passed": bool(summary["lut_error"]["de00_p99"] <= max_de)}
@@ -303,7 +326,13 @@ def gate(summary: dict, max_de) -> dict:
 REPORT_FILES = ("summary.json", "report.html", "delta_e_maps.png", "swatches.png")
 
 
-def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progress=no_progress) -> dict:
+def write_report(
+    rep: LutReport,
+    out_dir: str | PathLike[str],
+    maps: bool = True,
+    max_de: float | None = None,
+    progress: Callable[..., None] = no_progress,
+) -> dict[str, Any]:
     """Write ``rep`` as summary.json, PNG figures (ΔE00 maps, swatch strips) and report.html in ``out_dir``.
 
     Parameters
@@ -362,7 +391,7 @@ def write_report(rep: LutReport, out_dir, maps: bool = True, max_de=None, progre
     return summary
 
 
-def _html(summary: dict, figures) -> str:
+def _html(summary: dict[str, Any], figures: Sequence[tuple[str, Path]]) -> str:
     rows = [summary["lut_error"]] + summary["approximations"]
     head = (
         "<tr><th>method</th><th>mean</th><th>p50</th><th>p95</th><th>p99</th><th>max (searched)</th>"
@@ -400,16 +429,17 @@ def _html(summary: dict, figures) -> str:
     )
 
 
-def _domain_text(axes) -> str:
+def _domain_text(axes: Sequence[dict[str, Any]]) -> str:
     return ", ".join(f"{a['name']} [{a['min']:g}, {a['max']:g}]×{a['count']}" for a in axes)
 
 
-def _points_text(summary: dict) -> str:
+def _points_text(summary: dict[str, Any]) -> str:
     kinds = " + ".join(f"{n} {k}" for k, n in summary["point_kinds"].items())
     return f"{summary['points']} held-out points ({kinds})"
 
 
-def _gate_html(summary: dict) -> str:
+def _gate_html(summary: dict[str, Any]) -> str:
+
     if "gate" not in summary:
         return "<p>No gate set (<code>--max-de</code>).</p>"
     g = summary["gate"]

@@ -1,7 +1,7 @@
 """How wrong the runtime path is: ΔE00 against the ground truth over the issue's domain.
 
-Three kinds of points, each against lutbake/spectral/reference.py's converged integral at the same float32-rounded inputs
-(what a GPU receives):
+Three kinds of points, each against lutbake/spectral/reference.py's converged integral at the same float32-rounded
+inputs (what a GPU receives):
 - random points in each base box (dielectric: η3 1–3, κ3 0–2; metal: η3 0.05–4, κ3 1.5–9; films η2
   1–3, d 0–1500 nm, cos θ 0–1) and the named metals at their per-channel indices (exact.base_rgb);
 - a stress grid of the extremes: grazing incidence (cos θ down to 0), no film (d 0), films matching the
@@ -13,15 +13,17 @@ Three kinds of points, each against lutbake/spectral/reference.py's converged in
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from lutbake.modes.runtime.files import RuntimeTable
 from lutbake.modes.runtime.model import runtime_colour
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.worstcase import SearchAxis, find_worst
+from lutbake.quality.worstcase import ErrorFunction, SearchAxis, WorstCase, find_worst
 from lutbake.spectral.reference import reference_colour
 
 __all__ = [
@@ -46,14 +48,14 @@ class Box:
     """Ranges (lo, hi) of cos θ, d (nm), η2, η3, κ3 (η1 = 1)."""
 
     name: str
-    ranges: tuple
+    ranges: tuple[tuple[float, float], ...]
 
-    def point(self, unit: np.ndarray):
+    def point(self, unit: np.ndarray) -> tuple[np.ndarray, ...]:
         """Columns (cos θ, d, η2[, η3, κ3]) of unit-cube points (n, len(ranges))."""
         lo, hi = np.array(self.ranges, float).T
         return tuple((lo + unit * (hi - lo)).T)
 
-    def unit(self, columns) -> np.ndarray:
+    def unit(self, columns: Sequence[np.ndarray]) -> np.ndarray:
         """The inverse of ``point``: (n, len(ranges)) unit-cube coordinates of the columns."""
         lo, hi = np.array(self.ranges, float).T
         return (np.column_stack(columns) - lo) / (hi - lo)
@@ -66,11 +68,17 @@ BOXES = {
 }
 
 
-def _f32(*columns):
+def _f32(*columns: npt.ArrayLike) -> tuple[np.ndarray, ...]:
     return tuple(np.asarray(c, np.float32).astype(float) for c in columns)
 
 
-def truth(cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
+def truth(
+    cos_theta: npt.ArrayLike,
+    thickness_nm: npt.ArrayLike,
+    eta2: npt.ArrayLike,
+    eta3: npt.ArrayLike,
+    kappa3: npt.ArrayLike,
+) -> np.ndarray:
     """Ground truth (n, 3) with η1 = 1; η3, κ3 (n,) or (n, 3): channel c integrated with the base's c-th
     index (a point whose three indices are equal is integrated once for all three channels)."""
     eta3, kappa3 = np.asarray(eta3, float), np.asarray(kappa3, float)
@@ -80,28 +88,29 @@ def truth(cos_theta, thickness_nm, eta2, eta3, kappa3) -> np.ndarray:
                 eta1=1.0, eta2=eta2, cos_theta=cos_theta, thickness_nm=thickness_nm, eta3=eta3, kappa3=kappa3
             )
         ).values
-    columns = [np.broadcast_to(np.asarray(v, float), eta3.shape[:1]) for v in (cos_theta, thickness_nm, eta2)]
-    out = truth(*columns, eta3[:, 0], kappa3[:, 0])
+    cos, d, film = (np.broadcast_to(np.asarray(v, float), eta3.shape[:1]) for v in (cos_theta, thickness_nm, eta2))
+    out = truth(cos, d, film, eta3[:, 0], kappa3[:, 0])
     split = np.flatnonzero(~((eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)))
     for c in (1, 2):
-        out[split, c] = truth(*(v[split] for v in columns), eta3[split, c], kappa3[split, c])[:, c]
+        out[split, c] = truth(cos[split], d[split], film[split], eta3[split, c], kappa3[split, c])[:, c]
     return out
 
 
-def _de(table: RuntimeTable, columns, filter_bits=None) -> np.ndarray:
-    """ΔE00 of the runtime path against the truth at float32-rounded columns; NaN counts as the worst."""
-    columns = _f32(*columns)
-    got = runtime_colour(table, columns[0], columns[1], 1.0, *columns[2:], filter_bits=filter_bits)
-    de = delta_e00(got, truth(*columns))
+def _de(table: RuntimeTable, columns: Sequence[npt.ArrayLike], filter_bits: int | None = None) -> np.ndarray:
+    """ΔE00 of the runtime path against the truth at float32-rounded columns (cos θ, d, η2, η3, κ3); NaN
+    counts as the worst."""
+    cos, d, eta2, eta3, kappa3 = _f32(*columns)
+    got = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3, filter_bits=filter_bits)
+    de = delta_e00(got, truth(cos, d, eta2, eta3, kappa3))
     return np.where(np.isfinite(de), de, np.inf)
 
 
-def random_error(table: RuntimeTable, box: Box, n: int, seed: int, filter_bits=None) -> np.ndarray:
+def random_error(table: RuntimeTable, box: Box, n: int, seed: int, filter_bits: int | None = None) -> np.ndarray:
     """ΔE00 at n uniform random points of ``box``."""
     return _de(table, box.point(np.random.default_rng(seed).random((n, len(box.ranges)))), filter_bits)
 
 
-def stress_points(box: Box, coarse: bool = False):
+def stress_points(box: Box, coarse: bool = False) -> tuple[np.ndarray, ...]:
     """The extremes of ``box`` crossed with the hard values inside it (grazing, no film, matched media);
     ``coarse``: fewer values per axis (a test's budget)."""
     cos = (0.0, 1e-6, 1e-3, 0.05, 1.0) if coarse else (0.0, 1e-6, 1e-4, 1e-3, 0.01, 0.05, 0.2, 0.5, 1.0)
@@ -114,24 +123,24 @@ def stress_points(box: Box, coarse: bool = False):
     return tuple(grid.T)
 
 
-def stress_error(table: RuntimeTable, box: Box, coarse: bool = False, filter_bits=None) -> np.ndarray:
+def stress_error(table: RuntimeTable, box: Box, coarse: bool = False, filter_bits: int | None = None) -> np.ndarray:
     """ΔE00 at every point of ``stress_points(box, coarse)``."""
     return _de(table, stress_points(box, coarse), filter_bits)
 
 
-def box_error(table: RuntimeTable, box: Box, filter_bits=None):
+def box_error(table: RuntimeTable, box: Box, filter_bits: int | None = None) -> ErrorFunction:
     """ΔE00 at unit-cube points of ``box``: the error function worstcase.find_worst takes."""
     return lambda unit: _de(table, box.point(unit), filter_bits)
 
 
-def named_error(table: RuntimeTable, metal: str, filter_bits=None):
+def named_error(table: RuntimeTable, metal: str, filter_bits: int | None = None) -> ErrorFunction:
     """ΔE00 over (cos θ, d, η2) for a named metal at its per-channel indices (unit cube, 3D)."""
     from lutbake.modes.exact import base_rgb
 
     n3, k3 = base_rgb(metal)
     film = Box(metal, _FILM)
 
-    def error(unit):
+    def error(unit: np.ndarray) -> np.ndarray:
         m = unit.shape[0]
         return _de(table, (*film.point(unit), np.tile(n3, (m, 1)), np.tile(k3, (m, 1))), filter_bits)
 
@@ -157,8 +166,13 @@ _SINGULAR = {
 
 
 def searched_worst(
-    table: RuntimeTable, box: Box, budget: int = 6000, seed: int = 0, filter_bits=None, full_stress: bool = False
-):
+    table: RuntimeTable,
+    box: Box,
+    budget: int = 6000,
+    seed: int = 0,
+    filter_bits: int | None = None,
+    full_stress: bool = False,
+) -> WorstCase:
     """worstcase.find_worst over ``box`` (unit coordinates linear in cos θ, d, η2, η3, κ3), the stress grid
     (coarse, or the full one, scored first and not counted in the budget) among its starts."""
     stress = stress_points(box, coarse=not full_stress)
@@ -174,7 +188,7 @@ def searched_worst(
     )
 
 
-def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, seed: int = 0):
+def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, seed: int = 0) -> WorstCase:
     """worstcase.find_worst over (cos θ, d, η2) for a named metal at its per-channel indices."""
     singular = {k: v for k, v in _SINGULAR.items() if set(v) <= {"cos_theta", "thickness_nm", "eta2"}}
     return find_worst(named_error(table, metal), _AXES[:3], singular=singular, budget=budget, seed=seed)

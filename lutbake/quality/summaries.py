@@ -5,7 +5,10 @@ report.html, figures and summary.json; an atlas's summary.json).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from lutbake.io.progress import no_progress
 from lutbake.lut.sample import Atlas
@@ -19,20 +22,23 @@ from lutbake.quality.report import (
     write_report,
 )
 
+if TYPE_CHECKING:
+    from pyopencl import Device
+
 __all__ = ["lut_summary", "atlas_summary"]
 
 
 def lut_summary(
-    path,
+    path: str | PathLike[str],
     n_points: int = 1000,
     seed: int = 0,
-    out_dir=None,
+    out_dir: str | PathLike[str] | None = None,
     max_de: float | None = None,
     approximations: bool = True,
     search_budget: int = SEARCH_BUDGET,
-    progress=no_progress,
-    device=None,
-) -> dict:
+    progress: Callable[..., None] = no_progress,
+    device: str | Device | None = None,
+) -> dict[str, Any]:
     """The LUT at ``path`` scored (``report_lut``: the parameters are its), its summary gated by ``max_de``
     (``gate``) and, given ``out_dir``, written there with the figures and report.html (``write_report``)."""
     rep = report_lut(
@@ -49,13 +55,13 @@ def lut_summary(
 
 def atlas_summary(
     atlas: Atlas,
-    path,
+    path: str | PathLike[str],
     n_points: int = 1000,
     seed: int = 0,
-    out_dir=None,
+    out_dir: str | PathLike[str] | None = None,
     max_de: float | None = None,
     search_budget: int = SLICE_SEARCH_BUDGET,
-) -> dict:
+) -> dict[str, Any]:
     """Per-slice ΔE00 of a scene atlas as stored (``report_atlas``: the parameters are its), written to
     ``out_dir``/summary.json when given, then gated by ``max_de`` (the file holds no verdict)."""
     from lutbake.io.strictjson import dumps

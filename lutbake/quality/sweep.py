@@ -12,8 +12,12 @@ from __future__ import annotations
 
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
+from functools import partial
+from os import PathLike
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
 from lutbake.grid.spec import BakeSpec
@@ -21,24 +25,27 @@ from lutbake.io.progress import no_progress
 from lutbake.lut.bake import bake
 from lutbake.lut.sample import Lut
 from lutbake.modes.approximations import APPROXIMATIONS
-from lutbake.quality.measure import proxy_truth, score, search_max
+from lutbake.quality.measure import Colours, HeldOutPoints, proxy_truth, score, search_max
 from lutbake.quality.refine import POINT_KIND, uniform_points
+
+if TYPE_CHECKING:
+    from pyopencl import Device
 
 __all__ = ["sweep", "variants", "SWEEP_SEARCH_BUDGET"]
 
 SWEEP_SEARCH_BUDGET = 5000  # evaluations of each row's worst-case search
 
 
-def _scaled(spec: BakeSpec, factors) -> BakeSpec:
+def _scaled(spec: BakeSpec, factors: Sequence[float]) -> BakeSpec:
     axes = tuple(a.resized(max(2, int(round(a.count * f)))) for a, f in zip(spec.axes, factors))
     return replace(spec, axes=axes)
 
 
-def _spaced(spec: BakeSpec, spacings) -> BakeSpec:
+def _spaced(spec: BakeSpec, spacings: Sequence[str]) -> BakeSpec:
     return replace(spec, axes=tuple(replace(a, spacing=s) for a, s in zip(spec.axes, spacings)))
 
 
-def variants(spec: BakeSpec) -> dict:
+def variants(spec: BakeSpec) -> dict[str, BakeSpec]:
     """Named variants of ``spec``: resolution; parameterization (its counts on a uniform grid, on the
     √ grid: √ cos θ and κ3, uniform D and η3, and, where η3 ≥ η1, on the admittance grid: the √ grid
     with η3 on the admittance spacing, the default before sqrt-admittance); spectral sampling, storage
@@ -61,14 +68,32 @@ def variants(spec: BakeSpec) -> dict:
     return out
 
 
-def _scored(name, read, lut, pts, spec, proxy, budget, seconds=float("nan")) -> dict:
+def _scored(
+    name: str,
+    read: Colours,
+    lut: Lut,
+    pts: HeldOutPoints,
+    spec: BakeSpec,
+    proxy: Colours,
+    budget: int,
+    seconds: float = float("nan"),
+) -> dict[str, Any]:
     """ErrorRow of ``read`` at ``pts``, its max searched."""
     stats = score(name, read(pts.stack), pts, spec.space, spec.observer, seconds)
     stats.worst_case = search_max(read, lut, pts, stats.de00, proxy, budget)
     return stats.summary()
 
 
-def _measure(name, spec, folder, pts, backend, proxy, budget, device=None) -> list:
+def _measure(
+    name: str,
+    spec: BakeSpec,
+    folder: str,
+    pts: HeldOutPoints,
+    backend: str,
+    proxy: Colours,
+    budget: int,
+    device: str | Device | None = None,
+) -> list[dict[str, Any]]:
     """The variant's row by its interpolation rule; a cubic LUT also gets a row for linear reads of the
     same file (same bytes and bake time: what the 4-fetch rule gives up)."""
     path = Path(folder) / f"{spec.content_hash[:16]}.exr"
@@ -91,7 +116,7 @@ def _measure(name, spec, folder, pts, backend, proxy, budget, device=None) -> li
         {
             **_scored(
                 name if rule == spec.interpolation else f"{name} linear reads",
-                lambda stack, rule=rule: lut.sample(stack, None, rule),
+                partial(lut.sample, interpolation=rule),
                 lut,
                 pts,
                 spec,
@@ -105,11 +130,11 @@ def _measure(name, spec, folder, pts, backend, proxy, budget, device=None) -> li
     ]
 
 
-def _approximation_rows(spec, pts, proxy, budget):
+def _approximation_rows(spec: BakeSpec, pts: HeldOutPoints, proxy: Colours, budget: int) -> list[dict[str, Any]]:
     """The approximations' rows, their max searched over the domain of ``spec`` (in its grid's node
     coordinates: the search's steps and edge starts follow its cells)."""
     lut = Lut.in_memory(spec, None)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for name, fn in APPROXIMATIONS.items():
         start = time.perf_counter()
         fn(pts.stack, spec.space, spec.observer)
@@ -118,7 +143,7 @@ def _approximation_rows(spec, pts, proxy, budget):
             {
                 **_scored(
                     name,
-                    lambda stack, fn=fn: fn(stack, spec.space, spec.observer),
+                    partial(fn, space=spec.space, observer=spec.observer),
                     lut,
                     pts,
                     spec,
@@ -134,14 +159,14 @@ def _approximation_rows(spec, pts, proxy, budget):
 
 def sweep(
     spec: BakeSpec,
-    out_dir,
+    out_dir: str | PathLike[str],
     n_points: int = 1000,
     seed: int = 0,
     backend: str = "auto",
-    progress=no_progress,
+    progress: Callable[..., None] = no_progress,
     search_budget: int = SWEEP_SEARCH_BUDGET,
-    device=None,
-) -> dict:
+    device: str | Device | None = None,
+) -> dict[str, Any]:
     """Bake every variant of ``spec``; rows, a Pareto plot and sweep.json in ``out_dir``.
 
     ``progress(done, total, note)`` is called before each step (truth, each variant, plot); each row's
@@ -164,7 +189,8 @@ def sweep(
     progress(0, total, f"ground truth at {n_points} uniform points")
     pts = uniform_points(spec, n_points, seed)
     proxy = proxy_truth(Lut.in_memory(spec, None), backend, device)  # one stand-in truth for every row's search
-    rows = []
+    rows: list[dict[str, Any]] = []
+
     with tempfile.TemporaryDirectory() as tmp:
         for i, (name, v) in enumerate(grid.items(), start=1):
             progress(i, total, f"variant {name} ({'×'.join(str(a.count) for a in v.axes)})")

@@ -31,9 +31,16 @@ some classical and modern methods", SIAM Review 45 (2003) 385–482 (compass sea
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
+
+# error(u) -> e: (n, d) unit coordinates to (n,) errors
+ErrorFunction = Callable[[np.ndarray], npt.ArrayLike]
+# a named singular place: axis name -> unit coordinate
+Places = dict[str, dict[str, float]]
 
 __all__ = ["SearchAxis", "Candidate", "WorstCase", "find_worst"]
 
@@ -103,11 +110,11 @@ class WorstCase:
     ``candidates`` are the distinct local maxima found, best first (the first is the worst case).
     """
 
-    axes: tuple
-    candidates: list
+    axes: tuple[SearchAxis, ...]
+    candidates: list[Candidate]
     evaluations: int
     budget: int
-    starts: dict  # start kind → how many were evaluated
+    starts: dict[str, int]  # start kind → how many were evaluated
 
     @property
     def best(self) -> Candidate:
@@ -122,7 +129,7 @@ class WorstCase:
         return self.best.where
 
     @property
-    def where_named(self) -> dict:
+    def where_named(self) -> dict[str, float]:
         return {a.name: float(u) for a, u in zip(self.axes, self.best.where)}
 
     def describe(self) -> dict:
@@ -139,12 +146,12 @@ class WorstCase:
 
 
 def find_worst(
-    error,
-    axes,
+    error: ErrorFunction,
+    axes: Iterable[SearchAxis],
     *,
-    points=None,
-    errors=None,
-    singular=None,
+    points: npt.ArrayLike | None = None,
+    errors: npt.ArrayLike | None = None,
+    singular: Places | None = None,
     budget: int = 20000,
     seed: int = 0,
     max_candidates: int = 10,
@@ -202,7 +209,14 @@ def find_worst(
     return WorstCase(axes, candidates, counter.used, budget, {str(k): int(n) for k, n in counts.items()})
 
 
-def _starts(counter, axes, points, errors, singular: dict, rng) -> tuple:
+def _starts(
+    counter: _Counter,
+    axes: tuple[SearchAxis, ...],
+    points: npt.ArrayLike | None,
+    errors: npt.ArrayLike | None,
+    singular: Places,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Phase 1, (u, e, kinds) of every start: the given points, the corners, edges and singular faces, a
     random scatter, then a scatter near the best of those; each evaluated (the given ones unless their
     ``errors`` are known) within the budget's shares."""
@@ -219,8 +233,10 @@ def _starts(counter, axes, points, errors, singular: dict, rng) -> tuple:
         *_singular_faces(axes, singular, int(_SINGULAR_SHARE * budget), rng),
         ("random", _snap(axes, rng.uniform(size=(int(_RANDOM_SHARE * budget), len(axes))))),
     ]
-    starts, values, kinds = [], [], []
-    if points is not None and len(points):
+    starts: list[np.ndarray] = []
+    values: list[np.ndarray] = []
+    kinds: list[str] = []
+    if points is not None and np.size(points):
         given = np.asarray(points, float).reshape(-1, len(axes))
         starts.append(given)
         values.append(_clean(np.asarray(errors, float)) if errors is not None else counter(given))
@@ -230,31 +246,31 @@ def _starts(counter, axes, points, errors, singular: dict, rng) -> tuple:
             starts.append(u)
             values.append(counter(u))
             kinds += [kind] * len(u)
-    u, e, kinds = np.vstack(starts), np.concatenate(values), np.array(kinds)
-    near, near_kinds = _near(axes, u, e, kinds, int(_NEAR_SHARE * budget), rng)
-    return np.vstack([u, near]), np.concatenate([e, counter(near)]), np.concatenate([kinds, near_kinds])
+    u, e, labels = np.vstack(starts), np.concatenate(values), np.array(kinds)
+    near, near_kinds = _near(axes, u, e, labels, int(_NEAR_SHARE * budget), rng)
+    return np.vstack([u, near]), np.concatenate([e, counter(near)]), np.concatenate([labels, near_kinds])
 
 
 class _Counter:
     """``error`` with NaN as +inf, counting evaluations against the budget."""
 
-    def __init__(self, error, budget):
+    def __init__(self, error: ErrorFunction, budget: int) -> None:
         self.error, self.budget, self.used = error, budget, 0
 
     @property
     def left(self) -> int:
         return self.budget - self.used
 
-    def __call__(self, u) -> np.ndarray:
+    def __call__(self, u: np.ndarray) -> np.ndarray:
         self.used += len(u)
         return _clean(np.asarray(self.error(u), float).reshape(len(u)))
 
 
-def _clean(e):
+def _clean(e: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(e), np.inf, e)
 
 
-def _snap(axes, u):
+def _snap(axes: Sequence[SearchAxis], u: npt.ArrayLike) -> np.ndarray:
     """Discrete axes' coordinates moved to their nearest level."""
     u = np.array(u, float)
     for i, a in enumerate(axes):
@@ -264,16 +280,16 @@ def _snap(axes, u):
     return u
 
 
-def _product(columns) -> np.ndarray:
+def _product(columns: Sequence[np.ndarray]) -> np.ndarray:
     """Every combination of the columns' values, (n, len(columns)); one empty row for no columns."""
     return np.array(list(itertools.product(*columns)), float).reshape(-1, len(columns)) if columns else np.zeros((1, 0))
 
 
-def _corners(axes) -> np.ndarray:
+def _corners(axes: Sequence[SearchAxis]) -> np.ndarray:
     return _product([a.ends() for a in axes])
 
 
-def _edges(axes, share: int) -> list:
+def _edges(axes: tuple[SearchAxis, ...], share: int) -> list[tuple[str, np.ndarray]]:
     """Points along every edge (one continuous axis free, the others at their ends), at cell centres of
     the free axis, thinned evenly when the edges would take more than ``share`` evaluations."""
     free = [i for i, a in enumerate(axes) if not a.discrete]
@@ -290,7 +306,9 @@ def _edges(axes, share: int) -> list:
     return out
 
 
-def _singular_faces(axes, singular: dict, share: int, rng) -> list:
+def _singular_faces(
+    axes: tuple[SearchAxis, ...], singular: Places, share: int, rng: np.random.Generator
+) -> list[tuple[str, np.ndarray]]:
     """Each named place and each intersection of places on different axes (a face of the box): its
     corners, its edges and a random scatter over it, ``share`` evaluations in all."""
     index = {a.name: i for i, a in enumerate(axes)}
@@ -314,7 +332,7 @@ def _singular_faces(axes, singular: dict, share: int, rng) -> list:
     return out
 
 
-def _with_fixed(u_free, fixed: dict, d: int) -> np.ndarray:
+def _with_fixed(u_free: np.ndarray, fixed: dict[int, float], d: int) -> np.ndarray:
     """Points of a face, given on its free axes, in the whole box's columns."""
     out = np.empty((len(u_free), d))
     free = [i for i in range(d) if i not in fixed]
@@ -324,7 +342,14 @@ def _with_fixed(u_free, fixed: dict, d: int) -> np.ndarray:
     return out
 
 
-def _near(axes, u, e, kinds, share: int, rng):
+def _near(
+    axes: tuple[SearchAxis, ...],
+    u: np.ndarray,
+    e: np.ndarray,
+    kinds: np.ndarray,
+    share: int,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
     """A scatter within _NEAR_CELLS cells (every continuous axis) of the best distinct starts, ``share``
     points in all: an error that peaks narrowly sits among cells that err already, which a start on a node
     or an edge, or a random one, may only graze."""
@@ -336,16 +361,16 @@ def _near(axes, u, e, kinds, share: int, rng):
     return (np.vstack(points) if points else np.zeros((0, len(axes)))), np.array(labels, dtype=object)
 
 
-def _same_place(axes, a, b) -> np.ndarray:
+def _same_place(axes: Sequence[SearchAxis], a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Whether points ``b`` (n, d) lie within one cell of ``a`` (d,) on every axis (the same level on a
     discrete one)."""
     width = np.array([a_.cell_width if not a_.discrete else 1e-9 for a_ in axes])
     return np.all(np.abs(b - a) <= width, axis=1)
 
 
-def _distinct(axes, u, order, limit: int) -> np.ndarray:
+def _distinct(axes: Sequence[SearchAxis], u: np.ndarray, order: Iterable[int], limit: int) -> np.ndarray:
     """The first ``limit`` indices of ``order`` (best first) that lie in different places."""
-    kept = []
+    kept: list[int] = []
     for i in order:
         if len(kept) == limit:
             break
@@ -354,12 +379,14 @@ def _distinct(axes, u, order, limit: int) -> np.ndarray:
     return np.array(kept, dtype=int)
 
 
-def _per_start(axes) -> int:
+def _per_start(axes: Sequence[SearchAxis]) -> int:
     """Evaluations a start's compass search is expected to take."""
     return max(2 * sum(not a.discrete for a in axes) * _STEPS_PER_START, 1)
 
 
-def _refine_in_batches(counter, axes, starts, values, kinds) -> list:
+def _refine_in_batches(
+    counter: _Counter, axes: tuple[SearchAxis, ...], starts: np.ndarray, values: np.ndarray, kinds: np.ndarray
+) -> list[Candidate]:
     """Compass search from the starts, best first, in batches sized so a batch ends within the budget."""
     d_free = sum(not a.discrete for a in axes)
     per_start = _per_start(axes)
@@ -375,7 +402,9 @@ def _refine_in_batches(counter, axes, starts, values, kinds) -> list:
     return found
 
 
-def _compass(counter, axes, u, e):
+def _compass(
+    counter: _Counter, axes: tuple[SearchAxis, ...], u: np.ndarray, e: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Compass search of every start at once: (u, e, improving steps) when every start's steps are below
     a ten-thousandth of a cell, or the budget is spent."""
     u, e = u.copy(), e.copy()
@@ -405,7 +434,8 @@ def _compass(counter, axes, u, e):
     return u, e, steps
 
 
-def _distinct_candidates(axes, found: list, keep: int) -> list:
+def _distinct_candidates(axes: Sequence[SearchAxis], found: list[Candidate], keep: int) -> list[Candidate]:
+
     order = sorted(range(len(found)), key=lambda i: -found[i].value)
     u = np.array([c.where for c in found])
     return [found[i] for i in _distinct(axes, u, order, keep)]
