@@ -14,18 +14,8 @@ import click
 from lutbake.io.names import INTERPOLATIONS, OBSERVERS, SPACES
 
 if TYPE_CHECKING:
-    from typing import Protocol
-
     from lutbake.cli.environment import Environment
-
-    class Meter(Protocol):
-        """What progress.meter returns: a Meter, or its silent stand-in."""
-
-        def __call__(self, done: float, total: float | None = None, note: str = "") -> None: ...
-
-        def clear(self) -> None: ...
-
-        def close(self, note: str = "done") -> None: ...
+    from lutbake.io.progress import AnyMeter as Meter
 
 
 EXIT_GATE, EXIT_BAD_INPUT = 1, 2
@@ -98,7 +88,7 @@ class MeterOnFirstUse:
         self.meter = self.meter or meter(self.label, self.show)
         return self.meter
 
-    def __call__(self, done: float, total: float | None = None, note: str = "") -> None:
+    def __call__(self, done: int, total: int | None = None, note: str = "") -> None:
         self._started()(done, total, note)
 
     def close(self, note: str = "done") -> None:

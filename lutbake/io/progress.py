@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 from typing import TextIO
 
-__all__ = ["Meter", "Progress", "meter", "format_seconds", "no_progress"]
+__all__ = ["Meter", "AnyMeter", "Progress", "meter", "format_seconds", "no_progress"]
 
 # progress(done, total or None when unknown, note): what every long library function reports through
 Progress = Callable[[int, int | None, str], None]
@@ -114,7 +114,11 @@ class _Silent:
         pass
 
 
-def meter(label: str, show: bool | None) -> Meter | _Silent:
+# what ``meter`` returns: the meter, or its silent stand-in with the same three calls
+AnyMeter = Meter | _Silent
+
+
+def meter(label: str, show: bool | None) -> AnyMeter:
     """A Meter when ``show`` (None: only when stderr is a terminal), else a silent stand-in."""
     if show is None:
         show = sys.stderr.isatty()

@@ -30,8 +30,7 @@ outputs (…, 3) linear RGB in ``space``.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -194,7 +193,13 @@ def khr_iridescence_rgb(stack: FilmPoints, space: str = "rec709", observer: str 
     return rgb
 
 
-APPROXIMATIONS: dict[str, Callable[[FilmPoints, str, str], np.ndarray]] = {
+class Approximation(Protocol):
+    """An engine approximation: RGB of ``stack`` in colour ``space`` under ``observer``."""
+
+    def __call__(self, stack: FilmPoints, space: str, observer: str) -> np.ndarray: ...
+
+
+APPROXIMATIONS: dict[str, Approximation] = {
     "belcour-barla-2017": belcour_barla_rgb,
     "khr-iridescence-threejs": khr_iridescence_rgb,
     "lutbake-exact-mode": exact_mode_rgb,

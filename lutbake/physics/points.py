@@ -188,7 +188,14 @@ class FilmPoints:
 
     @classmethod
     def texels(
-        cls, *, eta1: float, eta2: float, cos_theta: ArrayLike, opd_nm: ArrayLike, eta3: ArrayLike, kappa3: ArrayLike
+        cls,
+        *,
+        eta1: ArrayLike,
+        eta2: ArrayLike,
+        cos_theta: ArrayLike,
+        opd_nm: ArrayLike,
+        eta3: ArrayLike,
+        kappa3: ArrayLike,
     ) -> FilmPoints:
         """Stacks at LUT coordinates (cos θ1, D = 2·η2·d, η3, κ3) of the film η1 | η2, unchecked and
         broadcast without copies: for coordinates a validated spec or LUT produced (a bake's texels)."""

@@ -43,7 +43,7 @@ def _slices(lut: Lut) -> list[tuple[float, float]]:
     """Three (η3, κ3) slices: dielectric low, mid, and the most metallic corner."""
     ax = {a.name: a for a in lut.axes}
     e, k = ax["eta3"], ax["kappa3"]
-    return [(e.lo, k.lo), (0.5 * (e.lo + e.hi), k.from_unit(0.37)), (e.hi, k.hi)]
+    return [(e.lo, k.lo), (0.5 * (e.lo + e.hi), float(k.from_unit(0.37))), (e.hi, k.hi)]
 
 
 def _stack(lut: Lut, cos_t: npt.ArrayLike, opd: npt.ArrayLike, eta3: float, kappa3: float) -> FilmPoints:
@@ -139,7 +139,7 @@ def swatch_strips(lut_path: str | PathLike[str], out_png: str | PathLike[str], n
     """Colour along D at fixed angles: ground truth, LUT, and each approximation."""
     lut = Lut.load(lut_path)
     ax = {a.name: a for a in lut.axes}
-    opd = ax["opd_nm"].from_unit(np.linspace(0, 1, n))
+    opd = np.asarray(ax["opd_nm"].from_unit(np.linspace(0, 1, n)))
     rows = []
     for eta3, kappa3 in _slices(lut):
         for cos_t in (0.9, 0.4):

@@ -95,12 +95,14 @@ def held_out_points(
     uniform = [rng.uniform(a.lo, a.hi, n_points - n_centre) for a in axes]
     units = np.column_stack([(rng.integers(0, a.count - 1, n_centre) + 0.5) / (a.count - 1) for a in axes])
     centres = lut_stacks(axes, eta1, eta2, units)
-    coords = {
-        a.name: np.concatenate([u, c])
-        for a, u, c in zip(axes, uniform, (centres.cos_theta, centres.opd_nm, centres.eta3, centres.kappa3))
-    }
+    cos_theta, opd_nm, eta3, kappa3 = (
+        np.concatenate([u, c])
+        for u, c in zip(uniform, (centres.cos_theta, centres.opd_nm, centres.eta3, centres.kappa3))
+    )
     kind = np.array(["uniform"] * (n_points - n_centre) + ["cell-centre"] * n_centre)
-    stack = shader_inputs(FilmPoints.build(eta1=eta1, eta2=eta2, **coords))
+    stack = shader_inputs(
+        FilmPoints.build(eta1=eta1, eta2=eta2, cos_theta=cos_theta, opd_nm=opd_nm, eta3=eta3, kappa3=kappa3)
+    )
     rgb = truth(stack) if truth else reference_colour(stack, observer, space).values
     return HeldOutPoints(stack, kind, rgb)
 

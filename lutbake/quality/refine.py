@@ -334,6 +334,7 @@ def _searched(
     from lutbake.quality.measure import held_out_points, proxy_truth, score, search_max
 
     grid = replace(spec, axes=tuple(a.resized(c) for a, c in zip(spec.axes, result.counts)))
+    assert isinstance(result.artefact, np.ndarray)  # lut_measure's artefact: the winning grid's texels
     lut = Lut.in_memory(grid, result.artefact)
     pts = held_out_points(grid.axes, spec.eta1, spec.eta2, spec.observer, spec.space, n_points, seed)
     de = score("lut", lut.sample(pts.stack), pts, spec.space, spec.observer).de00

@@ -85,7 +85,7 @@ def cost_table_html(rows: list | None) -> str:
     body = "".join(
         f"<tr><td>{html.escape(r['name'])}</td><td>{r['de00_p99']:.3f}</td><td>{r['de00_max']:.3f}</td>"
         f"<td>{html.escape(r['reads_per_pixel'])}</td><td>{html.escape(str(r['spirv_arithmetic']))}</td>"
-        f"<td>{r['gpu_bytes'] / 2**20:.2f}</td><td>{'—' if r['swiftshader_x_three'] is None else r['swiftshader_x_three']}</td></tr>"
+        f"<td>{r['gpu_bytes'] / 2**20:.2f}</td><td>{_or_dash(r['swiftshader_x_three'])}</td></tr>"
         for r in rows
     )
     note = html.escape(
@@ -93,3 +93,8 @@ def cost_table_html(rows: list | None) -> str:
         f"({path_costs()['measured']['by']})."
     )
     return f"{head}{body}</table><p>{note}</p>"
+
+
+def _or_dash(value: object) -> object:
+    """A cell's value, or an em dash where it was not measured."""
+    return "—" if value is None else value

@@ -90,7 +90,7 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     tiles = F(t["tiles_per_row"])
     row = np.floor(j / tiles)
     centre = ((j - row * tiles + F(0.5)) * F(t["nodes"]), (row + F(0.5)) * F(t["nodes"]))  # texels
-    return dict(c1=c1, g2=g2, em1=em1, beta=beta, xt=s - j, centre=centre)
+    return {"c1": c1, "g2": g2, "em1": em1, "beta": beta, "xt": s - j, "centre": centre}
 
 
 def _base(film, eta1, eta2, eta3, kappa3):
