@@ -216,7 +216,7 @@ def _max_error(job, got) -> float:
 def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
     result, runs = engine_run
     assert result["three"] == json.loads((ENGINE / "package.json").read_text())["dependencies"]["three"].split(".")[1]
-    for job, got in runs.values():
+    for _job, got in runs.values():
         assert got["texture"]["flipY"] is False  # EXRLoader's default: rows bottom-up, as OpenGL reads them
 
 

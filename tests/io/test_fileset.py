@@ -311,6 +311,6 @@ def test_ctrl_c_during_start_up_is_one_line_and_exit_130(delay, tmp_path):
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     out, rest = proc.communicate(timeout=120)
-    err = "".join(l for l in seen + rest.splitlines(True) if not l.startswith("import time:"))
+    err = "".join(line for line in seen + rest.splitlines(True) if not line.startswith("import time:"))
     assert proc.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines()[-1] == "lutbake: interrupted"
