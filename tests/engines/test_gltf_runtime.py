@@ -16,8 +16,8 @@ import uuid
 
 import numpy as np
 import pytest
-from test_engine import ROOT, require_engine
-from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
+from engine_harness import ROOT, require_engine
+from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
 
 sys.path.insert(0, str(ROOT / "bench"))
 import bench_gltf_runtime as bench  # noqa: E402
