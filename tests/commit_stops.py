@@ -35,7 +35,7 @@ def wait_stopped(proc: subprocess.Popen, timeout: float = 300) -> None:
         pid, status = os.waitpid(proc.pid, os.WNOHANG | os.WUNTRACED)
         if pid and os.WIFSTOPPED(status):
             return
-        assert pid == 0, f"writer exited before the commit window: {proc.stderr.read()}"
+        assert pid == 0, f"writer exited before the commit window: {proc.stderr.read() if proc.stderr else ''}"
         time.sleep(0.02)
     proc.kill()
     pytest.fail("writer never reached the commit window")
