@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 B1_AXES = ("0:1:64", "0:4000:256", "1:3:16", "0:5:16")
-STIFF = dict(eta2=2.5, axes=("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4"))
+STIFF = {"eta2": 2.5, "axes": ("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4")}
 _FLAGS = ("--cos-theta", "--opd", "--eta3", "--kappa3")
 
 

@@ -9,9 +9,10 @@ times (the runtimes in turn within each rep), after one discarded B1 bake per ru
 binary cache cost 8 s once): process wall (interpreter
 start and imports included), cells/s, peak RSS (VmHWM) and, from the headers, the texels per path
 (series, closed form, direct) summed over the set. The ratio of the set's cells/s to B1's is taken rep
-by rep (pairing keeps it fair on a busy machine); medians are reported. The numpy 2 nm integration (bench_b1.numpy_2nm) runs on the first --sample-rows image rows
-of each default LUT and of B1 (its cost per texel does not depend on the texel: 236 wavelengths each),
-giving its cells/s on each, and so each bake's speed-up over it.
+by rep (pairing keeps it fair on a busy machine); medians are reported. The numpy 2 nm integration
+(bench_b1.numpy_2nm) runs on the first --sample-rows image rows of each default LUT and of B1 (its cost per
+texel does not depend on the texel: 236 wavelengths each), giving its cells/s on each, and so each bake's
+speed-up over it.
 """
 
 from __future__ import annotations

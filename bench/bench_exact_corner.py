@@ -2,7 +2,7 @@
 
 1. Per default LUT (luts/, baked when missing): the `lutbake-exact-mode` row's searched max as `lutbake report`
    finds it (measure.search_max: 1,000 held-out points at seed 0, 20,000 evaluations), where, how found.
-2. The corner's neighbourhood alone, cos θ1 ≤ 0.02, D ≤ 20 nm, η3 − η1 ≤ 1e-3, κ3 ≤ 1e-3 (tests/modes/test_exact.py
+2. The corner's neighbourhood alone, cos θ1 ≤ 0.02, D ≤ 20 nm, η3 − η1 ≤ 1e-3, κ3 ≤ 1e-3 (tests/exact_cases.py
    corner_search, 3,000 evaluations) for η2 1.33, 1.5, 2.0 and 3.0; and the share of its random points where
    the 64-term cap binds (the closed-form tail's share of pixels).
 No timings: accuracy only (numpy float64 evaluation of the include's math; three.js returns it to 4.5e-6,
@@ -21,8 +21,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "docs")]
 
+from exact_cases import CORNER_SPAN, corner_search  # noqa: E402
 from make_accuracy import bake_default_luts  # noqa: E402
-from test_exact import CORNER_SPAN, corner_search  # noqa: E402
 
 from lutbake.lut.sample import Lut  # noqa: E402
 from lutbake.modes.exact import exact_colour, exact_mode_rgb, stored_table  # noqa: E402

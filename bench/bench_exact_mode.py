@@ -1,8 +1,8 @@
 """The exact runtime mode's figures for docs/engines.md (accuracy and term counts, no timings).
 
 1. three.js in headless Chromium runs the shipped include on the 2,500 KHR-range points of
-   tests/engines/test_exact_engine.py: |ΔRGB| against the float64 evaluation, ΔE00 against the ground truth, and the
-   term counts of the rule (float64 evaluation, same rule) per base.
+   tests/engines/test_exact_engine.py (tests/exact_cases.khr_points): |ΔRGB| against the float64 evaluation,
+   ΔE00 against the ground truth, and the term counts of the rule (float64 evaluation, same rule) per base.
 2. A half-float table instead of the float one (float64 evaluation): ΔE00 against the ground truth.
 3. What the base mappings cost: a metal as per-channel constant n, k (611/549/464 nm) against the dispersive
    metal, and glass as a constant ior (SiO2's n at 549 nm) against dispersive SiO2, over the same range.
@@ -20,7 +20,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
-from test_exact_engine import RGB_CALL, TABLE, float64_exact, ground_truth, khr_points, run_jobs  # noqa: E402
+from engine_harness import run_jobs  # noqa: E402
+from exact_cases import RGB_CALL, TABLE, float64_exact, ground_truth, khr_points  # noqa: E402
 
 from lutbake.modes.exact import METALS, base_rgb, read_exact_table, write_exact_table  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402

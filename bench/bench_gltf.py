@@ -51,7 +51,8 @@ def write_inputs(folder: Path, n: int, seed: int) -> tuple:
     toml = folder / "random.toml"
     toml.write_text(
         "".join(
-            f"[materials.m{i}-film{i}-dielectric]\nfilm = {float(f)!r}\nthickness_nm = {float(d)!r}\nbase = {float(b)!r}\n"
+            f"[materials.m{i}-film{i}-dielectric]\nfilm = {float(f)!r}\n"
+            f"thickness_nm = {float(d)!r}\nbase = {float(b)!r}\n"
             for i, (f, d, b) in enumerate(zip(films, thicknesses, iors))
         )
     )

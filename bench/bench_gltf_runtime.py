@@ -9,9 +9,10 @@ the bake (atlas slices, 4D LUTs) and by the runtime table (`serve: 'runtime'`). 
 seeded choice among those the sphere covers) both film terms are scored against the spectral ground truth at the
 parameters that pixel used (cos θ, thickness, metalness, base colour through the bake's metal mapping):
 ΔE00 p99 and the largest over those pixels, per material and pooled. Bytes on the GPU: every texture as
-EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and SPIR-V arithmetic per pixel: lutbake report's
-table (lutbake/modes/runtime/costs.py). And a searched maximum of the runtime table along the whole fitted metal
-curve the plugin reads for texture-driven metals (curve_worst), which the pixels sample only in part.
+EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and
+SPIR-V arithmetic per pixel: lutbake report's table (lutbake/modes/runtime/costs.py). And a searched maximum
+of the runtime table along the whole fitted metal curve the plugin reads for texture-driven metals
+(curve_worst), which the pixels sample only in part.
 """
 
 import argparse

@@ -191,7 +191,8 @@ highp vec3 bb_sensitivity(highp float opd, highp float shift) {{
     highp vec3 pos = vec3({_POS[0]:.5g}, {_POS[1]:.5g}, {_POS[2]:.5g});
     highp vec3 var = vec3({_VAR[0]:.5g}, {_VAR[1]:.5g}, {_VAR[2]:.5g});
     highp vec3 xyz = val * sqrt(6.283185307179586 * var) * cos(pos * phase + shift) * exp(-var * phase * phase);
-    xyz.x += {_X2[0]:.5g} * sqrt(6.283185307179586 * {_X2[2]:.5g}) * cos({_X2[1]:.5g} * phase + shift) * exp(-{_X2[2]:.5g} * phase * phase);
+    xyz.x += {_X2[0]:.5g} * sqrt(6.283185307179586 * {_X2[2]:.5g}) * cos({_X2[1]:.5g} * phase + shift)
+             * exp(-{_X2[2]:.5g} * phase * phase);
     return xyz / {_NORM:.5g};
 }}
 void bb_dielectric(highp float cos1, highp float n1, highp float n2, out highp vec2 r, out highp vec2 phi) {{
@@ -199,13 +200,15 @@ void bb_dielectric(highp float cos1, highp float n1, highp float n2, out highp v
     highp float nr = n1 / n2;
     bool tir = nr * nr * sin2 > 1.0;
     highp float cos2 = sqrt(max(1.0 - nr * nr * sin2, 0.0));
-    highp vec2 amp = vec2((n2 * cos1 - n1 * cos2) / (n2 * cos1 + n1 * cos2), (n1 * cos1 - n2 * cos2) / (n1 * cos1 + n2 * cos2));
+    highp vec2 amp = vec2((n2 * cos1 - n1 * cos2) / (n2 * cos1 + n1 * cos2),
+                          (n1 * cos1 - n2 * cos2) / (n1 * cos1 + n2 * cos2));
     highp float root = sqrt(max(sin2 - 1.0 / (nr * nr), 0.0)) / cos1;
     r = tir ? vec2(1.0) : amp * amp;
     phi = tir ? vec2(2.0 * atan(-nr * nr * root), 2.0 * atan(-root)) : vec2(amp.x < 0.0 ? 3.141592653589793 : 0.0,
                                                                              amp.y < 0.0 ? 3.141592653589793 : 0.0);
 }}
-void bb_conductor(highp float cos1, highp float n1, highp float n2, highp float k, out highp vec2 r, out highp vec2 phi) {{
+void bb_conductor(highp float cos1, highp float n1, highp float n2, highp float k,
+                  out highp vec2 r, out highp vec2 phi) {{
     if (k <= 0.0) {{ bb_dielectric(cos1, n1, n2, r, phi); return; }}
     highp float a = n2 * n2 * (1.0 - k * k) - n1 * n1 * (1.0 - cos1 * cos1);
     highp float b = sqrt(a * a + 4.0 * n2 * n2 * n2 * n2 * k * k);
@@ -213,13 +216,16 @@ void bb_conductor(highp float cos1, highp float n1, highp float n2, highp float 
     highp float rs = ((n1 * cos1 - u) * (n1 * cos1 - u) + v * v) / ((n1 * cos1 + u) * (n1 * cos1 + u) + v * v);
     highp float ps = atan(2.0 * n1 * v * cos1, u * u + v * v - n1 * n1 * cos1 * cos1) + 3.141592653589793;
     highp float e = n2 * n2 * (1.0 - k * k) * cos1, f = 2.0 * n2 * n2 * k * cos1;
-    highp float rp = ((e - n1 * u) * (e - n1 * u) + (f - n1 * v) * (f - n1 * v)) / ((e + n1 * u) * (e + n1 * u) + (f + n1 * v) * (f + n1 * v));
+    highp float rp = ((e - n1 * u) * (e - n1 * u) + (f - n1 * v) * (f - n1 * v))
+                     / ((e + n1 * u) * (e + n1 * u) + (f + n1 * v) * (f + n1 * v));
     highp float pp = atan(2.0 * n1 * n2 * n2 * cos1 * (2.0 * k * u - (1.0 - k * k) * v),
-                          (n2 * n2 * (1.0 + k * k) * cos1) * (n2 * n2 * (1.0 + k * k) * cos1) - n1 * n1 * (u * u + v * v));
+                          (n2 * n2 * (1.0 + k * k) * cos1) * (n2 * n2 * (1.0 + k * k) * cos1)
+                          - n1 * n1 * (u * u + v * v));
     r = vec2(rp, rs);
     phi = vec2(pp, ps);
 }}
-highp vec3 bb_iridescence(highp float cos1, highp float thickness_nm, highp float e1, highp float e2, highp float e3, highp float k3) {{
+highp vec3 bb_iridescence(highp float cos1, highp float thickness_nm, highp float e1, highp float e2, highp float e3,
+                          highp float k3) {{
     highp float opd = 2.0 * e2 * thickness_nm;
     highp float t = clamp(opd / 30.0, 0.0, 1.0);
     highp float eta2 = e1 + (e2 - e1) * t * t * (3.0 - 2.0 * t);
@@ -518,7 +524,8 @@ def main():
         SHIPPED.write_text(json.dumps(shipped_costs(result), indent=2, ensure_ascii=False) + "\n")
     three = result["static"]["three"]["arithmetic"]
     print(
-        "| path | reads / pixel | SPIR-V arithmetic (× three) | GPU bytes | SwiftShader × three |\n|---|---|---|---|---|"
+        "| path | reads / pixel | SPIR-V arithmetic (× three) | GPU bytes | SwiftShader × three |\n"
+        "|---|---|---|---|---|"
     )
     for name, s in result["static"].items():
         engine = result.get("swiftshader", {}).get("paths", {}).get(name)

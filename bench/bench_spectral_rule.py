@@ -29,12 +29,12 @@ def main():
     rng = np.random.default_rng(args.seed)
     n = args.texels
     eta2 = rng.uniform(1.2, 2.5, n)
-    cols = dict(
-        cos_theta=rng.uniform(0, 1, n) ** 2,
-        opd_nm=rng.uniform(0, 4000, n),
-        eta3=rng.uniform(1, 3, n),
-        kappa3=rng.uniform(0, 5, n),
-    )
+    cols = {
+        "cos_theta": rng.uniform(0, 1, n) ** 2,
+        "opd_nm": rng.uniform(0, 4000, n),
+        "eta3": rng.uniform(1, 3, n),
+        "kappa3": rng.uniform(0, 5, n),
+    }
     truth = reference_colour(FilmPoints.build(eta2=eta2, **cols)).values
     rows = []
     for spc in (1.0, 2.0, 3.0, 4.0, 6.0):

@@ -216,9 +216,8 @@ def corner_section(reports) -> list:
         "film's reflection and a weak absorber's cancel, the colour sits within ~0.001 of black, where ΔE00 is",
         "most sensitive; the ratio parts' node counts (D 24, η3 8, κ3 14) are set by those valleys.",
         "ρ = max(Y1, |Y3|, φ(550 nm)·Y2/2), `lutbake.quality.measure.corner_distance`, measures the distance to the",
-        f"corner. The search confined to ρ < {CORNER_RADIUS:g} (5,000 held-out points at seed 3, 20,000 evaluations) finds "
-        + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items())
-        + ".",
+        f"corner. The search confined to ρ < {CORNER_RADIUS:g} (5,000 held-out points at seed 3, "
+        "20,000 evaluations) finds " + ", ".join(f"{v:.2f} ({n})" for n, v in inside.items()) + ".",
         "The exact runtime mode evaluates each point instead: its searched max near the corner is 0.28 (`python",
         "bench/bench_exact_corner.py`, [engines.md](engines.md#exact-mode-the-series-per-pixel-no-lut-domain)).",
         "The metal LUTs do not reach the corner (κ3 ≥ 1.5); their searched max over the whole domain is "
@@ -252,7 +251,8 @@ def render(reports, sweep, bases):
         "100–400 nm).",
         "",
         "- `lutbake-eta2-X`: dielectric and weakly absorbing bases, η3 1–3 and κ3 0–2 (water, glass,",
-        "  oxides; the KHR range η3 1.0–2.5). They zoom into the grazing corner (format v5, [below](#where-the-maximum-sits)):",
+        "  oxides; the KHR range η3 1.0–2.5). They zoom into the grazing corner "
+        "(format v5, [below](#where-the-maximum-sits)):",
         "  D (√), η3 (`sqrt-admittance`: uniform in (η3² − (η1 sin θ1)²)^¼ per cos θ1 node, crowding towards",
         "  η3 = η1 at grazing, where the film sits between two near-total reflections) and κ3 (√) each mix in",
         "  their ratio to the incidence, and cos θ1 is `uniform-root4` ([lut-format.md](lut-format.md#axes)).",

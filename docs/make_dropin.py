@@ -8,7 +8,8 @@ read back per pixel with the parameters each pixel used, against the ground trut
 against the dispersive metal (its n, k at every wavelength): what the per-channel mapping costs.
 
 Rerun: (cd engine && npm ci) && python docs/make_dropin.py   (needs node and Debian's chromium; it writes the exact
-table into engine/exact/ and the runtime table into luts/ first, as `lutbake exact-table` and `lutbake runtime-table` do)
+table into engine/exact/ and the runtime table into luts/ first, as `lutbake exact-table` and `lutbake runtime-table`
+do)
 """
 
 import functools

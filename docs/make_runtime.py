@@ -23,15 +23,15 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT))  # this checkout's lutbake, installed or not: the imports below follow it (E402)
 
 from lutbake.modes.approximations import belcour_barla_rgb, khr_iridescence_rgb  # noqa: E402
 from lutbake.modes.exact import exact_colour  # noqa: E402
-from lutbake.modes.exact import stored_table as exact_table
+from lutbake.modes.exact import stored_table as exact_table  # noqa: E402
 from lutbake.modes.runtime import runtime_colour, stored_table  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 from lutbake.physics.points import FilmPoints  # noqa: E402
-from lutbake.quality.runtime_accuracy import (
+from lutbake.quality.runtime_accuracy import (  # noqa: E402
     BOXES,
     NAMED_METALS,
     named_error,
@@ -39,7 +39,7 @@ from lutbake.quality.runtime_accuracy import (
     searched_worst,
     stress_error,
     truth,
-)  # noqa: E402
+)
 
 RESULT = ROOT / "docs" / "runtime-result.json"
 
@@ -127,7 +127,8 @@ def main():
     for metal, r in result["named"].items():
         print(f"| {metal} per channel | {r['points']} | {r['p99']:.3f} / {r['max']:.3f} | | {r['searched_max']:.3f} |")
     print(
-        "\n| path (any film) | dielectric p99 / max | metal p99 / max | exact mode terms, mean (max) |\n|---|---|---|---|"
+        "\n| path (any film) | dielectric p99 / max | metal p99 / max | exact mode terms, mean (max) |\n"
+        "|---|---|---|---|"
     )
     for path in result["random"]["dielectric"]:
         d, m = result["random"]["dielectric"][path], result["random"]["metal"][path]

@@ -109,7 +109,8 @@ imported = sorted(m for m in ("numpy", "pyopencl", "colour", "matplotlib") if m 
 spec = lutbake.BakeSpec(eta2=1.5, axes=(lutbake.Axis("cos_theta", 0, 1, 4), lutbake.Axis("opd_nm", 0, 800, 8),
                                         lutbake.Axis("eta3", 1, 2, 2), lutbake.Axis("kappa3", 0, 1, 2)))
 baked = lutbake.bake_lut(spec, os.path.join(sys.argv[1], "x.exr"))
-lutbake.write_report(lutbake.report_lut(baked.path, n_points=40, search_budget=2000), os.path.join(sys.argv[1], "report"))
+report = lutbake.report_lut(baked.path, n_points=40, search_budget=2000)
+lutbake.write_report(report, os.path.join(sys.argv[1], "report"))
 after = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 print(json.dumps({"imported_by_import": imported, "handlers_kept": before == after,
                   "matplotlib_backend": sys.modules["matplotlib"].get_backend(),

@@ -1,36 +1,17 @@
 """Hostile inputs (issue 16): a seeded table of bad sizes, headers, scenes, CSVs, paths and names.
 
 Every case runs the command line in-process (a fresh working folder each) under a SIGALRM guard, and
-asserts: exit code in {0, 1, 2}; no traceback; for exit 2 one stderr line and nothing written; no NaN
-printed. Kill, concurrency and Ctrl-C tests run real processes (tests/io/test_fileset.py).
+asserts (tests/hostile_cases.run_case): exit code in {0, 1, 2}; no traceback; for exit 2 one stderr line and
+nothing written; no NaN printed. Kill, concurrency and Ctrl-C tests run real processes (tests/io/test_fileset.py).
 """
 
-import hashlib
 import json
-import re
-import signal
 import textwrap
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-from lutbake import cli
-
-TINY = [
-    "--cos-theta",
-    "0:1:4",
-    "--opd",
-    "0:1000:4",
-    "--eta3",
-    "1:2:2",
-    "--kappa3",
-    "0:1:2",
-    "--backend",
-    "numpy",
-    "--quiet",
-]
-CASE_SECONDS = 120
+from hostile_cases import TINY, run_case, tree_digests, write_exr
 
 
 def _bake(*extra):
@@ -240,50 +221,6 @@ def _random_scene(rng) -> str:
     return body
 
 
-def _tree(folder: Path) -> dict:
-    return {
-        str(p.relative_to(folder)): (hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else "dir")
-        for p in sorted(folder.rglob("*"))
-    }
-
-
-class _Timeout(Exception):
-    pass
-
-
-def _alarm(signum, frame):
-    raise _Timeout()
-
-
-def run_case(argv, folder: Path, capfd, monkeypatch, expected, check_unchanged=True):
-    """Run the CLI in-process in ``folder``; assert the hostile-table contract; return (rc, out, err)."""
-    monkeypatch.chdir(folder)
-    before = _tree(folder)
-    previous = signal.signal(signal.SIGALRM, _alarm)
-    signal.alarm(CASE_SECONDS)
-    try:
-        cli.main(argv)
-        rc = 0
-    except SystemExit as exc:
-        rc = exc.code if isinstance(exc.code, int) else 1
-    except _Timeout:
-        pytest.fail(f"{argv} ran past {CASE_SECONDS} s")
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, previous)
-    out, err = capfd.readouterr()
-    assert rc in (0, 1, 2), (argv, rc, err)
-    assert rc in expected, (argv, rc, err)
-    assert "Traceback" not in err + out
-    assert not re.search(r"\bnan\b", out.lower()), out  # a word: "illuminant" contains n-a-n
-    if rc == 2:
-        assert len(err.strip().splitlines()) == 1, err
-        assert err.startswith("lutbake: error: ")
-        if check_unchanged:
-            assert _tree(folder) == before, "a failing command wrote or changed files"
-    return rc, out, err
-
-
 @pytest.mark.parametrize("name", list(SIZES))
 def test_hostile_sizes(name, tmp_path, capfd, monkeypatch):
     argv, expected = SIZES[name]
@@ -349,21 +286,6 @@ def good_lut(tmp_path_factory):
     path = tmp_path_factory.mktemp("lut") / "good.exr"
     bake(BakeSpec(eta2=1.5, axes=axes), path, "numpy")
     return path
-
-
-def write_exr(path: Path, meta_text, image: np.ndarray):
-    """An RGB float EXR with ``meta_text`` as its lutbake.metadata attribute (None: no attribute)."""
-    import Imath
-    import OpenEXR
-
-    height, width, _ = image.shape
-    header = OpenEXR.Header(width, height)
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(Imath.PixelType.FLOAT)) for c in "RGB"}
-    if meta_text is not None:
-        header["lutbake.metadata"] = meta_text.encode()
-    out = OpenEXR.OutputFile(str(path), header)
-    out.writePixels({c: np.ascontiguousarray(image[:, :, i], np.float32).tobytes() for i, c in enumerate("RGB")})
-    out.close()
 
 
 def _tamper(meta, image, edit):
@@ -477,11 +399,11 @@ def test_member_path_that_is_a_folder_keeps_the_old_set(tmp_path, capfd, monkeyp
     run_case(_bake(), tmp_path, capfd, monkeypatch, {0})
     (tmp_path / "x.glsl").unlink()
     (tmp_path / "x.glsl").mkdir()
-    before = _tree(tmp_path)
+    before = tree_digests(tmp_path)
     argv = _bake()
     argv[argv.index("1.5")] = "1.33"
     _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
-    assert "x.glsl" in err and _tree(tmp_path) == before
+    assert "x.glsl" in err and tree_digests(tmp_path) == before
 
 
 @pytest.mark.parametrize("member", ["s.exr", "s.json", "s.glsl", ".lutbake-cache"])

@@ -2,9 +2,9 @@
 reach shader source, outputs aliasing inputs, the default set as one transaction, signals and the process
 environment. Seeded where cases are drawn.
 
-Every case gets the verdict of tests/cli/test_hostile.py: exit 0, 1 or 2; no traceback; on exit 2 one line and
+Every case gets the verdict of tests/hostile_cases.py: exit 0, 1 or 2; no traceback; on exit 2 one line and
 nothing written; no hang past 60 s; and here also nothing written outside the requested folder and no input
-changed. In-process cases use test_hostile.run_case; cases that need a fresh process (environment
+changed. In-process cases use hostile_cases.run_case; cases that need a fresh process (environment
 variables read at import, closed descriptors, signals) run the CLI as a subprocess.
 """
 
@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_hostile import TINY, run_case, write_exr
+from hostile_cases import TINY, run_case, write_exr
+from tiny_luts import tiny_jobs
 
 from lutbake.io import usercache
 from lutbake.io.fileset import MAX_JOURNAL_BYTES, sha256_file
@@ -34,10 +35,10 @@ BAKE = ["bake", "--eta2", "1.5", *TINY, "--out"]
 
 @pytest.fixture(autouse=True)
 def _no_case_past_60_s(monkeypatch):
-    """test_hostile.run_case's alarm at this module's bound (the issue's 60 s)."""
-    import test_hostile
+    """hostile_cases.run_case's alarm at this module's bound (the issue's 60 s)."""
+    import hostile_cases
 
-    monkeypatch.setattr(test_hostile, "CASE_SECONDS", CASE_SECONDS)
+    monkeypatch.setattr(hostile_cases, "CASE_SECONDS", CASE_SECONDS)
 
 
 def _digests(folder: Path) -> dict:
@@ -656,7 +657,7 @@ def test_report_refuses_to_overwrite_the_lut_it_reads(how, good_files, sandbox, 
 
 @pytest.mark.parametrize("name", ["nl\n#error injected\n.exr", "ü.exr", "back\\slash\\.exr", "tab\tand\rcr.exr"])
 def test_file_names_reach_shaders_escaped_and_stay_intact_elsewhere(name, sandbox, capfd, monkeypatch, tmp_path):
-    from test_shaders import GLSL_MAIN, HLSL_MAIN, LUT_CALL, compile_shader
+    from shader_compile import GLSL_MAIN, HLSL_MAIN, LUT_CALL, compile_shader
 
     run_case([*BAKE, name], sandbox, capfd, monkeypatch, {0})
     out = sandbox / name
@@ -675,7 +676,7 @@ def test_file_names_reach_shaders_escaped_and_stay_intact_elsewhere(name, sandbo
 
 
 def test_a_non_ascii_scene_file_name_makes_identifiers_glslang_accepts(sandbox, capfd, monkeypatch, tmp_path):
-    from test_shaders import ATLAS_CALL, GLSL_MAIN, compile_shader
+    from shader_compile import ATLAS_CALL, GLSL_MAIN, compile_shader
 
     (sandbox / "stål.toml").write_text(
         "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = 300\nbase = 1.0\n"
@@ -700,27 +701,12 @@ def test_a_non_ascii_scene_file_name_makes_identifiers_glslang_accepts(sandbox, 
 # --- the default set: one transaction ------------------------------------------------------------------
 
 
-def _tiny_jobs(folder: Path, eta1=1.0, prefix="lut"):
-    """Three tiny LUTs (films η2 1.33, 1.5, 2.0 under ``eta1``) for bake_set."""
-    from lutbake.grid.spec import Axis, BakeSpec
-
-    axes = (
-        Axis("cos_theta", 0.0, 1.0, 4),
-        Axis("opd_nm", 0.0, 1000.0, 4),
-        Axis("eta3", 1.1, 2.0, 2),
-        Axis("kappa3", 0.0, 1.0, 2),
-    )
-    return [
-        (folder / f"{prefix}-{eta2}.exr", BakeSpec(eta2=eta2, eta1=eta1, axes=axes), {}) for eta2 in (1.33, 1.5, 2.0)
-    ]
-
-
 def test_a_set_of_luts_failing_at_its_last_lut_commits_none(tmp_path, monkeypatch):
     """bake_set (the default set's path): the 3rd LUT fails after two are written to temporaries; the
     folder keeps the old set of all three, and no temporary."""
     import lutbake.lut.bake
 
-    lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path), "set", "numpy")
+    lutbake.lut.bake.bake_set(tiny_jobs(tmp_path), "set", "numpy")
     before = _digests(tmp_path)
     real, calls = lutbake.lut.bake.write_lut, []
 
@@ -732,7 +718,7 @@ def test_a_set_of_luts_failing_at_its_last_lut_commits_none(tmp_path, monkeypatc
 
     monkeypatch.setattr(lutbake.lut.bake, "write_lut", failing)
     with pytest.raises(OSError):
-        lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path, eta1=1.1), "set", "numpy")
+        lutbake.lut.bake.bake_set(tiny_jobs(tmp_path, eta1=1.1), "set", "numpy")
     assert calls == ["lut-1.33.exr", "lut-1.5.exr", "lut-2.0.exr"] and _digests(tmp_path) == before
 
 
@@ -749,21 +735,20 @@ def test_a_set_killed_in_its_journal_window_rolls_forward_whole(tmp_path):
     """kill -9 after the first rename of a three-LUT set: the next writer completes all three."""
     import lutbake.lut.bake
 
-    lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path), "set", "numpy")
-    from test_fileset import _kill_at, stopping
+    lutbake.lut.bake.bake_set(tiny_jobs(tmp_path), "set", "numpy")
+    from commit_stops import kill_at, stopping
 
     script = (
-        "from pathlib import Path; sys.path[:0] = ['tests', 'tests/cli']; import lutbake.lut.bake, "
-        f"test_hostile_files as t; lutbake.lut.bake.bake_set(t._tiny_jobs(Path({str(tmp_path)!r}), 1.1), 'set', "
-        "'numpy')"
+        "from pathlib import Path; sys.path[:0] = ['tests']; import lutbake.lut.bake, tiny_luts; "
+        f"lutbake.lut.bake.bake_set(tiny_luts.tiny_jobs(Path({str(tmp_path)!r}), 1.1), 'set', 'numpy')"
     )
     proc = subprocess.Popen(stopping(script), cwd=Path(__file__).resolve().parents[2])
 
-    _kill_at(proc, 5)  # the journal and the first LUT's four renames pass; killed before the second LUT's
+    kill_at(proc, 5)  # the journal and the first LUT's four renames pass; killed before the second LUT's
     assert (tmp_path / ".set.commit").exists()
     sidecars = [json.loads(p.with_suffix(".json").read_text())["constants"]["eta1"] for p in _exrs(tmp_path)]
     assert sidecars == [1.1, 1.0, 1.0]  # a mixed folder while the journal is there
-    lutbake.lut.bake.bake_set(_tiny_jobs(tmp_path, prefix="other")[:1], "other", "numpy")  # the next writer
+    lutbake.lut.bake.bake_set(tiny_jobs(tmp_path, prefix="other")[:1], "other", "numpy")  # the next writer
     assert [read_lut(p)[0]["constants"]["eta1"] for p in _exrs(tmp_path)] == [1.1, 1.1, 1.1]
 
 
@@ -833,7 +818,7 @@ def test_sigterm_inside_the_journal_window_finishes_the_commit(tmp_path):
     """SIGTERM delivered while the writer stands between two renames is held until the set is whole: exit
     143 with the new set and no journal (without the held signals: exit 143 with a journal and a mixed set)."""
     assert run_cli([*BAKE, "x.exr"], tmp_path)[0] == 0
-    from test_fileset import _wait_stopped, stopping_cli
+    from commit_stops import stopping_cli, wait_stopped
 
     proc = subprocess.Popen(
         stopping_cli("bake", "--eta2", "1.33", *TINY, "--out", "x.exr"),
@@ -843,7 +828,7 @@ def test_sigterm_inside_the_journal_window_finishes_the_commit(tmp_path):
     )
 
     for stop in range(3):  # the journal and the first rename pass; stopped before the second
-        _wait_stopped(proc)
+        wait_stopped(proc)
         if stop < 2:
             os.kill(proc.pid, signal.SIGCONT)
     os.kill(proc.pid, signal.SIGTERM)
@@ -933,9 +918,9 @@ def test_the_engine_loaders_check_atlas_and_exact_sets_too(good_files, tmp_path)
     """checkSameSet on every (EXR, include) pair of a LUT, an atlas and an exact table: each EXR with its own
     include is loaded, with another's refused (a LUT's and an exact table's includes name a content hash,
     an atlas's a scene hash)."""
-    from test_fileset import _engine_accepts
+    from engine_harness import engine_accepts
 
     folder = good_files["lut"].parent
     stems = {kind: str(path.relative_to(folder).with_suffix("")) for kind, path in good_files.items()}
     pairs = [(f"{stems[a]}.exr", f"{stems[b]}.glsl") for a in stems for b in stems]
-    assert _engine_accepts(folder, pairs) == [a == b for a in stems for b in stems]
+    assert engine_accepts(folder, pairs) == [a == b for a in stems for b in stems]

@@ -6,11 +6,8 @@ engine/harness.mjs): by each LUT's own rule (cubic for the default set: texel re
 linear rule (bilinear fetches; SwiftShader's filtering differs from exact bilinear by ~1e-5)."""
 
 import csv
-import fcntl
 import io
 import json
-import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,53 +15,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import default_luts
+from engine_harness import ENGINE, ROOT, require_engine, run_harness
 
 from lutbake.io.names import shader_identifier as shader_ident
 from lutbake.lut.bake import default_specs
 from lutbake.lut.sample import load_table
 
-ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "docs"))
 from make_scene_examples import bake_example  # noqa: E402
 
-ENGINE = ROOT / "engine"
-CHROMIUM = Path(os.environ.get("LUTBAKE_CHROMIUM", "/usr/bin/chromium"))
 LUT_NAMES = sorted(default_specs())  # the default set, baked into luts/ (conftest.default_luts)
 KAPPA3_TILED = "lutbake-eta2-2.00-metal"  # format v6: its tiles run along x by κ3 (test_default_luts)
 ATLAS = ROOT / "docs" / "scenes" / "tempered-steel" / "tempered-steel.exr"  # baked by engine_run, not committed
 TOLERANCE = 1e-4
 POINTS = 2500
 EDGE, OUTSIDE = 0.2, 0.2  # fractions of coordinates at a domain edge, and outside the domain
-
-
-def _install_pinned_engine():
-    """`npm ci` in engine/ when its node_modules is missing: the lockfile pins every package. Under a
-    lock on engine/, so test processes running side by side (pytest-xdist) install it once."""
-    if shutil.which("npm") is None:
-        return
-    with open(ENGINE / ".npm-ci.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (ENGINE / "node_modules" / "three").is_dir():
-            subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=ENGINE, capture_output=True, timeout=600)
-
-
-def require_engine():
-    """Fail (never skip) with what to install; in CI (CI=true) a missing engine is a failed check."""
-    _install_pinned_engine()
-    missing = []
-    if shutil.which("node") is None:
-        missing.append("node and npm (apt-get install nodejs npm)")
-    if not CHROMIUM.is_file():
-        missing.append(f"Debian's chromium at {CHROMIUM} (apt-get install chromium)")
-    if not (ENGINE / "node_modules" / "three").is_dir():
-        missing.append("the pinned three.js and playwright-core (cd engine && npm ci failed)")
-    if missing:
-        context = (
-            "CI=true: the real-engine check must run"
-            if os.environ.get("CI") == "true"
-            else "the real-engine check needs them"
-        )
-        pytest.fail(f"{context}; install {'; '.join(missing)}", pytrace=False)
 
 
 def _coordinates(rng, lo, hi, n, floor=None, ceil=None):
@@ -194,18 +159,8 @@ def engine_run(tmp_path_factory):
         **first,
         "call": first["call"].replace("lutbake_sample(", "lutbake_sample_linear("),
     }
-    (folder / "jobs.json").write_text(
-        json.dumps([{k: v for k, v in j.items() if k not in ("expected", "in_domain")} for j in jobs.values()])
-    )
-    proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"), str(folder / "result.json")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=300,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    result = json.loads((folder / "result.json").read_text())
+    sent = [{k: v for k, v in j.items() if k not in ("expected", "in_domain")} for j in jobs.values()]
+    result = run_harness("evaluate", folder, sent, timeout=300)
     return result, dict(zip(jobs, zip(jobs.values(), result["results"])))
 
 
@@ -216,7 +171,7 @@ def _max_error(job, got) -> float:
 def test_the_engine_is_three_js_with_default_exr_loader_settings(engine_run):
     result, runs = engine_run
     assert result["three"] == json.loads((ENGINE / "package.json").read_text())["dependencies"]["three"].split(".")[1]
-    for job, got in runs.values():
+    for _job, got in runs.values():
         assert got["texture"]["flipY"] is False  # EXRLoader's default: rows bottom-up, as OpenGL reads them
 
 

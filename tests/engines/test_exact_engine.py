@@ -15,87 +15,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import default_luts
-from test_engine import ENGINE, ROOT, require_engine
+from engine_harness import ROOT, require_engine, run_jobs
+from exact_cases import RGB_CALL, TABLE, float64_exact, ground_truth, khr_points
 
-from lutbake.modes.exact import METALS, base_rgb, exact_colour, read_exact_table
+from lutbake.modes.exact import METALS, read_exact_table
 from lutbake.physics.colorimetry import delta_e00
-from lutbake.physics.points import FilmPoints
-from lutbake.spectral.reference import reference_colour
 from lutbake.tables.lutfile import read_lut
 
 sys.path.insert(0, str(ROOT / "docs"))
 import make_dropin  # noqa: E402  (the side-by-side page of docs/engines.md)
 
-TABLE = make_dropin.EXACT_TABLE  # written by this lutbake on this machine (make_dropin.write_exact_table)
-PER_BASE = 250
-RGB_CALL = "lutbake_exact_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
 SCALAR_CALL = "lutbake_exact(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
-
-
-def khr_points(seed=14):
-    """(cos θ, d, η2, η3 (n, 3), κ3 (n, 3), base name) rounded to float32, as the GPU receives them."""
-    rng = np.random.default_rng(seed)
-    bases = ["dielectric"] * 4 + list(METALS)
-    n = PER_BASE * len(bases)
-    cos = rng.uniform(0.0, 1.0, n)
-    kind = rng.random(n)
-    cos[kind < 0.05], cos[(kind >= 0.05) & (kind < 0.1)] = 0.0, 1.0
-    thickness = rng.uniform(100.0, 400.0, n)
-    eta2 = np.where(rng.random(n) < 0.7, 1.3, rng.choice([1.2, 1.5, 2.0], n))
-    name = np.repeat(bases, PER_BASE)
-    eta3, kappa3 = np.empty((n, 3)), np.zeros((n, 3))
-    dielectric = name == "dielectric"
-    eta3[dielectric] = rng.uniform(1.0, 2.5, dielectric.sum())[:, None]
-    eta3[np.flatnonzero(dielectric)[:8]] = 1.0  # the bare-ambient base: the hardest dielectric
-    for metal in METALS:
-        eta3[name == metal], kappa3[name == metal] = base_rgb(metal)
-    f32 = [np.float32(v).astype(float) for v in (cos, thickness, eta2, eta3, kappa3)]
-    return (*f32, name)
-
-
-def float64_exact(table, cos, thickness, eta2, eta3, kappa3):
-    """exact_colour per film index (it takes one η2 per call)."""
-    values, terms = np.empty((cos.size, 3)), np.empty(cos.size, int)
-    for e2 in np.unique(eta2):
-        at = eta2 == e2
-        result = exact_colour(table, cos[at], thickness[at], 1.0, e2, eta3[at], kappa3[at])
-        values[at], terms[at] = result.values, result.terms
-    return values, terms
-
-
-def ground_truth(cos, thickness, eta2, eta3, kappa3):
-    """Channel c integrated with the base's c-th (n, k); a base with one (n, k) for all three channels
-    (the dielectrics) is integrated once for all three."""
-    out = np.empty((cos.size, 3))
-    one_index = (eta3 == eta3[:, :1]).all(axis=1) & (kappa3 == kappa3[:, :1]).all(axis=1)
-    for c in range(3):
-        at = np.arange(cos.size) if c == 0 else np.flatnonzero(~one_index)
-        pts = FilmPoints.build(
-            eta1=1.0,
-            eta2=eta2[at],
-            cos_theta=cos[at],
-            thickness_nm=thickness[at],
-            eta3=eta3[at, c],
-            kappa3=kappa3[at, c],
-        )
-        values = reference_colour(pts).values
-        out[at, c] = values[:, c]
-        if c == 0:
-            out[one_index, 1:] = values[one_index, 1:]
-    return out
-
-
-def run_jobs(folder: Path, jobs: dict) -> dict:
-    (folder / "jobs.json").write_text(json.dumps(list(jobs.values())))
-    proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"), str(folder / "result.json")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return dict(zip(jobs, json.loads((folder / "result.json").read_text())["results"]))
 
 
 @pytest.fixture(scope="module")

@@ -5,13 +5,12 @@ film term lutbake's samplers return for that pixel's cos θ, thickness, metalnes
 
 import json
 import shutil
-import subprocess
 import uuid
 
 import numpy as np
 import pytest
+from engine_harness import ROOT, require_engine, run_harness
 from gltf_assets import SHOWCASE, document, iridescent, khronos_document, stand_in
-from test_engine import ENGINE, ROOT, require_engine
 
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.physics.colorimetry import delta_e00
@@ -101,17 +100,7 @@ def plugin_run(bakes, tmp_path_factory):
         {"gltf": f"/{gltf.relative_to(ROOT)}", "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}"}
         for name, (gltf, _, out) in bakes.items()
     ]
-    tmp_path = tmp_path_factory.mktemp("plugin")
-    (tmp_path / "spec.json").write_text(json.dumps(specs))
-    proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "gltf", str(tmp_path / "spec.json"), str(tmp_path / "result.json")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    results = json.loads((tmp_path / "result.json").read_text())["results"]
+    results = run_harness("gltf", tmp_path_factory.mktemp("plugin"), specs)["results"]
     return {name: (manifest, out, got) for (name, (_, manifest, out)), got in zip(bakes.items(), results)}
 
 

@@ -16,8 +16,8 @@ import uuid
 
 import numpy as np
 import pytest
-from test_engine import ROOT, require_engine
-from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
+from engine_harness import ROOT, require_engine
+from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
 
 sys.path.insert(0, str(ROOT / "bench"))
 import bench_gltf_runtime as bench  # noqa: E402
@@ -159,11 +159,14 @@ def test_the_check_can_fail(run):
 ROUTE_ERRORS = """
 import * as THREE from 'three';
 import { lutbakeGltfMaterial, LutbakeGLTFPlugin } from './lutbake-gltf.js';
-const record = { gltf_index: 3, name: 'Lens', film: 1.7, parts: { dielectric: { base: [1.5, 0], material: 'm3-Lens-dielectric' } } };
+const record = {
+  gltf_index: 3, name: 'Lens', film: 1.7, parts: { dielectric: { base: [1.5, 0], material: 'm3-Lens-dielectric' } },
+};
 const bake = { manifest: { materials: {} }, stem: 'x', atlas: null, atlasInclude: '', luts: {}, records: [record] };
 const out = {};
 try { lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake); } catch (e) { out.unbaked = e.message; }
-out.routes = lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake, { runtime: { table: null, include: '' } }).userData.lutbake;
+const runtime = { table: null, include: '' };
+out.routes = lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake, { runtime }).userData.lutbake;
 for (const serve of ['runtime', 'atlas']) {
   try { new LutbakeGLTFPlugin({}, bake, { serve }); } catch (e) { out[serve] = e.message; }
 }

@@ -9,16 +9,13 @@ includes as GLSL 4.50, GLSL ES 3.00 (no precision statement) and HLSL, alone and
 the exact mode's include.
 """
 
-import json
-import os
-import subprocess
 import sys
 
 import numpy as np
 import pytest
-from test_engine import ENGINE, ROOT, require_engine
-from test_runtime import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, make_dropin, runtime_table_files
-from test_shaders import GLSLANG, PREFIX, compile_shader
+from engine_harness import ROOT, require_engine, run_harness
+from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, make_dropin, runtime_table_files
+from shader_compile import compile_shader, validate_shader
 
 from lutbake.modes.approximations import khr_iridescence_rgb
 from lutbake.modes.exact import base_rgb
@@ -93,16 +90,7 @@ def runtime_run(tmp_path_factory):
         {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]},
     ]
     folder = tmp_path_factory.mktemp("runtime-engine")
-    (folder / "jobs.json").write_text(json.dumps(jobs))
-    proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "evaluate", str(folder / "jobs.json"), str(folder / "result.json")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    result = json.loads((folder / "result.json").read_text())
+    result = run_harness("evaluate", folder, jobs)
     got = [np.array(r["rgb"]) for r in result["results"]]
     model_one = runtime_colour(
         table, cos[one_index], d[one_index], 1.0, eta2[one_index], eta3[one_index, 0], kappa3[one_index, 0]
@@ -230,10 +218,7 @@ def test_the_includes_compile(tmp_path, hlsl):
 
 
 def test_the_glsl_include_compiles_as_glsl_es_300_without_default_precision(tmp_path):
-    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
-    out = subprocess.run(
-        [str(GLSLANG), "-S", "frag", str(_shader(tmp_path, False, es=True))], capture_output=True, text=True, env=env
-    )
+    out = validate_shader(_shader(tmp_path, False, es=True))
     assert out.returncode == 0, out.stdout + out.stderr
 
 

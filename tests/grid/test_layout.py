@@ -131,7 +131,7 @@ def test_a_header_tiling_by_kappa3_needs_format_6(tmp_path):
     import json
 
     import pytest
-    from test_hostile import write_exr
+    from hostile_cases import write_exr
 
     import lutbake
     from lutbake.tables.lutfile import read_lut

@@ -11,25 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_engine import ROOT, require_engine
+from commit_stops import kill_at, stopping_cli
+from engine_harness import engine_accepts
+from hostile_cases import TINY
 
 from lutbake.io.fileset import sha256_file
 from lutbake.tables.headers import exr_header
 from lutbake.tables.lutfile import read_lut
 
-TINY = [
-    "--cos-theta",
-    "0:1:4",
-    "--opd",
-    "0:1000:4",
-    "--eta3",
-    "1:2:2",
-    "--kappa3",
-    "0:1:2",
-    "--backend",
-    "numpy",
-    "--quiet",
-]
 SCENE = """[materials.soap]
 film = {film}
 thickness_nm = 300
@@ -37,24 +26,6 @@ base = 1.0
 """
 STOPS_LUT = 5  # the journal, then four renames
 STOPS_SCENE = 5  # the journal, then atlas, two includes, manifest
-
-
-# A child that stops itself (SIGSTOP) before a set's journal and before each rename: lutbake.io.fileset's test
-# hook, injected in the child before it runs ``code`` (its arguments in sys.argv[1:]).
-_STOPPING = (
-    "import os, signal, sys; import lutbake.io.fileset as fileset; "
-    "fileset.commit_step_hook = lambda: os.kill(os.getpid(), signal.SIGSTOP); "
-)
-
-
-def stopping(code: str) -> list:
-    """The command line of a Python child that runs ``code`` with the stop hook set."""
-    return [sys.executable, "-c", _STOPPING + code]
-
-
-def stopping_cli(*args) -> list:
-    """`lutbake ARGS` in a child with the stop hook set."""
-    return [*stopping("from lutbake.cli import main; main(sys.argv[1:])"), *args]
 
 
 def _start(*args, cwd, stop=False):
@@ -71,28 +42,6 @@ def _run(*args, cwd):
     proc = _start(*args, cwd=cwd)
     out, err = proc.communicate(timeout=300)
     return proc.returncode, out, err
-
-
-def _wait_stopped(proc, timeout=300):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        pid, status = os.waitpid(proc.pid, os.WNOHANG | os.WUNTRACED)
-        if pid and os.WIFSTOPPED(status):
-            return
-        assert pid == 0, f"writer exited before the commit window: {proc.stderr.read()}"
-        time.sleep(0.02)
-    proc.kill()
-    pytest.fail("writer never reached the commit window")
-
-
-def _kill_at(proc, stop: int):
-    """Let the writer pass ``stop`` stop points, then SIGKILL it inside the next window."""
-    for _ in range(stop):
-        _wait_stopped(proc)
-        os.kill(proc.pid, signal.SIGCONT)
-    _wait_stopped(proc)
-    os.kill(proc.pid, signal.SIGKILL)
-    os.waitpid(proc.pid, 0)
 
 
 def _lut_hashes(folder: Path, name="x"):
@@ -129,24 +78,13 @@ def _hash_of(path: Path) -> str:
     return path.read_text().splitlines()[1].split()[3].rstrip(";")
 
 
-def _engine_accepts(folder: Path, pairs) -> list:
-    """engine/check-set.mjs (the shipped three.js loaders' check) on (EXR, include) pairs: True where it
-    loads the pair, False where it refuses it."""
-    require_engine()
-    args = [str(folder / name) for pair in pairs for name in pair]
-    out = subprocess.run(
-        ["node", str(ROOT / "engine" / "check-set.mjs"), *args], capture_output=True, text=True, timeout=120
-    )
-    return [json.loads(line)["ok"] for line in out.stdout.splitlines()]
-
-
 @pytest.mark.parametrize("stop", range(STOPS_LUT))
 def test_lut_bake_killed_in_each_commit_window_leaves_one_whole_set(stop, tmp_path, lut_sets):
     """kill -9 before the journal and between each rename after it (members renamed in the order exr,
     json, glsl, hlsl): lutbake's readers refuse the set while its journal is there; an engine's loader,
     which knows nothing of journals, refuses exactly the EXR + include pairs of two different bakes."""
     assert _run("bake", "--eta2", "1.5", *TINY, "--out", "x.exr", cwd=tmp_path)[0] == 0
-    _kill_at(_start("bake", "--eta2", "1.33", *TINY, "--out", "x.exr", cwd=tmp_path, stop=True), stop)
+    kill_at(_start("bake", "--eta2", "1.33", *TINY, "--out", "x.exr", cwd=tmp_path, stop=True), stop)
     journaled = (tmp_path / ".x.exr.commit").exists()
     assert journaled == (stop > 0)
     if journaled:  # readers refuse a set that is mid-commit
@@ -154,7 +92,7 @@ def test_lut_bake_killed_in_each_commit_window_leaves_one_whole_set(stop, tmp_pa
         assert rc == 2 and "mid-commit" in err and len(err.strip().splitlines()) == 1
     pairs = [("x.exr", "x.glsl"), ("x.exr", "x.hlsl")]
     same = [_hash_of(tmp_path / exr) == _hash_of(tmp_path / include) for exr, include in pairs]
-    assert _engine_accepts(tmp_path, pairs) == same
+    assert engine_accepts(tmp_path, pairs) == same
     assert same == {0: [True, True], 1: [True, True], 2: [False, False], 3: [False, False], 4: [True, False]}[stop]
     # The next writer of the folder (another LUT here) completes the commit and drops dead temporaries.
     assert _run("bake", "--eta2", "2.0", *TINY, "--out", "other.exr", cwd=tmp_path)[0] == 0
@@ -187,7 +125,7 @@ def two_scenes(tmp_path):
 def test_scene_bake_killed_in_a_commit_window_is_never_up_to_date_over_another_scene(stop, two_scenes):
     root = two_scenes
     assert _run("bake", "--scene", "a/scene.toml", "--out", "T", cwd=root)[0] == 0
-    _kill_at(_start("bake", "--scene", "b/scene.toml", "--out", "T", cwd=root, stop=True), stop)
+    kill_at(_start("bake", "--scene", "b/scene.toml", "--out", "T", cwd=root, stop=True), stop)
     rc, out, err = _run("bake", "--scene", "a/scene.toml", "--out", "T", "--json", cwd=root)
     assert rc == 0, err
     doc = json.loads(out)
@@ -311,6 +249,6 @@ def test_ctrl_c_during_start_up_is_one_line_and_exit_130(delay, tmp_path):
     time.sleep(delay)
     proc.send_signal(signal.SIGINT)
     out, rest = proc.communicate(timeout=120)
-    err = "".join(l for l in seen + rest.splitlines(True) if not l.startswith("import time:"))
+    err = "".join(line for line in seen + rest.splitlines(True) if not line.startswith("import time:"))
     assert proc.returncode == 130 and "Traceback" not in err, err
     assert err.strip().splitlines()[-1] == "lutbake: interrupted"

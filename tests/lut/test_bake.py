@@ -147,14 +147,20 @@ def test_sampler_is_exact_at_nodes(lut_path):
     assert np.max(np.abs(got - stored)) <= 1e-6 * np.max(np.abs(stored))
 
 
+def _interp_first_axis(grid, x):
+    """``grid`` read at the fractional node index ``x`` of its first axis: np.interp down each column."""
+    nodes = np.arange(grid.shape[0])
+    return np.apply_along_axis(lambda column: np.interp(x, nodes, column), 0, grid)
+
+
 def _quadrilinear(grid, coords):
-    """Independent multilinear interpolation: one axis at a time with np.interp."""
+    """Independent multilinear interpolation: one axis at a time with np.interp (each pass reads the grid's
+    first axis at the point's next coordinate, leaving the remaining axes)."""
     out = []
     for c in coords:
         g = grid
-        for axis, x in enumerate(c):
-            idx = np.arange(g.shape[0])
-            g = np.apply_along_axis(lambda col: np.interp(x, idx, col), 0, g)
+        for x in c:
+            g = _interp_first_axis(g, x)
         out.append(g)
     return np.array(out)
 

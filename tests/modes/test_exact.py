@@ -9,13 +9,14 @@ import zlib
 
 import numpy as np
 import pytest
-from test_shaders import GLSLANG, PREFIX, compile_shader
+from exact_cases import corner_search
+from shader_compile import compile_shader, validate_shader
+from tiny_luts import a_lut
 
 from lutbake.modes.exact import METALS, base_rgb, exact_colour, read_exact_table, write_exact_table
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.worstcase import SearchAxis, find_worst
 from lutbake.spectral.fourier import NU0_PER_NM, series_colour, weight_transform
 from lutbake.spectral.reference import reference_colour
 
@@ -127,42 +128,6 @@ def test_hard_cases(tables):
         exact_colour(table, np.array([0.1]), np.array([200.0]), 1.5, 1.2, np.array([1.0]), np.array([0.0]))
 
 
-# The corner's neighbourhood: cos θ1, D (nm), η3 − η1, κ3 up to these, each cubed from the unit box so the
-# decades near 0 are reached.
-CORNER_SPAN = np.array([0.02, 20.0, 1e-3, 1e-3])
-
-
-def corner_search(table, eta2, budget, seed=0):
-    """find_worst of the exact mode's ΔE00 against the ground truth over the corner's neighbourhood (its
-    corners, edges, the four singular faces, compass refinement): (max, (cos θ1, D, η3 − η1, κ3), how)."""
-
-    def stack(u):
-        v = CORNER_SPAN * np.asarray(u) ** 3
-        return FilmPoints.build(
-            eta1=1.0,
-            eta2=eta2,
-            cos_theta=v[:, 0],
-            thickness_nm=v[:, 1] / (2.0 * eta2),
-            eta3=1.0 + v[:, 2],
-            kappa3=v[:, 3],
-        )
-
-    def error(u):
-        st = stack(u)
-        got = exact_colour(table, st.cos_theta, st.thickness_nm, 1.0, eta2, st.eta3, st.kappa3).values
-        return delta_e00(got, reference_colour(st).values)
-
-    axes = tuple(SearchAxis(name, cells=8) for name in ("cos_theta", "opd_nm", "eta3", "kappa3"))
-    faces = {
-        "cos θ → 0": {"cos_theta": 0.0},
-        "D → 0": {"opd_nm": 0.0},
-        "η3 → η1": {"eta3": 0.0},
-        "κ3 → 0": {"kappa3": 0.0},
-    }
-    worst = find_worst(error, axes, singular=faces, budget=budget, seed=seed)
-    return worst.value, CORNER_SPAN * worst.where**3, worst.best.how()
-
-
 @pytest.mark.parametrize("eta2", [1.33, 2.0])
 def test_the_searched_max_near_the_dielectric_corner_is_bounded(tables, eta2):
     """At cos θ1 → 0, D → 0, η3 → η1, κ3 → 0 the series needs ~1/(1 − |q|) terms; past the cap of 64 the
@@ -185,12 +150,7 @@ def test_the_includes_compile(tables, tmp_path):
         "#version 300 es\n" + glsl.read_text() + "uniform highp sampler2D table;\nin highp vec4 params;\n"
         f"out highp vec4 colour;\nvoid main() {{ colour = vec4({call}, 1.0); }}\n"
     )
-    out = subprocess.run(
-        [str(GLSLANG), "-S", "frag", str(es)],
-        capture_output=True,
-        text=True,
-        env={"LD_LIBRARY_PATH": str(PREFIX / "lib")},
-    )  # WebGL2's language, no precision statement
+    out = validate_shader(es)  # WebGL2's language, no precision statement
     assert out.returncode == 0, out.stdout + out.stderr
     vulkan = tmp_path / "vk.frag"
     vulkan.write_text(
@@ -245,24 +205,10 @@ def test_reader_refuses_a_lut_and_a_bad_header(tmp_path, tables):
 
     _, table, _ = tables
     with pytest.raises(ValueError, match="not a lutbake-exact v1 file"):
-        read_exact_table(_a_lut(tmp_path))
+        read_exact_table(a_lut(tmp_path))
     meta = json.loads(json.dumps(table.meta))
     meta["table"]["rows_per_part"] = 3
     image = np.zeros((32, 2048, 3), np.float32)
     write_image(tmp_path / "bad.exr", image, meta, "float")
     with pytest.raises(ValueError, match="table.texels"):
         read_exact_table(tmp_path / "bad.exr")
-
-
-def _a_lut(folder):
-    from lutbake.grid.spec import Axis, BakeSpec
-    from lutbake.lut.bake import bake
-
-    axes = (
-        Axis("cos_theta", 0.0, 1.0, 4),
-        Axis("opd_nm", 0.0, 500.0, 4),
-        Axis("eta3", 1.0, 2.0, 2),
-        Axis("kappa3", 0.0, 1.0, 2),
-    )
-    bake(BakeSpec(eta2=1.4, axes=axes), folder / "lut.exr", backend="numpy")
-    return folder / "lut.exr"

@@ -12,10 +12,10 @@ well inside it still shows.
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
 
 from lutbake.modes.runtime import read_runtime_table, runtime_colour, stored_table
 from lutbake.modes.runtime.files import BAND_ROWS, TILES_PER_ROW
@@ -30,20 +30,6 @@ from lutbake.quality.runtime_accuracy import (
     truth,
 )
 from lutbake.spectral.fourier import NU0_PER_NM, weight_transform
-
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "docs"))
-import make_dropin  # noqa: E402  (writes the runtime and exact tables the engine tests load)
-
-CONTRACT_MAX, CONTRACT_P99 = 1.0, 0.3
-REGRESSION_MAX = 0.5
-
-
-def runtime_table_files() -> Path:
-    """luts/runtime/lutbake-runtime.exr (+ .json, .glsl, .hlsl) as `lutbake runtime-table` writes them with the current
-    code, once per test process (docs/make_dropin.py; generated, not committed: the float64 build may round a
-    half texel differently on another machine)."""
-    return make_dropin.write_runtime_table()
 
 
 @pytest.fixture(scope="module")

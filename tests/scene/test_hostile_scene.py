@@ -1,7 +1,7 @@
 """Hostile inputs on the scene path (issue 27's scene items, issue 23's malformed glTF): scene files that
 alias outputs, nested documents, cache entries that lie, edited manifests, signals during a many-material
 bake, 10^5 materials, the optical-path limit, truncated and malformed glTF/GLB. The verdict is
-test_hostile's (run_case): exit 0/1/2, no traceback, one line and nothing written on exit 2."""
+tests/hostile_cases.run_case's: exit 0/1/2, no traceback, one line and nothing written on exit 2."""
 
 import json
 import signal
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gltf_assets import document, glb_bytes, iridescent
-from test_hostile import run_case
+from hostile_cases import run_case
 
 SCENE = "[materials.soap]\nfilm = 1.33\nthickness_nm = [200, 400]\nbase = 1.0\n"
 NUMPY = ["--backend", "numpy", "--quiet"]

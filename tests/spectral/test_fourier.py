@@ -103,12 +103,12 @@ def test_coefficients_give_the_textbook_airy_sum_at_50_digits(stack):
 
 
 def _random_texels(rng, n):
-    return dict(
-        cos_theta=rng.uniform(0, 1, n),
-        opd_nm=rng.uniform(0, 4000, n),
-        eta3=rng.uniform(1, 3, n),
-        kappa3=rng.uniform(0, 5, n),
-    )
+    return {
+        "cos_theta": rng.uniform(0, 1, n),
+        "opd_nm": rng.uniform(0, 4000, n),
+        "eta3": rng.uniform(1, 3, n),
+        "kappa3": rng.uniform(0, 5, n),
+    }
 
 
 def _truth(eta1, eta2, t):
@@ -136,9 +136,12 @@ def test_truncation_bound_is_honest_when_loose(rng):
 
 
 def _one(eta1, eta2, cos_theta, opd_nm, eta3, kappa3):
-    t = dict(
-        cos_theta=np.array([cos_theta]), opd_nm=np.array([opd_nm]), eta3=np.array([eta3]), kappa3=np.array([kappa3])
-    )
+    t = {
+        "cos_theta": np.array([cos_theta]),
+        "opd_nm": np.array([opd_nm]),
+        "eta3": np.array([eta3]),
+        "kappa3": np.array([kappa3]),
+    }
     return series_colour(FilmPoints.texels(eta1=eta1, eta2=eta2, **t)), _truth(eta1, eta2, t)
 
 
@@ -281,7 +284,7 @@ def test_table_cache_lives_in_the_user_cache_and_survives_corruption(tmp_path, c
     """The Ŵ table persists in the user cache (not the shared temp folder); an unreadable or
     truncated cache file is rebuilt, giving the same table as a fresh build."""
     cache_folder(tmp_path / "cache")
-    args = dict(space="p3", step_nm=50.0, x_max_nm=3000.0)
+    args = {"space": "p3", "step_nm": 50.0, "x_max_nm": 3000.0}
     weight_transform.cache_clear()
     fresh = weight_transform(**args)
     (cached,) = (tmp_path / "cache").glob("fourier-*")

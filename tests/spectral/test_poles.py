@@ -112,10 +112,7 @@ def test_chebyshev_weights_integrate_every_polynomial_of_their_degree(rng):
         ).astype(float).sum() * 2 / 40 * PROBABLE * np.sqrt(41) * U_DOUBLE * moments.sum(axis=1)
         evaluation = np.abs(rule.weights).sum(axis=1) * clenshaw + U_DOUBLE * np.abs(got)
         assert (np.abs(got - exact) <= construction + evaluation + exact_rounding).all()
-    lam, w = (
-        panel_rule(512).wavelength_nm,
-        panel_rule(512).weights,
-    )  # |w_c| kinks where w_c changes sign: converges slowly, hence 512
+    w = panel_rule(512).weights  # |w_c| kinks where w_c changes sign: converges slowly, hence 512
     assert np.allclose(rule.mass, np.abs(w).sum(axis=1), rtol=1e-8)
 
 

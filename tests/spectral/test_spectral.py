@@ -10,20 +10,20 @@ from lutbake.spectral.rules import panel_rule, wavenumber_rule
 def _hard_points(rng, n=150):
     """Thick films up to D = 20 µm, plus near-resonant ones (metal base at grazing,
     total reflection at the base) where R(λ) has narrow Fabry–Perot features."""
-    thick = dict(
-        eta2=rng.uniform(1.2, 3.0, n),
-        opd_nm=rng.uniform(0, 20000, n),
-        cos_theta=rng.uniform(0, 1, n),
-        eta3=rng.uniform(1, 3, n),
-        kappa3=rng.uniform(0, 5, n),
-    )
-    resonant = dict(
-        eta2=rng.uniform(2.0, 3.0, n),
-        opd_nm=rng.uniform(5000, 20000, n),
-        cos_theta=rng.uniform(0.02, 0.3, n),
-        eta3=rng.uniform(1.0, 1.5, n),
-        kappa3=rng.choice([0.0, 20.0], n),
-    )
+    thick = {
+        "eta2": rng.uniform(1.2, 3.0, n),
+        "opd_nm": rng.uniform(0, 20000, n),
+        "cos_theta": rng.uniform(0, 1, n),
+        "eta3": rng.uniform(1, 3, n),
+        "kappa3": rng.uniform(0, 5, n),
+    }
+    resonant = {
+        "eta2": rng.uniform(2.0, 3.0, n),
+        "opd_nm": rng.uniform(5000, 20000, n),
+        "cos_theta": rng.uniform(0.02, 0.3, n),
+        "eta3": rng.uniform(1.0, 1.5, n),
+        "kappa3": rng.choice([0.0, 20.0], n),
+    }
     return [FilmPoints.build(**thick), FilmPoints.build(**resonant)]
 
 

