@@ -16,9 +16,9 @@ it and the largest a-priori bound it enforced.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -29,10 +29,11 @@ from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.bands import PendingRows, bake_rows_all
+from lutbake.integrate.bands import bake_rows_all
 from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set
+from lutbake.lut.pipeline import BakeStages, OnBand, stream_bands
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
 from lutbake.spectral.reference import reference_colour
@@ -44,8 +45,6 @@ from lutbake.tables.lutfile import write_companions
 if TYPE_CHECKING:
     from lutbake.integrate.devices import DeviceChoice
 
-# on_band(rows done in this call, the image's rows): a bake's progress, band by band
-OnBand = Callable[[int, int], object]
 # what bake_set bakes: (the EXR to write, its spec, {"on_band": ..., "chunk_cells": ...})
 BakeJob = tuple[Path | str, BakeSpec, dict]
 
@@ -83,6 +82,9 @@ class BakeResult:
     capped_texels, truncation_bound, capped_error_rgb_max
         Texels whose spectral rule hit its node cap, the bound on their truncation error, and their
         measured error (0 when none).
+    stages : BakeStages
+        Where ``seconds`` went (the integrator's start, the plan, the device, the write) and the CPU time
+        over them (lutbake/lut/pipeline.py).
 
     Examples
     --------
@@ -106,6 +108,7 @@ class BakeResult:
     capped_texels: int = 0
     truncation_bound: float = 0.0
     capped_error_rgb_max: float = 0.0
+    stages: BakeStages = field(default_factory=BakeStages)
 
     @property
     def cells_per_second(self) -> float:
@@ -415,43 +418,29 @@ def write_lut(
 ) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
     the memory budget is checked again with the runtime's resident memory as measured."""
-    start = time.perf_counter()
+    start, cpu_start, stages = time.perf_counter(), time.process_time(), BakeStages()
     if on_band:
         on_band(0, spec.image_size[1])
-    fast = make_backend(backend, spec.compute, integrator, device)
+    with stages.clock("compile"):
+        fast = make_backend(backend, spec.compute, integrator, device)
     runtime = resident_bytes()
     spec.check_budget(memory_limit_gib, fast.name, integrator, runtime)
-    with ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
+    with stages.clock("plan"), ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
         probes = host.submit(spectral_error, spec)
         plan = fast.series_plan(spec)
         error = probes.result()
-    spec.check_budget(memory_limit_gib, fast.name, integrator, runtime, plan)
-    capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
+        spec.check_budget(memory_limit_gib, fast.name, integrator, runtime, plan)
+        capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": fast.name, "device": fast.device}}
-    height = spec.image_size[1]
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    width, file_height = spec.file_layout.size
-    with exr_rows(files.temp(out_path), width, file_height, meta, spec.precision) as exr:
-        # band k is written while the device bakes band k + 1
-        pending: PendingRows | None = None
-        retiled = spec.file_layout != spec.layout
-        held = []  # the bands, as stored, when the file's tiles run in another order than the integrators'
-        for band in [*chunks, None]:
-            started = fast.begin_rows(spec, *band) if band else None
-            if pending is not None:
-                rows = pending.result()
-                if retiled:
-                    held.append(rows.astype(exr.dtype))
-                else:
-                    exr.write_rows(rows)
-                if on_band:
-                    on_band(rows.shape[0], height)
-            pending = started
-        if retiled:
-            exr.write_rows(spec.file_layout.retile(np.concatenate(held), spec.layout))
-    write_companions(files, out_path, meta, sidecar)
-    return BakeResult(out_path, spec.cells, time.perf_counter() - start, fast.name, fast.device, error, *capped)
+    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision) as exr:
+        stream_bands(fast, spec, exr, chunks, stages, on_band)
+    with stages.clock("write"):
+        write_companions(files, out_path, meta, sidecar)
+    stages.cpu_s = time.process_time() - cpu_start
+    seconds = time.perf_counter() - start
+    return BakeResult(out_path, spec.cells, seconds, fast.name, fast.device, error, *capped, stages=stages)
 
 
 def resident_bytes(peak: bool = False) -> int:

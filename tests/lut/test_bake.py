@@ -19,6 +19,7 @@ from lutbake.lut.bake import bake, bake_array, default_specs
 from lutbake.lut.sample import Lut
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
+from lutbake.tables.exr import exr_rows
 from lutbake.tables.lutfile import read_lut
 
 
@@ -324,6 +325,22 @@ def test_default_bake_writes_the_default_set():
         assert meta["content_hash"] == spec.content_hash and meta["precision"] == "half"
         for suffix in LUT_MEMBERS:
             assert (README_LUTS / f"{name}{suffix}").read_bytes() == (luts / f"{name}{suffix}").read_bytes()
+
+
+@pytest.mark.parametrize("name", ["lutbake-eta2-1.50", "lutbake-eta2-2.00-metal"])
+def test_a_default_lut_has_the_same_bytes_on_any_number_of_compression_threads(tmp_path, name):
+    """OpenEXR compresses a band's blocks of 16 rows on its own thread pool (lutbake/tables/exr.py): a default
+    LUT (a dielectric one, and the metal one whose tiles run along x) rewritten from its own pixels, in
+    bands that straddle the blocks, on no pool, one thread and three, is its file byte for byte each time."""
+    path = default_luts() / f"{name}.exr"
+    meta, image = read_lut(path)[:2]
+    height, width, _ = image.shape
+    for threads in (0, 1, 3):
+        out = tmp_path / f"{threads}.exr"
+        with exr_rows(out, width, height, meta, "half", threads=threads) as exr:
+            for y in range(0, height, 40):
+                exr.write_rows(image[y : y + 40])
+        assert out.read_bytes() == path.read_bytes(), f"{threads} threads"
 
 
 def test_row_levels_equal_per_texel_levels(spec):
