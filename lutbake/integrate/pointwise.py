@@ -36,9 +36,11 @@ def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm:
     )
     shape = cols[0].shape
     cos1, opd, e2, e3, k3, lam = (np.ravel(c) for c in cols)
+    # cos θ2 only where it varies (per stack, unless η2 disperses), spread over the rest: the same values
+    cos2 = np.ravel(np.broadcast_to(signed_cos_theta2(eta1, _distinct(eta2), _distinct(cols[0])), shape))
     arrays = [
         cos1,
-        *split_hi_lo(signed_cos_theta2(eta1, e2, cos1), real),
+        *split_hi_lo(cos2, real),
         *split_hi_lo(opd, real),
         e2,
         e3,
@@ -51,6 +53,11 @@ def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm:
     program.run(program.kernels.reflectance_points, cos1.size, *inputs, real(eta1), out_buf)
     program.read(out, out_buf)
     return out.astype(np.float64).reshape(shape)
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """``values`` (a broadcast view) with each axis it is repeated along (stride 0) kept once."""
+    return values[tuple(slice(None) if stride else slice(0, 1) for stride in values.strides)]
 
 
 def kernel_stack_colour(

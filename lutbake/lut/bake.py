@@ -311,6 +311,7 @@ def bake(
     integrator: str = "series",
     device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+    exr_threads: int | None = None,
 ) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set.
 
@@ -339,6 +340,9 @@ def bake(
         that builds the kernel) or part of its label (lutbake/integrate/devices.py).
     memory_limit_gib : float
         Refuse specs whose image and work buffers would exceed this, GiB.
+    exr_threads : int, optional
+        Threads of OpenEXR's compression pool (None: the cores this process may run on; 0: the writing
+        thread alone). The bytes do not depend on it (lutbake/tables/exr.py).
 
     Returns
     -------
@@ -355,7 +359,7 @@ def bake(
     """
     out_path = Path(out_path)
     job = (out_path, spec, {"on_band": on_band, "chunk_cells": chunk_cells})
-    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device)[0]
+    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device, exr_threads)[0]
 
 
 def bake_set(
@@ -365,6 +369,7 @@ def bake_set(
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
     integrator: str = "series",
     device: DeviceChoice = None,
+    exr_threads: int | None = None,
 ) -> list[BakeResult]:
     """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
     committed together or, when any bake fails or is interrupted, none is (lutbake/io/fileset.py).
@@ -375,7 +380,7 @@ def bake_set(
         The EXR to write, its spec, and ``on_band``/``chunk_cells`` for it (see ``bake``); one folder.
     set_name : str
         The set's name in its commit journal (``.SET_NAME.commit``).
-    backend, memory_limit_gib, integrator, device
+    backend, memory_limit_gib, integrator, device, exr_threads
         As for ``bake``; every spec's budget and output path are checked before any work.
 
     Returns
@@ -399,6 +404,7 @@ def bake_set(
                 integrator=integrator,
                 device=device,
                 memory_limit_gib=memory_limit_gib,
+                exr_threads=exr_threads,
                 **options,
             )
             for path, spec, options in jobs
@@ -415,6 +421,7 @@ def write_lut(
     integrator: str = "series",
     device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+    exr_threads: int | None = None,
 ) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
     the memory budget is checked again with the runtime's resident memory as measured."""
@@ -434,7 +441,7 @@ def write_lut(
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": fast.name, "device": fast.device}}
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision) as exr:
+    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision, threads=exr_threads) as exr:
         stream_bands(fast, spec, exr, chunks, stages, on_band)
     with stages.clock("write"):
         write_companions(files, out_path, meta, sidecar)
