@@ -11,8 +11,8 @@ integrator='direct'; no CLI flag). Each row gives the bake's wall time, the whol
 start and imports included: what `lutbake bake` costs), cells/s of both, the process's CPU time over its
 wall (``process_cpu_per_wall``: 2 on 2 cores when both are busy throughout), peak RSS (VmHWM), the
 texels per path (series, closed form, direct) from the LUT's header, and where the time went: the
-library's imports and the bake's stages (``stages``: compile, plan, device, write, other, and the bake's
-own CPU over wall; lutbake/lut/pipeline.py). ``exr_pool``: the default device's float64 bake (bake())
+process's start (``startup_s``: interpreter, imports) and the bake's stages (``stages``: compile, plan,
+device, write, other, and the bake's own CPU over wall; lutbake/lut/pipeline.py). ``exr_pool``: the default device's float64 bake (bake())
 with OpenEXR's compression pool sized to the cores against no pool (exr_threads=0), run in turn
 (``--pool-runs`` pairs), the ratio of their walls taken pair by pair; the bytes are the same. The numpy path evaluates
 optics.film_reflectance at 360, 362, …, 830 nm with trapezoid weights: a straightforward independent
@@ -124,7 +124,8 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
 
 
 def _cli_bake(argv: list) -> dict:
-    """`lutbake ARGV` (a bake with --json) in this process: its LUT's stages and the library's imports."""
+    """`lutbake ARGV` (a bake with --json) in this process: its LUT's stages (the library is imported by
+    then: the row's ``startup_s`` holds the imports)."""
     import contextlib
     import io
 
@@ -137,8 +138,7 @@ def _cli_bake(argv: list) -> dict:
     except SystemExit as exc:
         if exc.code:
             raise
-    summary = json.loads(printed.getvalue())
-    return {"imports_s": summary["imports_s"], "stages": summary["luts"][0]["stages"]}
+    return {"stages": json.loads(printed.getvalue())["luts"][0]["stages"]}
 
 
 def run_child(script: str, *args: str) -> dict:
@@ -154,6 +154,7 @@ def run_child(script: str, *args: str) -> dict:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     row["process_cpu_per_wall"] = cpu / row["process_wall_s"]
+    row["startup_s"] = row["process_wall_s"] - row["wall_s"]  # the interpreter, imports, the child's own set-up
     row["process_cells_per_s"] = row["cells"] / row["process_wall_s"]
     return row
 
