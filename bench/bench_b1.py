@@ -12,9 +12,10 @@ start and imports included: what `lutbake bake` costs), cells/s of both, the pro
 wall (``process_cpu_per_wall``: 2 on 2 cores when both are busy throughout), peak RSS (VmHWM), the
 texels per path (series, closed form, direct) from the LUT's header, and where the time went: the
 process's start (``startup_s``: interpreter, imports) and the bake's stages (``stages``: compile, plan,
-device, write, other, and the bake's own CPU over wall; lutbake/lut/pipeline.py). ``exr_pool``: the default device's float64 bake (bake())
-with OpenEXR's compression pool sized to the cores against no pool (exr_threads=0), run in turn
-(``--pool-runs`` pairs), the ratio of their walls taken pair by pair; the bytes are the same. The numpy path evaluates
+device, write, other, and the bake's own CPU over wall; lutbake/lut/pipeline.py). ``exr_pool``: the
+default device's float64 bake (bake()) with OpenEXR's compression pool sized to the cores against no pool
+(exr_threads=0), run in turn (``--pool-runs`` pairs), the ratio of their walls taken pair by pair; the
+bytes are the same. The numpy path evaluates
 optics.film_reflectance at 360, 362, …, 830 nm with trapezoid weights: a straightforward independent
 integration. Accuracy: the baked texels (not interpolated points) at random grid nodes and on a stiff
 grid (thick films near grazing incidence over metals and over a base that reflects totally), against the
@@ -37,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 B1_AXES = ("0:1:64", "0:4000:256", "1:3:16", "0:5:16")
-STIFF = dict(eta2=2.5, axes=("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4"))
+STIFF = {"eta2": 2.5, "axes": ("0.01:0.1:4", "15000:20000:4", "1:1.5:4", "0:20:4")}
 _FLAGS = ("--cos-theta", "--opd", "--eta3", "--kappa3")
 
 
