@@ -299,6 +299,24 @@ def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_bake_json_says_where_the_time_went(tmp_path):
+    """`bake --json`: each LUT's stages (compile, plan, device, write, other) are non-negative and add up to its
+    wall time; the process's CPU over the bake is counted (lutbake/lut/pipeline.py); the library's imports
+    are timed."""
+    flags = ["--cos-theta", "0:1:8", "--opd", "0:2000:16", "--eta3", "1:3:4", "--kappa3", "0:4:4"]
+    proc = _cli("bake", "--quiet", "--json", "--eta2", "1.4", *flags, "--out", str(tmp_path / "x.exr"))
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    summary = json.loads(out)
+    row = summary["luts"][0]
+    stages = row["stages"]
+    parts = [stages[f"{name}_s"] for name in ("compile", "plan", "device", "write", "other")]
+    assert min(parts) >= 0.0 and stages["compile_s"] > 0.0 and stages["write_s"] > 0.0
+    assert sum(parts) == pytest.approx(row["seconds"], rel=1e-9)
+    assert stages["cpu_s"] > 0.0 and stages["cpu_per_wall"] == pytest.approx(stages["cpu_s"] / row["seconds"])
+    assert summary["imports_s"] > 0.0
+
+
 def test_unwritable_output_exits_2(tmp_path):
     proc = _cli("bake", "--eta2", "1.5", "--out", str(tmp_path / "missing" / "x.exr"))
     _, err = proc.communicate(timeout=120)
