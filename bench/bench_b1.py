@@ -1,15 +1,21 @@
 """Benchmark B1 (docs/spectral.md): `lutbake bake` of the B1 grid on every OpenCL runtime, the direct
 quadrature alone, and an independent numpy integration at 2 nm, in one run.
 
-    python bench/bench_b1.py [--points 1000] [--seed 1] [--json FILE] [--skip-numpy]
+    python bench/bench_b1.py [--points 1000] [--seed 1] [--json FILE] [--skip-numpy] [--pool-runs 3]
 
 Grid: η1 = 1, η2 = 1.5; cos θ ∈ [0, 1] × 64, D ∈ [0, 4000] nm × 256,
 η3 ∈ [1, 3] × 16, κ3 ∈ [0, 5] × 16 (4.19 M cells), Rec.709, CIE 1931 2°.
-Each path runs in its own process: the bakes through the CLI (`lutbake bake … --device KEY`, float64
-and --compute float32) and, for reference, the direct quadrature on every texel (bake() with
+Each path runs in its own process: the bakes through the CLI (`lutbake bake --json … --device KEY`,
+float64 and --compute float32) and, for reference, the direct quadrature on every texel (bake() with
 integrator='direct'; no CLI flag). Each row gives the bake's wall time, the whole process's (interpreter
-start and imports included: what `lutbake bake` costs), cells/s of both, peak RSS (VmHWM) and the
-texels per path (series, closed form, direct) from the LUT's header. The numpy path evaluates
+start and imports included: what `lutbake bake` costs), cells/s of both, the process's CPU time over its
+wall (``process_cpu_per_wall``: 2 on 2 cores when both are busy throughout), peak RSS (VmHWM), the
+texels per path (series, closed form, direct) from the LUT's header, and where the time went: the
+process's start (``startup_s``: interpreter, imports) and the bake's stages (``stages``: compile, plan,
+device, write, other, and the bake's own CPU over wall; lutbake/lut/pipeline.py). ``exr_pool``: the
+default device's float64 bake (bake()) with OpenEXR's compression pool sized to the cores against no pool
+(exr_threads=0), run in turn (``--pool-runs`` pairs), the ratio of their walls taken pair by pair; the
+bytes are the same. The numpy path evaluates
 optics.film_reflectance at 360, 362, …, 830 nm with trapezoid weights: a straightforward independent
 integration. Accuracy: the baked texels (not interpolated points) at random grid nodes and on a stiff
 grid (thick films near grazing incidence over metals and over a base that reflects totally), against the
@@ -21,6 +27,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -68,6 +76,7 @@ def cli_argv(eta2, axes, compute, device, out) -> list:
     return [
         "bake",
         "--quiet",
+        "--json",
         "--eta2",
         str(eta2),
         *flags,
@@ -83,7 +92,8 @@ def cli_argv(eta2, axes, compute, device, out) -> list:
 
 
 def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
-    """Bake one grid with one path and print a JSON line (run in a fresh process)."""
+    """Bake one grid with one path and print a JSON line (run in a fresh process). Paths: 'numpy-2nm',
+    'series' (the CLI), 'direct' (bake()), 'pool' and 'no-pool' (bake() with OpenEXR's pool, and without)."""
     from lutbake.lut.bake import resident_bytes
 
     eta2, axes = (1.5, B1_AXES) if grid == "b1" else (STIFF["eta2"], STIFF["axes"])
@@ -93,18 +103,16 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     if path == "numpy-2nm":
         numpy_2nm(spec, out)
     elif path == "series":
-        from lutbake.cli import main
-
-        sys.argv = ["lutbake", *cli_argv(eta2, axes, compute, device, out)]
-        try:
-            main()
-        except SystemExit as exc:
-            if exc.code:
-                raise
+        row.update(_cli_bake(cli_argv(eta2, axes, compute, device, out)))
     else:
         from lutbake.lut.bake import bake
+        from lutbake.lut.sets import summary
 
-        bake(spec, out, "opencl", integrator=path, device=device)
+        integrator = "direct" if path == "direct" else "series"
+        result = bake(
+            spec, out, "opencl", integrator=integrator, device=device, exr_threads=0 if path == "no-pool" else None
+        )
+        row["stages"] = summary(result)["stages"]
     if path != "numpy-2nm":
         sidecar = json.loads(Path(out).with_suffix(".json").read_text())
         row["device"] = sidecar["baked_on"]["device"]
@@ -116,21 +124,63 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     print(json.dumps(row))
 
 
+def _cli_bake(argv: list) -> dict:
+    """`lutbake ARGV` (a bake with --json) in this process: its LUT's stages (the library is imported by
+    then: the row's ``startup_s`` holds the imports)."""
+    import contextlib
+    import io
+
+    from lutbake.cli import main
+
+    sys.argv, printed = ["lutbake", *argv], io.StringIO()
+    try:
+        with contextlib.redirect_stdout(printed):
+            main()
+    except SystemExit as exc:
+        if exc.code:
+            raise
+    return {"stages": json.loads(printed.getvalue())["luts"][0]["stages"]}
+
+
 def run_child(script: str, *args: str) -> dict:
     """``script --child ARGS`` in a fresh process: the JSON line it prints, with the process's wall time
     and cells per second of it."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     proc = subprocess.run([sys.executable, script, "--child", *args], capture_output=True, text=True)
     if proc.returncode:
         raise SystemExit(f"{' '.join(args)} failed: {proc.stderr.strip()}")
     row = json.loads(proc.stdout.strip().splitlines()[-1])
     row["process_wall_s"] = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    row["process_cpu_per_wall"] = cpu / row["process_wall_s"]
+    row["startup_s"] = row["process_wall_s"] - row["wall_s"]  # the interpreter, imports, the child's own set-up
     row["process_cells_per_s"] = row["cells"] / row["process_wall_s"]
     return row
 
 
 def run_path(path: str, out: Path, compute: str = "float64", device: str = "", grid: str = "b1") -> dict:
     return run_child(__file__, path, "--out", str(out), "--compute", compute, "--grid", grid, "--device", device)
+
+
+def exr_pool(tmp: Path, device: str, runs: int) -> dict:
+    """The float64 bake with OpenEXR's pool ('pool') and without ('no-pool'), in turn, ``runs`` pairs: each
+    side's median wall and CPU over wall, and the median of no-pool's wall over pool's, pair by pair."""
+    pairs = [
+        [run_path(path, tmp / f"{path}.exr", "float64", device) for path in ("pool", "no-pool")] for _ in range(runs)
+    ]
+    same = (tmp / "pool.exr").read_bytes() == (tmp / "no-pool.exr").read_bytes()
+    out = {"device": device, "runs": runs, "same_bytes": same}
+    for i, path in enumerate(("pool", "no-pool")):
+        rows = [pair[i] for pair in pairs]
+        out[path] = {
+            "wall_s": statistics.median(r["wall_s"] for r in rows),
+            "write_s": statistics.median(r["stages"]["write_s"] for r in rows),
+            "bake_cpu_per_wall": statistics.median(r["stages"]["cpu_per_wall"] for r in rows),
+        }
+    out["no_pool_over_pool_wall"] = statistics.median(b["wall_s"] / a["wall_s"] for a, b in pairs)
+    return out
 
 
 def devices() -> list:
@@ -198,6 +248,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json")
     ap.add_argument("--skip-numpy", action="store_true")
+    ap.add_argument("--pool-runs", type=int, default=3)
     args = ap.parse_args()
     if args.child:
         child(args.child, args.out, args.compute, args.grid, args.device)
@@ -226,6 +277,8 @@ def main() -> None:
                 rows["series-float64"]["cells_per_s"] / rows["direct-float64"]["cells_per_s"]
             )
             report["runtimes"][label] = rows
+        if args.pool_runs:
+            report["exr_pool"] = exr_pool(tmp, next(iter(report["runtimes"])), args.pool_runs)
         if not args.skip_numpy:
             out = tmp / "numpy-2nm.npy"
             report["numpy_2nm"] = run_path("numpy-2nm", out)

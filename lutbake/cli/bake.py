@@ -5,6 +5,7 @@ lutbake/lut/domain.py, lutbake/scene/source.py, lutbake/scene/bake.py and lutbak
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -119,6 +120,7 @@ def bake_cmd(
     if metal_mapping is not None:
         raise BadInput("--metal-mapping applies to --gltf only")
     run = {"backend": backend, "memory_limit_gib": max_memory_gib, "device": device}
+    imports_s = _library_imports()
     if flags["eta2"] is None:
         if any(flags[name] for name in ("cos_theta", "opd_nm", "eta3", "kappa3")):
             raise BadInput("axis flags need --eta2 (or omit them all to bake the default set)")
@@ -135,20 +137,31 @@ def bake_cmd(
             raise BadInput("--out FILE.exr is required with --eta2")
         jobs = [(Path(out), lut_spec(**{k: flags[k] for k in DOMAIN_FLAGS}))]
         results = bake_luts(jobs, jobs[0][0].name, show_progress=show_progress(quiet, force_progress), **run)
-    _print_bakes(results, as_json)
+    _print_bakes(results, as_json, imports_s)
     if flags["eta2"] is None and not as_json:
         click.echo(f"default LUT set in {folder}/")
     return None
 
 
-def _print_bakes(results: Sequence[BakeResult], as_json: bool) -> None:
-    """Each LUT's line (a warning beside it when texels past the spectral node cap err visibly), or one JSON."""
+def _library_imports() -> float:
+    """Import the bake's library modules (numpy and lutbake's numeric stages; pyopencl loads with the
+    integrator, in a bake's ``compile_s``): their wall time, s, for `bake --json`."""
+    started = time.perf_counter()
+    import lutbake.lut.domain
+    import lutbake.lut.sets  # noqa: F401
+
+    return time.perf_counter() - started
+
+
+def _print_bakes(results: Sequence[BakeResult], as_json: bool, imports_s: float) -> None:
+    """Each LUT's line (a warning beside it when texels past the spectral node cap err visibly), or one JSON
+    (each LUT's row with its stages, lutbake/lut/pipeline.py, and the library's ``imports_s``)."""
     from lutbake.lut.evaluate import CAPPED_WARNING_RGB
     from lutbake.lut.sets import summary
 
     rows = [summary(r) for r in results]
     if as_json:
-        echo_json({"luts": rows})
+        echo_json({"luts": rows, "imports_s": imports_s})
         return
     for row in rows:
         click.echo(

@@ -141,9 +141,14 @@ class Axis:
             return self._base_value(unit, inc)
         beta = self.corner[0] / (self.count - 1)
         lo, hi = np.zeros(np.broadcast(unit, cos_t).shape), np.ones(np.broadcast(unit, cos_t).shape)
+        # _zoom and _base_value with what does not change between bisections computed once (same values)
+        b = self._ratio_denominator(cos_t, inc)
+        h_max = _ratio_h(self._ratio_numerator(self.hi, inc[0]), b)
+        w_lo, w_hi = _warp(self.spacing, np.float64(self.lo), inc), _warp(self.spacing, np.float64(self.hi), inc)
         for _ in range(_BISECTIONS):
             mid = 0.5 * (lo + hi)
-            above = (1.0 - beta) * mid + beta * self._zoom(self._base_value(mid, inc), cos_t, inc) > unit
+            value = _unwarp(self.spacing, w_lo + (w_hi - w_lo) * mid, inc)
+            above = (1.0 - beta) * mid + beta * (_ratio_h(self._ratio_numerator(value, inc[0]), b) / h_max) > unit
             lo, hi = np.where(above, lo, mid), np.where(above, mid, hi)
         return self._base_value(0.5 * (lo + hi), inc)
 

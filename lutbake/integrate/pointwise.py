@@ -30,27 +30,32 @@ def kernel_reflectance(program: DeviceProgram, stack: FilmPoints, wavelength_nm:
     real = program.dtype
     eta1 = float(np.ravel(stack.eta1)[0])
     stack.require("kernel", eta1=eta1)  # one ambient index per launch
-    eta2, eta3, kappa3 = stack.indices(wavelength_nm)
-    cols = np.broadcast_arrays(
-        stack.cos_theta, 2.0 * eta2 * stack.thickness_nm, eta2, eta3, kappa3, np.asarray(wavelength_nm, np.float64)
+    eta2, eta3, kappa3 = (_distinct(v) for v in stack.indices(wavelength_nm))
+    lam = np.asarray(wavelength_nm, np.float64)
+    cos1 = np.asarray(stack.cos_theta, np.float64)
+    shape = np.broadcast_shapes(
+        cos1.shape, eta2.shape, eta3.shape, kappa3.shape, np.shape(stack.thickness_nm), lam.shape
     )
-    shape = cols[0].shape
-    cos1, opd, e2, e3, k3, lam = (np.ravel(c) for c in cols)
+    # each input computed where it varies (per stack, per wavelength), then spread over the rest as it is uploaded
     arrays = [
-        cos1,
-        *split_hi_lo(signed_cos_theta2(eta1, e2, cos1), real),
-        *split_hi_lo(opd, real),
-        e2,
-        e3,
-        k3,
+        cos1.astype(real),
+        *split_hi_lo(signed_cos_theta2(eta1, eta2, cos1), real),
+        *split_hi_lo(2.0 * eta2 * stack.thickness_nm, real),
+        *(np.asarray(v, real) for v in (eta2, eta3, kappa3)),
         *split_hi_lo(1.0 / lam, real),
     ]
-    inputs = [program.input(a) for a in arrays]
-    out = np.empty(cos1.size, real)
+    size = int(np.prod(shape))
+    inputs = [program.input(np.broadcast_to(a, shape or (1,)).ravel()) for a in arrays]  # split_hi_lo: 0-d as (1,)
+    out = np.empty(size, real)
     out_buf = program.scratch(out.nbytes, "w")
-    program.run(program.kernels.reflectance_points, cos1.size, *inputs, real(eta1), out_buf)
+    program.run(program.kernels.reflectance_points, size, *inputs, real(eta1), out_buf)
     program.read(out, out_buf)
     return out.astype(np.float64).reshape(shape)
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """``values`` (a broadcast view) with each axis it is repeated along (stride 0) kept once."""
+    return values[tuple(slice(None) if stride else slice(0, 1) for stride in values.strides)]
 
 
 def kernel_stack_colour(

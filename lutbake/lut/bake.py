@@ -16,9 +16,9 @@ it and the largest a-priori bound it enforced.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -29,10 +29,11 @@ from lutbake import __version__
 from lutbake.errors import ParameterError
 from lutbake.grid.memory import DEFAULT_MEMORY_LIMIT_GIB
 from lutbake.grid.spec import Axis, BakeSpec
-from lutbake.integrate.bands import PendingRows, bake_rows_all
+from lutbake.integrate.bands import bake_rows_all
 from lutbake.integrate.numpy_path import NumpyBackend
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set
+from lutbake.lut.pipeline import BakeStages, OnBand, stream_bands
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.fourier import DEFAULT_SERIES_TOLERANCE, SERIES_BUDGET, series_colour, weight_transform
 from lutbake.spectral.reference import reference_colour
@@ -44,8 +45,6 @@ from lutbake.tables.lutfile import write_companions
 if TYPE_CHECKING:
     from lutbake.integrate.devices import DeviceChoice
 
-# on_band(rows done in this call, the image's rows): a bake's progress, band by band
-OnBand = Callable[[int, int], object]
 # what bake_set bakes: (the EXR to write, its spec, {"on_band": ..., "chunk_cells": ...})
 BakeJob = tuple[Path | str, BakeSpec, dict]
 
@@ -83,6 +82,9 @@ class BakeResult:
     capped_texels, truncation_bound, capped_error_rgb_max
         Texels whose spectral rule hit its node cap, the bound on their truncation error, and their
         measured error (0 when none).
+    stages : BakeStages
+        Where ``seconds`` went (the integrator's start, the plan, the device, the write) and the CPU time
+        over them (lutbake/lut/pipeline.py).
 
     Examples
     --------
@@ -106,6 +108,7 @@ class BakeResult:
     capped_texels: int = 0
     truncation_bound: float = 0.0
     capped_error_rgb_max: float = 0.0
+    stages: BakeStages = field(default_factory=BakeStages)
 
     @property
     def cells_per_second(self) -> float:
@@ -308,6 +311,7 @@ def bake(
     integrator: str = "series",
     device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+    exr_threads: int | None = None,
 ) -> BakeResult:
     """Bake ``spec`` into ``out_path`` (an .exr) plus sidecar and shader includes, as one set.
 
@@ -336,6 +340,9 @@ def bake(
         that builds the kernel) or part of its label (lutbake/integrate/devices.py).
     memory_limit_gib : float
         Refuse specs whose image and work buffers would exceed this, GiB.
+    exr_threads : int, optional
+        Threads of OpenEXR's compression pool (None: the cores this process may run on; 0: the writing
+        thread alone). The bytes do not depend on it (lutbake/tables/exr.py).
 
     Returns
     -------
@@ -352,7 +359,7 @@ def bake(
     """
     out_path = Path(out_path)
     job = (out_path, spec, {"on_band": on_band, "chunk_cells": chunk_cells})
-    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device)[0]
+    return bake_set([job], out_path.name, backend, memory_limit_gib, integrator, device, exr_threads)[0]
 
 
 def bake_set(
@@ -362,6 +369,7 @@ def bake_set(
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
     integrator: str = "series",
     device: DeviceChoice = None,
+    exr_threads: int | None = None,
 ) -> list[BakeResult]:
     """Bake several LUTs into one folder as one file set (the default set): every LUT's files are
     committed together or, when any bake fails or is interrupted, none is (lutbake/io/fileset.py).
@@ -372,7 +380,7 @@ def bake_set(
         The EXR to write, its spec, and ``on_band``/``chunk_cells`` for it (see ``bake``); one folder.
     set_name : str
         The set's name in its commit journal (``.SET_NAME.commit``).
-    backend, memory_limit_gib, integrator, device
+    backend, memory_limit_gib, integrator, device, exr_threads
         As for ``bake``; every spec's budget and output path are checked before any work.
 
     Returns
@@ -396,6 +404,7 @@ def bake_set(
                 integrator=integrator,
                 device=device,
                 memory_limit_gib=memory_limit_gib,
+                exr_threads=exr_threads,
                 **options,
             )
             for path, spec, options in jobs
@@ -412,46 +421,33 @@ def write_lut(
     integrator: str = "series",
     device: DeviceChoice = None,
     memory_limit_gib: float = DEFAULT_MEMORY_LIMIT_GIB,
+    exr_threads: int | None = None,
 ) -> BakeResult:
     """Bake ``spec`` into temporaries of ``files`` (committed by the caller). Once the integrator is up,
     the memory budget is checked again with the runtime's resident memory as measured."""
-    start = time.perf_counter()
+    start, cpu_start, stages = time.perf_counter(), time.process_time(), BakeStages()
     if on_band:
         on_band(0, spec.image_size[1])
-    fast = make_backend(backend, spec.compute, integrator, device)
+    with stages.clock("compile"):
+        fast = make_backend(backend, spec.compute, integrator, device)
     runtime = resident_bytes()
     spec.check_budget(memory_limit_gib, fast.name, integrator, runtime)
-    with ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
+    with stages.clock("plan"), ThreadPoolExecutor(1) as host:  # the probes' ground truth (numpy) while the device plans
         probes = host.submit(spectral_error, spec)
         plan = fast.series_plan(spec)
         error = probes.result()
-    spec.check_budget(memory_limit_gib, fast.name, integrator, runtime, plan)
-    capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
+        spec.check_budget(memory_limit_gib, fast.name, integrator, runtime, plan)
+        capped = capped_error(spec, None if plan.direct_texels == spec.cells else plan.direct_texels)
     meta = metadata(spec, error, capped, plan.describe())
     sidecar = {**meta, "baked_on": {"backend": fast.name, "device": fast.device}}
-    height = spec.image_size[1]
     chunks = spec.row_chunks(chunk_cells) if chunk_cells else spec.row_chunks()
-    width, file_height = spec.file_layout.size
-    with exr_rows(files.temp(out_path), width, file_height, meta, spec.precision) as exr:
-        # band k is written while the device bakes band k + 1
-        pending: PendingRows | None = None
-        retiled = spec.file_layout != spec.layout
-        held = []  # the bands, as stored, when the file's tiles run in another order than the integrators'
-        for band in [*chunks, None]:
-            started = fast.begin_rows(spec, *band) if band else None
-            if pending is not None:
-                rows = pending.result()
-                if retiled:
-                    held.append(rows.astype(exr.dtype))
-                else:
-                    exr.write_rows(rows)
-                if on_band:
-                    on_band(rows.shape[0], height)
-            pending = started
-        if retiled:
-            exr.write_rows(spec.file_layout.retile(np.concatenate(held), spec.layout))
-    write_companions(files, out_path, meta, sidecar)
-    return BakeResult(out_path, spec.cells, time.perf_counter() - start, fast.name, fast.device, error, *capped)
+    with exr_rows(files.temp(out_path), *spec.file_layout.size, meta, spec.precision, threads=exr_threads) as exr:
+        stream_bands(fast, spec, exr, chunks, stages, on_band)
+    with stages.clock("write"):
+        write_companions(files, out_path, meta, sidecar)
+    stages.cpu_s = time.process_time() - cpu_start
+    seconds = time.perf_counter() - start
+    return BakeResult(out_path, spec.cells, seconds, fast.name, fast.device, error, *capped, stages=stages)
 
 
 def resident_bytes(peak: bool = False) -> int:

@@ -108,6 +108,7 @@ def summary(result: BakeResult) -> dict:
         "capped_texels": result.capped_texels,
         "truncation_bound": result.truncation_bound,
         "capped_error_rgb_max": result.capped_error_rgb_max,
+        "stages": result.stages.describe(result.seconds),
     }
 
 

@@ -7,6 +7,11 @@ plain float attribute would be stored as 32-bit), and flat ``lutbake.*`` attribu
 tools such as ``oiiotool --info -v``. Nothing time- or machine-dependent is written: the same inputs give the
 same bytes.
 
+OpenEXR compresses the blocks of 16 rows in its own thread pool, sized here to the cores this process may
+run on (``compression_threads``): its Python binding holds the interpreter while it writes, so a writer
+thread in Python would not overlap anything, but the pool's threads do, and each block is compressed alike
+on any number of them (the bytes do not depend on the thread count: tests/tables/test_table_files.py).
+
 ``exr_rows`` streams bands of rows in order (a bake's LUT in bounded memory); ``write_image`` writes a whole
 image (an atlas, the exact and runtime tables). ``read_pixels`` reads the image of a file whose header
 tables/headers.py has already checked (lutfile.read_lut does both, in that order), so OpenEXR allocates
@@ -26,7 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ExrRows", "exr_rows", "write_image", "read_pixels", "flat_attributes"]
+__all__ = ["ExrRows", "exr_rows", "write_image", "read_pixels", "flat_attributes", "compression_threads"]
+
+
+def compression_threads() -> int:
+    """The cores this process may run on: the size of OpenEXR's compression pool by default."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # no affinity outside Linux
+        return os.cpu_count() or 1
 
 
 def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
@@ -49,11 +62,25 @@ def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
 
 class ExrRows:
     """An open EXR receiving bands of rows in order: ``channels`` ("RGB" or "RGBA") of ``precision``
-    ('half' or 'float') texels."""
+    ('half' or 'float') texels, compressed on ``threads`` of OpenEXR's pool (None: compression_threads();
+    0: on the writing thread alone)."""
 
-    def __init__(self, path: Path, width: int, height: int, meta: dict, precision: str, channels: str = "RGB"):
+    def __init__(
+        self,
+        path: Path,
+        width: int,
+        height: int,
+        meta: dict,
+        precision: str,
+        channels: str = "RGB",
+        threads: int | None = None,
+    ):
         import Imath
         import OpenEXR
+
+        threads = compression_threads() if threads is None else threads
+        if OpenEXR.global_thread_count() != threads:  # the pool is the process's: resized only when it differs
+            OpenEXR.set_global_thread_count(threads)
 
         self.height = height
         self.channels = channels
@@ -79,10 +106,17 @@ class ExrRows:
 
 @contextlib.contextmanager
 def exr_rows(
-    path: Path, width: int, height: int, meta: dict, precision: str = "float", channels: str = "RGB"
+    path: Path,
+    width: int,
+    height: int,
+    meta: dict,
+    precision: str = "float",
+    channels: str = "RGB",
+    threads: int | None = None,
 ) -> Iterator[ExrRows]:
-    """Write an EXR at ``path`` band by band (bounded memory); raise if left incomplete."""
-    rows = ExrRows(path, width, height, meta, precision, channels)
+    """Write an EXR at ``path`` band by band (bounded memory) on ``threads`` (ExrRows); raise if left
+    incomplete."""
+    rows = ExrRows(path, width, height, meta, precision, channels, threads)
     try:
         yield rows
     finally:

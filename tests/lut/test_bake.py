@@ -19,6 +19,7 @@ from lutbake.lut.bake import bake, bake_array, default_specs
 from lutbake.lut.sample import Lut
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
+from lutbake.tables.exr import exr_rows
 from lutbake.tables.lutfile import read_lut
 
 
@@ -304,6 +305,24 @@ def test_bad_bake_input_exits_2_and_writes_nothing(tmp_path, args, named):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_bake_json_says_where_the_time_went(tmp_path):
+    """`bake --json`: each LUT's stages (compile, plan, device, write, other) are non-negative and add up to its
+    wall time; the process's CPU over the bake is counted (lutbake/lut/pipeline.py); the library's imports
+    are timed."""
+    flags = ["--cos-theta", "0:1:8", "--opd", "0:2000:16", "--eta3", "1:3:4", "--kappa3", "0:4:4"]
+    proc = _cli("bake", "--quiet", "--json", "--eta2", "1.4", *flags, "--out", str(tmp_path / "x.exr"))
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    summary = json.loads(out)
+    row = summary["luts"][0]
+    stages = row["stages"]
+    parts = [stages[f"{name}_s"] for name in ("compile", "plan", "device", "write", "other")]
+    assert min(parts) >= 0.0 and stages["compile_s"] > 0.0 and stages["write_s"] > 0.0
+    assert sum(parts) == pytest.approx(row["seconds"], rel=1e-9)
+    assert stages["cpu_s"] > 0.0 and stages["cpu_per_wall"] == pytest.approx(stages["cpu_s"] / row["seconds"])
+    assert summary["imports_s"] > 0.0
+
+
 def test_unwritable_output_exits_2(tmp_path):
     proc = _cli("bake", "--eta2", "1.5", "--out", str(tmp_path / "missing" / "x.exr"))
     _, err = proc.communicate(timeout=120)
@@ -330,6 +349,22 @@ def test_default_bake_writes_the_default_set():
         assert meta["content_hash"] == spec.content_hash and meta["precision"] == "half"
         for suffix in LUT_MEMBERS:
             assert (README_LUTS / f"{name}{suffix}").read_bytes() == (luts / f"{name}{suffix}").read_bytes()
+
+
+@pytest.mark.parametrize("name", ["lutbake-eta2-1.50", "lutbake-eta2-2.00-metal"])
+def test_a_default_lut_has_the_same_bytes_on_any_number_of_compression_threads(tmp_path, name):
+    """OpenEXR compresses a band's blocks of 16 rows on its own thread pool (lutbake/tables/exr.py): a default
+    LUT (a dielectric one, and the metal one whose tiles run along x) rewritten from its own pixels, in
+    bands that straddle the blocks, on no pool, one thread and three, is its file byte for byte each time."""
+    path = default_luts() / f"{name}.exr"
+    meta, image = read_lut(path)[:2]
+    height, width, _ = image.shape
+    for threads in (0, 1, 3):
+        out = tmp_path / f"{threads}.exr"
+        with exr_rows(out, width, height, meta, "half", threads=threads) as exr:
+            for y in range(0, height, 40):
+                exr.write_rows(image[y : y + 40])
+        assert out.read_bytes() == path.read_bytes(), f"{threads} threads"
 
 
 def test_row_levels_equal_per_texel_levels(spec):
