@@ -30,8 +30,10 @@ from typing import Any
 import numpy as np
 
 from lutbake.blender.nodes import OSL_MATERIALS
-from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, read_manifest
+from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, scene_reads
 from lutbake.errors import ParameterError
+from lutbake.io.documents import load_json, read_text
+from lutbake.io.manifest import read_scene_manifest
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, ExactTable, exact_colour, read_exact_table
 from lutbake.modes.runtime.files import RuntimeTable, read_runtime_table
@@ -40,6 +42,7 @@ from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
 from lutbake.quality.runtime_accuracy import truth
+from lutbake.tables.headers import MAX_ATTRIBUTE_BYTES
 from lutbake.tables.includes import osl_source
 from lutbake.tables.lutfile import atomic_path
 
@@ -113,8 +116,9 @@ def _run(blender: str, script: str, args: list[str], timeout_s: float = 600.0) -
         done = subprocess.run(_command(blender, script, args), capture_output=True, text=True, timeout=timeout_s)
     except subprocess.TimeoutExpired:
         raise BlenderError(f"{script} did not finish in {timeout_s:g} s") from None
-    if done.returncode == 2:  # the script's own one-line input error
-        raise ParameterError("{detail}", detail=done.stderr.strip().splitlines()[-1].removeprefix("lutbake: error: "))
+    errors = [line for line in done.stderr.splitlines() if line.strip()]
+    if done.returncode == 2 and errors:  # the script's own one-line input error
+        raise ParameterError("{detail}", detail=errors[-1].removeprefix("lutbake: error: "))
     if done.returncode != 0:
         lines = [line for line in (done.stderr + done.stdout).splitlines() if line.strip()]
         raise BlenderError(
@@ -162,7 +166,7 @@ def write_library(
     tables = {kind: table for kind, table in (("exact", exact), ("runtime", runtime_table)) if table is not None}
     if manifest is None and not tables:
         raise ParameterError("nothing to write: give a scene manifest, {exact}, {runtime_table}, or several")
-    scene = read_manifest(manifest) if manifest is not None else None
+    scene = read_scene(manifest) if manifest is not None else None
     scripts = {kind: osl_script(kind, table) for kind, table in tables.items()}
     out = Path(out)
     if out.suffix != ".blend":
@@ -279,6 +283,17 @@ def osl_script(kind: str, table: str | PathLike[str]) -> str:
     if not path.is_file():  # before OpenEXR, which prints its own line about it
         raise ParameterError(f"{{{_OSL_PARAMETER[kind]}}} {{table}} is not a file", table=repr(str(table)))
     return osl_source(read(path).meta, path)
+
+
+def read_scene(manifest: str | PathLike[str]) -> SceneReads:
+    """The reads of the scene manifest at ``manifest``, read (its 4D LUTs' sidecars too) by lutbake's bounded,
+    typed readers, before Blender is looked up."""
+    path = Path(manifest)
+    return scene_reads(path, read_scene_manifest(path), _sidecar)
+
+
+def _sidecar(path: Path) -> Any:  # a JSON document: scene_reads checks what it takes
+    return load_json(read_text(path, "LUT sidecar", MAX_ATTRIBUTE_BYTES), str(path))
 
 
 def render_probes(job: dict[str, Any], blender: str | None = None) -> dict[str, Any]:
@@ -404,7 +419,7 @@ def verify_library(
     how many points had a negative component, the largest spread inside a probe, whether all are within
     RENDER_TOLERANCE, and the render's seconds.
     """
-    scene = read_manifest(manifest)
+    scene = read_scene(manifest)
     probes = [probe_points(scene, read, n_points, seed) for seed, read in enumerate(scene.reads)]
     materials, job_probes = lutbake_probes(scene, library, probes, closure)
     result = render_probes({"engine": engine, "materials": materials, "probes": job_probes}, blender)

@@ -167,11 +167,12 @@ def _print_bakes(results: Sequence[BakeResult], as_json: bool) -> None:
 
 def _scene_source(scene_path: str | None, gltf: str | None, metal_mapping: str | None) -> Scene:
     """The scene model from its one source; what its glTF mapping could not honour goes to stderr, a line each."""
+    from lutbake.io.names import terminal_text
     from lutbake.scene.source import load_scene_source, source_warnings
 
     scene = load_scene_source(scene_path, gltf, metal_mapping)
     for line in source_warnings(scene):
-        click.echo(f"lutbake: warning: {line}", err=True)
+        click.echo(f"lutbake: warning: {terminal_text(line)}", err=True)
     return scene
 
 

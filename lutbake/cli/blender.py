@@ -53,13 +53,14 @@ def blender_cmd(
 ) -> int:
     """Node groups that render a scene bake in Blender (Cycles and EEVEE): docs/blender.md."""
     from lutbake.blender.library import BlenderError, build_library
+    from lutbake.io.names import terminal_text
 
     try:
         doc = build_library(
             manifest, out, blender or environment().blender, not link, exact, runtime_table, verify=verify
         )
     except BlenderError as exc:
-        click.echo(f"lutbake: error: {exc}", err=True)
+        click.echo(f"lutbake: error: {terminal_text(str(exc))}", err=True)
         return EXIT_GATE
     verified = [v for k, v in doc.items() if k.startswith("verify") and v]
     if as_json:

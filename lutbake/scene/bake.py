@@ -13,7 +13,6 @@ it lists has the recorded SHA-256.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from collections.abc import Callable
@@ -24,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
 from lutbake.integrate.opencl import backend as make_backend
-from lutbake.io.documents import load_json, read_text
 from lutbake.io.fileset import FileSet, open_set, sha256_file
+from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
 from lutbake.scene.cache import SceneCache
@@ -45,11 +44,7 @@ if TYPE_CHECKING:
     # A computed or reused slice: its job, values (rows, columns, 3) and record.
     SliceResult = tuple[SceneJob, np.ndarray, dict[str, Any]]
 
-__all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
-
-MANIFEST_FORMAT = "lutbake-scene-manifest"
-# A manifest lists every material's entry (~1 kB each); this bounds what an up-to-date check reads.
-_MAX_MANIFEST_BYTES = 256 << 20
+__all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult"]
 
 
 @dataclass
@@ -239,7 +234,7 @@ def _write_manifest(
     manifest["files"] = {
         p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
     }
-    files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
+    files.temp(outputs["manifest"]).write_text(json.dumps(sealed(manifest), indent=2) + "\n")
     return manifest
 
 
@@ -320,8 +315,8 @@ def _lut_entry(job: SceneJob, record: dict[str, Any]) -> dict[str, Any]:
 
 def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]]) -> dict[str, Any]:
     manifest = {
-        "format": MANIFEST_FORMAT,
-        "format_version": 1,
+        "format": MANIFEST_FORMAT[0],
+        "format_version": MANIFEST_FORMAT[1],
         "scene": scene.file_name,
         "scene_hash": scene_hash,
         "settings": scene.settings_key(),
@@ -332,26 +327,14 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
     return manifest
 
 
-def _manifest_hash(manifest: dict[str, Any]) -> str:
-    """SHA-256 of the manifest's content without this hash (sorted keys, compact JSON)."""
-    body = {k: v for k, v in manifest.items() if k != "manifest_hash"}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-
-
-def _sealed(manifest: dict[str, Any]) -> dict[str, Any]:
-    return {**manifest, "manifest_hash": _manifest_hash(manifest)}
-
-
 def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, dict[str, float]] | None:
     """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
     it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
     try:
-        manifest = load_json(read_text(manifest_path, "manifest", _MAX_MANIFEST_BYTES), str(manifest_path))
+        manifest = read_scene_manifest(manifest_path)  # typed, and its seal holds
         files = manifest["files"]
-        if (
-            manifest["manifest_hash"] != _manifest_hash(manifest)
-            or manifest["scene_hash"] != scene_hash
-            or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)
+        if manifest["scene_hash"] != scene_hash or sorted(files) != sorted(
+            p.name for p in outputs.values() if p != manifest_path
         ):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())

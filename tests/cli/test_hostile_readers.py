@@ -210,3 +210,221 @@ def test_a_10_mb_gltf_with_an_embedded_buffer_costs_a_few_times_its_size(tmp_pat
     )
     growth_bytes = int(done.stdout) * 1024  # the peak over the resident size before the read
     assert growth_bytes < 5 * path.stat().st_size, (growth_bytes, path.stat().st_size)
+
+
+# --- causes 4 and 5: one typed, bounded, sealed reader for the scene manifest (report, blender, bake) -----
+
+
+@pytest.fixture(scope="module")
+def gltf_bake(tmp_path_factory) -> Path:
+    """A two-material glTF bake (a dielectric, a metal): its folder holds a.json, a.exr and the includes."""
+    from gltf_assets import document, iridescent
+
+    from lutbake import cli
+
+    folder = tmp_path_factory.mktemp("gltf")
+    (folder / "a.gltf").write_text(
+        json.dumps(document([iridescent(), iridescent(metallic=1.0, colour=[0.9, 0.6, 0.3])]))
+    )
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        with pytest.raises(SystemExit) as done:
+            cli.main(["bake", "--gltf", "a.gltf", "--out", "G", "--backend", "numpy", "--quiet"])
+    finally:
+        os.chdir(cwd)
+    assert done.value.code == 0
+    return folder / "G"
+
+
+def _copy(bake: Path, into: Path) -> Path:
+    into.mkdir(exist_ok=True)
+    for p in bake.iterdir():
+        if p.is_file():
+            (into / p.name).write_bytes(p.read_bytes())
+    return into
+
+
+def _resealed(doc: dict) -> dict:
+    from lutbake.io.manifest import sealed
+
+    return sealed({k: v for k, v in doc.items() if k != "manifest_hash"})
+
+
+def _manifest_edits(doc: dict) -> dict:
+    """Name → an edited manifest: careless edits (unsealed) and hostile ones (resealed with the new hash)."""
+    first = next(iter(doc["materials"]))
+    record = doc["source"]["materials"][0]
+    edits = {
+        "a field removed, not resealed": ({k: v for k, v in doc.items() if k != "settings"}, "settings"),
+        "a value changed, not resealed": (_edited(doc, ("source", "materials", 0, "film"), 1.7), "manifest_hash"),
+    }
+    for name, path, value, message in [
+        ("parts a list", ("source", "materials", 0, "parts"), [], "parts is not an object"),
+        ("thickness a string", ("source", "materials", 0, "thickness_nm"), "400", "thickness_nm"),
+        ("film a string", ("source", "materials", 0, "film"), "1.3", "film"),
+        ("part of no material", ("source", "materials", 0, "parts", "dielectric", "material"), "zz", "zz"),
+        ("rect a string", ("materials", first, "rect"), "0,0,4,1", "rect"),
+        ("file outside the folder", ("materials", first, "file"), "../outside.exr", "beside the manifest"),
+        ("files key with a folder", ("files",), {"../x": "0" * 64}, "files"),
+        ("records a dict", ("source", "materials"), {}, "source.materials"),
+        ("a material not an object", ("materials", first), [], "is not an object"),
+        ("space unknown", ("settings", "space"), "srgb", "settings.space"),
+        ("newline in a material's kind", ("materials", first, "kind"), "x\nlutbake: error: forged", "kind"),
+    ]:
+        edits[name] = (_resealed(_edited(doc, path, value)), message)
+    assert record["parts"], "the fixture's first record has a baked part"
+    return edits
+
+
+MANIFEST_EDITS = [
+    "a field removed, not resealed",
+    "a value changed, not resealed",
+    "parts a list",
+    "thickness a string",
+    "film a string",
+    "part of no material",
+    "rect a string",
+    "file outside the folder",
+    "files key with a folder",
+    "records a dict",
+    "a material not an object",
+    "space unknown",
+    "newline in a material's kind",
+]
+
+
+@pytest.mark.parametrize("edit", MANIFEST_EDITS)
+def test_an_edited_manifest_is_one_line_for_report_and_blender(edit, gltf_bake, tmp_path, capfd, monkeypatch):
+    """`report M.json --out R` and `blender M.json` refuse it in one line naming the field, write nothing
+    and change no input; Blender is never looked up (the --blender given does not exist)."""
+    folder = _copy(gltf_bake, tmp_path / "G")
+    doc, message = _manifest_edits(json.loads((folder / "a.json").read_text()))[edit]
+    (folder / "a.json").write_text(json.dumps(doc, indent=2))
+    for argv in (
+        ["report", "G/a.json", "--out", "R", "--points", "10"],
+        ["blender", "G/a.json", "--out", "lib.blend", "--blender", str(tmp_path / "no-blender")],
+    ):
+        _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
+        assert message in err and "no-blender" not in err, (argv, err)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "oversize", "nested", "device"])
+def test_a_manifest_that_cannot_be_read_bounded_is_refused_before_reading(kind, tmp_path, capfd, monkeypatch):
+    path = tmp_path / "m.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "oversize":
+        with open(path, "wb") as fh:  # sparse: 300 MB declared, nothing stored
+            fh.truncate(300 << 20)
+    elif kind == "nested":
+        path.write_text("[" * 100_000 + "]" * 100_000)
+    else:
+        path.symlink_to("/dev/zero")
+    for argv in (
+        ["report", "m.json"],
+        ["blender", "m.json", "--out", "lib.blend", "--blender", str(tmp_path / "no-blender")],
+    ):
+        _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
+        assert "manifest" in err and "no-blender" not in err, err
+
+
+def test_a_lut_sidecar_fifo_is_refused_without_blocking(tmp_path, capfd, monkeypatch):
+    """A manifest naming a 4D LUT whose sidecar is a FIFO: one line (lutbake's side reads it bounded)."""
+    from lutbake.blender.library import read_scene
+    from lutbake.io.manifest import sealed
+
+    (tmp_path / "t.exr").write_bytes(b"")
+    os.mkfifo(tmp_path / "t.json")
+    doc = sealed(
+        {
+            "format": "lutbake-scene-manifest",
+            "format_version": 1,
+            "scene": "s.toml",
+            "scene_hash": "0" * 64,
+            "settings": {"space": "rec709"},
+            "materials": {"m": {"kind": "lut", "file": "t.exr"}},
+            "files": {},
+        }
+    )
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="sidecar"):
+        read_scene(tmp_path / "m.json")
+
+
+@pytest.mark.parametrize("how", ["same name", "hard link"])
+def test_report_refuses_to_overwrite_the_manifest_it_reads(how, gltf_bake, tmp_path, capfd, monkeypatch):
+    folder = _copy(gltf_bake, tmp_path / "G")
+    if how == "same name":
+        (folder / "a.json").rename(folder / "receipts.json")
+        argv = ["report", "G/receipts.json", "--out", "G", "--points", "10"]
+    else:
+        (tmp_path / "R").mkdir()
+        os.link(folder / "a.json", tmp_path / "R" / "receipts.html")
+        argv = ["report", "G/a.json", "--out", "R", "--points", "10"]
+    _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
+    assert "would be overwritten" in err
+
+
+def test_receipts_are_written_both_or_neither(gltf_bake, tmp_path, capfd, monkeypatch):
+    from lutbake.scene.gltf import receipt
+
+    _copy(gltf_bake, tmp_path / "G")
+
+    def fails(receipts):
+        raise ValueError("the page could not be rendered")
+
+    monkeypatch.setattr(receipt, "_html", fails)
+    _, _, err = run_case(["report", "G/a.json", "--out", "R", "--points", "10"], tmp_path, capfd, monkeypatch, {2})
+    assert "could not be rendered" in err and not any((tmp_path / "R").glob("receipts*"))
+
+
+def test_the_genuine_manifest_still_reports(gltf_bake, tmp_path, capfd, monkeypatch):
+    _copy(gltf_bake, tmp_path / "G")
+    run_case(["report", "G/a.json", "--out", "R", "--points", "10"], tmp_path, capfd, monkeypatch, {0})
+    assert sorted(p.name for p in (tmp_path / "R").iterdir()) == ["receipts.html", "receipts.json"]
+
+
+# --- causes 9 and 10: metal-mapping files and material names -----------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "mapping, message",
+    [
+        ({"materials": {"a\nlutbake: error: forged": "Au"}}, "no such glTF material"),
+        ({"materials": {"0": ["Au"]}}, "is not a lutbake material name"),
+        ({"materials": {"²": "Au"}}, "no such glTF material"),
+        ({"materials": {"9" * 5000: "Au"}}, "no such glTF material"),
+        ({"materials": {"0": "x" * 60_000}}, "60,000 characters"),
+        ({"materials": {"0": "Au"}, "default": ["fitted"]}, "default"),
+    ],
+)
+def test_hostile_metal_mapping_files_are_one_line(mapping, message, tmp_path, capfd, monkeypatch):
+    from gltf_assets import document, iridescent
+
+    doc = document([{**iridescent(metallic=1.0), "name": ["a", "list"]}, iridescent(metallic=1.0, name="b")])
+    (tmp_path / "a.gltf").write_text(json.dumps(doc))
+    (tmp_path / "map.json").write_text(json.dumps(mapping))
+    _, _, err = run_case(["plan", "--gltf", "a.gltf", "--metal-mapping", "map.json"], tmp_path, capfd, monkeypatch, {2})
+    assert message in err, err
+
+
+def test_a_60000_character_material_name_is_refused_before_the_catalogue(tmp_path, capfd, monkeypatch):
+    argv = ["eval", "--eta2", "1.3", "--thickness", "300", "--cos-theta", "1", "--base", "x" * 60_000]
+    _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
+    assert "60,000 characters" in err and len(err) < 200
+
+
+# --- cause 11: a Blender that fails without a word -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("status", [2, 3])
+def test_a_blender_that_exits_without_stderr_is_one_line(status, gltf_bake, tmp_path, capfd, monkeypatch):
+    fake = tmp_path / "blender"
+    fake.write_text(f"#!/bin/sh\nexit {status}\n")
+    fake.chmod(0o755)
+    _copy(gltf_bake, tmp_path / "G")
+    _, _, err = run_case(
+        ["blender", "G/a.json", "--out", "lib.blend", "--blender", str(fake)], tmp_path, capfd, monkeypatch, {1}
+    )
+    assert f"exit {status}" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "lib.blend").exists()

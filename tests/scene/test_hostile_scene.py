@@ -316,6 +316,10 @@ def test_malformed_gltf_is_one_line_exit_2_and_writes_nothing(case, tmp_path, ca
 def test_report_on_a_manifest_that_is_no_gltf_bake_is_one_line(tmp_path, capfd, monkeypatch):
     (tmp_path / "m.json").write_text(json.dumps({"format": "lutbake-scene-manifest"}))
     _, _, err = run_case(["report", "m.json"], tmp_path, capfd, monkeypatch, {2})
+    assert "format is not 'lutbake-scene-manifest' version 1" in err
+    (tmp_path / "s.toml").write_text(SCENE)
+    run_case(["bake", "--scene", "s.toml", "--out", "T", *NUMPY], tmp_path, capfd, monkeypatch, {0})
+    _, _, err = run_case(["report", "T/s.json"], tmp_path, capfd, monkeypatch, {2})
     assert "not the manifest of a glTF bake" in err
 
 

@@ -151,10 +151,10 @@ def _metal_mapping(value: str, asset: GltfAsset) -> tuple[str, dict[int, str], P
     default = doc.get("default", "fitted")
     if default not in MAPPINGS:
         raise ValueError(f"{path}: default = {default!r} is not one of {', '.join(MAPPINGS)}")
-    by_name = {m.get("name"): i for i, m in enumerate(asset.materials)}
+    by_name = {m["name"]: i for i, m in enumerate(asset.materials) if isinstance(m.get("name"), str)}
     named: dict[int, str] = {}
     for key, name in doc.get("materials", {}).items():
-        index = int(key) if key.isdigit() else by_name.get(key)
+        index = int(key) if key.isascii() and key.isdigit() and len(key) <= 9 else by_name.get(key)
         if index is None or index >= len(asset.materials):
             raise ValueError(f"{path}: materials.{key}: no such glTF material in {asset.path.name}")
         named[index] = _named_metal(name, f"{path}: materials.{key}")
