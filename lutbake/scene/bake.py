@@ -13,9 +13,10 @@ it lists has the recorded SHA-256.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -164,10 +165,9 @@ def bake_scene(
         raise ParameterError("{out_dir} {out}: a scene bakes into a folder", out=repr(str(out_dir)))
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
-    _make_folder(out)
     scene_hash = _scene_hash(scene, plan)
     outputs = scene_outputs(out, scene, plan)
-    with open_set(out, f"scene-{scene.stem}") as files:
+    with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
         unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
         if unmet is not None:
             return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
@@ -191,7 +191,11 @@ def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
     )
 
 
-def _make_folder(out: Path) -> None:
+@contextlib.contextmanager
+def _new_folder(out: Path) -> Iterator[None]:
+    """``out`` (and its missing parents) for the block; the folders it created are removed again when the
+    block fails and leaves them empty, so a refused bake (a device refused mid-way) leaves nothing behind."""
+    created = [p for p in (out, *out.parents) if not p.exists()]  # deepest first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -200,6 +204,13 @@ def _make_folder(out: Path) -> None:
             out=repr(str(out)),
             why=exc.strerror or type(exc).__name__,
         ) from None
+    try:
+        yield
+    except BaseException:
+        for folder in created:
+            with contextlib.suppress(OSError):  # not empty: completed slices stay cached
+                folder.rmdir()
+        raise
 
 
 def _write_atlas(

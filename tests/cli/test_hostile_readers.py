@@ -428,3 +428,23 @@ def test_a_blender_that_exits_without_stderr_is_one_line(status, gltf_bake, tmp_
         ["blender", "G/a.json", "--out", "lib.blend", "--blender", str(fake)], tmp_path, capfd, monkeypatch, {1}
     )
     assert f"exit {status}" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "lib.blend").exists()
+
+
+# --- cause 12: a bake refused mid-way leaves no folder behind -------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "env, flags",
+    [
+        ({"LUTBAKE_DEVICE": "99"}, []),
+        ({"OCL_ICD_VENDORS": "/nonexistent-vendors"}, ["--backend", "opencl"]),
+    ],
+)
+def test_a_gltf_bake_refused_for_its_device_leaves_no_out_folder(env, flags, tmp_path):
+    from gltf_assets import document, iridescent
+    from test_hostile_files import assert_verdict, run_cli
+
+    (tmp_path / "a.gltf").write_text(json.dumps(document([iridescent()])))
+    rc, out, err = run_cli(["bake", "--gltf", "a.gltf", "--out", "G/sub", "--quiet", *flags], tmp_path, env=env)
+    assert_verdict(rc, out, err, {2})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gltf"], err
