@@ -448,3 +448,34 @@ def test_a_gltf_bake_refused_for_its_device_leaves_no_out_folder(env, flags, tmp
     rc, out, err = run_cli(["bake", "--gltf", "a.gltf", "--out", "G/sub", "--quiet", *flags], tmp_path, env=env)
     assert_verdict(rc, out, err, {2})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gltf"], err
+
+
+# --- cause 8: the three.js loaders' set check reads only what lutbake writes at a fixed place ----------------
+
+
+def test_names_cannot_steer_the_engine_set_check(tmp_path, capfd, monkeypatch):
+    """A scene whose file name carries another scene's "(scene hash X)": its own EXR + include pair is accepted,
+    the other scene's EXR with its include refused (the check took the first "(scene hash X)" of the line,
+    which the name comes before)."""
+    from test_fileset import _engine_accepts
+
+    scene = "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = {film}\nthickness_nm = 300\nbase = 1.0\n"
+    (tmp_path / "other.toml").write_text(scene.format(film=1.5))
+    run_case(
+        ["bake", "--scene", "other.toml", "--out", "B", "--backend", "numpy", "--quiet"],
+        tmp_path,
+        capfd,
+        monkeypatch,
+        {0},
+    )
+    other_hash = json.loads((tmp_path / "B" / "other.json").read_text())["scene_hash"][:16]
+    hostile = f"x (scene hash {other_hash})"
+    (tmp_path / f"{hostile}.toml").write_text(scene.format(film=1.33))
+    argv = ["bake", "--scene", f"{hostile}.toml", "--out", "A", "--backend", "numpy", "--quiet"]
+    run_case(argv, tmp_path, capfd, monkeypatch, {0})
+    pairs = [
+        (f"A/{hostile}.exr", f"A/{hostile}.glsl"),
+        ("B/other.exr", f"A/{hostile}.glsl"),
+        ("B/other.exr", "B/other.glsl"),
+    ]
+    assert _engine_accepts(tmp_path, pairs) == [True, False, True]
