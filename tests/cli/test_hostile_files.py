@@ -813,8 +813,9 @@ def _bake_until_rows(folder: Path):
     return proc
 
 
-@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130), (signal.SIGHUP, 129)])
 def test_a_stop_signal_ends_a_bake_at_once_and_leaves_nothing(signum, status, sandbox):
+    """SIGHUP (a closed terminal) too: it killed the bake without a handler, leaving a temporary (issue 35)."""
     proc = _bake_until_rows(sandbox)
     start = time.monotonic()
     proc.send_signal(signum)
@@ -825,6 +826,7 @@ def test_a_stop_signal_ends_a_bake_at_once_and_leaves_nothing(signum, status, sa
     assert b"Traceback" not in err and err.decode().strip().splitlines()[-1] in (
         "lutbake: terminated",
         "lutbake: interrupted",
+        "lutbake: hung up",
     )
     assert list(sandbox.iterdir()) == []
 

@@ -8,6 +8,7 @@ line and nothing written on exit 2, no hang past 60 s); cases that need a fresh 
 
 import json
 import os
+import signal
 import struct
 import threading
 from pathlib import Path
@@ -479,3 +480,58 @@ def test_names_cannot_steer_the_engine_set_check(tmp_path, capfd, monkeypatch):
         ("B/other.exr", "B/other.glsl"),
     ]
     assert _engine_accepts(tmp_path, pairs) == [True, False, True]
+
+
+# --- cause 14: a stop signal inside any C extension's initialisation waits for the import's end -------------
+
+_SIGNAL_INSIDE_EXTENSION = """
+import importlib.machinery, os, signal, sys
+from lutbake import cli  # installs the start-up handlers and holds stop signals in extension imports
+from lutbake.io.signals import STOP_SIGNALS, raise_interrupted, set_handler
+for signum in STOP_SIGNALS:
+    set_handler(signum, raise_interrupted)  # as main() does
+inside = []
+def tracked(step):  # runs inside the held block, as the extension's own initialisation does
+    def run(self, arg):
+        inside.append(self.name)
+        try:
+            return step(self, arg)
+        finally:
+            inside.pop()
+    return run
+for step in ("create_module", "exec_module"):  # single-phase initialisation runs in the first, multi-phase in both
+    loader = importlib.machinery.ExtensionFileLoader
+    setattr(loader, step, tracked(getattr(loader, step)))
+sent = []
+class Hook:  # the signal lands while an extension initialises, at its first import of Python code
+    def find_spec(self, name, path, target=None):
+        if inside and not sent:
+            sent.append((inside[-1], name))
+            os.kill(os.getpid(), int(sys.argv[2]))
+sys.meta_path.insert(0, Hook())
+try:
+    __import__(sys.argv[1])
+except KeyboardInterrupt as exc:
+    print(sent[0][0], type(exc).__name__)
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
+@pytest.mark.parametrize("module", ["OpenEXR", "numpy", "matplotlib.pyplot", "pyopencl"])
+def test_a_stop_signal_inside_a_c_extension_s_initialisation_is_handled_after_it(module, signum):
+    """The C extensions on the commands' paths (OpenEXR for every table, numpy, matplotlib (Pillow under it) for
+    the reports, pyopencl), each imported in a fresh process with a stop signal sent from inside an
+    extension's initialisation (at its first import of Python code): the initialisation runs to its end,
+    then the signal unwinds as Interrupted (exit 128 + signal in the CLI). Unheld, OpenEXR's initialisation
+    swallowed the interrupt (the stop was lost) or, caught elsewhere in it, raised ImportError (exit 1)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", _SIGNAL_INSIDE_EXTENSION, module, str(int(signum))],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.split()[-1:] == ["Interrupted"], (done.stdout, done.stderr)
