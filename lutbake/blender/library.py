@@ -323,17 +323,14 @@ class Probes:
 
 
 def probe_points(scene: SceneReads, read: SliceRead | LutRead, n: int, seed: int = 0) -> Probes:
-    """``n`` points of one material: cos θ from grazing (0.03) to normal incidence (both included),
-    thickness over the baked range and a little past both ends (reads clamp there); for a 4D LUT, η3 and
-    κ3 over the LUT's ranges and past them. Expected values: the atlas sampler, or the LUT's linear
-    rule (what the node groups compute: docs/blender.md)."""
+    """``n`` points of one material, every one inside the baked axes (the sampler refuses a point outside
+    lutbake's domain, and an axis may start at it, e.g. a metal's η3): cos θ from grazing (0.03) to normal
+    incidence, thickness over the baked range with both ends; for a 4D LUT, η3 and κ3 over the LUT's
+    ranges with their ends. Expected values: the atlas sampler, or the LUT's linear rule (what the node
+    groups compute: docs/blender.md)."""
     rng = np.random.default_rng(seed)
     cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03**0.5, 1.0, n - 2) ** 2])
-    lo, hi = read.thickness_nm
-    pad = 0.05 * (hi - lo)
-    thickness = (
-        np.concatenate([[max(lo - pad, 0.0), hi + pad], rng.uniform(lo, hi, n - 2)]) if hi > lo else np.full(n, lo)
-    )
+    thickness = _inside(*read.thickness_nm, n, rng)
     table_path = scene.folder / read.image
     if isinstance(read, SliceRead):
         atlas = Atlas.load(table_path)
@@ -341,12 +338,16 @@ def probe_points(scene: SceneReads, read: SliceRead | LutRead, n: int, seed: int
         return Probes(read.material, cos_theta, thickness, None, None, atlas.sample(read.material, pts))
     lut = Lut.load(table_path)
     e, k = read.axes[2:]
-    eta3 = rng.uniform(e["min"] - 0.05 * (e["max"] - e["min"]), e["max"] + 0.05 * (e["max"] - e["min"]), n)
-    kappa3 = rng.uniform(k["min"], k["max"] + 0.05 * (k["max"] - k["min"]), n)
+    eta3, kappa3 = _inside(e["min"], e["max"], n, rng), _inside(k["min"], k["max"], n, rng)
     pts = FilmPoints.build(
         eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, thickness_nm=thickness, eta3=eta3, kappa3=kappa3
     )
     return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
+
+
+def _inside(low: float, high: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` values in [low, high]: both ends, then uniform draws (all ``low`` when the range is one value)."""
+    return np.concatenate([[low, high], rng.uniform(low, high, n - 2)]) if high > low else np.full(n, float(low))
 
 
 def lutbake_probes(

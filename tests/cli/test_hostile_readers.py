@@ -535,3 +535,33 @@ def test_a_stop_signal_inside_a_c_extension_s_initialisation_is_handled_after_it
     )
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     assert done.stdout.split()[-1:] == ["Interrupted"], (done.stdout, done.stderr)
+
+
+# --- Blender: --verify probes only inside the baked axes ------------------------------------------------------
+
+
+def test_blender_verify_probes_stay_inside_every_axis(tmp_path):
+    """A 4D LUT whose η3 axis starts near lutbake's domain edge (0.02, a metal's): every probe lies inside
+    the axes, both ends included (probes 5% past them were refused: "eta3 = -0.0627 is not allowed")."""
+    from lutbake.blender.library import probe_points
+    from lutbake.blender.programs import LutRead, SceneReads
+    from lutbake.grid.spec import Axis, BakeSpec
+    from lutbake.lut.bake import bake
+
+    axes = (
+        Axis("cos_theta", 0.0, 1.0, 4),
+        Axis("opd_nm", 100.0, 1000.0, 4),
+        Axis("eta3", 0.02, 0.5, 2),
+        Axis("kappa3", 0.0, 1.0, 2),
+    )
+    bake(BakeSpec(eta2=1.5, axes=axes), tmp_path / "m.exr", "numpy")
+    meta = json.loads((tmp_path / "m.json").read_text())
+    read = LutRead("m", "m.exr", tuple(meta["axes"]), meta["constants"]["eta1"], meta["constants"]["eta2"])
+    probes = probe_points(SceneReads("s", tmp_path, "rec709", (read,)), read, 40)
+    for values, (low, high) in (
+        (probes.eta3, (0.02, 0.5)),
+        (probes.kappa3, (0.0, 1.0)),
+        (probes.thickness_nm, read.thickness_nm),
+    ):
+        assert values.min() == pytest.approx(low) and values.max() == pytest.approx(high)
+        assert low <= values.min() and values.max() <= high
