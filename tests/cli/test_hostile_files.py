@@ -281,17 +281,17 @@ def _mutations(meta, seed: int, n: int):
         yield ".".join(map(str, path)), edited, may_be_valid
 
 
-def _write_like(path: Path, image: np.ndarray, meta):
-    """An EXR of ``image`` (half or float channels as its dtype) with ``meta`` as its metadata."""
+def _write_like(path: Path, image: np.ndarray, meta, channels: str = "RGB"):
+    """An EXR of ``image`` (half or float ``channels`` as its dtype) with ``meta`` as its metadata."""
     import Imath
     import OpenEXR
 
     kind = Imath.PixelType.HALF if image.dtype == np.float16 else Imath.PixelType.FLOAT
     header = OpenEXR.Header(image.shape[1], image.shape[0])
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in "RGB"}
+    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in channels}
     header["lutbake.metadata"] = json.dumps(meta).encode()
     out = OpenEXR.OutputFile(str(path), header)
-    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate("RGB")})
+    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate(channels)})
     out.close()
 
 

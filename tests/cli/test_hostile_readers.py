@@ -13,7 +13,6 @@ import struct
 import threading
 from pathlib import Path
 
-import numpy as np
 import pytest
 from test_hostile import run_case
 from test_hostile_files import _patched, _write_like, good_files  # noqa: F401 (a fixture)
@@ -80,7 +79,7 @@ def test_a_tampered_runtime_table_is_refused_before_its_pixels(edit, runtime_tab
         "width past the image": _edited(meta, ("table", "width"), table["width"] * 12000),
         "white of 4 values": _edited(meta, ("table", "white"), [1.0] * 4),
     }[edit]
-    _write_like_rgba(tmp_path / "bad.exr", image, edited)
+    _write_like(tmp_path / "bad.exr", image, edited, "RGBA")
     monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     with pytest.raises(ValueError) as refused:
         read_runtime_table(tmp_path / "bad.exr")
@@ -97,20 +96,6 @@ def test_a_runtime_table_declaring_12000_squared_texels_is_refused_before_alloca
     monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     with pytest.raises(ValueError, match="image size|cannot fit"):
         read_runtime_table(tmp_path / "big.exr")
-
-
-def _write_like_rgba(path: Path, image: np.ndarray, meta) -> None:
-    """test_hostile_files._write_like for four channels (the runtime table's RGBA)."""
-    import Imath
-    import OpenEXR
-
-    kind = Imath.PixelType.HALF if image.dtype == np.float16 else Imath.PixelType.FLOAT
-    header = OpenEXR.Header(image.shape[1], image.shape[0])
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in "RGBA"}
-    header["lutbake.metadata"] = json.dumps(meta).encode()
-    out = OpenEXR.OutputFile(str(path), header)
-    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate("RGBA")})
-    out.close()
 
 
 # --- cause 7: a runtime table's file name reaches its includes escaped ----------------------------------
