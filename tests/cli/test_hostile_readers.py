@@ -533,13 +533,8 @@ def test_blender_verify_probes_stay_inside_every_axis(tmp_path):
     from lutbake.grid.spec import Axis, BakeSpec
     from lutbake.lut.bake import bake
 
-    axes = (
-        Axis("cos_theta", 0.0, 1.0, 4),
-        Axis("opd_nm", 100.0, 1000.0, 4),
-        Axis("eta3", 0.02, 0.5, 2),
-        Axis("kappa3", 0.0, 1.0, 2),
-    )
-    bake(BakeSpec(eta2=1.5, axes=axes), tmp_path / "m.exr", "numpy")
+    ranges = {"cos_theta": (0.0, 1.0, 4), "opd_nm": (100.0, 1000.0, 4), "eta3": (0.02, 0.5, 2), "kappa3": (0.0, 1.0, 2)}
+    bake(BakeSpec(eta2=1.5, axes=tuple(Axis(n, *r) for n, r in ranges.items())), tmp_path / "m.exr", "numpy")
     meta = json.loads((tmp_path / "m.json").read_text())
     read = LutRead("m", "m.exr", tuple(meta["axes"]), meta["constants"]["eta1"], meta["constants"]["eta2"])
     probes = probe_points(SceneReads("s", tmp_path, "rec709", (read,)), read, 40)
