@@ -383,6 +383,8 @@ def test_the_genuine_manifest_still_reports(gltf_bake, tmp_path, capfd, monkeypa
         ({"materials": {"9" * 5000: "Au"}}, "no such glTF material"),
         ({"materials": {"0": "x" * 60_000}}, "60,000 characters"),
         ({"materials": {"0": "Au"}, "default": ["fitted"]}, "default"),
+        ({"material": {"0": "Au"}}, "must be an object with 'materials'"),
+        ({"materials": [["0", "Au"]]}, "materials must be an object"),
     ],
 )
 def test_hostile_metal_mapping_files_are_one_line(mapping, message, tmp_path, capfd, monkeypatch):
