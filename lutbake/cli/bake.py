@@ -21,6 +21,7 @@ from lutbake.cli.options import (
     progress_options,
     show_progress,
 )
+from lutbake.io.names import terminal_text
 
 if TYPE_CHECKING:
     from lutbake.cli.options import F, Meter
@@ -152,7 +153,7 @@ def _print_bakes(results: Sequence[BakeResult], as_json: bool) -> None:
         return
     for row in rows:
         click.echo(
-            f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
+            f"wrote {terminal_text(str(row['path']))} ({row['cells']} cells, {row['seconds']:.2f} s, "
             f"{row['cells_per_second']:.3g} cells/s on {row['device']}, "
             f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})"
         )
@@ -189,11 +190,13 @@ def _bake_scene(
     if as_json:
         echo_json(bake_summary(result))
     elif result.up_to_date:
-        click.echo(f"{scene.path}: up to date in {out}/ (nothing written)")
+        click.echo(terminal_text(f"{scene.path}: up to date in {out}/ (nothing written)"))
     else:
         click.echo(
-            f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
-            f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
+            terminal_text(
+                f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+                f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
+            )
         )
     if not result.unmet:
         return 0

@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from lutbake.cli.options import EXIT_GATE, echo_json, environment
+from lutbake.io.names import terminal_text
 
 
 @click.command("blender")
@@ -75,11 +76,16 @@ def _print_library(
 ) -> None:
     if doc["groups"]:
         click.echo(
-            f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "
+            f"wrote {terminal_text(out)}: {len(doc['groups'])} node groups and materials "
+            f"({terminal_text(', '.join(doc['groups'].values()))}); "
             f"working colour space {doc['working_space']} (a file that appends them must use it too)"
         )
     for kind, name in doc["osl_materials"].items():
-        click.echo(f"wrote {out}: material {name!r} (OSL: Cycles with Open Shading Language on) reading {tables[kind]}")
+        click.echo(
+            terminal_text(
+                f"wrote {out}: material {name!r} (OSL: Cycles with Open Shading Language on) reading {tables[kind]}"
+            )
+        )
     for v in verified:
         click.echo(
             f"{v['engine']} at {v['points']} probes: max |ΔRGB| {v['max_abs_rgb']:.1e} against lutbake "

@@ -103,7 +103,8 @@ def test_a_runtime_table_declaring_12000_squared_texels_is_refused_before_alloca
 
 @pytest.mark.parametrize("name", ["nl\n#error injected\n.exr", "back\\slash\\.exr", "ü\r.exr"])
 def test_runtime_table_names_reach_includes_escaped(name, tmp_path, capfd, monkeypatch):
-    run_case(["runtime-table", "--out", name], tmp_path, capfd, monkeypatch, {0})
+    _, out, _ = run_case(["runtime-table", "--out", name], tmp_path, capfd, monkeypatch, {0})
+    assert len(out.splitlines()) == 1, out  # the terminal gets one line: the name escaped
     for suffix in (".glsl", ".hlsl"):
         text = (tmp_path / name).with_suffix(suffix).read_text()
         assert text.isascii() and not any(line.startswith("#error") for line in text.splitlines())
