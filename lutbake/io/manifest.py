@@ -26,6 +26,7 @@ __all__ = ["MANIFEST_FORMAT", "MAX_MANIFEST_BYTES", "manifest_hash", "read_scene
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 MAX_MANIFEST_BYTES = 256 << 20  # ~10^5 materials with their glTF records
 MAX_MATERIALS = 100_000
+MAX_CURVE_NODES = 4096  # a texture-driven metal's F0 → (η3, κ3) table (65 nodes written)
 
 
 def manifest_hash(manifest: dict[str, Any]) -> str:
@@ -129,8 +130,28 @@ def _part(info: object, materials: dict[str, Any], where: str) -> None:
     names = [info["material"]] if "material" in info else info.get("channels")
     if not isinstance(names, list) or not names or any(not isinstance(n, str) or n not in materials for n in names):
         raise ValueError(f"{where}: material or channels {_shown(names)} are not materials of this manifest")
-    if "base" in info:
-        _numbers(info["base"], 2, f"{where}.base")
+    if "material" in info:  # a dielectric part: its base index
+        _numbers(_at(info, "base", where), 2, f"{where}.base")
+    else:
+        _metal_part(info, where)
+
+
+def _metal_part(info: dict[str, Any], where: str) -> None:
+    """A metal part, per channel: a named material, a texture's F0 → (η3, κ3) curve, or three bases."""
+    if len(info["channels"]) != 3:
+        raise ValueError(f"{where}.channels: not one material per channel (3)")
+    if info.get("mapping") == "named":
+        _text(info, "named", where)
+    elif info.get("texture"):
+        _numbers(_at(info, "f0_max", where), 3, f"{where}.f0_max")
+        table = _object(info, "table", where)
+        nodes = table.get("f0")
+        count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
+        for key in ("f0", "eta3", "kappa3"):
+            _numbers(_at(table, key, f"{where}.table"), count, f"{where}.table.{key}")
+    else:
+        for key in ("eta3", "kappa3"):
+            _numbers(_at(info, key, where), 3, f"{where}.{key}")
 
 
 # --- typed fields: ValueError naming the field -------------------------------------------------------------
