@@ -32,8 +32,10 @@ async function loadText(url) {
 // can hold an EXR of one set beside an include of another; sampling it would read the wrong axes. Throws
 // (naming `url`) unless the two belong to one set.
 export function checkSameSet(header, include, url) {
-  const lut = include.match(/^\/\/ content hash ([0-9a-f]+);/m);
-  const scene = include.match(/\(scene hash ([0-9a-f]+)\)/);
+  // Only the lines lutbake writes at fixed places, the hash before any name (names are escaped: one line each).
+  const [first = '', second = ''] = include.split('\n', 2);
+  const lut = second.match(/^\/\/ content hash ([0-9a-f]+);/);
+  const scene = first.match(/^\/\/ lutbake scene material table \(scene hash ([0-9a-f]+)\) for /);
   const inExr = lut ? header['lutbake.content_hash'] : header['lutbake.scene_hash'];
   const inInclude = lut ? lut[1] : scene && scene[1];
   if (!inInclude || typeof inExr !== 'string') {

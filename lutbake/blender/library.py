@@ -30,8 +30,10 @@ from typing import Any
 import numpy as np
 
 from lutbake.blender.nodes import OSL_MATERIALS
-from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, read_manifest
+from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, scene_reads
 from lutbake.errors import ParameterError
+from lutbake.io.documents import load_json, read_text
+from lutbake.io.manifest import read_scene_manifest
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.exact import METALS, RGB_WAVELENGTHS_NM, ExactTable, exact_colour, read_exact_table
 from lutbake.modes.runtime.files import RuntimeTable, read_runtime_table
@@ -40,6 +42,7 @@ from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.materials import material
 from lutbake.physics.points import FilmPoints
 from lutbake.quality.runtime_accuracy import truth
+from lutbake.tables.headers import MAX_ATTRIBUTE_BYTES
 from lutbake.tables.includes import osl_source
 from lutbake.tables.lutfile import atomic_path
 
@@ -113,8 +116,9 @@ def _run(blender: str, script: str, args: list[str], timeout_s: float = 600.0) -
         done = subprocess.run(_command(blender, script, args), capture_output=True, text=True, timeout=timeout_s)
     except subprocess.TimeoutExpired:
         raise BlenderError(f"{script} did not finish in {timeout_s:g} s") from None
-    if done.returncode == 2:  # the script's own one-line input error
-        raise ParameterError("{detail}", detail=done.stderr.strip().splitlines()[-1].removeprefix("lutbake: error: "))
+    errors = [line for line in done.stderr.splitlines() if line.strip()]
+    if done.returncode == 2 and errors:  # the script's own one-line input error
+        raise ParameterError("{detail}", detail=errors[-1].removeprefix("lutbake: error: "))
     if done.returncode != 0:
         lines = [line for line in (done.stderr + done.stdout).splitlines() if line.strip()]
         raise BlenderError(
@@ -162,7 +166,7 @@ def write_library(
     tables = {kind: table for kind, table in (("exact", exact), ("runtime", runtime_table)) if table is not None}
     if manifest is None and not tables:
         raise ParameterError("nothing to write: give a scene manifest, {exact}, {runtime_table}, or several")
-    scene = read_manifest(manifest) if manifest is not None else None
+    scene = read_scene(manifest) if manifest is not None else None
     scripts = {kind: osl_script(kind, table) for kind, table in tables.items()}
     out = Path(out)
     if out.suffix != ".blend":
@@ -281,6 +285,17 @@ def osl_script(kind: str, table: str | PathLike[str]) -> str:
     return osl_source(read(path).meta, path)
 
 
+def read_scene(manifest: str | PathLike[str]) -> SceneReads:
+    """The reads of the scene manifest at ``manifest``, read (its 4D LUTs' sidecars too) by lutbake's bounded,
+    typed readers, before Blender is looked up."""
+    path = Path(manifest)
+    return scene_reads(path, read_scene_manifest(path), _sidecar)
+
+
+def _sidecar(path: Path) -> Any:  # a JSON document: scene_reads checks what it takes
+    return load_json(read_text(path, "LUT sidecar", MAX_ATTRIBUTE_BYTES), str(path))
+
+
 def render_probes(job: dict[str, Any], blender: str | None = None) -> dict[str, Any]:
     """Render ``job``'s probe planes in Blender (lutbake/blender/probe.py: the job's format is there)."""
     exe = find_blender(blender)
@@ -308,17 +323,14 @@ class Probes:
 
 
 def probe_points(scene: SceneReads, read: SliceRead | LutRead, n: int, seed: int = 0) -> Probes:
-    """``n`` points of one material: cos θ from grazing (0.03) to normal incidence (both included),
-    thickness over the baked range and a little past both ends (reads clamp there); for a 4D LUT, η3 and
-    κ3 over the LUT's ranges and past them. Expected values: the atlas sampler, or the LUT's linear
-    rule (what the node groups compute: docs/blender.md)."""
+    """``n`` points of one material, every one inside the baked axes (the sampler refuses a point outside
+    lutbake's domain, and an axis may start at it, e.g. a metal's η3): cos θ from grazing (0.03) to normal
+    incidence, thickness over the baked range with both ends; for a 4D LUT, η3 and κ3 over the LUT's
+    ranges with their ends. Expected values: the atlas sampler, or the LUT's linear rule (what the node
+    groups compute: docs/blender.md)."""
     rng = np.random.default_rng(seed)
     cos_theta = np.concatenate([[1.0, 0.03], rng.uniform(0.03**0.5, 1.0, n - 2) ** 2])
-    lo, hi = read.thickness_nm
-    pad = 0.05 * (hi - lo)
-    thickness = (
-        np.concatenate([[max(lo - pad, 0.0), hi + pad], rng.uniform(lo, hi, n - 2)]) if hi > lo else np.full(n, lo)
-    )
+    thickness = _inside(*read.thickness_nm, n, rng)
     table_path = scene.folder / read.image
     if isinstance(read, SliceRead):
         atlas = Atlas.load(table_path)
@@ -326,12 +338,16 @@ def probe_points(scene: SceneReads, read: SliceRead | LutRead, n: int, seed: int
         return Probes(read.material, cos_theta, thickness, None, None, atlas.sample(read.material, pts))
     lut = Lut.load(table_path)
     e, k = read.axes[2:]
-    eta3 = rng.uniform(e["min"] - 0.05 * (e["max"] - e["min"]), e["max"] + 0.05 * (e["max"] - e["min"]), n)
-    kappa3 = rng.uniform(k["min"], k["max"] + 0.05 * (k["max"] - k["min"]), n)
+    eta3, kappa3 = _inside(e["min"], e["max"], n, rng), _inside(k["min"], k["max"], n, rng)
     pts = FilmPoints.build(
         eta1=lut.eta1, eta2=lut.eta2, cos_theta=cos_theta, thickness_nm=thickness, eta3=eta3, kappa3=kappa3
     )
     return Probes(read.material, cos_theta, thickness, eta3, kappa3, lut.sample(pts, interpolation="linear"))
+
+
+def _inside(low: float, high: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` values in [low, high]: both ends, then uniform draws (all ``low`` when the range is one value)."""
+    return np.concatenate([[low, high], rng.uniform(low, high, n - 2)]) if high > low else np.full(n, float(low))
 
 
 def lutbake_probes(
@@ -404,7 +420,7 @@ def verify_library(
     how many points had a negative component, the largest spread inside a probe, whether all are within
     RENDER_TOLERANCE, and the render's seconds.
     """
-    scene = read_manifest(manifest)
+    scene = read_scene(manifest)
     probes = [probe_points(scene, read, n_points, seed) for seed, read in enumerate(scene.reads)]
     materials, job_probes = lutbake_probes(scene, library, probes, closure)
     result = render_probes({"engine": engine, "materials": materials, "probes": job_probes}, blender)

@@ -46,6 +46,7 @@ __all__ = [
     "LutRead",
     "SceneReads",
     "read_manifest",
+    "scene_reads",
     "NumpyGraph",
     "slice_program",
     "lut_program",
@@ -132,8 +133,9 @@ class SceneReads:
 
 
 def read_manifest(path: str | PathLike[str]) -> SceneReads:
-    """The reads a scene manifest (SCENE.json) asks for; ValueError in one line naming the file and the
-    field when it is not a lutbake scene manifest, or a file it names is missing."""
+    """The reads a scene manifest (SCENE.json) asks for, inside Blender (lutbake/blender/nodes.py), where
+    lutbake's bounded reader already checked the file (lutbake/blender/library.py: ``scene_reads`` of
+    lutbake.io.manifest's document); ValueError in one line naming the file and the field otherwise."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"manifest {str(path)!r} does not exist")
@@ -149,11 +151,17 @@ def read_manifest(path: str | PathLike[str]) -> SceneReads:
             f"manifest {str(path)!r}: format is not {MANIFEST_FORMAT[0]!r} version {MANIFEST_FORMAT[1]} "
             "(the SCENE.json that `lutbake bake --scene` writes)"
         )
+    return scene_reads(path, doc, lambda sidecar: json.loads(sidecar.read_text()))
+
+
+def scene_reads(path: Path, doc: dict[str, Any], load_sidecar: Callable[[Path], Any]) -> SceneReads:
+    """The reads of the manifest document ``doc`` (read from ``path``), a 4D LUT's sidecar read by
+    ``load_sidecar`` (bounded on lutbake's side); ValueError naming the field."""
     try:
         space = doc["settings"]["space"]
         if space not in BLENDER_SPACES:
             raise ValueError(f"settings.space {space!r} is not one of {', '.join(BLENDER_SPACES)}")
-        reads = tuple(_read_of(path.parent, name, entry) for name, entry in doc["materials"].items())
+        reads = tuple(_read_of(path.parent, name, entry, load_sidecar) for name, entry in doc["materials"].items())
     except (KeyError, TypeError, IndexError) as exc:
         raise ValueError(f"manifest {str(path)!r}: missing or malformed field {exc}") from None
     except ValueError as exc:
@@ -163,7 +171,9 @@ def read_manifest(path: str | PathLike[str]) -> SceneReads:
     return SceneReads(path.stem, path.parent, space, reads)
 
 
-def _read_of(folder: Path, name: str, entry: dict[str, Any]) -> SliceRead | LutRead:
+def _read_of(
+    folder: Path, name: str, entry: dict[str, Any], load_sidecar: Callable[[Path], Any]
+) -> SliceRead | LutRead:
     image = entry["file"]
     if not (folder / image).is_file():
         raise ValueError(f"materials.{name}.file {image!r} is not beside the manifest")
@@ -176,7 +186,7 @@ def _read_of(folder: Path, name: str, entry: dict[str, Any]) -> SliceRead | LutR
     if entry["kind"] == "lut":
         sidecar = (folder / image).with_suffix(".json")
         try:
-            meta = json.loads(sidecar.read_text())
+            meta = load_sidecar(sidecar)
         except (OSError, ValueError):
             raise ValueError(f"materials.{name}: the LUT's sidecar {sidecar.name!r} is missing or not JSON") from None
         axes = tuple(meta["axes"])

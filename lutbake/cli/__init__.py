@@ -23,6 +23,7 @@ from typing import IO, Any, NoReturn
 from lutbake.io.signals import (
     STOP_SIGNALS,
     exit_status,
+    hold_stop_signals_in_extension_imports,
     interrupted_at_start_up,
     message,
     raise_interrupted,
@@ -31,6 +32,7 @@ from lutbake.io.signals import (
 
 for _signum in STOP_SIGNALS:
     set_handler(_signum, interrupted_at_start_up)  # until main() runs
+hold_stop_signals_in_extension_imports()  # a stop inside a C extension's initialisation waits for its end
 
 import click  # noqa: E402  (after the start-up SIGINT handler)
 

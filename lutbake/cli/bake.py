@@ -22,6 +22,7 @@ from lutbake.cli.options import (
     progress_options,
     show_progress,
 )
+from lutbake.io.names import terminal_text
 
 if TYPE_CHECKING:
     from lutbake.cli.options import F, Meter
@@ -165,7 +166,7 @@ def _print_bakes(results: Sequence[BakeResult], as_json: bool, imports_s: float)
         return
     for row in rows:
         click.echo(
-            f"wrote {row['path']} ({row['cells']} cells, {row['seconds']:.2f} s, "
+            f"wrote {terminal_text(str(row['path']))} ({row['cells']} cells, {row['seconds']:.2f} s, "
             f"{row['cells_per_second']:.3g} cells/s on {row['device']}, "
             f"spectral error ≤ {row['spectral_error_rgb_max']:.1e})"
         )
@@ -180,11 +181,12 @@ def _print_bakes(results: Sequence[BakeResult], as_json: bool, imports_s: float)
 
 def _scene_source(scene_path: str | None, gltf: str | None, metal_mapping: str | None) -> Scene:
     """The scene model from its one source; what its glTF mapping could not honour goes to stderr, a line each."""
+    from lutbake.io.names import terminal_text
     from lutbake.scene.source import load_scene_source, source_warnings
 
     scene = load_scene_source(scene_path, gltf, metal_mapping)
     for line in source_warnings(scene):
-        click.echo(f"lutbake: warning: {line}", err=True)
+        click.echo(f"lutbake: warning: {terminal_text(line)}", err=True)
     return scene
 
 
@@ -201,11 +203,13 @@ def _bake_scene(
     if as_json:
         echo_json(bake_summary(result))
     elif result.up_to_date:
-        click.echo(f"{scene.path}: up to date in {out}/ (nothing written)")
+        click.echo(terminal_text(f"{scene.path}: up to date in {out}/ (nothing written)"))
     else:
         click.echo(
-            f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
-            f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
+            terminal_text(
+                f"{scene.path}: computed {len(result.computed)}, reused {len(result.reused)}, "
+                f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
+            )
         )
     if not result.unmet:
         return 0

@@ -10,6 +10,7 @@ from typing import Any
 import click
 
 from lutbake.cli.options import EXIT_GATE, echo_json, environment
+from lutbake.io.names import terminal_text
 
 
 @click.command("blender")
@@ -53,13 +54,14 @@ def blender_cmd(
 ) -> int:
     """Node groups that render a scene bake in Blender (Cycles and EEVEE): docs/blender.md."""
     from lutbake.blender.library import BlenderError, build_library
+    from lutbake.io.names import terminal_text
 
     try:
         doc = build_library(
             manifest, out, blender or environment().blender, not link, exact, runtime_table, verify=verify
         )
     except BlenderError as exc:
-        click.echo(f"lutbake: error: {exc}", err=True)
+        click.echo(f"lutbake: error: {terminal_text(str(exc))}", err=True)
         return EXIT_GATE
     verified = [v for k, v in doc.items() if k.startswith("verify") and v]
     if as_json:
@@ -74,11 +76,16 @@ def _print_library(
 ) -> None:
     if doc["groups"]:
         click.echo(
-            f"wrote {out}: {len(doc['groups'])} node groups and materials ({', '.join(doc['groups'].values())}); "
+            f"wrote {terminal_text(out)}: {len(doc['groups'])} node groups and materials "
+            f"({terminal_text(', '.join(doc['groups'].values()))}); "
             f"working colour space {doc['working_space']} (a file that appends them must use it too)"
         )
     for kind, name in doc["osl_materials"].items():
-        click.echo(f"wrote {out}: material {name!r} (OSL: Cycles with Open Shading Language on) reading {tables[kind]}")
+        click.echo(
+            terminal_text(
+                f"wrote {out}: material {name!r} (OSL: Cycles with Open Shading Language on) reading {tables[kind]}"
+            )
+        )
     for v in verified:
         click.echo(
             f"{v['engine']} at {v['points']} probes: max |ΔRGB| {v['max_abs_rgb']:.1e} against lutbake "

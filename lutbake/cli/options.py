@@ -28,7 +28,9 @@ class BadInput(click.ClickException):
     exit_code = EXIT_BAD_INPUT
 
     def show(self, file: IO[Any] | None = None) -> None:
-        click.echo(f"lutbake: error: {self.message}", err=True)
+        from lutbake.io.names import terminal_text
+
+        click.echo(f"lutbake: error: {terminal_text(self.message)}", err=True)
 
 
 def echo_json(doc: object) -> None:

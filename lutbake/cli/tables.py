@@ -9,6 +9,7 @@ from typing import Any
 import click
 
 from lutbake.cli.options import colour_options, echo_json
+from lutbake.io.names import terminal_text
 
 
 @click.command("exact-table")
@@ -49,7 +50,8 @@ def exact_table_cmd(
         return
     table = meta["table"]
     click.echo(
-        f"wrote {out} ({table['texels']} texels, step {table['step_nm']:g} nm to {table['x_max_nm']:g} nm, "
+        f"wrote {terminal_text(out)} ({table['texels']} texels, step {table['step_nm']:g} nm "
+        f"to {table['x_max_nm']:g} nm, "
         f"{precision}; interpolation ≤ {meta['error']['interpolation_bound']:.1e}, "
         f"storage ≤ {meta['error']['storage_max']:.1e}) with .json, .glsl, .hlsl"
     )
@@ -73,6 +75,6 @@ def runtime_table_cmd(space: str, observer: str, out: str, as_json: bool) -> Non
         return
     table = meta["table"]
     click.echo(
-        f"wrote {out} ({table['width']}×{table['height']} RGBA half texels, {table['slices']} slices of "
+        f"wrote {terminal_text(out)} ({table['width']}×{table['height']} RGBA half texels, {table['slices']} slices of "
         f"{table['nodes']}² to X {table['x_max_nm']:g} nm) with .json, .glsl, .hlsl"
     )

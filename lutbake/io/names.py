@@ -50,6 +50,18 @@ def shader_comment(text: str) -> str:
     return "".join(c if " " <= c <= "~" and c != "\\" else "\\x5c" if c == "\\" else ascii(c)[1:-1] for c in text)
 
 
+def terminal_text(text: str) -> str:
+    """``text`` as one line that a terminal shows as it is written: every character Python does not call
+    printable (a newline that would start a second line, an escape sequence that would recolour the
+    terminal or move its cursor, C1 controls, line separators) as its Python escape; the rest, non-ASCII
+    included, unchanged.
+
+    >>> terminal_text("key\\nlutbake: error: forged\\x1b[2J"), terminal_text("stål")
+    ('key\\\\nlutbake: error: forged\\\\x1b[2J', 'stål')
+    """
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+
+
 def shader_string(text: str) -> str:
     """``text`` as it may stand between the double quotes of an OSL string (an OSL script's table path):
     unchanged; ValueError when it holds a double quote or a control character (a newline would end the

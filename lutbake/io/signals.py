@@ -1,23 +1,29 @@
 """Signal handling for the command line (installed by cli.py only; the library changes no handlers).
 
-SIGINT (Ctrl-C) and SIGTERM stop a command with exit status 128 + the signal's number (130, 143) and
-one line on stderr, never a traceback. While modules load, the process leaves at once (nothing is
-written yet). Once the CLI runs, the first signal unwinds the stack as ``Interrupted`` (a
+SIGINT (Ctrl-C), SIGTERM and SIGHUP (a closed terminal) stop a command with exit status 128 + the signal's
+number (130, 143, 129) and one line on stderr, never a traceback. While modules load, the process leaves at
+once (nothing is written yet). Once the CLI runs, the first signal unwinds the stack as ``Interrupted`` (a
 KeyboardInterrupt), so open file sets discard their temporaries (lutbake/io/fileset.py); signals that follow are
 ignored, so that clean-up runs to its end. A commit that has written its journal finishes before a
-signal is handled (lutbake/io/fileset.py blocks them for the renames).
+signal is handled (lutbake/io/fileset.py blocks them for the renames). Every C extension imported once the
+CLI has started initialises with the stop signals held (``hold_stop_signals_in_extension_imports``): a
+handler's exception raised inside an extension's initialisation cannot unwind cleanly (pyopencl's C++
+aborts the process, OpenEXR turns it into an ImportError), so the signal is handled once the import is done.
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.machinery
 import os
 import signal
 import sys
+from types import ModuleType
 from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Callable, Iterator, Sequence
+    from importlib.machinery import ModuleSpec
     from types import FrameType
 
     # what signal.signal takes and signal.getsignal returns
@@ -27,18 +33,19 @@ __all__ = [
     "Interrupted",
     "STOP_SIGNALS",
     "exit_status",
+    "hold_stop_signals_in_extension_imports",
     "interrupted_at_start_up",
     "raise_interrupted",
     "set_handler",
     "stop_signals_held",
 ]
 
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_WORDS: dict[int, str] = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_WORDS: dict[int, str] = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated", signal.SIGHUP: "hung up"}
 
 
 class Interrupted(KeyboardInterrupt):
-    """The command was stopped by ``signum`` (SIGINT or SIGTERM)."""
+    """The command was stopped by ``signum`` (SIGINT, SIGTERM or SIGHUP)."""
 
     def __init__(self, signum: int = signal.SIGINT) -> None:
         super().__init__(f"signal {signum}")
@@ -46,7 +53,7 @@ class Interrupted(KeyboardInterrupt):
 
 
 def exit_status(exc: BaseException) -> int:
-    """128 + the signal that stopped the command (130 for Ctrl-C, 143 for SIGTERM)."""
+    """128 + the signal that stopped the command (130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP)."""
     return 128 + getattr(exc, "signum", signal.SIGINT)
 
 
@@ -81,10 +88,42 @@ def set_handler(signum: int, handler: _Handler) -> _Handler:
 
 @contextlib.contextmanager
 def stop_signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM wait (pending) until the block ends, then arrive: for work that a stop must not cut
+    """The stop signals wait (pending) until the block ends, then arrive: for work that a stop must not cut
     short (a journaled commit, lutbake/io/fileset.py) or that cannot unwind (a C++ extension's initialisation)."""
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+class _HeldExtensionLoader(importlib.machinery.ExtensionFileLoader):
+    """A C extension's loader whose initialisation runs with the stop signals held."""
+
+    def create_module(self, spec: ModuleSpec) -> ModuleType:
+        with stop_signals_held():
+            return super().create_module(spec)
+
+    def exec_module(self, module: ModuleType) -> None:
+        with stop_signals_held():
+            super().exec_module(module)
+
+
+class _HeldExtensionFinder:
+    """The file-system finder's own answer, with a C extension's loader replaced by ``_HeldExtensionLoader``."""
+
+    @staticmethod
+    def find_spec(name: str, path: Sequence[str] | None = None, target: ModuleType | None = None) -> ModuleSpec | None:
+        spec = importlib.machinery.PathFinder.find_spec(name, path, target)
+        if spec is not None and type(spec.loader) is importlib.machinery.ExtensionFileLoader:
+            spec.loader = _HeldExtensionLoader(spec.loader.name, spec.loader.path)
+        return spec
+
+
+def hold_stop_signals_in_extension_imports() -> None:
+    """From now on, every C extension found on the file system initialises with the stop signals held (the
+    finder goes just before Python's own, whose answer it returns; for the command line only)."""
+    if any(isinstance(f, _HeldExtensionFinder) for f in sys.meta_path):
+        return
+    at = next((i for i, f in enumerate(sys.meta_path) if f is importlib.machinery.PathFinder), len(sys.meta_path))
+    sys.meta_path.insert(at, _HeldExtensionFinder())

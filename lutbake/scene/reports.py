@@ -19,6 +19,7 @@ from lutbake.io.progress import no_progress
 from lutbake.lut.sample import Atlas, Lut, load_table
 from lutbake.quality.refine import check_max_de
 from lutbake.quality.report import REPORT_FILES
+from lutbake.scene.gltf.receipt import RECEIPT_FILES
 
 __all__ = ["FileReport", "open_report", "GLTF_RECEIPT_POINTS"]
 
@@ -41,7 +42,8 @@ def open_report(
     if max_de is not None:
         check_max_de(max_de)
     if out_dir:
-        refuse_overwriting_inputs({"LUT": path}, [Path(out_dir) / name for name in REPORT_FILES])
+        names = (*REPORT_FILES, *RECEIPT_FILES)  # what the input turns out to be is not known yet
+        refuse_overwriting_inputs({"input": path}, [Path(out_dir) / name for name in names])
     table = None if Path(path).suffix.lower() == ".json" else load_table(path)
     return FileReport(path, table, out_dir, max_de)
 

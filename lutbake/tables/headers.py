@@ -38,6 +38,7 @@ import numpy as np
 
 from lutbake.grid.axis import AXIS_UNITS, CORNER_AXES
 from lutbake.grid.layout import TILE_ORDERS, TileLayout
+from lutbake.io.documents import open_regular
 from lutbake.io.names import ADMITTANCE_SPACINGS, INTERPOLATIONS, OBSERVERS, SPACES
 from lutbake.physics.points import inside_domain
 
@@ -83,7 +84,7 @@ _HEX = re.compile(r"^[0-9a-f]+$")
 def exr_header(path: str | PathLike[str]) -> dict:
     """The header of the EXR at ``path``: {"flags", "attributes": {name: (type, bytes)}, "size"}.
     ValueError (the reason) when the file is not an EXR or its header is cut short."""
-    with open(path, "rb") as fh:
+    with open_regular(path, "EXR") as fh:
         size = fh.seek(0, 2)
         fh.seek(0)
         magic, flags = struct.unpack("<iI", _read(fh, 8))

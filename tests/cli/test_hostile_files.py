@@ -282,17 +282,17 @@ def _mutations(meta, seed: int, n: int):
         yield ".".join(map(str, path)), edited, may_be_valid
 
 
-def _write_like(path: Path, image: np.ndarray, meta):
-    """An EXR of ``image`` (half or float channels as its dtype) with ``meta`` as its metadata."""
+def _write_like(path: Path, image: np.ndarray, meta, channels: str = "RGB"):
+    """An EXR of ``image`` (half or float ``channels`` as its dtype) with ``meta`` as its metadata."""
     import Imath
     import OpenEXR
 
     kind = Imath.PixelType.HALF if image.dtype == np.float16 else Imath.PixelType.FLOAT
     header = OpenEXR.Header(image.shape[1], image.shape[0])
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in "RGB"}
+    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in channels}
     header["lutbake.metadata"] = json.dumps(meta).encode()
     out = OpenEXR.OutputFile(str(path), header)
-    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate("RGB")})
+    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate(channels)})
     out.close()
 
 
@@ -798,8 +798,9 @@ def _bake_until_rows(folder: Path):
     return proc
 
 
-@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130), (signal.SIGHUP, 129)])
 def test_a_stop_signal_ends_a_bake_at_once_and_leaves_nothing(signum, status, sandbox):
+    """SIGHUP (a closed terminal) too: it killed the bake without a handler, leaving a temporary (issue 35)."""
     proc = _bake_until_rows(sandbox)
     start = time.monotonic()
     proc.send_signal(signum)
@@ -810,6 +811,7 @@ def test_a_stop_signal_ends_a_bake_at_once_and_leaves_nothing(signum, status, sa
     assert b"Traceback" not in err and err.decode().strip().splitlines()[-1] in (
         "lutbake: terminated",
         "lutbake: interrupted",
+        "lutbake: hung up",
     )
     assert list(sandbox.iterdir()) == []
 

@@ -38,6 +38,7 @@ from lutbake.blender.library import (
 from lutbake.blender.programs import LutRead, SliceRead, evaluate, read_manifest
 from lutbake.grid.layout import TileLayout
 from lutbake.grid.spec import Axis, BakeSpec
+from lutbake.io.manifest import sealed
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.physics.colorimetry import delta_e00
 
@@ -174,12 +175,24 @@ def _manifest(tmp_path, doc):
         ("{not json", "is not JSON"),
         ({"format": "lutbake-lut", "format_version": 4}, "format is not 'lutbake-scene-manifest' version 1"),
         (
-            {
-                "format": "lutbake-scene-manifest",
-                "format_version": 1,
-                "settings": {"space": "rec709"},
-                "materials": {"a": {"kind": "slice", "file": "absent.exr", "rect": [0, 0, 4, 4], "axes": {}}},
-            },
+            sealed(
+                {
+                    "format": "lutbake-scene-manifest",
+                    "format_version": 1,
+                    "scene": "s.toml",
+                    "scene_hash": "0" * 64,
+                    "settings": {"space": "rec709"},
+                    "materials": {
+                        "a": {
+                            "kind": "slice",
+                            "file": "absent.exr",
+                            "rect": [0, 0, 4, 4],
+                            "axes": {"thickness_nm": {"min": 100.0, "max": 400.0}},
+                        }
+                    },
+                    "files": {},
+                }
+            ),
             "materials.a.file 'absent.exr' is not beside the manifest",
         ),
         (

@@ -4,6 +4,7 @@ bake, 10^5 materials, the optical-path limit, truncated and malformed glTF/GLB. 
 tests/hostile_cases.run_case's: exit 0/1/2, no traceback, one line and nothing written on exit 2."""
 
 import json
+import os
 import signal
 import struct
 import subprocess
@@ -261,7 +262,43 @@ MALFORMED = {
         "iridescenceIor = 50.0 is not allowed",
     ),
     "unknown metal mapping": (lambda: json.dumps(_VALID).encode(), "a.gltf", "metal mapping 'gold'"),
+    # issue 35, cause 1: integers past 2^64 never reach numpy
+    "iridescenceIor 2^64": (
+        lambda: json.dumps(document([iridescent(ior=2**64)])).encode(),
+        "a.gltf",
+        "outside ±2^53",
+    ),
+    "thickness maximum -2^64 in a GLB": (
+        lambda: _glb(document([iridescent(d_max=-(2**64))])),
+        "a.glb",
+        "outside ±2^53",
+    ),
+    # issue 35, cause 2: accessor and buffer-view fields typed before use
+    "componentType a list": (lambda: _accessor({"componentType": [5126]}), "a.glb", "componentType = [5126]"),
+    "type a number": (lambda: _accessor({"type": 3}), "a.glb", "type = 3 is not one"),
+    "byteStride null": (lambda: _accessor(view={"byteStride": None}), "a.glb", "byteStride = None"),
+    "byteStride a string, count 2^33": (
+        lambda: _accessor({"count": 2**33}, view={"byteStride": "12"}),
+        "a.glb",
+        "byteStride = '12'",
+    ),
+    "byteStride 2": (lambda: _accessor(view={"byteStride": 2}), "a.glb", "byteStride = 2"),
+    "byteStride under the element": (lambda: _accessor(view={"byteStride": 8}), "a.glb", "shorter than"),
 }
+
+
+def _accessor(fields=None, view=None) -> bytes:
+    """A GLB with one 48-byte buffer, one view over it and one VEC3 float accessor (``fields`` and ``view``
+    override theirs)."""
+    return _glb(
+        {
+            **_VALID,
+            "buffers": [{"byteLength": 48}],
+            "bufferViews": [{"buffer": 0, "byteLength": 48, **(view or {})}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", **(fields or {})}],
+        },
+        b"\0" * 48,
+    )
 
 
 @pytest.mark.parametrize("case", list(MALFORMED))
@@ -279,6 +316,10 @@ def test_malformed_gltf_is_one_line_exit_2_and_writes_nothing(case, tmp_path, ca
 def test_report_on_a_manifest_that_is_no_gltf_bake_is_one_line(tmp_path, capfd, monkeypatch):
     (tmp_path / "m.json").write_text(json.dumps({"format": "lutbake-scene-manifest"}))
     _, _, err = run_case(["report", "m.json"], tmp_path, capfd, monkeypatch, {2})
+    assert "format is not 'lutbake-scene-manifest' version 1" in err
+    (tmp_path / "s.toml").write_text(SCENE)
+    run_case(["bake", "--scene", "s.toml", "--out", "T", *NUMPY], tmp_path, capfd, monkeypatch, {0})
+    _, _, err = run_case(["report", "T/s.json"], tmp_path, capfd, monkeypatch, {2})
     assert "not the manifest of a glTF bake" in err
 
 
@@ -301,3 +342,37 @@ def test_gltf_flag_conflicts_are_one_line(argv, message, tmp_path, capfd, monkey
     (tmp_path / "a.gltf").write_text(json.dumps(_VALID))
     _, _, err = run_case(argv, tmp_path, capfd, monkeypatch, {2})
     assert message in err, err
+
+
+# --- issue 35, cause 13: buffer URIs consult nothing outside the asset's folder --------------------------
+
+
+@pytest.mark.parametrize(
+    "uri", ["../outside.bin", "/OUTSIDE", "sub/../../outside.bin", "%2E%2E/outside.bin", "link.bin"]
+)
+def test_a_buffer_uri_outside_the_asset_folder_is_never_looked_at(uri, tmp_path, capfd, monkeypatch):
+    """Whether the outside file exists, and how long it is, changes neither the exit code nor the output:
+    the URI is an engine's business (a warning), never stat()ed."""
+    asset = tmp_path / "asset"
+    asset.mkdir()
+    (asset / "sub").mkdir()
+    os.symlink("../outside.bin", asset / "link.bin")
+    uri = uri.replace("/OUTSIDE", str(tmp_path / "outside.bin"))
+    (asset / "a.gltf").write_text(json.dumps({**_VALID, "buffers": [{"uri": uri, "byteLength": 10**6}]}))
+    seen = []
+    for outside in (None, 10, 2 * 10**6):
+        if outside is not None:
+            (tmp_path / "outside.bin").write_bytes(b"\0" * outside)
+        rc, _, err = run_case(["plan", "--gltf", "asset/a.gltf"], tmp_path, capfd, monkeypatch, {0})
+        assert "not a file in the asset's folder" in err and "1,000,000" not in err, err
+        seen.append((rc, err))  # (the plan's output holds a timing measured just now)
+    assert seen[0] == seen[1] == seen[2]
+
+
+def test_a_buffer_uri_inside_the_asset_folder_through_a_link_is_still_checked(tmp_path, capfd, monkeypatch):
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "a.bin").write_bytes(b"\0" * 16)
+    os.symlink("data/a.bin", tmp_path / "link.bin")
+    (tmp_path / "a.gltf").write_text(json.dumps({**_VALID, "buffers": [{"uri": "link%2ebin", "byteLength": 64}]}))
+    _, _, err = run_case(["plan", "--gltf", "a.gltf"], tmp_path, capfd, monkeypatch, {2})
+    assert "holds 16 bytes (truncated)" in err

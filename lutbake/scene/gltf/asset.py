@@ -19,10 +19,13 @@ hand it the JSON alone), one that is present but shorter than its byteLength is 
 from __future__ import annotations
 
 import builtins
+import os
+import re
 import struct
 from os import PathLike
-from pathlib import Path
-from typing import IO, Any
+from pathlib import Path, PurePosixPath
+from typing import IO, Any, TypeGuard
+from urllib.parse import unquote
 
 from lutbake.io.documents import load_json, read_text
 
@@ -128,10 +131,10 @@ class GltfAsset:
         elif uri.startswith("data:"):
             return  # embedded: its size is the asset's, already bounded
         else:
-            file = self.path.parent / uri
-            if not file.is_file():  # lutbake reads no geometry: the JSON alone can be baked
+            file = _beside(self.path.parent, uri)
+            if file is None or not file.is_file():  # lutbake reads no geometry: the JSON alone can be baked
                 self.warnings.append(
-                    f"{where}.uri {uri!r} is not beside the asset: not read by lutbake, but "
+                    f"{where}.uri {uri!r} is not a file in the asset's folder: not read by lutbake, but "
                     "an engine loading the asset needs it"
                 )
                 return
@@ -154,25 +157,72 @@ class GltfAsset:
             if "bufferView" not in accessor:
                 continue
             view = views[self.index(accessor["bufferView"], len(views), f"{where}.bufferView", "bufferViews")]
-            element = _COMPONENT_BYTES.get(accessor.get("componentType"), 0) * _TYPE_COMPONENTS.get(
-                accessor.get("type"), 0
-            )
-            if not element:
-                raise self.error(where, "componentType or type is not one glTF 2.0 defines")
-            stride = view.get("byteStride", element)
+            element = self._element_bytes(accessor, where)
+            stride = self._stride(view, element, f"bufferViews[{accessor['bufferView']}]")
             end = self._size(accessor, "byteOffset", where, 0) + stride * (count - 1) + element
             if count and end > view["byteLength"]:
                 raise self.error(
                     f"{where}.count", f"= {count:,} needs {end:,} bytes; its buffer view has {view['byteLength']:,}"
                 )
 
+    def _element_bytes(self, accessor: dict[str, Any], where: str) -> int:
+        """The bytes of one element of ``accessor``: its componentType's size times its type's components."""
+        component, kind = accessor.get("componentType"), accessor.get("type")
+        if not _integer(component) or component not in _COMPONENT_BYTES:
+            raise self.error(f"{where}.componentType", f"= {component!r} is not one glTF 2.0 defines")
+        if not isinstance(kind, str) or kind not in _TYPE_COMPONENTS:
+            raise self.error(f"{where}.type", f"= {kind!r} is not one glTF 2.0 defines")
+        return _COMPONENT_BYTES[component] * _TYPE_COMPONENTS[kind]
+
+    def _stride(self, view: dict[str, Any], element: int, where: str) -> int:
+        """A buffer view's byteStride (glTF 2.0: an integer in 4..252, a multiple of 4, here at least one
+        element), or ``element`` when the view is tightly packed."""
+        stride: int = view.get("byteStride", element)
+        if "byteStride" in view and not (_integer(stride) and 4 <= stride <= 252 and stride % 4 == 0):
+            raise self.error(f"{where}.byteStride", f"= {stride!r} is not allowed: must be 4..252, a multiple of 4")
+        if stride < element:
+            raise self.error(f"{where}.byteStride", f"= {stride} is shorter than its accessor's {element}-byte element")
+        return stride
+
     def _size(self, parent: dict[str, Any], key: str, where: str, default: int | None = None) -> int:
         value = parent.get(key, default)
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        if not _integer(value) or value < 0:
             raise self.error(f"{where}.{key}", f"= {value!r} is not allowed: must be an integer >= 0")
         return value
 
 
+def _integer(value: object) -> TypeGuard[int]:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _beside(folder: Path, uri: str) -> Path | None:
+    """The file a relative buffer ``uri`` names inside ``folder`` (percent-decoded, every symbolic link on the
+    way followed while it stays inside), or None where the URI has a scheme or any step leaves the folder:
+    nothing outside the asset's folder is looked at, so nothing there changes what lutbake says."""
+    if _SCHEME.match(uri) or uri.startswith("/"):
+        return None
+    root = current = folder.resolve()
+    pending, links = list(PurePosixPath(unquote(uri)).parts), 0
+    while pending:
+        part = pending.pop(0)
+        if part == "..":
+            if current == root:
+                return None
+            current = current.parent
+        elif part not in ("", ".", "/"):
+            step = current / part
+            if not step.is_symlink():
+                current = step
+                continue
+            target, links = os.readlink(step), links + 1
+            if os.path.isabs(target) or links > _MAX_LINKS:
+                return None
+            pending[:0] = PurePosixPath(target).parts
+    return current
+
+
+_SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")  # RFC 3986: http:, file:, … (data: is read before)
+_MAX_LINKS = 40  # symbolic links followed for one URI, as Linux's own bound
 _TYPE_NAMES = {dict: "an object", int: "an integer", list: "an array", str: "a string"}
 _COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 _TYPE_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}

@@ -31,11 +31,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lutbake.io.documents import load_json, read_text
 from lutbake.physics.materials import material as named_material
 from lutbake.physics.metals import F0_MAX, MAPPINGS, conductor, reflectance_error
 from lutbake.physics.points import check_value
 from lutbake.scene.gltf.asset import GltfAsset, read_gltf
+from lutbake.scene.gltf.mapping import read_metal_mapping
 from lutbake.scene.model import Base, BasePath, Scene, SceneMaterial, check_material_names
 
 if TYPE_CHECKING:
@@ -53,7 +53,6 @@ FILM_DEFAULTS = {
 _KNOWN_KEYS = set(FILM_DEFAULTS) | {"iridescenceTexture", "iridescenceThicknessTexture", "extensions", "extras"}
 _DRAFT_KEYS = {"iridescenceIOR": "iridescenceIor"}
 METAL_TABLE_NODES = 65  # F0 → (η3, κ3) nodes the engine interpolates for a texture-driven metal
-_MAX_MAPPING_BYTES = 1 << 20
 
 
 def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0) -> Scene:
@@ -145,20 +144,15 @@ def _metal_mapping(value: str, asset: GltfAsset) -> tuple[str, dict[int, str], P
             f"metal mapping {value!r} is not allowed: use {' or '.join(MAPPINGS)}, or a JSON file "
             "naming a lutbake material per glTF material"
         )
-    doc = load_json(read_text(path, "metal mapping", _MAX_MAPPING_BYTES), str(path))
-    if not isinstance(doc, dict) or not isinstance(doc.get("materials", {}), dict):
-        raise ValueError(f"{path}: must be an object with 'materials': {{NAME or INDEX: lutbake material}}")
-    default = doc.get("default", "fitted")
-    if default not in MAPPINGS:
-        raise ValueError(f"{path}: default = {default!r} is not one of {', '.join(MAPPINGS)}")
-    by_name = {m.get("name"): i for i, m in enumerate(asset.materials)}
+    mapping = read_metal_mapping(path)
+    by_name = {m["name"]: i for i, m in enumerate(asset.materials) if isinstance(m.get("name"), str)}
     named: dict[int, str] = {}
-    for key, name in doc.get("materials", {}).items():
-        index = int(key) if key.isdigit() else by_name.get(key)
+    for key, name in mapping.materials.items():
+        index = int(key) if key.isascii() and key.isdigit() and len(key) <= 9 else by_name.get(key)
         if index is None or index >= len(asset.materials):
             raise ValueError(f"{path}: materials.{key}: no such glTF material in {asset.path.name}")
         named[index] = _named_metal(name, f"{path}: materials.{key}")
-    return default, named, path
+    return mapping.default, named, path
 
 
 def _named_metal(name: object, where: str) -> str:

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from lutbake.io.documents import load_json, read_text
+from lutbake.io.manifest import read_scene_manifest
 from lutbake.io.strictjson import dumps
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.approximations import khr_iridescence_rgb
@@ -33,9 +33,10 @@ from lutbake.physics.metals import MAPPINGS, conductor
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.reference import reference_colour
 
-__all__ = ["gltf_receipts", "write_receipts"]
+__all__ = ["RECEIPT_FILES", "gltf_receipts", "write_receipts"]
 
-_MAX_MANIFEST_BYTES = 256 << 20
+RECEIPT_FILES = ("receipts.json", "receipts.html")
+
 # A channel's base as FilmPoints.build keywords: {eta3, kappa3} (numbers or arrays) or {base: a name}.
 Bases = dict[str, Any]
 
@@ -43,8 +44,8 @@ Bases = dict[str, Any]
 def gltf_receipts(manifest_path: str | PathLike[str], n_points: int = 300, seed: int = 0) -> dict[str, Any]:
     """The receipts of the glTF bake whose manifest is ``manifest_path`` (ValueError if it is not one)."""
     path = Path(manifest_path)
-    manifest = load_json(read_text(path, "manifest", _MAX_MANIFEST_BYTES), str(path))
-    source = manifest.get("source") if isinstance(manifest, dict) else None
+    manifest = read_scene_manifest(path)  # typed (the source records too) and sealed
+    source = manifest.get("source")
     if not isinstance(source, dict) or source.get("kind") != "gltf":
         raise ValueError(f"{str(path)!r} is not the manifest of a glTF bake (lutbake bake --gltf)")
     rng = np.random.default_rng(seed)
@@ -183,13 +184,16 @@ def _stats(rgb: np.ndarray, truth: np.ndarray) -> dict[str, float]:
 
 
 def write_receipts(receipts: dict[str, Any], out_dir: str | PathLike[str]) -> None:
-    """receipts.json and receipts.html in ``out_dir``."""
-    from lutbake.tables.lutfile import write_text_atomic
+    """receipts.json and receipts.html in ``out_dir``, both rendered before either is written, committed as
+    one set (neither appears without the other)."""
+    from lutbake.io.fileset import open_set
 
+    texts = dict(zip(RECEIPT_FILES, (dumps(receipts) + "\n", _html(receipts)), strict=True))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out / "receipts.json", dumps(receipts) + "\n")
-    write_text_atomic(out / "receipts.html", _html(receipts))
+    with open_set(out, RECEIPT_FILES[0]) as files:
+        for name, text in texts.items():
+            files.temp(out / name).write_text(text)
 
 
 def _html(receipts: dict[str, Any]) -> str:

@@ -1,0 +1,216 @@
+"""The scene manifest (SCENE.json, which `bake --scene` and `bake --gltf` write beside their atlas): one
+bounded, typed reader for everything that reads one (`bake`'s up-to-date check, `report` on a glTF
+bake, `blender`), and the hash that seals it.
+
+Read as every document is (lutbake/io/documents.py: a regular file, at most ``MAX_MANIFEST_BYTES``,
+nesting and integers bounded), then checked, before any field is used: its format, the types and
+ranges of every field a reader takes (docs/scene.md, "The manifest"), files named as plain names beside
+it, and its seal (``manifest_hash``, the SHA-256 of the rest), so a manifest edited since lutbake wrote
+it is refused in one line instead of being half-trusted. ValueError names the file and the field.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+from lutbake.io.documents import load_json, read_text
+from lutbake.io.names import SPACES
+
+__all__ = ["MANIFEST_FORMAT", "MAX_MANIFEST_BYTES", "manifest_hash", "read_scene_manifest", "sealed"]
+
+MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
+MAX_MANIFEST_BYTES = 256 << 20  # ~10^5 materials with their glTF records
+MAX_MATERIALS = 100_000
+MAX_CURVE_NODES = 4096  # a texture-driven metal's F0 → (η3, κ3) table (65 nodes written)
+
+
+def manifest_hash(manifest: dict[str, Any]) -> str:
+    """SHA-256 of the manifest's content without this hash (sorted keys, compact JSON)."""
+    body = {k: v for k, v in manifest.items() if k != "manifest_hash"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def sealed(manifest: dict[str, Any]) -> dict[str, Any]:
+    """``manifest`` with its ``manifest_hash``."""
+    return {**manifest, "manifest_hash": manifest_hash(manifest)}
+
+
+def read_scene_manifest(path: str | PathLike[str]) -> dict[str, Any]:
+    """The checked manifest at ``path``; ValueError (one line naming the file and the field) when it is not
+    a scene manifest lutbake wrote, or was edited since."""
+    where = f"manifest {str(Path(path))!r}"
+    doc = load_json(read_text(path, "manifest", MAX_MANIFEST_BYTES), where)
+    if not isinstance(doc, dict) or (doc.get("format"), doc.get("format_version")) != MANIFEST_FORMAT:
+        raise ValueError(
+            f"{where}: format is not {MANIFEST_FORMAT[0]!r} version {MANIFEST_FORMAT[1]} "
+            "(the SCENE.json that `lutbake bake --scene` or `--gltf` writes)"
+        )
+    try:
+        _check(doc)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return doc
+
+
+def _check(doc: dict[str, Any]) -> None:
+    """Every field a reader takes, typed and ranged; then the seal."""
+    settings = _object(doc, "settings")
+    if settings.get("space") not in SPACES:
+        raise ValueError(f"settings.space {_shown(settings.get('space'))} is not one of {', '.join(SPACES)}")
+    _text(doc, "scene")
+    _hex(_at(doc, "scene_hash"), "scene_hash", 64)
+    materials = _object(doc, "materials")
+    if len(materials) > MAX_MATERIALS:
+        raise ValueError(f"materials: {len(materials):,} of them, at most {MAX_MATERIALS:,} are allowed")
+    for name, entry in materials.items():
+        _material(name, entry)
+    for name, digest in _object(doc, "files").items():
+        _plain(name, f"files.{name}")
+        _hex(digest, f"files.{name}", 64)
+    if "source" in doc:
+        _source(_object(doc, "source"), materials)
+    if doc.get("manifest_hash") != manifest_hash(doc):
+        raise ValueError("manifest_hash does not hold: edited since lutbake wrote it (bake the scene again)")
+
+
+def _material(name: str, entry: object) -> None:
+    """A slice of the atlas (its rect and thickness axis) or a 4D LUT, each a file beside the manifest."""
+    where = f"materials.{name}"
+    if not isinstance(entry, dict):
+        raise ValueError(f"{where} is not an object")
+    kind = _at(entry, "kind", where)
+    _plain(_at(entry, "file", where), f"{where}.file")
+    if kind == "lut":
+        return
+    if kind != "slice":
+        raise ValueError(f"{where}.kind {_shown(kind)} is not 'slice' or 'lut'")
+    rect = _at(entry, "rect", where)
+    if not (isinstance(rect, list) and len(rect) == 4 and all(_integer(v) and v >= 0 for v in rect)):
+        raise ValueError(f"{where}.rect {_shown(rect)} is not 4 integers >= 0")
+    thickness = _object(_object(entry, "axes", where), "thickness_nm", f"{where}.axes")
+    low, high = (_number(thickness, k, f"{where}.axes.thickness_nm") for k in ("min", "max"))
+    if not 0 <= low <= high:
+        raise ValueError(f"{where}.axes.thickness_nm: min {low} and max {high} are not 0 <= min <= max")
+
+
+def _source(source: dict[str, Any], materials: dict[str, Any]) -> None:
+    """A glTF bake's record of the asset (lutbake/scene/gltf/receipt.py reads it back)."""
+    if _at(source, "kind", "source") != "gltf":
+        return
+    for key in ("asset", "metal_mapping"):
+        _text(source, key, "source")
+    records = _at(source, "materials", "source")
+    if not isinstance(records, list) or len(records) > MAX_MATERIALS:
+        raise ValueError(f"source.materials is not a list of at most {MAX_MATERIALS:,} records")
+    for i, record in enumerate(records):
+        where = f"source.materials[{i}]"
+        if not isinstance(record, dict):
+            raise ValueError(f"{where} is not an object")
+        _object(record, "read", where)
+        _object(record, "parts", where)
+        if not isinstance(record.get("warnings", []), list):
+            raise ValueError(f"{where}.warnings is not a list")
+        if record.get("film") is None:
+            continue
+        _number(record, "film", where)
+        _numbers(_at(record, "thickness_nm", where), 2, f"{where}.thickness_nm")
+        for part, info in record["parts"].items():
+            _part(info, materials, f"{where}.parts.{part}")
+
+
+def _part(info: object, materials: dict[str, Any], where: str) -> None:
+    """A baked part names materials of this manifest, and its base is numbers."""
+    if not isinstance(info, dict):
+        raise ValueError(f"{where} is not an object")
+    names = [info["material"]] if "material" in info else info.get("channels")
+    if not isinstance(names, list) or not names or any(not isinstance(n, str) or n not in materials for n in names):
+        raise ValueError(f"{where}: material or channels {_shown(names)} are not materials of this manifest")
+    if "material" in info:  # a dielectric part: its base index
+        _numbers(_at(info, "base", where), 2, f"{where}.base")
+    else:
+        _metal_part(info, where)
+
+
+def _metal_part(info: dict[str, Any], where: str) -> None:
+    """A metal part, per channel: a named material, a texture's F0 → (η3, κ3) curve, or three bases."""
+    if len(info["channels"]) != 3:
+        raise ValueError(f"{where}.channels: not one material per channel (3)")
+    if info.get("mapping") == "named":
+        _text(info, "named", where)
+    elif info.get("texture"):
+        _numbers(_at(info, "f0_max", where), 3, f"{where}.f0_max")
+        table = _object(info, "table", where)
+        nodes = table.get("f0")
+        count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
+        for key in ("f0", "eta3", "kappa3"):
+            _numbers(_at(table, key, f"{where}.table"), count, f"{where}.table.{key}")
+    else:
+        for key in ("eta3", "kappa3"):
+            _numbers(_at(info, key, where), 3, f"{where}.{key}")
+
+
+# --- typed fields: ValueError naming the field -------------------------------------------------------------
+
+
+def _at(container: dict[str, Any], key: str, where: str = "") -> Any:  # a JSON value of whatever type
+    if key not in container:
+        raise ValueError(f"{where}.{key} is missing" if where else f"{key} is missing")
+    return container[key]
+
+
+def _object(container: dict[str, Any], key: str, where: str = "") -> dict[str, Any]:
+    value = _at(container, key, where)
+    if not isinstance(value, dict):
+        raise ValueError(f"{f'{where}.' if where else ''}{key} is not an object")
+    return value
+
+
+def _text(container: dict[str, Any], key: str, where: str = "") -> str:
+    value = _at(container, key, where)
+    if not isinstance(value, str) or not value.isprintable():
+        raise ValueError(f"{f'{where}.' if where else ''}{key} {_shown(value)} is not a printable string")
+    return value
+
+
+def _plain(value: object, field: str) -> str:
+    """A file name beside the manifest: no folder part, nothing outside it."""
+    if not isinstance(value, str) or value in ("", ".", "..") or "/" in value or "\\" in value or "\0" in value:
+        raise ValueError(f"{field} {_shown(value)} is not a file name beside the manifest")
+    return value
+
+
+def _hex(value: object, field: str, digits: int) -> None:
+    if not (isinstance(value, str) and len(value) == digits and all(c in "0123456789abcdef" for c in value)):
+        raise ValueError(f"{field} {_shown(value)} is not {digits} hex digits")
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _number(container: dict[str, Any], key: str, where: str) -> float:
+    value = _at(container, key, where)
+    if not _finite(value):
+        raise ValueError(f"{where}.{key} {_shown(value)} is not a finite number")
+    return float(value)
+
+
+def _numbers(value: object, count: int, field: str) -> list[float]:
+    if not (isinstance(value, list) and len(value) == count and all(_finite(v) for v in value)):
+        raise ValueError(f"{field} {_shown(value)} is not {count} finite numbers")
+    return [float(v) for v in value]
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _shown(value: object, limit: int = 60) -> str:
+    """``value`` as it may stand in a one-line message: repr (no newline, no escape), cut at ``limit``."""
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}…"
