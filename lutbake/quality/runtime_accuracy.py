@@ -21,7 +21,7 @@ from lutbake.modes.runtime.files import RuntimeTable
 from lutbake.modes.runtime.model import runtime_colour
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
-from lutbake.quality.worstcase import SearchAxis, find_worst
+from lutbake.quality.worstcase import SearchAxis, WorstCase, find_worst
 from lutbake.spectral.reference import reference_colour
 
 __all__ = [
@@ -192,7 +192,7 @@ class Ridge:
     LOG_LO, LOG_HI = -4.0, -0.5
     RATIO_MAX = 3.0
 
-    def point(self, unit: np.ndarray):
+    def point(self, unit: np.ndarray) -> tuple:
         """Columns (cos θ, d, η2, η3, κ3) of unit points (n, 5)."""
         (d_lo, d_hi), (e_lo, e_hi), (k_lo, k_hi) = self.box.ranges[1], self.box.ranges[3], self.box.ranges[4]
         cos = self.COS_MAX * unit[:, 0] ** 2
@@ -203,25 +203,37 @@ class Ridge:
         return cos, thickness, eta2, eta3, k_lo + unit[:, 4] * (k_hi - k_lo)
 
 
-_RIDGE_AXES = (
-    SearchAxis("sqrt_cos_theta", cells=16),
-    SearchAxis("sqrt_x", cells=128),
-    SearchAxis("log_eta2_offset", cells=14),
-    SearchAxis("eta3_offset_ratio", cells=12),
-    SearchAxis("kappa3", cells=16),
+# One cell per table slice along √X; 14 half-decades of η2 − η1; η3's offset in twelfths of RATIO_MAX.
+_RIDGE_AXES = tuple(
+    SearchAxis(name, cells=cells)
+    for name, cells in (
+        ("sqrt_cos_theta", 16),
+        ("sqrt_x", 128),
+        ("log_eta2_offset", 14),
+        ("eta3_offset_ratio", 12),
+        ("kappa3", 16),
+    )
 )
 _RIDGE_SINGULAR = {"grazing": {"sqrt_cos_theta": 0.0}, "base = film": {"eta3_offset_ratio": 1.0 / Ridge.RATIO_MAX}}
 
 
 def searched_ridge(
-    table: RuntimeTable, box: Box, budget: int = 6000, scatter: int = 30000, seed: int = 0, filter_bits=None
-):
+    table: RuntimeTable,
+    box: Box,
+    budget: int = 6000,
+    scatter: int = 30000,
+    seed: int = 0,
+    filter_bits: int | None = None,
+) -> WorstCase:
     """worstcase.find_worst over ``Ridge(box)``, started from ``scatter`` random points as well (scored first,
     not counted in ``budget``): the error there is a field of narrow peaks, one per table cell the films'
     (X, z) cross, that a search needs many starts to land near. ``Ridge(box).point(worst.where[None])`` names
     the place."""
     ridge = Ridge(box)
-    error = lambda unit: _de(table, ridge.point(unit), filter_bits)  # noqa: E731
+
+    def error(unit: np.ndarray) -> np.ndarray:
+        return _de(table, ridge.point(unit), filter_bits)
+
     starts = np.random.default_rng(seed).random((scatter, len(_RIDGE_AXES)))
     errors = np.concatenate([error(part) for part in np.array_split(starts, max(scatter // 2000, 1))])
     return find_worst(

@@ -91,6 +91,7 @@ def runtime_run(tmp_path_factory):
         {**job, "call": PER_CHANNEL, "points": points},
         {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
         {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]},
+        {**job, "call": PER_CHANNEL, "points": points, "float": "linear"},  # float32 texels, as the drop-in loads them
     ]
     folder = tmp_path_factory.mktemp("runtime-engine")
     (folder / "jobs.json").write_text(json.dumps(jobs))
@@ -160,6 +161,14 @@ def _khr(points, schlick=None):
         return khr_iridescence_rgb(stack)
     finally:
         approximations._schlick = saved
+
+
+def test_float32_texels_give_the_model_too(runtime_run):
+    """The table uploaded as float32 (what the drop-in's loader picks where OES_texture_float_linear filters
+    it) holds the same values as the half upload, so it returns the same numbers."""
+    texture = runtime_run["result"]["results"][4]["texture"]
+    assert texture["type"] == 1015  # THREE.FloatType
+    assert np.abs(runtime_run["got"][4] - runtime_run["model"][1]).max() <= TOLERANCE
 
 
 def test_the_khr_row_is_three_js_as_it_runs(runtime_run):
