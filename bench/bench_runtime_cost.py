@@ -39,7 +39,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "docs")]
 PREFIX = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix"
 THREE_CHUNKS = ROOT / "engine" / "node_modules" / "three" / "src" / "renderers" / "shaders" / "ShaderChunk"
 RESULT = ROOT / "bench" / "runtime-cost-result.json"
-SHIPPED = ROOT / "lutbake" / "runtime" / "costs.json"  # what `lutbake report` prints (runtime/costs.py)
+SHIPPED = ROOT / "lutbake" / "modes" / "runtime" / "costs.json"  # what `lutbake report` prints (runtime/costs.py)
 
 ARITHMETIC = re.compile(
     r"Op(F|I|S|U)(Add|Sub|Mul|Div|Mod|Rem|Negate|Ord\w+|Unord\w+|Equal|NotEqual|LessThan\w*|"
@@ -275,6 +275,12 @@ PATHS = {
         "three.js r187 evalIridescence (KHR_materials_iridescence)",
     ),
     "runtime": (*RUNTIME, f"lutbake_iridescence(rt, {FILM}, eta3, kappa3)", "lutbake runtime table, one base index"),
+    "runtime-float": (
+        RUNTIME[0],
+        {"rtf": ("luts/runtime/lutbake-runtime.exr", "linear")},
+        f"lutbake_iridescence(rtf, {FILM}, eta3, kappa3)",
+        "lutbake runtime table, one base index, float32 texels (where OES_texture_float_linear filters them)",
+    ),
     "runtime-rgb": (
         *RUNTIME,
         f"lutbake_iridescence_rgb(rt, {FILM}, eta3m, kappa3m)",
@@ -440,12 +446,13 @@ DROPIN_MATERIALS = [  # (label, iridescenceIOR, thickness nm, base: an ior or a 
     ("soap on glass", 1.33, 300.0, 1.5, "luts/lutbake-eta2-1.33"),
     ("oxide on Fe", 2.0, 250.0, "Fe", "luts/lutbake-eta2-2.00-metal"),
 ]
-DROPIN_MODES = ["runtime", "exact", "lut"]
+DROPIN_MODES = ["runtime", "runtime-half", "exact", "lut"]  # runtime: float32 where the context filters it
 
 
 def dropin_costs(rounds: int) -> dict:
     """The drop-in on a lit MeshPhysicalMaterial sphere filling a 512 × 512 view: per material, each mode's
-    wall net of the same material without iridescence, over three.js's own iridescence's."""
+    wall net of the same material without iridescence, over three.js's own iridescence's; and the runtime
+    table's texel type the drop-in's loader picked in this context (and why)."""
     from lutbake.modes.exact import base_rgb
 
     materials = []
@@ -474,7 +481,7 @@ def dropin_costs(rounds: int) -> dict:
     for label, *_ in DROPIN_MATERIALS:
         times = {k.split("|")[1]: v for k, v in result["times"].items() if k.startswith(f"{label}|")}
         out[label] = _ratios(times, "none", "three")
-    return out
+    return {"runtime_table": result["precision"], "materials": out}
 
 
 def shipped_costs(result: dict) -> dict:
@@ -537,7 +544,10 @@ def main():
             f"| {name} | {reads} | {ops} ({s['arithmetic'] / three:.2f}) | {s['gpu_bytes'] / 2**20:.2f} MiB | "
             f"{'—' if engine is None else round(engine['ratio'], 2)} |"
         )
-    for label, modes in result.get("dropin", {}).items():
+    dropin = result.get("dropin", {})
+    if dropin:
+        print(f"drop-in runtime table: {dropin['runtime_table']['chosen']} ({dropin['runtime_table']['reason']})")
+    for label, modes in dropin.get("materials", {}).items():
         print(
             f"drop-in {label}: " + ", ".join(f"{m} {v['ratio']:.2f}×" for m, v in modes.items() if m not in ("none",))
         )

@@ -132,8 +132,9 @@ def write_runtime_table() -> Path:
     return RUNTIME
 
 
-def run(image: Path) -> dict:
-    """Render in headless Chromium; {(material, mode): (fresnel (n, 3), parameters (n, 3))}."""
+def run(image: Path) -> tuple:
+    """Render in headless Chromium: ({(material, mode): (fresnel (n, 3), parameters (n, 3))}, the runtime
+    table's texel type the drop-in's loader chose in this context {"precision", "reason"})."""
     write_exact_table()
     write_runtime_table()
     with tempfile.TemporaryDirectory() as tmp:
@@ -148,12 +149,13 @@ def run(image: Path) -> dict:
         )
         if proc.returncode:
             raise RuntimeError(proc.stderr[-4000:])
-        cells = json.loads(result.read_text())["cells"]
+        page = json.loads(result.read_text())
+        cells = page["cells"]
     out = {}
     for cell in cells:
         s = np.array(cell["samples"], float)
         out[(cell["material"], cell["mode"])] = (s[:, :3], s[:, 3:])
-    return out
+    return out, page["runtimeTable"]
 
 
 def errors(cells: dict, dispersive: bool = True) -> list:
@@ -184,7 +186,9 @@ def errors(cells: dict, dispersive: bool = True) -> list:
 
 def main():
     bake_default_luts()
-    rows = errors(run(IMAGE))
+    cells, runtime_table = run(IMAGE)
+    rows = errors(cells)
+    print(f"runtime table: {runtime_table['precision']} texels ({runtime_table['reason']})\n")
     print(
         "| material | mode | max ΔE00 | p99 ΔE00 | max ΔE00 vs dispersive metal | pixels |\n|---|---|---|---|---|---|"
     )

@@ -55,7 +55,7 @@ async function renders(gltfUrl, bake, options, size) {
 // `plan` (`lutbake plan --gltf --json`: no bake) gives the mapping; `runtime` the runtime table's stem.
 async function run({ gltf, manifest = null, plan = null, runtime = null, serves = ['bake'], size = 96, stride = 3 }) {
   const bake = manifest ? await loadLutbakeBake(manifest) : await loadLutbakePlan(plan);
-  const table = runtime ? await loadLutbakeRuntime(runtime) : null;
+  const table = runtime ? await loadLutbakeRuntime(runtime, { renderer }) : null;   // float32: this context filters it
   const passes = [['fresnel', serves[0]], ['parameters', serves[0]], ['basecolor', serves[0]],
                   ...serves.slice(1).map((serve) => ['fresnel', serve])];
   const rendered = await Promise.all(passes.map(([output, serve]) => renders(gltf, bake, { output, serve, runtime: table }, size)));

@@ -22,7 +22,8 @@
 // from `lutbake plan --gltf ASSET --json` (loadLutbakePlan). What served each part is material.userData.lutbake
 // and plugin.served (glTF material index -> {gltfIndex, name, parts: {dielectric|metal: 'slice'|'lut'|'runtime'}}).
 //
-//   const runtime = await loadLutbakeRuntime('luts/runtime/lutbake-runtime');
+//   const runtime = await loadLutbakeRuntime('luts/runtime/lutbake-runtime', { renderer });   // float32 where the
+//   // context filters it, else half: runtime.precision says which (lutbake-iridescence.js)
 //   const plan = await loadLutbakePlan('Lamp.plan.json');        // lutbake plan --gltf Lamp.gltf --json > Lamp.plan.json
 //   loader.register((parser) => new LutbakeGLTFPlugin(parser, plan, { runtime }));
 import * as THREE from 'three';

@@ -8,7 +8,7 @@
 // where it is needed: the dielectric one where metalness < 1, the metallic one where metalness > 0.
 //
 //   import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-iridescence.js';
-//   const runtime = await loadLutbakeRuntime('luts/lutbake-runtime');       // .exr + .glsl of `lutbake runtime-table`
+//   const runtime = await loadLutbakeRuntime('luts/lutbake-runtime', { renderer });   // float32 where the context filters it
 //   lutbakeIridescence(material, { runtime });                              // dielectric base: material.ior
 //   lutbakeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
 //   lutbakeIridescence(material, { exact: await loadLutbakeExact('engine/exact/lutbake-exact') });
@@ -58,22 +58,36 @@ async function loadChecked(stem, loader) {
   return { table: texture, include };
 }
 
-// The runtime table with EXRLoader's defaults (RGBA half float, linear filtering) and its include.
-export async function loadLutbakeRuntime(stem) {
-  return loadChecked(stem, new EXRLoader());
+// The runtime table (linear filtering) and its include. Its texels are uploaded as float32 where the context
+// filters float32 textures (OES_texture_float_linear: desktop GPUs, SwiftShader; three.js enables it), where
+// the six filtered reads cost less than half ones (docs/engines.md), and as half floats elsewhere (many mobile
+// GPUs; EXRLoader's default): the same colours, the half texels are exact in float32. `renderer` (a
+// THREE.WebGLRenderer) decides at run time; `precision` 'float' or 'half' forces a choice (float needs the
+// extension). The choice and why are returned as `precision` and `precisionReason`.
+export async function loadLutbakeRuntime(stem, { renderer = null, precision = null } = {}) {
+  const filtersFloat = renderer !== null && renderer.extensions.has('OES_texture_float_linear');
+  if (![null, 'float', 'half'].includes(precision)) throw new Error(`loadLutbakeRuntime: precision '${precision}' is not 'float' or 'half'`);
+  if (precision === 'float' && !filtersFloat) {
+    throw new Error('loadLutbakeRuntime: a float table needs a renderer whose context filters float32 (OES_texture_float_linear)');
+  }
+  const chosen = precision ?? (filtersFloat ? 'float' : 'half');
+  const runtime = await loadChecked(stem, new EXRLoader().setDataType(chosen === 'float' ? THREE.FloatType : THREE.HalfFloatType));
+  const precisionReason = precision ? 'asked for'
+    : renderer === null ? 'no renderer given' : `OES_texture_float_linear ${filtersFloat ? 'present' : 'absent'}`;
+  return { ...runtime, precision: chosen, precisionReason };
 }
 
 // The exact mode's table as float32 texels read with texelFetch (no filtering, so no float-linear extension).
 export async function loadLutbakeExact(stem) {
   const exact = await loadChecked(stem, new EXRLoader().setDataType(THREE.FloatType));
   exact.table.minFilter = exact.table.magFilter = THREE.NearestFilter;
-  return exact;
+  return { ...exact, precision: 'float', precisionReason: 'texelFetch: no filtering needed' };
 }
 
 // A baked LUT (EXRLoader's defaults: half float, linear filtering) and its include; `ident` is its constant.
 export async function loadLutbakeLut(stem) {
   const lut = await loadChecked(stem, new EXRLoader());
-  return { ...lut, ident: lut.include.match(/const LutbakeLut (\w+) =/)[1] };
+  return { ...lut, ident: lut.include.match(/const LutbakeLut (\w+) =/)[1], precision: 'half', precisionReason: "EXRLoader's default" };
 }
 
 // GLSL for the film's Fresnel term at (dotNVi, material), one expression per base: three's iridescenceIOR and
@@ -149,6 +163,8 @@ ${source.include}`)
   };
   // Programs are cached by this key: materials patched differently must not share one.
   material.customProgramCacheKey = () => `lutbake:${mode}:${lutRule}:${output}:${source ? source.include.length : 0}`;
+  // What serves the film's term, and its table's texel type (and why): the drop-in's report.
+  material.userData.lutbake = { mode, precision: source ? source.precision : null, precisionReason: source ? source.precisionReason : null };
   material.needsUpdate = true;
   return material;
 }

@@ -38,11 +38,13 @@ async function loadText(url) {
 // them (the test's negative control defines LUTBAKE_SCANLINE0_AT_V0 there). `float`: load the EXR as 32-bit
 // floats read with texelFetch (NearestFilter: WebGL2 cannot filter float32 textures linearly without
 // OES_texture_float_linear), as the exact mode's table needs.
+// `float`: false, EXRLoader's defaults (half, linear filtering); true, float32 read by texelFetch (nearest);
+// 'linear', float32 with linear filtering (needs OES_texture_float_linear).
 async function loadLut(exr, float) {
   const loader = new EXRLoader();
   if (float) loader.setDataType(THREE.FloatType);
   const lut = await loader.loadAsync(exr);
-  if (float) lut.minFilter = lut.magFilter = THREE.NearestFilter;
+  if (float === true) lut.minFilter = lut.magFilter = THREE.NearestFilter;
   return lut;
 }
 
@@ -203,7 +205,7 @@ function encode(v) { return 255 * Math.min(1, Math.max(0, v <= 0.0031308 ? 12.92
 window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) => {
   const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
   const exact = await loadLutbakeExact(materials[0].exact);
-  const runtime = await loadLutbakeRuntime(materials[0].runtime);
+  const runtime = await loadLutbakeRuntime(materials[0].runtime, { renderer });   // float32 where this context filters it
   const canvas = document.createElement('canvas');
   const label = 90;
   canvas.width = label + size * materials.length;
@@ -246,7 +248,7 @@ window.lutbakeDropin = async ({ materials, swatches, size = 160, stride = 5 }) =
       ctx.fillRect(label + size * j + s * w, 24 + size * DROPIN_MODES.length, Math.ceil(w), size);
     });
   }
-  return { three: THREE.REVISION, cells };
+  return { three: THREE.REVISION, cells, runtimeTable: { precision: runtime.precision, reason: runtime.precisionReason } };
 };
 
 // --- cost: wall time of shaders against each other in one page (bench/bench_runtime_cost.py) ---------------
@@ -314,10 +316,13 @@ function rendererName() {
 }
 
 // The drop-in on lit MeshPhysicalMaterial spheres filling the view: per material, three.js without
-// iridescence (the baseline), with its own iridescence, and the drop-in's modes.
+// iridescence (the baseline), with its own iridescence, and the drop-in's modes ('runtime': the table as the
+// loader picks it for this context; 'runtime-half': half texels forced). `precision`: what the loader picked.
 window.lutbakeDropinCost = async ({ materials, modes, size = 512, rounds = 9, draws = 3 }) => {
   const { lutbakeIridescence, loadLutbakeExact, loadLutbakeLut, loadLutbakeRuntime } = await import('./lutbake-iridescence.js');
-  const sources = { runtime: await loadLutbakeRuntime(materials[0].runtime), exact: await loadLutbakeExact(materials[0].exact) };
+  const runtime = await loadLutbakeRuntime(materials[0].runtime, { renderer });
+  const half = await loadLutbakeRuntime(materials[0].runtime, { precision: 'half' });
+  const sources = { runtime, exact: await loadLutbakeExact(materials[0].exact) };
   const camera = new THREE.OrthographicCamera(-1, 1, 1, -1, 0.1, 10);
   camera.position.set(0, 0, 3);
   const entries = [];
@@ -326,6 +331,7 @@ window.lutbakeDropinCost = async ({ materials, modes, size = 512, rounds = 9, dr
     for (const mode of ['none', 'three', ...modes]) {
       const material = physicalMaterial({ ...m, iridescenceIOR: m.iridescenceIOR });
       if (mode === 'none') material.iridescence = 0;
+      else if (mode === 'runtime-half') lutbakeIridescence(material, { mode: 'runtime', runtime: half, metal: m.metal || undefined });
       else if (mode !== 'three') lutbakeIridescence(material, { mode, ...sources, lut, lutRule: m.lutRule, metal: m.metal || undefined });
       const scene = new THREE.Scene();
       scene.add(new THREE.Mesh(new THREE.SphereGeometry(1, 128, 64), material));
@@ -334,6 +340,7 @@ window.lutbakeDropinCost = async ({ materials, modes, size = 512, rounds = 9, dr
     }
   }
   const times = timeInterleaved(entries, { size, rounds, draws });
+  const report = Object.fromEntries(entries.map((e) => [e.name, e.material.userData.lutbake || null]));
   entries.forEach((e) => e.material.dispose());
-  return { three: THREE.REVISION, size, times };
+  return { three: THREE.REVISION, size, times, precision: { chosen: runtime.precision, reason: runtime.precisionReason }, report };
 };

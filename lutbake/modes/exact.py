@@ -273,7 +273,24 @@ def _channel_coefficients(
     kappa3 = np.broadcast_to(np.asarray(kappa3, float).reshape(n, -1), (n, 3))
     parts = [series_coefficients(eta1, eta2, cos_theta, opd_nm, eta3[:, c], kappa3[:, c]) for c in range(3)]
     stack = {key: np.stack([getattr(p, key) for p in parts], axis=-1) for key in ("c0", "k", "q", "one_minus_q")}
-    return SeriesCoefficients(**stack, x_nm=parts[0].x_nm, in_scope=parts[0].in_scope)
+    co = SeriesCoefficients(**stack, x_nm=parts[0].x_nm, in_scope=parts[0].in_scope)
+    return _grazing_on_a_matched_film(co, (np.asarray(cos_theta) == 0) & (eta2 == eta1))
+
+
+def _grazing_on_a_matched_film(co: SeriesCoefficients, at: np.ndarray) -> SeriesCoefficients:
+    """At cos θ1 = 0 on a film matching the ambient (η2 = η1: Y1 = Y2 = 0, where a is 0/0) r12 = −1, the
+    ground truth's value at every grazing angle (physics/optics.py), so C0 = 1 and K = 0: R = Ŵ(0), white,
+    as the include's a = −1 gives. series_coefficients leaves the point out of scope (g2 = 0: no propagating
+    film); it is the domain's edge, η2 = η1 sin θ1 at θ1 = 90°."""
+    edge = at[None, :, None]
+    return SeriesCoefficients(
+        c0=np.where(edge, 1.0, co.c0),
+        k=np.where(edge, 0.0, co.k),
+        q=np.where(edge, 0.0, co.q),
+        one_minus_q=np.where(edge, 1.0, co.one_minus_q),
+        x_nm=np.where(at, 0.0, co.x_nm),
+        in_scope=co.in_scope | at,
+    )
 
 
 def exact_colour(
@@ -289,14 +306,15 @@ def exact_colour(
 ) -> ExactResult:
     """RGB by the include's math in float64: η1, η2 scalars; the rest arrays (n,); η3, κ3 (n,) or (n, 3).
 
-    The film must propagate (η2 ≥ η1 sin θ1, always so for a film in air)."""
+    The film must propagate (η2 > η1 sin θ1, always so for a film in air), or be the ambient's index at
+    grazing incidence (η2 = η1, cos θ1 = 0: white, the ground truth's r12 = −1)."""
     tolerance = table.meta["include"]["tolerance"] if tolerance is None else tolerance
     max_terms = table.meta["include"]["max_terms"] if max_terms is None else max_terms
     cos_theta = np.atleast_1d(np.asarray(cos_theta, float))
     opd = 2.0 * eta2 * np.broadcast_to(np.asarray(thickness_nm, float), cos_theta.shape)
     co = _channel_coefficients(eta1, eta2, cos_theta, opd, eta3, kappa3)
     if not co.in_scope.all():
-        raise ValueError("exact mode needs a propagating film (eta2 >= eta1 sin theta1)")
+        raise ValueError("exact mode needs a propagating film (eta2 > eta1 sin theta1, or eta2 = eta1)")
     x = co.x_nm
     w0 = table.samples[:, 0].real
     phase = np.exp(2j * np.pi * NU0_PER_NM * x)[None, :, None]

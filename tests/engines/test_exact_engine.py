@@ -195,31 +195,35 @@ class TestDropIn:
         require_engine()
         default_luts()
         image = tmp_path_factory.mktemp("dropin") / "dropin.png"
-        rows = make_dropin.errors(make_dropin.run(image), dispersive=False)  # raises on a shader error
-        return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}
+        cells, runtime_table = make_dropin.run(image)  # raises on a shader error
+        rows = make_dropin.errors(cells, dispersive=False)
+        return image, {(label, mode): (worst, n) for label, mode, worst, _, _, n in rows}, runtime_table
 
     def test_the_drop_in_exact_mode_matches_the_ground_truth(self, dropin):
-        image, rows = dropin
+        image, rows, _ = dropin
         assert image.stat().st_size > 10_000
         for label, *_ in make_dropin.MATERIALS:
             worst, n = rows[(label, "exact")]
             assert n >= 500 and worst <= 0.1, (label, worst)
 
     def test_the_drop_in_runtime_table_matches_the_ground_truth(self, dropin):
-        """The drop-in's default path (the runtime table, any iridescenceIOR) on the same spheres."""
-        _, rows = dropin
+        """The drop-in's default path (the runtime table, any iridescenceIOR) on the same spheres, its table
+        loaded as the loader picks it at run time: float32, as SwiftShader's WebGL2 context filters float32
+        textures (OES_texture_float_linear, which three.js enables)."""
+        _, rows, runtime_table = dropin
+        assert runtime_table == {"precision": "float", "reason": "OES_texture_float_linear present"}
         for label, *_ in make_dropin.MATERIALS:
             worst, n = rows[(label, "runtime")]
             assert n >= 500 and worst <= 0.3, (label, worst)
 
     def test_the_drop_in_reads_a_lut_linearly_when_asked(self, dropin):
         """lutRule 'linear' (4 bilinear fetches) changes what the drop-in returns and stays within ΔE00 1."""
-        _, rows = dropin
+        _, rows, _ = dropin
         for label, *_ in make_dropin.MATERIALS:
             linear, cubic = rows[(label, "lut-linear")][0], rows[(label, "lut")][0]
             assert linear != cubic and linear <= 1.0, (label, linear, cubic)
 
     def test_the_drop_in_check_can_fail(self, dropin):
         """three.js's own term, read back the same way, is far from the truth: the comparison sees a wrong term."""
-        _, rows = dropin
+        _, rows, _ = dropin
         assert min(rows[(label, "three")][0] for label, *_ in make_dropin.MATERIALS) > 1.0

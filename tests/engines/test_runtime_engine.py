@@ -34,6 +34,15 @@ ONE_INDEX = "lutbake_iridescence(lut, p.x, p.y, 1.0, p.z, q.x, r.x)"
 PER_CHANNEL = "lutbake_iridescence_rgb(lut, p.x, p.y, 1.0, p.z, q.xyz, r.xyz)"
 
 
+# docs/engines.md's searched maximum over the dielectric box (`python docs/make_runtime.py --searched-only`: the
+# ridge search, quality.runtime_accuracy.searched_ridge) and issue 38's point on the same η2 ≈ η3 ≈ η1 ridge:
+# (cos θ, d nm, η2, η3, κ3) and the ΔE00 docs/engines.md states there.
+DOCUMENTED_WORST = (
+    ((0.008821472963209271, 1500.0, 1.0043624360947994, 1.0130831812238836, 0.27751698947714654), 0.297),
+    ((0.0212, 659.0, 1.0226, 1.0226, 1.477), 0.232),
+)
+
+
 def khr_points():
     """(cos θ, d, η2, base F0 as khr_iridescence_rgb derives it) and the bases (η3, κ3) at 800 points,
     dielectric and metal, float32-rounded as three.js receives them."""
@@ -88,6 +97,12 @@ def runtime_run(tmp_path_factory):
         {**job, "call": PER_CHANNEL, "points": points},
         {**job, "call": ONE_INDEX, "points": points[:500], "prelude": "#define LUTBAKE_SCANLINE0_AT_V0 1"},
         {**job, "include": [], "prelude": three_source(), "call": THREE_CALL, "points": khr_points()[0]},
+        {**job, "call": PER_CHANNEL, "points": points, "float": "linear"},  # float32 texels, as the drop-in loads them
+        {
+            **job,
+            "call": ONE_INDEX,
+            "points": [[c, d, e2, 0.0, e3, 0, 0, 0, k3, 0, 0, 0] for (c, d, e2, e3, k3), _ in DOCUMENTED_WORST],
+        },
     ]
     folder = tmp_path_factory.mktemp("runtime-engine")
     result = run_harness("evaluate", folder, jobs)
@@ -148,6 +163,25 @@ def _khr(points, schlick=None):
         return khr_iridescence_rgb(stack)
     finally:
         approximations._schlick = saved
+
+
+def test_the_documented_searched_max_is_what_three_js_returns(runtime_run):
+    """At the worst point the ridge search found (and at the issue's point on that ridge) three.js's colour is
+    the model's, and its ΔE00 against the ground truth is the figure docs/engines.md states."""
+    columns = np.float32(np.array([p for p, _ in DOCUMENTED_WORST])).astype(float).T
+    got = runtime_run["got"][5]
+    model = runtime_colour(read_runtime_table(runtime_table_files()), columns[0], columns[1], 1.0, *columns[2:])
+    assert np.abs(got - model).max() <= TOLERANCE
+    de = delta_e00(got, truth(*columns))
+    assert np.abs(de - [v for _, v in DOCUMENTED_WORST]).max() <= 0.005, de
+
+
+def test_float32_texels_give_the_model_too(runtime_run):
+    """The table uploaded as float32 (what the drop-in's loader picks where OES_texture_float_linear filters
+    it) holds the same values as the half upload, so it returns the same numbers."""
+    texture = runtime_run["result"]["results"][4]["texture"]
+    assert texture["type"] == 1015  # THREE.FloatType
+    assert np.abs(runtime_run["got"][4] - runtime_run["model"][1]).max() <= TOLERANCE
 
 
 def test_the_khr_row_is_three_js_as_it_runs(runtime_run):

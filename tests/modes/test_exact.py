@@ -128,6 +128,26 @@ def test_hard_cases(tables):
         exact_colour(table, np.array([0.1]), np.array([200.0]), 1.5, 1.2, np.array([1.0]), np.array([0.0]))
 
 
+@pytest.mark.parametrize("eta1", [1.0, 1.5])
+def test_grazing_incidence_on_a_film_matching_the_ambient_is_the_truth(tables, eta1):
+    """η2 = η1 at cos θ1 = 0, the domain's edge (η2 = η1 sin θ1), where Y1 = Y2 = 0: white for every base and
+    thickness, the ground truth's value (r12 = −1 at grazing incidence); just inside it, the series meets the
+    truth as elsewhere near grazing incidence."""
+    _, table, _ = tables
+    eta3, kappa3 = np.array([eta1, eta1, 2.0, 0.2, eta1 + 1e-4]), np.array([0.0, 1.477, 0.0, 3.0, 0.0])
+    for cos in (0.0, 1e-6, 1e-3):
+        for d in (0.0, 659.0):
+            at = np.full(eta3.size, cos), np.full(eta3.size, d)
+            got = exact_colour(table, *at, eta1, eta1, eta3, kappa3)
+            stack = FilmPoints.build(
+                eta1=eta1, eta2=eta1, cos_theta=at[0], thickness_nm=at[1], eta3=eta3, kappa3=kappa3
+            )
+            assert np.isfinite(got.values).all()
+            assert delta_e00(got.values, reference_colour(stack).values).max() <= 0.1, (cos, d)
+            if cos == 0.0:
+                assert np.allclose(got.values, table.samples[:, 0].real, atol=1e-12) and (got.terms == 0).all()
+
+
 @pytest.mark.parametrize("eta2", [1.33, 2.0])
 def test_the_searched_max_near_the_dielectric_corner_is_bounded(tables, eta2):
     """At cos θ1 → 0, D → 0, η3 → η1, κ3 → 0 the series needs ~1/(1 − |q|) terms; past the cap of 64 the
