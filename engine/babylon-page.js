@@ -1,0 +1,100 @@
+// Babylon.js's PBRMaterial with lutbake's runtime table in headless Chromium (engine/harness.mjs babylon,
+// tests/engines/test_babylon_engine.py): per material, a sphere rendered into a float target with the film's
+// Fresnel term as output and again with the parameters each pixel used, for Babylon's own term and lutbake's.
+import { Engine } from '@babylonjs/core/Engines/engine.js';
+import { Scene } from '@babylonjs/core/scene.js';
+import { Camera } from '@babylonjs/core/Cameras/camera.js';
+import { FreeCamera } from '@babylonjs/core/Cameras/freeCamera.js';
+import { Color3, Color4 } from '@babylonjs/core/Maths/math.color.js';
+import { Vector3 } from '@babylonjs/core/Maths/math.vector.js';
+import { CreateSphere } from '@babylonjs/core/Meshes/Builders/sphereBuilder.js';
+import { PBRMaterial } from '@babylonjs/core/Materials/PBR/pbrMaterial.js';
+import { RawTexture } from '@babylonjs/core/Materials/Textures/rawTexture.js';
+import { Texture } from '@babylonjs/core/Materials/Textures/texture.js';
+import { RenderTargetTexture } from '@babylonjs/core/Materials/Textures/renderTargetTexture.js';
+import { Constants } from '@babylonjs/core/Engines/constants.js';
+import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
+
+const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
+const scene = new Scene(engine);
+scene.clearColor = new Color4(0, 0, 0, 0);
+const camera = new FreeCamera('camera', new Vector3(0, 0, -3), scene);
+camera.setTarget(Vector3.Zero());
+camera.mode = Camera.ORTHOGRAPHIC_CAMERA;
+[camera.orthoLeft, camera.orthoRight, camera.orthoBottom, camera.orthoTop] = [-1.02, 1.02, -1.02, 1.02];
+const sphere = CreateSphere('sphere', { diameter: 2, segments: 96 }, scene);
+
+// Film thickness weights (the glTF thickness texture's G) at random per texel, read by nearest filtering.
+function thicknessTexture(seed) {
+  const data = new Uint8Array(64 * 32 * 4);
+  let state = seed >>> 0;
+  for (let i = 0; i < data.length; i++) {
+    state = (1664525 * state + 1013904223) >>> 0;
+    data[i] = state >>> 24;
+  }
+  return new RawTexture(data, 64, 32, Constants.TEXTUREFORMAT_RGBA, scene, false, false, Texture.NEAREST_SAMPLINGMODE);
+}
+
+function pbrMaterial(m, k) {
+  const material = new PBRMaterial(`m${k}`, scene);
+  material.onError = (effect, errors) => {
+    const line = Number((errors.match(/ERROR: 0:(\d+)/) || [])[1]);
+    const code = effect.fragmentSourceCode.split('\n');
+    console.error(`${material.name}: ${errors}\n${code.slice(Math.max(0, line - 4), line + 2).join('\n')}`);
+  };
+  material.metallic = m.metal ? 1 : 0;
+  material.roughness = 0.3;
+  material.indexOfRefraction = m.ior;
+  if (m.metal) material.albedoColor = new Color3(...m.metal.f0);
+  material.iridescence.isEnabled = true;
+  material.iridescence.intensity = 1;
+  material.iridescence.indexOfRefraction = m.iridescenceIOR;
+  [material.iridescence.minimumThickness, material.iridescence.maximumThickness] = m.thickness;
+  if (m.thickness[0] !== m.thickness[1]) material.iridescence.thicknessTexture = thicknessTexture(k + 1);
+  return material;
+}
+
+async function render(material, size) {
+  const target = new RenderTargetTexture('target', size, scene, {
+    type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false, samplingMode: Texture.NEAREST_SAMPLINGMODE });
+  target.renderList = [sphere];
+  target.activeCamera = camera;
+  target.clearColor = new Color4(0, 0, 0, 0);
+  sphere.material = material;
+  await scene.whenReadyAsync();
+  const start = performance.now();
+  await new Promise((ok, no) => {
+    const wait = () => {
+      if (material.isReady(sphere)) ok();
+      else if (performance.now() - start > 60000) no(new Error(`material ${material.name} not ready after 60 s (shader errors above)`));
+      else setTimeout(wait, 10);
+    };
+    wait();
+  });
+  target.render();
+  const pixels = await target.readPixels();
+  target.dispose();
+  return new Float32Array(pixels.buffer);
+}
+
+window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, stride = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  const cells = [];
+  for (const [k, m] of materials.entries()) {
+    for (const mode of modes) {
+      const options = { runtime, mode, metal: m.metal || undefined };
+      const fresnel = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'fresnel' }), size);
+      const params = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'parameters' }), size);
+      const samples = [];
+      for (let i = 0; i < size * size; i += stride) {
+        if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
+      }
+      cells.push({ material: k, mode, samples });
+    }
+  }
+  const gl = engine._gl;
+  const { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV } = runtime.table;
+  return { babylon: Engine.Version, webgl: engine.webGLVersion, renderer: gl.getParameter(gl.RENDERER),
+           texture: { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV }, cells };
+};
+window.lutbakeReady = true;
