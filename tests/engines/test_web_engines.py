@@ -1,13 +1,15 @@
-"""lutbake's runtime table in Babylon.js: PBRMaterial's iridescence through engine/lutbake-babylon.js.
+"""lutbake's runtime table in Babylon.js and PlayCanvas: PBRMaterial's iridescence through
+engine/lutbake-babylon.js (a material plugin), StandardMaterial's through engine/lutbake-playcanvas.js (a
+shader chunk override).
 
-Babylon.js (pinned in engine/package-lock.json, headless Chromium, WebGL2 through SwiftShader) renders lit
-PBRMaterial spheres (metallic workflow, KHR_materials_iridescence parameters, a random thickness texture)
-with the plugin's output set to the film's Fresnel term and again to the parameters each pixel used
-(cos θ, d, η2). At every pixel the term must be runtime.model's at those parameters to 1e-4; the materials
-are random films over dielectric and metal bases, the films and bases of the worst points a search of the
-numpy model found (the sphere's pixels sweep cos θ through the searched one), and named metals per
-channel. Against the ground truth the contract holds (max ΔE00 ≤ 1, p99 ≤ 0.3), and Babylon's own term,
-rendered in the same page, is an order of magnitude off.
+Each engine (pinned in engine/package-lock.json, headless Chromium, WebGL2 through SwiftShader) renders lit
+spheres (metallic workflow, KHR_materials_iridescence parameters; in Babylon a random thickness texture,
+in PlayCanvas one thickness per material) with the drop-in's output set to the film's Fresnel term and
+again to the parameters each pixel used (cos θ, d, η2). At every pixel the term must be runtime.model's
+at those parameters to 1e-4; the materials are random films over dielectric and metal bases, the films
+and bases of the worst points a search of the numpy model found (the sphere's pixels sweep cos θ through
+the searched one), and named metals per channel. Against the ground truth the contract holds (max
+ΔE00 ≤ 1, p99 ≤ 0.3), and the engine's own term, rendered in the same page, is an order of magnitude off.
 """
 
 import json
@@ -60,31 +62,39 @@ def materials(table):
     return out
 
 
-@pytest.fixture(scope="module")
-def babylon_run(tmp_path_factory):
+PACKAGES = {"babylon": "@babylonjs/core", "playcanvas": "playcanvas"}  # harness command: the engine's package
+
+
+@pytest.fixture(scope="module", params=sorted(PACKAGES))
+def engine_run(request, tmp_path_factory):
+    return run_engine(request.param, tmp_path_factory.mktemp(f"{request.param}-engine"))
+
+
+def run_engine(engine, folder):
+    """The spheres of every material rendered by ``engine`` in headless Chromium, for lutbake's term and
+    the engine's own (bench/bench_web_engines.py prints the same run's figures)."""
     require_engine()
-    if not (ENGINE / "node_modules" / "@babylonjs" / "core").is_dir():
-        pytest.fail("the pinned Babylon.js is missing: cd engine && npm ci", pytrace=False)
+    if not (ENGINE / "node_modules" / PACKAGES[engine]).is_dir():
+        pytest.fail(f"the pinned {PACKAGES[engine]} is missing: cd engine && npm ci", pytrace=False)
     path = runtime_table_files()
     table = read_runtime_table(path)
     spec = {
         "runtime": f"/{path.with_suffix('').relative_to(ROOT)}",
         "materials": materials(table),
-        "modes": ["runtime", "babylon"],
+        "modes": ["runtime", engine],
         "size": 64,
         "stride": 3,
     }
-    folder = tmp_path_factory.mktemp("babylon-engine")
     (folder / "spec.json").write_text(json.dumps(spec))
     proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "babylon", str(folder / "spec.json"), str(folder / "result.json")],
+        ["node", str(ENGINE / "harness.mjs"), engine, str(folder / "spec.json"), str(folder / "result.json")],
         capture_output=True,
         text=True,
         cwd=ROOT,
         timeout=900,
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
-    return {"table": table, "spec": spec, "result": json.loads((folder / "result.json").read_text())}
+    return {"engine": engine, "table": table, "spec": spec, "result": json.loads((folder / "result.json").read_text())}
 
 
 def _points(run, mode):
@@ -103,40 +113,45 @@ def _points(run, mode):
     return data[:, :3], data[:, 3], data[:, 4], data[:, 5], base[:, 0], base[:, 1], np.array(index)
 
 
-def test_babylon_loads_the_table_half_bilinear_and_not_anisotropic(babylon_run):
-    result = babylon_run["result"]
-    assert result["babylon"] == "9.28.0" and result["webgl"] == 2
+def test_the_engine_loads_the_table_half_bilinear_and_not_anisotropic(engine_run):
+    result = engine_run["result"]
     texture = result["texture"]
-    assert texture["textureType"] == 2 and texture["samplingMode"] == 2  # HALF_FLOAT, BILINEAR
-    assert texture["anisotropicFilteringLevel"] == 1 and texture["wrapU"] == texture["wrapV"] == 0  # CLAMP
+    if engine_run["engine"] == "babylon":
+        assert result["babylon"] == "9.28.0" and result["webgl"] == 2
+        assert texture["textureType"] == 2 and texture["samplingMode"] == 2  # HALF_FLOAT, BILINEAR
+        assert texture["anisotropicFilteringLevel"] == 1 and texture["wrapU"] == texture["wrapV"] == 0  # CLAMP
+    else:
+        assert result["playcanvas"] == "2.23.3" and result["device"] == "webgl2"
+        assert texture["format"] == 12 and texture["minFilter"] == texture["magFilter"] == 1  # RGBA16F, LINEAR
+        assert texture["anisotropy"] == 1 and not texture["mipmaps"] and texture["addressU"] == texture["addressV"] == 1
 
 
-def test_the_engine_returns_the_model(babylon_run):
-    rgb, cos, d, eta2, eta3, kappa3, index = _points(babylon_run, "runtime")
+def test_the_engine_returns_the_model(engine_run):
+    rgb, cos, d, eta2, eta3, kappa3, index = _points(engine_run, "runtime")
     assert len(rgb) >= 10000
-    model = runtime_colour(babylon_run["table"], cos, d, 1.0, eta2, eta3, kappa3)
+    model = runtime_colour(engine_run["table"], cos, d, 1.0, eta2, eta3, kappa3)
     assert np.abs(rgb - model).max() <= TOLERANCE, np.abs(rgb - model).max()
-    for k, m in enumerate(babylon_run["spec"]["materials"]):
+    for k, m in enumerate(engine_run["spec"]["materials"]):
         mine = index == k
         assert mine.sum() >= 300, (m, mine.sum())
         if "cos" in m:  # the sphere's pixels sweep through the searched cos θ
             assert np.abs(cos[mine] - m["cos"]).min() <= 0.01, m
 
 
-def _truth_subset(babylon_run, mode):
-    rgb, cos, d, eta2, eta3, kappa3, _ = _points(babylon_run, mode)
+def _truth_subset(engine_run, mode):
+    rgb, cos, d, eta2, eta3, kappa3, _ = _points(engine_run, mode)
     pick = np.random.default_rng(5).choice(len(rgb), TRUTH_POINTS, replace=False)
     return rgb[pick], truth(cos[pick], d[pick], eta2[pick], eta3[pick], kappa3[pick])
 
 
-def test_the_engine_meets_the_contract_and_babylons_own_term_does_not(babylon_run):
-    got, reference = _truth_subset(babylon_run, "runtime")
+def test_the_engine_meets_the_contract_and_its_own_term_does_not(engine_run):
+    got, reference = _truth_subset(engine_run, "runtime")
     de = delta_e00(got, reference)
     assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= min(CONTRACT_MAX, REGRESSION_MAX), (
         np.percentile(de, 99),
         de.max(),
     )
-    own, reference_own = _truth_subset(babylon_run, "babylon")
+    own, reference_own = _truth_subset(engine_run, engine_run["engine"])
     de_own = delta_e00(own, reference_own)
     assert de_own.max() >= 10 * de.max() and np.percentile(de_own, 99) >= 10 * np.percentile(de, 99), (
         de_own.max(),
