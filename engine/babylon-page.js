@@ -13,7 +13,11 @@ import { RawTexture } from '@babylonjs/core/Materials/Textures/rawTexture.js';
 import { Texture } from '@babylonjs/core/Materials/Textures/texture.js';
 import { RenderTargetTexture } from '@babylonjs/core/Materials/Textures/renderTargetTexture.js';
 import { Constants } from '@babylonjs/core/Engines/constants.js';
+import { LoadAssetContainerAsync } from '@babylonjs/core/Loading/sceneLoader.js';
+import '@babylonjs/loaders/glTF/glTFFileLoader.js';
+import '@babylonjs/loaders/glTF/2.0/index.js';
 import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
+import { NAME, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
 
 const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
 const scene = new Scene(engine);
@@ -96,5 +100,28 @@ window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, str
   const { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV } = runtime.table;
   return { babylon: Engine.Version, webgl: engine.webGLVersion, renderer: gl.getParameter(gl.RENDERER),
            texture: { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV }, cells };
+};
+// A glTF asset loaded with lutbake's loader extension: each of its iridescent materials rendered on the
+// sphere, its Fresnel term and parameters read back as above (the asset's own meshes are not drawn).
+window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, size = 96, stride = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  registerLutbakeGltf();
+  const load = async (output) => {
+    const extensionOptions = { [NAME]: { runtime, metals, output } };
+    const container = await LoadAssetContainerAsync(asset, scene, { pluginOptions: { gltf: { extensionOptions } } });
+    return container.materials.filter((m) => m.iridescence && m.iridescence.isEnabled);
+  };
+  const [fresnels, parameters] = [await load('fresnel'), await load('parameters')];
+  const cells = [];
+  for (const [k, material] of fresnels.entries()) {
+    const fresnel = await render(material, size);
+    const params = await render(parameters[k], size);
+    const samples = [];
+    for (let i = 0; i < size * size; i += stride) {
+      if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
+    }
+    cells.push({ name: material.name, ior: material.indexOfRefraction, metallic: material.metallic, samples });
+  }
+  return { babylon: Engine.Version, cells };
 };
 window.lutbakeReady = true;

@@ -157,3 +157,61 @@ def test_the_engine_meets_the_contract_and_its_own_term_does_not(engine_run):
         de_own.max(),
         de.max(),
     )
+
+
+GLTF_METALS = {"oxide": base_rgb("Cu")}  # the metallic glTF material's base, per channel, by its name
+
+
+@pytest.fixture(scope="module")
+def gltf_run():
+    """A glTF asset (a soap film over KHR_materials_ior 1.6, an oxide film on a metal) loaded by Babylon's
+    glTF loader with lutbake's extension (engine/lutbake-babylon-gltf.js), each material rendered on the
+    sphere as above. The asset is written under out/ (the harness serves only the repository)."""
+    from gltf_assets import document, iridescent, stand_in
+
+    require_engine()
+    path = runtime_table_files()
+    materials = [
+        iridescent(ior=1.33, d_min=200, d_max=600, base_ior=1.6, name="soap"),
+        iridescent(ior=2.0, d_min=100, d_max=300, metallic=1.0, colour=(0.9, 0.6, 0.5), name="oxide"),
+    ]
+    doc = document(materials, extensionsUsed=["KHR_materials_iridescence", "KHR_materials_ior"])
+    asset = stand_in(doc, ROOT / "out" / "babylon-gltf", "films")
+    metals = {name: {"eta": n.tolist(), "kappa": k.tolist()} for name, (n, k) in GLTF_METALS.items()}
+    spec = {
+        "runtime": f"/{path.with_suffix('').relative_to(ROOT)}",
+        "asset": f"/{asset.relative_to(ROOT)}",
+        "metals": metals,
+        "size": 64,
+        "stride": 3,
+    }
+    folder = asset.parent
+    (folder / "spec.json").write_text(json.dumps(spec))
+    proc = subprocess.run(
+        ["node", str(ENGINE / "harness.mjs"), "babylon-gltf", str(folder / "spec.json"), str(folder / "result.json")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return read_runtime_table(path), json.loads((folder / "result.json").read_text())
+
+
+def test_babylons_gltf_loader_serves_the_asset_from_the_runtime_table(gltf_run):
+    table, result = gltf_run
+    cells = {cell["name"]: cell for cell in result["cells"]}
+    assert set(cells) == {"soap", "oxide"}
+    assert cells["soap"]["ior"] == pytest.approx(1.6) and cells["soap"]["metallic"] == 0  # KHR_materials_ior
+    assert cells["oxide"]["metallic"] == 1
+    bases = {"soap": (np.full(3, 1.6), np.zeros(3)), "oxide": GLTF_METALS["oxide"]}
+    for name, cell in cells.items():
+        samples = np.array(cell["samples"], float)
+        assert len(samples) >= 900
+        cos, d, eta2 = samples[:, 3:].T
+        n = len(samples)
+        eta3, kappa3 = (np.tile(np.asarray(v, float), (n, 1)) for v in bases[name])
+        model = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3)
+        assert np.abs(samples[:, :3] - model).max() <= TOLERANCE, (name, np.abs(samples[:, :3] - model).max())
+        other = runtime_colour(table, cos, d, 1.0, eta2, np.full((n, 3), 1.5), np.zeros((n, 3)))
+        assert np.abs(samples[:, :3] - other).max() > 1e-2  # the base the asset names made the difference
