@@ -7,6 +7,7 @@ import { Camera } from '@babylonjs/core/Cameras/camera.js';
 import { FreeCamera } from '@babylonjs/core/Cameras/freeCamera.js';
 import { Color3, Color4 } from '@babylonjs/core/Maths/math.color.js';
 import { Vector3 } from '@babylonjs/core/Maths/math.vector.js';
+import { DirectionalLight } from '@babylonjs/core/Lights/directionalLight.js';
 import { CreateSphere } from '@babylonjs/core/Meshes/Builders/sphereBuilder.js';
 import { PBRMaterial } from '@babylonjs/core/Materials/PBR/pbrMaterial.js';
 import { RawTexture } from '@babylonjs/core/Materials/Textures/rawTexture.js';
@@ -101,6 +102,47 @@ window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, str
   return { babylon: Engine.Version, webgl: engine.webGLVersion, renderer: gl.getParameter(gl.RENDERER),
            texture: { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV }, cells };
 };
+// --- cost: wall per draw of a sphere lit by one directional light filling a size² float target, per material: no iridescence,
+// Babylon's own, lutbake's runtime table; interleaved rounds (the order rotates), each waits for the GPU
+// (a one-pixel read), so a slow stretch of a shared machine hits every entry alike; round 0 is dropped.
+window.lutbakeBabylonCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  const light = new DirectionalLight('light', new Vector3(-0.3, -0.5, 1), scene);  // the term is lit: not dead code
+  const entries = [];
+  for (const [k, m] of materials.entries()) {
+    for (const mode of ['none', 'babylon', 'runtime']) {
+      const material = pbrMaterial(m, k);
+      material.iridescence.isEnabled = mode !== 'none';
+      if (mode === 'runtime') lutbakeIridescence(material, { runtime, metal: m.metal || undefined });
+      entries.push({ name: `${m.label}|${mode}`, material });
+    }
+  }
+  const target = new RenderTargetTexture('cost', size, scene, { type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false });
+  target.renderList = [sphere];
+  target.activeCamera = camera;
+  for (const { material } of entries) {
+    sphere.material = material;
+    await scene.whenReadyAsync();
+    while (!material.isReady(sphere)) await new Promise((ok) => setTimeout(ok, 10));
+  }
+  const pixel = new Float32Array(4);
+  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
+  for (let round = 0; round <= rounds; round++) {
+    for (let i = 0; i < entries.length; i++) {
+      const { name, material } = entries[(i + round) % entries.length];
+      sphere.material = material;
+      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
+      const start = performance.now();
+      for (let d = 0; d < draws; d++) target.render();
+      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
+      if (round > 0) times[name].push((performance.now() - start) / draws);
+    }
+  }
+  target.dispose();
+  light.dispose();
+  return { babylon: Engine.Version, size, times };
+};
+
 // A glTF asset loaded with lutbake's loader extension: each of its iridescent materials rendered on the
 // sphere, its Fresnel term and parameters read back as above (the asset's own meshes are not drawn).
 window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, size = 96, stride = 2 }) => {

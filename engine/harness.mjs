@@ -73,7 +73,9 @@ function writeAtomic(path, data) {
 const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
                 gltf: ['lutbakeGltf', '/engine/gltf-page.html'], babylon: ['lutbakeBabylon', '/engine/babylon-page.html'],
                 playcanvas: ['lutbakePlaycanvas', '/engine/playcanvas-page.html'],
-                'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'] };
+                'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'],
+                'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],
+                'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'] };
 
 const [command, input, output] = process.argv.slice(2);
 if (command in CALLS) {

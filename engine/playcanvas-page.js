@@ -67,4 +67,47 @@ window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, 
   return { playcanvas: pc.version, device: device.deviceType, renderer: device.unmaskedRenderer ?? '',
            texture: { format, mipmaps, anisotropy, minFilter, magFilter, addressU, addressV }, cells };
 };
+// --- cost: wall per draw of a sphere lit by one directional light filling a size² float target, per
+// material: no iridescence, PlayCanvas's own, lutbake's runtime table; interleaved rounds (the order
+// rotates), each waits for the GPU (a one-pixel read); round 0 (compilation) is dropped.
+window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
+  const runtime = await loadLutbakeRuntime(stem, device);
+  const light = new pc.Entity('light');
+  light.addComponent('light', { type: 'directional' });
+  light.setEulerAngles(30, 20, 0);
+  app.root.addChild(light);
+  const entries = [];
+  for (const m of materials) {
+    for (const mode of ['none', 'playcanvas', 'runtime']) {
+      const material = standardMaterial(m);
+      material.useIridescence = mode !== 'none';
+      if (mode === 'runtime') lutbakeIridescence(material, { runtime, metal: m.metal || undefined });
+      material.update();
+      entries.push({ name: `${m.label}|${mode}`, material });
+    }
+  }
+  const colour = new pc.Texture(device, { width: size, height: size, format: pc.PIXELFORMAT_RGBA32F, mipmaps: false });
+  const target = new pc.RenderTarget({ colorBuffer: colour, depth: true });
+  camera.camera.renderTarget = target;
+  app.autoRender = false;
+  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
+  const wait = () => colour.read(0, 0, 1, 1, { renderTarget: target, immediate: true });
+  for (let round = 0; round <= rounds; round++) {
+    for (let i = 0; i < entries.length; i++) {
+      const { name, material } = entries[(i + round) % entries.length];
+      sphere.render.material = material;
+      await wait();
+      const start = performance.now();
+      for (let d = 0; d < draws; d++) app.render();
+      await wait();
+      if (round > 0) times[name].push((performance.now() - start) / draws);
+    }
+  }
+  app.autoRender = true;
+  camera.camera.renderTarget = null;
+  light.destroy();
+  target.destroy();
+  colour.destroy();
+  return { playcanvas: pc.version, size, times };
+};
 window.lutbakeReady = true;
