@@ -75,7 +75,8 @@ const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-co
                 playcanvas: ['lutbakePlaycanvas', '/engine/playcanvas-page.html'],
                 'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'],
                 'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],
-                'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'] };
+                'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'],
+                'playcanvas-gltf': ['lutbakePlaycanvasGltf', '/engine/playcanvas-page.html'] };
 
 const [command, input, output] = process.argv.slice(2);
 if (command in CALLS) {

@@ -101,3 +101,22 @@ export function lutbakeIridescence(material, { runtime = null, mode = runtime ? 
   material.update();
   return material;
 }
+
+// The glTF-loading hook: container asset options whose material postprocess serves every
+// KHR_materials_iridescence material of an asset from the runtime table (PlayCanvas's glTF parser has
+// already set its film and base index). glTF carries no n, k for a metallic base: `metals` maps a glTF
+// material's name to them (lutbake's named metals: exact.base_rgb).
+//
+//   const asset = new pc.Asset('lamp', 'container', { url: 'IridescenceLamp.gltf' }, null,
+//                              lutbakeGltfOptions({ runtime, metals: { 'Lamp metal': { eta, kappa } } }));
+//   app.assets.add(asset); app.assets.load(asset);
+export function lutbakeGltfOptions({ runtime, metals = {}, output = null }) {
+  return {
+    material: {
+      postprocess(gltfMaterial, material) {
+        if (!gltfMaterial.extensions?.KHR_materials_iridescence) return;
+        lutbakeIridescence(material, { runtime, metal: metals[gltfMaterial.name] || undefined, output });
+      },
+    },
+  };
+}

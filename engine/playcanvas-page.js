@@ -3,7 +3,7 @@
 // with the film's Fresnel term as output and again with the parameters each pixel used, for PlayCanvas's own
 // term and lutbake's.
 import * as pc from 'playcanvas';
-import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-playcanvas.js';
+import { loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
 const device = app.graphicsDevice;
@@ -109,5 +109,31 @@ window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, ro
   target.destroy();
   colour.destroy();
   return { playcanvas: pc.version, size, times };
+};
+// A glTF asset loaded as a container with lutbake's material hook: each of its iridescent materials rendered
+// on the sphere, its Fresnel term and parameters read back as above (the asset itself is not instantiated).
+window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, size = 96, stride = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, device);
+  // PlayCanvas caches a container by URL: the query keeps the two loads (and their hooks) apart.
+  const load = (output) => new Promise((ok, no) => {
+    const asset = new pc.Asset(`films-${output}`, 'container', { url: `${url}?output=${output}` }, null,
+                               lutbakeGltfOptions({ runtime, metals, output }));
+    asset.once('error', no);
+    asset.ready(() => ok(asset.resource.data.materials.filter((m) => m.useIridescence)));
+    app.assets.add(asset);
+    app.assets.load(asset);
+  });
+  const [fresnels, parameters] = [await load('fresnel'), await load('parameters')];
+  const cells = [];
+  for (const [k, material] of fresnels.entries()) {
+    const fresnel = await render(material, size);
+    const params = await render(parameters[k], size);
+    const samples = [];
+    for (let i = 0; i < size * size; i += stride) {
+      if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
+    }
+    cells.push({ name: material.name, ior: 1 / material.refractionIndex, metallic: material.metalness, samples });
+  }
+  return { playcanvas: pc.version, cells };
 };
 window.lutbakeReady = true;

@@ -162,11 +162,13 @@ def test_the_engine_meets_the_contract_and_its_own_term_does_not(engine_run):
 GLTF_METALS = {"oxide": base_rgb("Cu")}  # the metallic glTF material's base, per channel, by its name
 
 
-@pytest.fixture(scope="module")
-def gltf_run():
-    """A glTF asset (a soap film over KHR_materials_ior 1.6, an oxide film on a metal) loaded by Babylon's
-    glTF loader with lutbake's extension (engine/lutbake-babylon-gltf.js), each material rendered on the
+@pytest.fixture(scope="module", params=sorted(PACKAGES))
+def gltf_run(request):
+    """A glTF asset (a soap film over KHR_materials_ior 1.6, an oxide film on a metal) loaded by the engine's
+    glTF loader with lutbake's hook (Babylon: the loader extension of engine/lutbake-babylon-gltf.js;
+    PlayCanvas: the container's material postprocess, lutbakeGltfOptions), each material rendered on the
     sphere as above. The asset is written under out/ (the harness serves only the repository)."""
+    engine = request.param
     from gltf_assets import document, iridescent, stand_in
 
     require_engine()
@@ -185,20 +187,20 @@ def gltf_run():
         "size": 64,
         "stride": 3,
     }
-    folder = asset.parent
-    (folder / "spec.json").write_text(json.dumps(spec))
+    job, out = asset.parent / f"{engine}-spec.json", asset.parent / f"{engine}-result.json"
+    job.write_text(json.dumps(spec))
     proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), "babylon-gltf", str(folder / "spec.json"), str(folder / "result.json")],
+        ["node", str(ENGINE / "harness.mjs"), f"{engine}-gltf", str(job), str(out)],
         capture_output=True,
         text=True,
         cwd=ROOT,
         timeout=600,
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
-    return read_runtime_table(path), json.loads((folder / "result.json").read_text())
+    return read_runtime_table(path), json.loads(out.read_text())
 
 
-def test_babylons_gltf_loader_serves_the_asset_from_the_runtime_table(gltf_run):
+def test_the_engines_gltf_loader_serves_the_asset_from_the_runtime_table(gltf_run):
     table, result = gltf_run
     cells = {cell["name"]: cell for cell in result["cells"]}
     assert set(cells) == {"soap", "oxide"}
