@@ -19,6 +19,7 @@ import '@babylonjs/loaders/glTF/glTFFileLoader.js';
 import '@babylonjs/loaders/glTF/2.0/index.js';
 import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
 import { NAME, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
+import { coveredSamples, gltfCells } from './sphere-samples.js';
 
 const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
 const scene = new Scene(engine);
@@ -90,10 +91,7 @@ window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, str
       const options = { runtime, mode, metal: m.metal || undefined };
       const fresnel = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'fresnel' }), size);
       const params = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'parameters' }), size);
-      const samples = [];
-      for (let i = 0; i < size * size; i += stride) {
-        if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
-      }
+      const samples = coveredSamples(fresnel, params, size, stride);
       cells.push({ material: k, mode, samples });
     }
   }
@@ -153,17 +151,7 @@ window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, size = 96, st
     const container = await LoadAssetContainerAsync(asset, scene, { pluginOptions: { gltf: { extensionOptions } } });
     return container.materials.filter((m) => m.iridescence && m.iridescence.isEnabled);
   };
-  const [fresnels, parameters] = [await load('fresnel'), await load('parameters')];
-  const cells = [];
-  for (const [k, material] of fresnels.entries()) {
-    const fresnel = await render(material, size);
-    const params = await render(parameters[k], size);
-    const samples = [];
-    for (let i = 0; i < size * size; i += stride) {
-      if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
-    }
-    cells.push({ name: material.name, ior: material.indexOfRefraction, metallic: material.metallic, samples });
-  }
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: m.indexOfRefraction, metallic: m.metallic }), size, stride);
   return { babylon: Engine.Version, cells };
 };
 window.lutbakeReady = true;

@@ -4,6 +4,7 @@
 // term and lutbake's.
 import * as pc from 'playcanvas';
 import { loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
+import { coveredSamples, gltfCells } from './sphere-samples.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
 const device = app.graphicsDevice;
@@ -56,10 +57,7 @@ window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, 
       const options = { runtime, mode, metal: m.metal || undefined, device };
       const fresnel = await render(lutbakeIridescence(standardMaterial(m), { ...options, output: 'fresnel' }), size);
       const params = await render(lutbakeIridescence(standardMaterial(m), { ...options, output: 'parameters' }), size);
-      const samples = [];
-      for (let i = 0; i < size * size; i += stride) {
-        if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
-      }
+      const samples = coveredSamples(fresnel, params, size, stride);
       cells.push({ material: k, mode, samples });
     }
   }
@@ -123,17 +121,7 @@ window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, size 
     app.assets.add(asset);
     app.assets.load(asset);
   });
-  const [fresnels, parameters] = [await load('fresnel'), await load('parameters')];
-  const cells = [];
-  for (const [k, material] of fresnels.entries()) {
-    const fresnel = await render(material, size);
-    const params = await render(parameters[k], size);
-    const samples = [];
-    for (let i = 0; i < size * size; i += stride) {
-      if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
-    }
-    cells.push({ name: material.name, ior: 1 / material.refractionIndex, metallic: material.metalness, samples });
-  }
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: 1 / m.refractionIndex, metallic: m.metalness }), size, stride);
   return { playcanvas: pc.version, cells };
 };
 window.lutbakeReady = true;
