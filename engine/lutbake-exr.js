@@ -92,6 +92,7 @@ export async function readExr(url, buffer) {
   const lineBytes = channels.length * width * 2;
   const lines = LINES_PER_BLOCK[compression];
   const blocks = Math.ceil(height / lines);
+  if (pixelsAt + 8 * blocks > bytes.length) fail(url, `the offset table of ${blocks} blocks runs past the end of the file`);
   const texels = new Uint16Array(width * height * 4);
   for (let b = 0; b < blocks; b++) {
     const offset = Number(view.getBigUint64(pixelsAt + 8 * b, true));

@@ -217,3 +217,45 @@ def test_the_engines_gltf_loader_serves_the_asset_from_the_runtime_table(gltf_ru
         assert np.abs(samples[:, :3] - model).max() <= TOLERANCE, (name, np.abs(samples[:, :3] - model).max())
         other = runtime_colour(table, cos, d, 1.0, eta2, np.full((n, 3), 1.5), np.zeros((n, 3)))
         assert np.abs(samples[:, :3] - other).max() > 1e-2  # the base the asset names made the difference
+
+
+READ_EXR = """
+import { readExr } from './engine/lutbake-exr.js';
+import { readFileSync, writeFileSync } from 'node:fs';
+const [path, out, ...cuts] = process.argv.slice(1);
+const bytes = readFileSync(path);
+const slice = (n) => bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + n);
+const table = await readExr(path, slice(bytes.length));
+writeFileSync(out, Buffer.from(table.texels.buffer));
+const errors = [];
+for (const n of cuts.map(Number)) {
+  errors.push(await readExr(path, slice(n)).then(() => 'read', (e) => e.message));
+}
+console.log(JSON.stringify({ width: table.width, height: table.height, errors }));
+"""
+
+
+def test_the_engine_neutral_exr_reader_is_openexrs_bit_for_bit_and_refuses_truncated_files(tmp_path):
+    """engine/lutbake-exr.js (what Babylon and PlayCanvas upload) against OpenEXR's own reading of the runtime
+    table, every half texel, scanline 0 first; a file cut anywhere is refused with a message naming it."""
+    import OpenEXR
+
+    require_engine()
+    path = runtime_table_files().with_suffix(".exr")
+    cuts = [4, 100, 3000, path.stat().st_size // 2, path.stat().st_size - 1]
+    out = tmp_path / "texels.bin"
+    proc = subprocess.run(
+        ["node", "--input-type=module", "-e", READ_EXR, str(path), str(out), *map(str, cuts)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    result = json.loads(proc.stdout)
+    exr = OpenEXR.InputFile(str(path))
+    width, height = result["width"], result["height"]
+    planes = [np.frombuffer(exr.channel(c), np.uint16).reshape(height, width) for c in "RGBA"]
+    assert np.array_equal(np.fromfile(out, np.uint16).reshape(height, width, 4), np.stack(planes, -1))
+    assert len(result["errors"]) == len(cuts)
+    assert all(str(path) in error and error != "read" for error in result["errors"]), result["errors"]
