@@ -5,6 +5,9 @@
 //        node engine/harness.mjs view SPHERES.json IMAGE.png       (docs/make_hero.py, lutbake preview)
 //        node engine/harness.mjs dropin SPEC.json RESULT.json IMAGE.png   (tests/engines/test_exact_engine.py)
 //        node engine/harness.mjs gltf SPEC.json RESULT.json               (tests/engines/test_gltf_engine.py)
+//        node engine/harness.mjs babylon SPEC.json RESULT.json            (tests/engines/test_web_engines.py)
+//        node engine/harness.mjs playcanvas SPEC.json RESULT.json         (tests/engines/test_web_engines.py)
+//        node engine/harness.mjs babylon-gltf SPEC.json RESULT.json       (tests/engines/test_web_engines.py)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
@@ -68,7 +71,12 @@ function writeAtomic(path, data) {
 
 // Commands that hand a JSON spec to one page function and write its JSON result: [function, page].
 const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
-                gltf: ['lutbakeGltf', '/engine/gltf-page.html'] };
+                gltf: ['lutbakeGltf', '/engine/gltf-page.html'], babylon: ['lutbakeBabylon', '/engine/babylon-page.html'],
+                playcanvas: ['lutbakePlaycanvas', '/engine/playcanvas-page.html'],
+                'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'],
+                'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],
+                'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'],
+                'playcanvas-gltf': ['lutbakePlaycanvasGltf', '/engine/playcanvas-page.html'] };
 
 const [command, input, output] = process.argv.slice(2);
 if (command in CALLS) {

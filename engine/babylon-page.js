@@ -1,0 +1,157 @@
+// Babylon.js's PBRMaterial with lutbake's runtime table in headless Chromium (engine/harness.mjs babylon,
+// tests/engines/test_babylon_engine.py): per material, a sphere rendered into a float target with the film's
+// Fresnel term as output and again with the parameters each pixel used, for Babylon's own term and lutbake's.
+import { Engine } from '@babylonjs/core/Engines/engine.js';
+import { Scene } from '@babylonjs/core/scene.js';
+import { Camera } from '@babylonjs/core/Cameras/camera.js';
+import { FreeCamera } from '@babylonjs/core/Cameras/freeCamera.js';
+import { Color3, Color4 } from '@babylonjs/core/Maths/math.color.js';
+import { Vector3 } from '@babylonjs/core/Maths/math.vector.js';
+import { DirectionalLight } from '@babylonjs/core/Lights/directionalLight.js';
+import { CreateSphere } from '@babylonjs/core/Meshes/Builders/sphereBuilder.js';
+import { PBRMaterial } from '@babylonjs/core/Materials/PBR/pbrMaterial.js';
+import { RawTexture } from '@babylonjs/core/Materials/Textures/rawTexture.js';
+import { Texture } from '@babylonjs/core/Materials/Textures/texture.js';
+import { RenderTargetTexture } from '@babylonjs/core/Materials/Textures/renderTargetTexture.js';
+import { Constants } from '@babylonjs/core/Engines/constants.js';
+import { LoadAssetContainerAsync } from '@babylonjs/core/Loading/sceneLoader.js';
+import '@babylonjs/loaders/glTF/glTFFileLoader.js';
+import '@babylonjs/loaders/glTF/2.0/index.js';
+import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
+import { NAME, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
+import { coveredSamples, gltfCells } from './sphere-samples.js';
+
+const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
+const scene = new Scene(engine);
+scene.clearColor = new Color4(0, 0, 0, 0);
+const camera = new FreeCamera('camera', new Vector3(0, 0, -3), scene);
+camera.setTarget(Vector3.Zero());
+camera.mode = Camera.ORTHOGRAPHIC_CAMERA;
+[camera.orthoLeft, camera.orthoRight, camera.orthoBottom, camera.orthoTop] = [-1.02, 1.02, -1.02, 1.02];
+const sphere = CreateSphere('sphere', { diameter: 2, segments: 96 }, scene);
+
+// Film thickness weights (the glTF thickness texture's G) at random per texel, read by nearest filtering.
+function thicknessTexture(seed) {
+  const data = new Uint8Array(64 * 32 * 4);
+  let state = seed >>> 0;
+  for (let i = 0; i < data.length; i++) {
+    state = (1664525 * state + 1013904223) >>> 0;
+    data[i] = state >>> 24;
+  }
+  return new RawTexture(data, 64, 32, Constants.TEXTUREFORMAT_RGBA, scene, false, false, Texture.NEAREST_SAMPLINGMODE);
+}
+
+function pbrMaterial(m, k) {
+  const material = new PBRMaterial(`m${k}`, scene);
+  material.onError = (effect, errors) => {
+    const line = Number((errors.match(/ERROR: 0:(\d+)/) || [])[1]);
+    const code = effect.fragmentSourceCode.split('\n');
+    console.error(`${material.name}: ${errors}\n${code.slice(Math.max(0, line - 4), line + 2).join('\n')}`);
+  };
+  material.metallic = m.metal ? 1 : 0;
+  material.roughness = 0.3;
+  material.indexOfRefraction = m.ior;
+  if (m.metal) material.albedoColor = new Color3(...m.metal.f0);
+  material.iridescence.isEnabled = true;
+  material.iridescence.intensity = 1;
+  material.iridescence.indexOfRefraction = m.iridescenceIOR;
+  [material.iridescence.minimumThickness, material.iridescence.maximumThickness] = m.thickness;
+  if (m.thickness[0] !== m.thickness[1]) material.iridescence.thicknessTexture = thicknessTexture(k + 1);
+  return material;
+}
+
+async function render(material, size) {
+  const target = new RenderTargetTexture('target', size, scene, {
+    type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false, samplingMode: Texture.NEAREST_SAMPLINGMODE });
+  target.renderList = [sphere];
+  target.activeCamera = camera;
+  target.clearColor = new Color4(0, 0, 0, 0);
+  sphere.material = material;
+  await scene.whenReadyAsync();
+  const start = performance.now();
+  await new Promise((ok, no) => {
+    const wait = () => {
+      if (material.isReady(sphere)) ok();
+      else if (performance.now() - start > 60000) no(new Error(`material ${material.name} not ready after 60 s (shader errors above)`));
+      else setTimeout(wait, 10);
+    };
+    wait();
+  });
+  target.render();
+  const pixels = await target.readPixels();
+  target.dispose();
+  return new Float32Array(pixels.buffer);
+}
+
+window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, stride = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  const cells = [];
+  for (const [k, m] of materials.entries()) {
+    for (const mode of modes) {
+      const options = { runtime, mode, metal: m.metal || undefined };
+      const fresnel = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'fresnel' }), size);
+      const params = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'parameters' }), size);
+      const samples = coveredSamples(fresnel, params, size, stride);
+      cells.push({ material: k, mode, samples });
+    }
+  }
+  const gl = engine._gl;
+  const { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV } = runtime.table;
+  return { babylon: Engine.Version, webgl: engine.webGLVersion, renderer: gl.getParameter(gl.RENDERER),
+           texture: { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV }, cells };
+};
+// --- cost: wall per draw of a sphere lit by one directional light filling a size² float target, per material: no iridescence,
+// Babylon's own, lutbake's runtime table; interleaved rounds (the order rotates), each waits for the GPU
+// (a one-pixel read), so a slow stretch of a shared machine hits every entry alike; round 0 is dropped.
+window.lutbakeBabylonCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  const light = new DirectionalLight('light', new Vector3(-0.3, -0.5, 1), scene);  // the term is lit: not dead code
+  const entries = [];
+  for (const [k, m] of materials.entries()) {
+    for (const mode of ['none', 'babylon', 'runtime']) {
+      const material = pbrMaterial(m, k);
+      material.iridescence.isEnabled = mode !== 'none';
+      if (mode === 'runtime') lutbakeIridescence(material, { runtime, metal: m.metal || undefined });
+      entries.push({ name: `${m.label}|${mode}`, material });
+    }
+  }
+  const target = new RenderTargetTexture('cost', size, scene, { type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false });
+  target.renderList = [sphere];
+  target.activeCamera = camera;
+  for (const { material } of entries) {
+    sphere.material = material;
+    await scene.whenReadyAsync();
+    while (!material.isReady(sphere)) await new Promise((ok) => setTimeout(ok, 10));
+  }
+  const pixel = new Float32Array(4);
+  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
+  for (let round = 0; round <= rounds; round++) {
+    for (let i = 0; i < entries.length; i++) {
+      const { name, material } = entries[(i + round) % entries.length];
+      sphere.material = material;
+      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
+      const start = performance.now();
+      for (let d = 0; d < draws; d++) target.render();
+      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
+      if (round > 0) times[name].push((performance.now() - start) / draws);
+    }
+  }
+  target.dispose();
+  light.dispose();
+  return { babylon: Engine.Version, size, times };
+};
+
+// A glTF asset loaded with lutbake's loader extension: each of its iridescent materials rendered on the
+// sphere, its Fresnel term and parameters read back as above (the asset's own meshes are not drawn).
+window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, size = 96, stride = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  registerLutbakeGltf();
+  const load = async (output) => {
+    const extensionOptions = { [NAME]: { runtime, metals, output } };
+    const container = await LoadAssetContainerAsync(asset, scene, { pluginOptions: { gltf: { extensionOptions } } });
+    return container.materials.filter((m) => m.iridescence && m.iridescence.isEnabled);
+  };
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: m.indexOfRefraction, metallic: m.metallic }), size, stride);
+  return { babylon: Engine.Version, cells };
+};
+window.lutbakeReady = true;

@@ -1,0 +1,122 @@
+// lutbake iridescence for PlayCanvas (playcanvas 2, pinned in engine/package.json): a shader chunk override
+// that replaces StandardMaterial's thin-film Fresnel term (the chunk iridescenceDiffractionPS, whose
+// getIridescence implements KHR_materials_iridescence's approximation) by lutbake's runtime table: any film
+// index and thickness, 6 bilinear reads.
+// The material's iridescence parameters keep their meaning: iridescence, iridescenceRefractionIndex (the
+// film's index), iridescenceThicknessMin/Max and iridescenceThicknessMap (nm). The base under the film: the
+// material's index (PlayCanvas stores refractionIndex = 1 / ior) where it is dielectric; where it is metallic
+// (useMetalness, metalness > 0) the per-channel n, k you pass as `metal` (lutbake's named metals at
+// 611/549/464 nm: exact.base_rgb, docs/engines.md); the terms are mixed by metalness, each evaluated only
+// where its weight is non-zero. WebGL2 (GLSL) only: the WGSL chunks of PlayCanvas's WebGPU device are not
+// replaced (docs/engines.md).
+//
+//   import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-playcanvas.js';
+//   const runtime = await loadLutbakeRuntime('luts/runtime/lutbake-runtime', app.graphicsDevice);
+//   lutbakeIridescence(material, { runtime });                    // a StandardMaterial with useIridescence
+//   lutbakeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
+//
+// `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour,
+// 'parameters' the (cos theta, thickness nm, film index) it used; with mode 'playcanvas' they are PlayCanvas's.
+import * as pc from 'playcanvas';
+import { loadRuntimeTable } from './lutbake-exr.js';
+
+// The runtime table as an RGBA half float texture: bilinear, clamped, no mipmaps, not anisotropic; scanline 0
+// at v = 0 (lutbake-exr.js), so the include is compiled with LUTBAKE_SCANLINE0_AT_V0 1.
+export async function loadLutbakeRuntime(stem, device) {
+  const { width, height, texels, include } = await loadRuntimeTable(stem);
+  const table = new pc.Texture(device, {
+    name: 'lutbake-runtime', width, height, format: pc.PIXELFORMAT_RGBA16F, mipmaps: false, anisotropy: 1,
+    minFilter: pc.FILTER_LINEAR, magFilter: pc.FILTER_LINEAR,
+    addressU: pc.ADDRESS_CLAMP_TO_EDGE, addressV: pc.ADDRESS_CLAMP_TO_EDGE, levels: [texels],
+  });
+  return { table, include };
+}
+
+// The chunk's interface: getIridescence(cos theta, base F0, thickness nm), and the film index uniform the
+// stock chunk declares. `film` is the term's GLSL expression.
+function chunk(declarations, film) {
+  return `
+uniform float material_iridescenceRefractionIndex;
+vec3 lutbakeFresnel;
+vec3 lutbakeParameters;
+${declarations}
+vec3 getIridescence(float cosTheta, vec3 specularity, float iridescenceThickness) {
+  float eta2 = material_iridescenceRefractionIndex;
+  lutbakeFresnel = ${film};
+  lutbakeParameters = vec3(cosTheta, iridescenceThickness, eta2);
+  return lutbakeFresnel;
+}
+`;
+}
+
+function runtimeChunk(include) {
+  return chunk(`
+uniform highp sampler2D lutbakeTable;
+uniform vec3 lutbakeMetalEta;
+uniform vec3 lutbakeMetalKappa;
+#define LUTBAKE_SCANLINE0_AT_V0 1
+${include}
+vec3 lutbakeFilm(float cosTheta, float thicknessNm, float eta2) {
+#ifdef LIT_METALNESS
+  float metallic = litArgs_metalness;
+  float eta3 = 1.0 / litArgs_ior;
+#else
+  float metallic = 0.0;
+  float eta3 = 1.5;
+#endif
+  vec3 dielectric = vec3(0.0);
+  vec3 metal = vec3(0.0);
+  if (metallic < 1.0) dielectric = lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, eta3, 0.0);
+  if (metallic > 0.0) metal = lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, lutbakeMetalEta, lutbakeMetalKappa);
+  return mix(dielectric, metal, metallic);
+}`, 'lutbakeFilm(cosTheta, iridescenceThickness, eta2)');
+}
+
+const MODES = ['runtime', 'playcanvas'];
+const OUTPUTS = { fresnel: 'lutbakeFresnel', parameters: 'lutbakeParameters' };
+const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
+
+// Replace a StandardMaterial's iridescence term (mode 'runtime'), or keep PlayCanvas's (its chunk from
+// `device`) and only capture it for `output` (mode 'playcanvas'); returns the material.
+export function lutbakeIridescence(material, { runtime = null, mode = runtime ? 'runtime' : 'playcanvas',
+                                               metal = DIELECTRIC_METAL, output = null, device = null } = {}) {
+  if (!MODES.includes(mode)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${MODES.join(', ')}`);
+  if (mode === 'runtime' && !runtime) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
+  if (mode === 'playcanvas' && !device) throw new Error("lutbakeIridescence: mode 'playcanvas' needs the device (its stock chunk)");
+  if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not fresnel or parameters`);
+  const chunks = material.getShaderChunks(pc.SHADERLANGUAGE_GLSL);
+  if (mode === 'runtime') {
+    chunks.set('iridescenceDiffractionPS', runtimeChunk(runtime.include));
+    material.setParameter('lutbakeTable', runtime.table);
+    material.setParameter('lutbakeMetalEta', metal.eta);
+    material.setParameter('lutbakeMetalKappa', metal.kappa);
+  } else {
+    const stock = pc.ShaderChunks.get(device, pc.SHADERLANGUAGE_GLSL)
+      .get('iridescenceDiffractionPS').replace(/vec3 getIridescence\(/, 'vec3 playcanvasIridescence(');
+    chunks.set('iridescenceDiffractionPS', chunk(stock,
+      'playcanvasIridescence(cosTheta, specularity, iridescenceThickness)').replace(
+      'uniform float material_iridescenceRefractionIndex;\n', ''));
+  }
+  if (output) chunks.set('outputPS', `gl_FragColor = vec4(${OUTPUTS[output]}, 1.0);`);
+  material.update();
+  return material;
+}
+
+// The glTF-loading hook: container asset options whose material postprocess serves every
+// KHR_materials_iridescence material of an asset from the runtime table (PlayCanvas's glTF parser has
+// already set its film and base index). glTF carries no n, k for a metallic base: `metals` maps a glTF
+// material's name to them (lutbake's named metals: exact.base_rgb).
+//
+//   const asset = new pc.Asset('lamp', 'container', { url: 'IridescenceLamp.gltf' }, null,
+//                              lutbakeGltfOptions({ runtime, metals: { 'Lamp metal': { eta, kappa } } }));
+//   app.assets.add(asset); app.assets.load(asset);
+export function lutbakeGltfOptions({ runtime, metals = {}, output = null }) {
+  return {
+    material: {
+      postprocess(gltfMaterial, material) {
+        if (!gltfMaterial.extensions?.KHR_materials_iridescence) return;
+        lutbakeIridescence(material, { runtime, metal: metals[gltfMaterial.name] || undefined, output });
+      },
+    },
+  };
+}
