@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT / "tests" / "engines"), str(ROOT / "tests" / "modes"), str(ROOT / "tests")]
-from test_engine import ENGINE  # noqa: E402
-from test_runtime import runtime_table_files  # noqa: E402
-from test_web_engines import PACKAGES, _points, _truth_subset, run_engine  # noqa: E402
+sys.path[:0] = [str(ROOT / "tests")]
+from engine_harness import ENGINE  # noqa: E402  (the suite's helpers, found through the path above)
+from runtime_contract import runtime_table_files  # noqa: E402
+from web_engines import PACKAGES, engine_points, run_engine, truth_subset  # noqa: E402
 
 from lutbake.modes.runtime import runtime_colour  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
@@ -66,14 +66,14 @@ def accuracy() -> None:
     for engine in sorted(PACKAGES):
         with tempfile.TemporaryDirectory() as folder:
             run = run_engine(engine, Path(folder))
-        rgb, cos, d, eta2, eta3, kappa3, _ = _points(run, "runtime")
+        rgb, cos, d, eta2, eta3, kappa3, _ = engine_points(run, "runtime")
         model = runtime_colour(run["table"], cos, d, 1.0, eta2, eta3, kappa3)
         print(
             f"{engine} {run['result'].get(engine)}: {len(rgb)} pixels, max |engine - runtime.model| "
             f"{np.abs(rgb - model).max():.2e}"
         )
         for mode, label in (("runtime", "lutbake runtime table"), (engine, f"{engine}'s own")):
-            de = delta_e00(*_truth_subset(run, mode))
+            de = delta_e00(*truth_subset(run, mode))
             print(f"  {label}: ΔE00 max {de.max():.3f}, p99 {np.percentile(de, 99):.3f}")
 
 

@@ -18,6 +18,7 @@ import importlib.machinery
 import os
 import signal
 import sys
+import threading
 from types import ModuleType
 from typing import TYPE_CHECKING, NoReturn
 
@@ -88,13 +89,38 @@ def set_handler(signum: int, handler: _Handler) -> _Handler:
 
 @contextlib.contextmanager
 def stop_signals_held() -> Iterator[None]:
-    """The stop signals wait (pending) until the block ends, then arrive: for work that a stop must not cut
-    short (a journaled commit, lutbake/io/fileset.py) or that cannot unwind (a C++ extension's initialisation)."""
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    """The stop signals wait until the block ends, then arrive: for work that a stop must not cut short (a
+    journaled commit, lutbake/io/fileset.py) or that cannot unwind (a C++ extension's initialisation).
+
+    Blocking them in this thread's mask is not enough: the kernel hands a process-directed signal to any
+    thread that does not block it, such as OpenEXR's compression pool or an OpenCL runtime's workers, and
+    Python then runs the handler in the main thread regardless. So in the main thread a handler that only
+    records the signal stands in for the block's length, and what it recorded is raised again at the end."""
+    pending: list[int] = []
+    deferred = _deferring_handlers(pending)
+    previous_mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        for signum, handler in deferred.items():
+            signal.signal(signum, handler)
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous_mask)
+        for signum in dict.fromkeys(pending):  # each signal once, in the order it came
+            signal.raise_signal(signum)
+
+
+def _deferring_handlers(pending: list[int]) -> dict[int, _Handler]:
+    """Install, for every stop signal not ignored, a handler appending it to ``pending``; return the handlers
+    it replaced (none outside the main thread, where handlers cannot be set)."""
+    replaced: dict[int, _Handler] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return replaced
+    for signum in STOP_SIGNALS:
+        previous = signal.getsignal(signum)
+        if previous is not signal.SIG_IGN and previous is not None:  # None: a handler not set from Python
+            signal.signal(signum, lambda received, frame: pending.append(received))
+            replaced[signum] = previous
+    return replaced
 
 
 class _HeldExtensionLoader(importlib.machinery.ExtensionFileLoader):

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hostile_cases import TINY, run_case, write_exr
+from hostile_exr import CASE_SECONDS, assert_verdict, patched_attribute, run_cli, write_like
 from tiny_luts import tiny_jobs
 
 from lutbake.io import usercache
@@ -29,7 +30,6 @@ from lutbake.io.fileset import MAX_JOURNAL_BYTES, sha256_file
 from lutbake.tables import headers, lutfile
 from lutbake.tables.lutfile import read_lut
 
-CASE_SECONDS = 60
 BAKE = ["bake", "--eta2", "1.5", *TINY, "--out"]
 
 
@@ -53,28 +53,6 @@ def _digests(folder: Path) -> dict:
         else:
             out[rel] = "dir" if p.is_dir() else "other"
     return out
-
-
-def run_cli(args, cwd: Path, env=None, stdin=subprocess.DEVNULL, **popen):
-    """The CLI in a fresh process; (exit code, stdout, stderr), failing past CASE_SECONDS."""
-    proc = subprocess.run(
-        [sys.executable, "-m", "lutbake.cli", *args],
-        cwd=cwd,
-        env={**os.environ, **(env or {})},
-        stdin=stdin,
-        capture_output=True,
-        text=True,
-        timeout=CASE_SECONDS,
-        **popen,
-    )
-    return proc.returncode, proc.stdout, proc.stderr
-
-
-def assert_verdict(rc, out, err, expected):
-    assert rc in expected, (rc, err)
-    assert "Traceback" not in out + err and "Exception ignored" not in err, err
-    if rc == 2:
-        assert len(err.strip().splitlines()) == 1 and err.startswith("lutbake: error: "), err
 
 
 @pytest.fixture
@@ -205,31 +183,6 @@ def test_a_journaled_temporary_that_changed_is_not_renamed(whole_set, sandbox, c
 # --- EXR headers: structure first, then every metadata key, before any pixel is read ----------------
 
 
-@pytest.fixture(scope="module")
-def good_files(tmp_path_factory):
-    """A tiny LUT, a one-material scene atlas and an exact table, baked once."""
-    from lutbake.grid.spec import Axis, BakeSpec
-    from lutbake.lut.bake import bake
-    from lutbake.modes.exact import write_exact_table
-    from lutbake.scene.bake import bake_scene
-    from lutbake.scene.toml import load_scene
-
-    folder = tmp_path_factory.mktemp("good")
-    axes = (
-        Axis("cos_theta", 0.0, 1.0, 4),
-        Axis("opd_nm", 0.0, 1000.0, 4),
-        Axis("eta3", 1.0, 2.0, 2),
-        Axis("kappa3", 0.0, 1.0, 2),
-    )
-    bake(BakeSpec(eta2=1.5, axes=axes), folder / "lut.exr", "numpy")
-    (folder / "s.toml").write_text(
-        "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = 1.33\nthickness_nm = [200, 300]\nbase = 1.0\n"
-    )
-    bake_scene(load_scene(folder / "s.toml"), folder / "scene", backend="numpy")
-    write_exact_table(folder / "exact.exr")
-    return {"lut": folder / "lut.exr", "atlas": folder / "scene" / "s.exr", "exact": folder / "exact.exr"}
-
-
 def _leaves(doc, path=()):
     """(path, value) of every value in a JSON document, containers included."""
     yield path, doc
@@ -282,20 +235,6 @@ def _mutations(meta, seed: int, n: int):
         yield ".".join(map(str, path)), edited, may_be_valid
 
 
-def _write_like(path: Path, image: np.ndarray, meta, channels: str = "RGB"):
-    """An EXR of ``image`` (half or float ``channels`` as its dtype) with ``meta`` as its metadata."""
-    import Imath
-    import OpenEXR
-
-    kind = Imath.PixelType.HALF if image.dtype == np.float16 else Imath.PixelType.FLOAT
-    header = OpenEXR.Header(image.shape[1], image.shape[0])
-    header["channels"] = {c: Imath.Channel(Imath.PixelType(kind)) for c in channels}
-    header["lutbake.metadata"] = json.dumps(meta).encode()
-    out = OpenEXR.OutputFile(str(path), header)
-    out.writePixels({c: np.ascontiguousarray(image[:, :, i]).tobytes() for i, c in enumerate(channels)})
-    out.close()
-
-
 @pytest.mark.parametrize("kind", ["lut", "atlas", "exact"])
 @pytest.mark.parametrize("seed", range(3))
 def test_tampered_metadata_is_refused_naming_the_field(kind, seed, good_files, tmp_path, capfd, monkeypatch):
@@ -305,7 +244,7 @@ def test_tampered_metadata_is_refused_naming_the_field(kind, seed, good_files, t
     meta, image = read_lut(good_files[kind], formats=FORMATS)
     real_read_pixels = lutfile.read_pixels
     for field, edited, optional in _mutations(meta, seed, 12):
-        _write_like(tmp_path / "bad.exr", image, edited)
+        write_like(tmp_path / "bad.exr", image, edited)
         monkeypatch.setattr(lutfile, "read_pixels", real_read_pixels if optional else _never_read)
         if kind == "exact":
             try:
@@ -320,15 +259,6 @@ def test_tampered_metadata_is_refused_naming_the_field(kind, seed, good_files, t
 
 def _never_read(path, structure):
     raise AssertionError("pixels read before the header was validated")
-
-
-def _patched(data: bytes, name: str, kind: str, value: bytes) -> bytes:
-    """``data`` (an EXR) with attribute ``name``'s value replaced by ``value`` (same size)."""
-    key = name.encode() + b"\0" + kind.encode() + b"\0"
-    at = data.index(key) + len(key)
-    (size,) = struct.unpack("<i", data[at : at + 4])
-    assert len(value) == size
-    return data[: at + 4] + value + data[at + 4 + size :]
 
 
 def _channel_types(data: bytes, pixel_type: int, only=None) -> bytes:
@@ -350,14 +280,18 @@ STRUCTURES = {
     "UINT channels": lambda d: _channel_types(d, 0),
     "one UINT channel": lambda d: _channel_types(d, 0, "G"),
     "mixed HALF and FLOAT": lambda d: _channel_types(d, 1, "B"),
-    "PIZ compression": lambda d: _patched(d, "compression", "compression", bytes([4])),
-    "unknown compression 99": lambda d: _patched(d, "compression", "compression", bytes([99])),
-    "data window of 12000 x 12000 in a small file": lambda d: _patched(
+    "PIZ compression": lambda d: patched_attribute(d, "compression", "compression", bytes([4])),
+    "unknown compression 99": lambda d: patched_attribute(d, "compression", "compression", bytes([99])),
+    "data window of 12000 x 12000 in a small file": lambda d: patched_attribute(
         d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)
     ),
-    "data window of 2^31 - 1": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 2**31 - 1, 7)),
-    "data window off the origin": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 3, 0, 10, 7)),
-    "data window reversed": lambda d: _patched(d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, -5, 7)),
+    "data window of 2^31 - 1": lambda d: patched_attribute(
+        d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, 2**31 - 1, 7)
+    ),
+    "data window off the origin": lambda d: patched_attribute(
+        d, "dataWindow", "box2i", struct.pack("<4i", 3, 0, 10, 7)
+    ),
+    "data window reversed": lambda d: patched_attribute(d, "dataWindow", "box2i", struct.pack("<4i", 0, 0, -5, 7)),
     "tiled flag": lambda d: d[:4] + struct.pack("<I", struct.unpack("<I", d[4:8])[0] | 0x200) + d[8:],
     "multi-part flag": lambda d: d[:4] + struct.pack("<I", struct.unpack("<I", d[4:8])[0] | 0x1000) + d[8:],
     "wrong magic number": lambda d: b"\x76\x2f\x31\x00" + d[4:],
@@ -404,8 +338,8 @@ def test_a_small_file_declaring_a_huge_image_is_refused_before_allocation(
     else:
         meta["slices"][0]["rect"] = [0, 0, 12000, 12000]
         meta["slices"][0]["axes"]["cos_theta"]["count"] = meta["slices"][0]["axes"]["thickness_nm"]["count"] = 12000
-    _write_like(tmp_path / "small.exr", image, meta)
-    data = _patched(
+    write_like(tmp_path / "small.exr", image, meta)
+    data = patched_attribute(
         (tmp_path / "small.exr").read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999)
     )
     (tmp_path / "bad.exr").write_bytes(data)
@@ -492,7 +426,7 @@ ATLAS_VALUES = {
 def test_atlas_header_values_are_checked(name, good_files, tmp_path, capfd, monkeypatch):
     meta, image = read_lut(good_files["atlas"], formats=(headers.ATLAS_FORMAT,))
     ATLAS_VALUES[name](meta)
-    _write_like(tmp_path / "bad.exr", image, meta)
+    write_like(tmp_path / "bad.exr", image, meta)
     for command in (
         ["inspect"],
         ["sample", "--material", "soap", "--thickness", "250", "--angle", "30"],

@@ -14,8 +14,8 @@ import threading
 from pathlib import Path
 
 import pytest
-from test_hostile import run_case
-from test_hostile_files import _patched, _write_like, good_files  # noqa: F401 (a fixture)
+from hostile_cases import run_case
+from hostile_exr import patched_attribute, write_like
 
 from lutbake.io import documents
 from lutbake.modes.runtime.files import read_runtime_table, write_runtime_table
@@ -79,7 +79,7 @@ def test_a_tampered_runtime_table_is_refused_before_its_pixels(edit, runtime_tab
         "width past the image": _edited(meta, ("table", "width"), table["width"] * 12000),
         "white of 4 values": _edited(meta, ("table", "white"), [1.0] * 4),
     }[edit]
-    _write_like(tmp_path / "bad.exr", image, edited, "RGBA")
+    write_like(tmp_path / "bad.exr", image, edited, "RGBA")
     monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     with pytest.raises(ValueError) as refused:
         read_runtime_table(tmp_path / "bad.exr")
@@ -91,7 +91,7 @@ def test_a_runtime_table_declaring_12000_squared_texels_is_refused_before_alloca
 ):
     """A genuine table's bytes with its data window set to 12000 x 12000 (1.15 GB of half RGBA, which ZIP's
     1032:1 bound lets 1.2 MB declare): the header's image size refuses it before any pixel is read."""
-    data = _patched(runtime_table.read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999))
+    data = patched_attribute(runtime_table.read_bytes(), "dataWindow", "box2i", struct.pack("<4i", 0, 0, 11999, 11999))
     (tmp_path / "big.exr").write_bytes(data)
     monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     with pytest.raises(ValueError, match="image size|cannot fit"):
@@ -122,7 +122,7 @@ def test_an_integer_past_2_to_the_64_in_a_header_is_one_line(kind, good_files, t
     monkeypatch.setattr(lutfile, "read_pixels", _never_read)
     numbers = list(_numbers(meta))
     for i, (path, _) in enumerate(numbers[:: max(1, len(numbers) // 12)]):
-        _write_like(tmp_path / "bad.exr", image, _edited(meta, path, 2**64 if i % 2 else -(2**53) - 1))
+        write_like(tmp_path / "bad.exr", image, _edited(meta, path, 2**64 if i % 2 else -(2**53) - 1))
         if kind == "exact":
             with pytest.raises(ValueError, match="outside ±2\\^53") as refused:
                 read_lut(tmp_path / "bad.exr", formats=(headers.EXACT_FORMAT,))
@@ -435,7 +435,7 @@ def test_a_blender_that_exits_without_stderr_is_one_line(status, gltf_bake, tmp_
 )
 def test_a_gltf_bake_refused_for_its_device_leaves_no_out_folder(env, flags, tmp_path):
     from gltf_assets import document, iridescent
-    from test_hostile_files import assert_verdict, run_cli
+    from hostile_exr import assert_verdict, run_cli
 
     (tmp_path / "a.gltf").write_text(json.dumps(document([iridescent()])))
     rc, out, err = run_cli(["bake", "--gltf", "a.gltf", "--out", "G/sub", "--quiet", *flags], tmp_path, env=env)
@@ -450,7 +450,7 @@ def test_names_cannot_steer_the_engine_set_check(tmp_path, capfd, monkeypatch):
     """A scene whose file name carries another scene's "(scene hash X)": its own EXR + include pair is accepted,
     the other scene's EXR with its include refused (the check took the first "(scene hash X)" of the line,
     which the name comes before)."""
-    from test_fileset import _engine_accepts
+    from engine_harness import engine_accepts as _engine_accepts
 
     scene = "[scene]\nmax_de = 5.0\n[materials.soap]\nfilm = {film}\nthickness_nm = 300\nbase = 1.0\n"
     (tmp_path / "other.toml").write_text(scene.format(film=1.5))

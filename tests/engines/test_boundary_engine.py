@@ -15,9 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_engine import ROOT, require_engine
-from test_exact_engine import make_dropin, run_jobs
-from test_runtime import CONTRACT_MAX, runtime_table_files
+from engine_harness import ROOT, require_engine, run_jobs
+from runtime_contract import CONTRACT_MAX, make_dropin, runtime_table_files
 
 from lutbake.blender.library import osl_script
 from lutbake.modes.exact import exact_colour, read_exact_table
@@ -129,7 +128,7 @@ def test_grazing_incidence_is_white_in_every_path(boundary_run):
 @pytest.fixture(scope="module")
 def osl_run(tmp_path_factory):
     """(points, Cycles RGB, float64 RGB, ground truth): the exact mode's OSL script at boundary_points."""
-    from test_blender import blender_python
+    from blender_harness import blender_python
 
     exact = make_dropin.write_exact_table()
     points = boundary_points((1.0, 2.0))
