@@ -23,8 +23,15 @@ def _install_pinned_engine() -> None:
         return
     with open(ENGINE / ".npm-ci.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        if not (ENGINE / "node_modules" / "three").is_dir():
+        if _missing_packages():
             subprocess.run(["npm", "ci", "--no-audit", "--no-fund"], cwd=ENGINE, capture_output=True, timeout=600)
+
+
+def _missing_packages() -> list[str]:
+    """The pinned packages (engine/package.json) not installed in engine/node_modules: a checkout that gained an
+    engine since its last `npm ci` installs again."""
+    pinned = json.loads((ENGINE / "package.json").read_text())["dependencies"]
+    return [name for name in pinned if not (ENGINE / "node_modules" / name / "package.json").is_file()]
 
 
 def require_engine() -> None:
@@ -35,8 +42,8 @@ def require_engine() -> None:
         missing.append("node and npm (apt-get install nodejs npm)")
     if not CHROMIUM.is_file():
         missing.append(f"Debian's chromium at {CHROMIUM} (apt-get install chromium)")
-    if not (ENGINE / "node_modules" / "three").is_dir():
-        missing.append("the pinned three.js and playwright-core (cd engine && npm ci failed)")
+    if _missing_packages():
+        missing.append(f"the pinned {', '.join(_missing_packages())} (cd engine && npm ci failed)")
     if missing:
         context = (
             "CI=true: the real-engine check must run"
