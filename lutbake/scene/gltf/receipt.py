@@ -102,10 +102,9 @@ def _part(
     rng: np.random.Generator,
 ) -> tuple[list[Bases], np.ndarray]:
     """(base keywords per channel, baked RGB) of one part at the points."""
-    if part == "dielectric":
-        name = info["material"]
+    if "material" in info:  # one slice for every channel
         bases = [{"eta3": info["base"][0], "kappa3": info["base"][1]}] * 3
-        return bases, _sample_slice(manifest, folder, name, eta2, cos_t, thickness, bases[0])
+        return bases, _sample_slice(manifest, folder, info["material"], eta2, cos_t, thickness, bases[0])
     if info.get("texture"):
         table = info["table"]
         f0 = [rng.uniform(0.0, top, cos_t.size) for top in info["f0_max"]]
@@ -115,7 +114,7 @@ def _part(
         ]
         entry = manifest["materials"][info["channels"][0]]
         return bases, _per_channel(Lut.load(folder / entry["file"]).sample, _stacks(eta2, cos_t, thickness, bases))
-    if info["mapping"] == "named":
+    if info.get("mapping") == "named":
         bases = [{"base": info["named"]}] * 3
     else:
         unique: dict[tuple[float, float], Bases] = {}
