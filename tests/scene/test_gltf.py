@@ -436,3 +436,89 @@ def test_stacks_with_nothing_to_bake_are_served_without_a_bake_and_said_so(tmp_p
     assert [x for x in proc.stderr.splitlines() if line in x] and "materials[0] '', materials[1] ''" in proc.stderr
     record = json.loads((tmp_path / "out" / "v.json").read_text())["source"]["materials"][1]
     assert record["parts"] == {} and "equals the film's" in record["no_interference"]["dielectric"]
+
+
+# --- receipts as a CI gate ------------------------------------------------------------------------------
+
+
+def _baked(tmp_path, materials, *flags):
+    """`bake --gltf` of ``materials`` into tmp_path/out: the manifest's path."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    gltf = write_gltf(tmp_path / "g.gltf", document(materials))
+    proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", *flags)
+    assert proc.returncode == 0, proc.stderr
+    return tmp_path / "out" / "g.json"
+
+
+def test_report_gates_ci_honours_points_and_shows_progress(tmp_path):
+    """`report ASSET.json --max-de X` exits 1 when a part's baked p99 is above X (0 at or below), in text and
+    JSON; --points is honoured up to its bound and refused past it in one line (exit 2, nothing written);
+    --progress shows a line per material."""
+    manifest = _baked(tmp_path, [iridescent(ior=1.4, d_max=300), iridescent(ior=1.7, metallic=1.0, colour=[0.8] * 3)])
+    fail = cli("report", manifest, "--points", 40, "--max-de", 0.01)
+    assert fail.returncode == 1 and "gate: worst served p99 ΔE00" in fail.stdout and "FAIL" in fail.stdout
+    doc = json.loads(cli("report", manifest, "--points", 40, "--max-de", 0.01, "--json").stdout)
+    assert doc["gate"]["passed"] is False and doc["points_per_part"] == 40
+    worst = max(p["de00"]["baked"]["de00_p99"] for r in doc["materials"] for p in r["parts"].values())
+    assert doc["gate"]["de00_p99"] == worst
+    passing = cli("report", manifest, "--points", 40, "--max-de", 5, "--progress")
+    assert passing.returncode == 0 and "pass" in passing.stdout
+    assert "2/2" in passing.stderr and "material 1" in passing.stderr
+    refused = cli("report", manifest, "--points", 10_001, "--out", tmp_path / "rec")
+    assert refused.returncode == 2 and not (tmp_path / "rec").exists()
+    assert refused.stderr.strip().splitlines() == [
+        "lutbake: error: --points 10001 is not allowed for a glTF bake's receipts: at most 10000 per part"
+    ]
+
+
+def test_every_metal_mapping_has_a_receipt_and_it_separates_threejs_from_gltfs_model(tmp_path):
+    """Receipts for the threejs and named mappings (fitted: test_receipts_say_what_each_choice_costs). A named
+    metal's three.js term is fed the glTF material's base colour, which is what three.js shows (the receipt
+    crashed on it: "--base NAME 'Au' differs from the khr-iridescence-threejs's base"). Each part splits
+    three.js's error into three.js vs KHR_materials_iridescence's model (the same F0: small) and that model vs
+    the physics (on a near-black metal, the fitted mapping's departure from Schlick's curve: large)."""
+    named = tmp_path / "named.json"
+    named.write_text(json.dumps({"materials": {"0": "Au"}}))
+    for mapping in ("threejs", str(named)):
+        folder = tmp_path / Path(mapping).stem
+        manifest = _baked(
+            folder, [iridescent(ior=1.5, d_max=350, metallic=1.0, colour=[0.9, 0.7, 0.4])], "--metal-mapping", mapping
+        )
+        proc = cli("report", manifest, "--points", 60, "--json")
+        assert proc.returncode == 0, proc.stderr
+        costs = json.loads(proc.stdout)["materials"][0]["parts"]["metal"]["de00"]
+        assert costs["baked"]["de00_p99"] <= 1.0 < costs["threejs"]["de00_p99"], (mapping, costs)
+    dark = _baked(tmp_path / "dark", [iridescent(ior=1.6, d_max=500, metallic=1.0, colour=[0.01] * 3)])
+    costs = json.loads(cli("report", dark, "--points", 200, "--json").stdout)["materials"][0]["parts"]["metal"]["de00"]
+    assert 5 * costs["threejs_vs_gltf_model"]["de00_p99"] < costs["gltf_model_vs_physics"]["de00_p99"], costs
+
+
+# --- routes ---------------------------------------------------------------------------------------------
+
+
+def test_a_material_can_be_sent_to_the_runtime_table_by_flag_or_extras(tmp_path):
+    """`--route NAME=runtime` or the material's extras.lutbake.route "runtime": its parts are not baked, the
+    manifest says route runtime (the three.js plugin then serves them from the table), `plan` says so, and
+    the receipt scores the runtime table at its points; --route MATERIAL=bake overrides the extras. A value
+    that is neither, or names no material, is refused in one line (exit 2)."""
+    extras = {**iridescent(ior=1.4, d_max=300), "extras": {"lutbake": {"route": "runtime"}}}
+    metal = iridescent(ior=1.8, d_max=500, metallic=1.0, colour=[0.9, 0.6, 0.3], name="gold")
+    flagged_back = {**iridescent(ior=1.6), "extras": {"lutbake": {"route": "runtime"}}}
+    gltf = write_gltf(tmp_path / "r.gltf", document([extras, metal, flagged_back]))
+    plan = json.loads(cli("plan", "--gltf", gltf, "--route", "gold=runtime", "--route", "2=bake", "--json").stdout)
+    rows = plan["gltf_materials"]
+    assert [r["runtime_parts"] for r in rows] == [["dielectric"], ["metal"], []]
+    assert rows[0]["slice"] is None and "runtime table" in rows[0]["why_not"] and rows[2]["slice"]
+    proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", "--route", "gold=runtime", "--route", "2=bake")
+    assert proc.returncode == 0, proc.stderr
+    manifest = json.loads((tmp_path / "out" / "r.json").read_text())
+    parts = [r["parts"] for r in manifest["source"]["materials"]]
+    assert parts[0]["dielectric"]["route_by"] == "extras.lutbake.route" and parts[1]["metal"]["route_by"] == "--route"
+    baked = set(manifest["materials"])
+    assert not baked & set(parts[1]["metal"]["channels"]) and parts[2]["dielectric"]["material"] in baked
+    receipt = json.loads(cli("report", tmp_path / "out" / "r.json", "--points", 60, "--json").stdout)
+    for row in receipt["materials"][:2]:
+        (part,) = row["parts"].values()
+        assert part["route"] == "runtime" and part["de00"]["baked"]["de00_p99"] <= 0.3  # the table's contract p99
+    bad = cli("plan", "--gltf", gltf, "--route", "gold=gpu")
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--route 'gold=gpu'" in bad.stderr

@@ -28,12 +28,14 @@ negative thickness, an index outside lutbake's domain) is a one-line ValueError.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from lutbake.errors import ParameterError
 from lutbake.io.documents import load_json, read_text
 from lutbake.physics.materials import material as named_material
 from lutbake.physics.metals import F0_MAX, MAPPINGS, conductor, reflectance_error
@@ -68,7 +70,9 @@ METAL_TABLE_NODES = 65  # F0 → (η3, κ3) nodes the engine interpolates for a 
 _MAX_MAPPING_BYTES = 1 << 20
 
 
-def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0) -> Scene:
+def load_gltf_scene(
+    path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0, routes: Sequence[str] = ()
+) -> Scene:
     """Read a glTF asset (.gltf or .glb) into a scene: its used iridescent materials, mapped.
 
     Parameters
@@ -80,6 +84,9 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
         {"NAME or INDEX": "lutbake material name"}} naming a lutbake material per glTF material.
     max_de : float
         The target p99 ΔE00 of every slice (as a scene file's ``max_de``).
+    routes : sequence of str
+        'NAME or INDEX=runtime|bake' per glTF material (`--route`), over its ``extras.lutbake.route``:
+        ``runtime`` serves its parts from the runtime table, unbaked (a named metal stays baked).
 
     Returns
     -------
@@ -108,7 +115,7 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
     """
     asset = read_gltf(path)
     default, named, mapping_file = _metal_mapping(metal_mapping, asset)
-    records, materials, notes = _iridescent_materials(asset, named, default)
+    records, materials, notes = _iridescent_materials(asset, named, default, _routes(routes, asset))
     check_material_names([m.name for m in materials], lambda name, message: asset.error(name, message))
     max_de = float(check_value("max_de", max_de)[0])
     source = {
@@ -124,7 +131,7 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
 
 
 def _iridescent_materials(
-    asset: GltfAsset, named: dict[int, str], default: str
+    asset: GltfAsset, named: dict[int, str], default: str, routes: dict[int, str]
 ) -> tuple[list[dict[str, Any]], list[SceneMaterial], dict[str, list[str]]]:
     """(the record of every glTF material with the iridescence extension, the scene materials of those
     the meshes use and that have a film, {extension lutbake does not bake: the labels of the materials
@@ -144,6 +151,9 @@ def _iridescent_materials(
         record = reader.record(used.get(index, []))
         if index in used and record["film"] is not None:
             parts = _Parts(reader, record, named.get(index) or reader.extras_metal(), default)
+            route = routes.get(index) or reader.extras_route()
+            if route == "runtime":
+                _to_runtime_table(parts, "--route" if index in routes else "extras.lutbake.route")
             materials += parts.materials
             for name in reader.unbaked_extensions() if record["parts"] else []:
                 notes.setdefault(name, []).append(reader.label)
@@ -167,6 +177,39 @@ def _no_interference_note(records: list[dict[str, Any]]) -> list[str]:
         f"ambient's or its base's index: no interference; the engine's own Fresnel serves them, no LUT): "
         + ", ".join(idle)
     ]
+
+
+_ROUTES = ("runtime", "bake")
+
+
+def _routes(values: Sequence[str], asset: GltfAsset) -> dict[int, str]:
+    """{glTF material index: route} from 'NAME or INDEX=runtime|bake' strings."""
+    by_name = {m.get("name"): i for i, m in enumerate(asset.materials)}
+    routes: dict[int, str] = {}
+    for value in values:
+        key, _, route = value.rpartition("=")
+        index = int(key) if key.isdigit() else by_name.get(key)
+        if route not in _ROUTES or index is None or index >= len(asset.materials):
+            raise ParameterError(
+                "{routes} {value} is not allowed: MATERIAL=runtime or MATERIAL=bake, MATERIAL a glTF material's "
+                "name or index in {asset}",
+                value=repr(value),
+                asset=asset.path.name,
+            )
+        routes[index] = route
+    return routes
+
+
+def _to_runtime_table(parts: _Parts, by: str) -> None:
+    """Serve each part of ``parts`` from the runtime table (``route: runtime``, not baked), as ``by`` asks; a
+    named metal has no (η3, κ3) for the table and stays baked (warned)."""
+    for info in parts.record["parts"].values():
+        if info.get("mapping") == "named":
+            parts.reader.warn(f"{by} runtime: the named metal {info['named']!r} has no (η3, κ3) for it: baked")
+            continue
+        info.update(route="runtime", route_by=by)
+        unbaked = set(_served(info))
+        parts.materials = [m for m in parts.materials if m.name not in unbaked]
 
 
 def _metal_mapping(value: str, asset: GltfAsset) -> tuple[str, dict[int, str], Path | None]:
@@ -247,6 +290,15 @@ class _MaterialReader:
         if isinstance(specular, dict) and any(self.read.get(k) for k in SPECULAR_TEXTURES):
             found.append("specular textures")
         return found
+
+    def extras_route(self) -> str | None:
+        """``extras.lutbake.route``: 'runtime', 'bake' or None."""
+        extras = self.body.get("extras", {})
+        lutbake = extras.get("lutbake", {}) if isinstance(extras, dict) else {}
+        route = lutbake.get("route") if isinstance(lutbake, dict) else None
+        if route is not None and route not in _ROUTES:
+            raise self.error("extras.lutbake.route", f"= {route!r} is not 'runtime' or 'bake'")
+        return route
 
     def extras_metal(self) -> str | None:
         extras = self.body.get("extras", {})
@@ -499,7 +551,8 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
     rows = []
     for r in scene.source["materials"]:
         parts = r["parts"]
-        served = [name for part in parts.values() for name in _served(part)]
+        served = [name for part in parts.values() if part.get("route") != "runtime" for name in _served(part)]
+        runtime = [name for name, part in parts.items() if part.get("route") == "runtime"]
         slices = [n for n in dict.fromkeys(served) if kind[n].kind == "slice"]
         luts = [f"{kind[n].id}.exr" for n in dict.fromkeys(served) if kind[n].kind == "lut"]
         rows.append(
@@ -517,7 +570,9 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
                 "slice": slices[0] if slices else None,
                 "slices": slices,
                 "lut": luts[0] if luts else None,
-                "why_not": r.get("why_not"),
+                "runtime_parts": runtime,
+                "why_not": r.get("why_not")
+                or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None),
                 "warnings": r["warnings"],
             }
         )
