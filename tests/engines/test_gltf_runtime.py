@@ -95,8 +95,7 @@ def test_every_iridescent_material_is_served_as_asked(run):
             }
             assert served["bake"][str(index)]["parts"] == kinds, (asset, index)
             assert served["runtime"][str(index)]["parts"] == dict.fromkeys(kinds, "runtime"), (asset, index)
-    # the showcase's and CarConcept's "Paint 1 Pearl" ("Paint 2 Graphite": a film of index 1, nothing baked)
-    assert sum(len(m) for m in run["scores"].values()) == 11
+    assert sum(len(m) for m in run["scores"].values()) == 12  # the showcase's and CarConcept's
 
 
 def test_the_runtime_path_meets_the_contract_on_every_material(run):
@@ -194,6 +193,40 @@ def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
     assert out["routes"] == {"gltfIndex": 3, "name": "Lens", "parts": {"dielectric": "runtime"}}
     assert out["runtime"] == "LutbakeGLTFPlugin: serve 'runtime' needs { runtime } (loadLutbakeRuntime)"
     assert out["atlas"] == "LutbakeGLTFPlugin: serve 'atlas' is not 'bake' or 'runtime'"
+
+
+CONSTANT_PART = """
+import * as THREE from 'three';
+import { lutbakeGltfMaterial } from './lutbake-gltf.js';
+const record = { gltf_index: 0, name: 'black', film: 1.0, parts: { metal: { mapping: 'fitted', f0: [0, 0, 0],
+  eta3: [1, 1, 1], kappa3: [0, 0, 0], channels: ['m0-metal', 'm0-metal', 'm0-metal'], constant: [0, 0, 0] } } };
+const bake = { manifest: { materials: {} }, stem: 'x', atlas: null, atlasInclude: '', luts: {}, records: [record] };
+const material = lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake);
+const chunks = ['#include <iridescence_fragment>', '#include <lights_fragment_begin>'];
+const shader = { uniforms: {}, fragmentShader: chunks.join('\\n') };
+material.onBeforeCompile(shader);
+console.log(JSON.stringify({ routes: material.userData.lutbake.parts, fragment: shader.fragmentShader }));
+"""
+
+
+def test_a_vacuum_over_vacuum_part_is_the_constant_zero_without_a_bake():
+    """In node: a part whose film term is 0 (a film of the ambient's index on a base of it: `constant` in its
+    manifest part) needs no baked file and no runtime table; its film term in the shader is vec3(0.0), the
+    other part keeps three.js's own."""
+    require_engine()
+    proc = subprocess.run(
+        ["node", "--input-type=module"],
+        input=CONSTANT_PART,
+        capture_output=True,
+        text=True,
+        cwd=ROOT / "engine",
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["routes"] == {"metal": "constant"}
+    assert "vec3 iridescenceFresnelMetallic = vec3(0.0, 0.0, 0.0);" in out["fragment"]
+    assert "material.diffuseColor )" not in out["fragment"] and "material.specularColor )" in out["fragment"]
 
 
 def test_the_runtime_table_meets_the_contract_along_the_whole_metal_curve():

@@ -9,8 +9,8 @@ material in the manifest's ``source`` section:
   [min, max] (sorted: the spec allows min > max) when iridescenceThicknessTexture is present, else
   iridescenceThicknessMaximum (default 400 nm); iridescenceFactor 0 (its default: a material that omits
   it has no film): nothing baked (the factor and iridescenceTexture only blend the film term in the
-  engine); a film of the ambient's index, or a part whose base equals the film, has no interference:
-  nothing baked, said so (the engine's own Fresnel serves it);
+  engine); a part of a film of the ambient's index on a base of it (vacuum over vacuum) reflects
+  nothing: the constant 0, nothing baked, said so;
 * the dielectric part (metalness < 1 somewhere): base η3 = ior (KHR_materials_ior, default 1.5), or per
   channel the real index of the F0 KHR_materials_specular gives it (lutbake/scene/gltf/extensions.py);
 * the metal part (metalness > 0 somewhere): each channel's base colour F0 → (η3, κ3) by the metal
@@ -155,27 +155,21 @@ def _iridescent_materials(
             if route == "runtime":
                 _to_runtime_table(parts, "--route" if index in routes else "extras.lutbake.route")
             materials += parts.materials
-            for name in reader.unbaked_extensions() if record["parts"] else []:
+            for name in reader.unbaked_extensions():
                 notes.setdefault(name, []).append(reader.label)
-            if not record["parts"]:
-                record["why_not"] = "; ".join(record["no_interference"].values())
         records.append(record)
     return records, materials, notes
 
 
 def _no_interference_note(records: list[dict[str, Any]]) -> list[str]:
-    """One line naming the used materials whose film has nothing to bake (none: no line)."""
-    idle = [
-        f"materials[{r['gltf_index']}] {str(r['name'] or '')!r}"
-        for r in records
-        if r["used_by"] and "no interference" in r.get("why_not", "")
-    ]
+    """One line naming the used materials with a part whose film term is zero (none: no line)."""
+    idle = [f"materials[{r['gltf_index']}] {str(r['name'] or '')!r}" for r in records if r.get("zero_term")]
     if not idle:
         return []
     return [
-        f"{len(idle)} iridescent material{'s' if len(idle) > 1 else ''} with nothing to bake (a film of the "
-        f"ambient's or its base's index: no interference; the engine's own Fresnel serves them, no LUT): "
-        + ", ".join(idle)
+        f"{len(idle)} iridescent material{'s' if len(idle) > 1 else ''} with a part that has nothing to bake (a "
+        f"film of the ambient's index on a base of it: vacuum over vacuum, its film term is 0; served as the "
+        f"constant 0, no LUT): " + ", ".join(idle)
     ]
 
 
@@ -349,14 +343,8 @@ class _MaterialReader:
         elif factor == 0.0:
             given = "" if "iridescenceFactor" in ext else " (its default: omitted)"
             record["why_not"] = f"iridescenceFactor 0{given}: the extension has no effect, no film"
-        elif eta2 == _AMBIENT_INDEX:
-            record["why_not"] = (
-                f"iridescenceIor {eta2:g} equals the ambient's index: the film is invisible, no interference "
-                "to bake (the engine's own Fresnel serves it)"
-            )
         else:
             record["film"] = eta2
-            record["no_interference"] = {}
         return record
 
     def _domain(self, name: str, value: float, key: str) -> None:
@@ -395,18 +383,15 @@ class _Parts:
             self._keep("metal", self._metal(colour, colour_textured, named, default))
 
     def _keep(self, part: str, info: dict[str, Any]) -> None:
-        """Record ``part``, or why it has nothing to bake: every channel's base is a real index equal to the
-        film's (the film merges with the base: no interference; the engine's own Fresnel serves it)."""
-        film = self.record["film"]
+        """Record ``part``; a part whose every interface is index-matched (a film of the ambient's index on a
+        base of it, every channel) reflects nothing: its film term is the constant 0, served without a bake."""
         eta3 = info.get("eta3", [info["base"][0]] * 3 if "base" in info else None)
         kappa3 = info.get("kappa3", [info["base"][1]] * 3 if "base" in info else None)
-        if eta3 is not None and kappa3 is not None and all(e == film and k == 0.0 for e, k in zip(eta3, kappa3)):
-            self.record["no_interference"][part] = (
-                f"the {part} base's index {film:g} equals the film's: no interference to bake "
-                "(the engine's own Fresnel serves it)"
-            )
+        matched = [_AMBIENT_INDEX, *(eta3 or [None])]
+        if self.record["film"] == _AMBIENT_INDEX and set(matched) == {_AMBIENT_INDEX} and not any(kappa3 or [1]):
             self.materials = [m for m in self.materials if m.name not in _served(info)]
-            return
+            info = {**info, "constant": [0.0, 0.0, 0.0]}
+            self.record["zero_term"] = f"the {part} part: vacuum over vacuum, film term 0 (nothing to bake)"
         self.record["parts"][part] = info
 
     def _dielectric(self, ior: float, specular: dict[str, Any] | None) -> dict[str, Any]:
@@ -530,6 +515,11 @@ class _Parts:
             self.reader.warn(f"{base.format(max(f0))}: clamped to {top:.4g} ({what})")
 
 
+def _baked(part: dict[str, Any]) -> bool:
+    """Whether a part is served by the bake (not the runtime table, not a constant)."""
+    return part.get("route") != "runtime" and "constant" not in part
+
+
 def _served(part: dict[str, Any]) -> list[str]:
     """The scene materials serving one part: its one ``material``, or its ``channels``."""
     return [part["material"]] if "material" in part else list(part["channels"])
@@ -551,7 +541,7 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
     rows = []
     for r in scene.source["materials"]:
         parts = r["parts"]
-        served = [name for part in parts.values() if part.get("route") != "runtime" for name in _served(part)]
+        served = [name for part in parts.values() if _baked(part) for name in _served(part)]
         runtime = [name for name, part in parts.items() if part.get("route") == "runtime"]
         slices = [n for n in dict.fromkeys(served) if kind[n].kind == "slice"]
         luts = [f"{kind[n].id}.exr" for n in dict.fromkeys(served) if kind[n].kind == "lut"]

@@ -154,6 +154,8 @@ def _bases(info: dict[str, Any], n: int, rng: np.random.Generator) -> tuple[list
 def _served_rgb(info: dict[str, Any], manifest: dict[str, Any], folder: Path, stacks: list[FilmPoints]) -> np.ndarray:
     """What the engine reads at the stacks, per channel: the runtime table (a part routed to it), the 4D LUT,
     or the atlas slice(s)."""
+    if "constant" in info:  # vacuum over vacuum: nothing reflects
+        return np.broadcast_to(np.asarray(info["constant"], float), (stacks[0].cos_theta.size, 3))
     if info.get("route") == "runtime":
         return _per_channel(runtime_rgb, stacks)
     names = [info["material"]] * 3 if "material" in info else info["channels"]
