@@ -432,6 +432,8 @@ def test_stacks_with_nothing_to_bake_are_served_without_a_bake_and_said_so(tmp_p
     proc = cli("bake", "--gltf", write_gltf(tmp_path / "v.gltf", doc), "--out", tmp_path / "out")
     assert proc.returncode == 0, proc.stderr
     assert [x for x in proc.stderr.splitlines() if "1 iridescent material with a part that has nothing" in x]
+    small = load_gltf_scene(tmp_path / "v.gltf")
+    assert "vacuum over vacuum" in material_rows(small, plan_scene(small))[0]["why_not"]  # what `plan` prints
     manifest = json.loads((tmp_path / "out" / "v.json").read_text())
     parts = [r["parts"] for r in manifest["source"]["materials"]]
     assert (

@@ -562,7 +562,8 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
                 "lut": luts[0] if luts else None,
                 "runtime_parts": runtime,
                 "why_not": r.get("why_not")
-                or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None),
+                or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None)
+                or (None if slices or luts else r.get("zero_term")),
                 "warnings": r["warnings"],
             }
         )
