@@ -171,21 +171,21 @@ console.log(JSON.stringify(out));
 """
 
 
+def _node(script: str) -> dict:
+    """The JSON a module ``script`` prints, run by node in engine/ (no browser)."""
+    require_engine()
+    proc = subprocess.run(
+        ["node", "--input-type=module"], input=script, capture_output=True, text=True, cwd=ROOT / "engine", timeout=60
+    )
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
 def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
     """In node, no browser: a part the bake does not cover, with no runtime table, throws naming the glTF
     material; given one, the part's route is 'runtime'; a serve the plugin does not know, or 'runtime'
     without the table, is refused naming the value."""
-    require_engine()
-    proc = subprocess.run(
-        ["node", "--input-type=module"],
-        input=ROUTE_ERRORS,
-        capture_output=True,
-        text=True,
-        cwd=ROOT / "engine",
-        timeout=60,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout)
+    out = _node(ROUTE_ERRORS)
     assert (
         out["unbaked"]
         == "glTF material 3 'Lens': its dielectric part is not baked; pass { runtime } (loadLutbakeRuntime)"
@@ -213,17 +213,7 @@ def test_a_vacuum_over_vacuum_part_is_the_constant_zero_without_a_bake():
     """In node: a part whose film term is 0 (a film of the ambient's index on a base of it: `constant` in its
     manifest part) needs no baked file and no runtime table; its film term in the shader is vec3(0.0), the
     other part keeps three.js's own."""
-    require_engine()
-    proc = subprocess.run(
-        ["node", "--input-type=module"],
-        input=CONSTANT_PART,
-        capture_output=True,
-        text=True,
-        cwd=ROOT / "engine",
-        timeout=60,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout)
+    out = _node(CONSTANT_PART)
     assert out["routes"] == {"metal": "constant"}
     assert "vec3 iridescenceFresnelMetallic = vec3(0.0, 0.0, 0.0);" in out["fragment"]
     assert "material.diffuseColor )" not in out["fragment"] and "material.specularColor )" in out["fragment"]
