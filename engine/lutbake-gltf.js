@@ -80,6 +80,7 @@ const OUTPUTS = {
 // bake does not cover it, where its manifest entry hands it to the runtime path, or where `serve` says so
 // (a named metal stays baked: its spectral index has no per-channel (eta3, kappa3) for the runtime path).
 function partRoute(bake, part, serve) {
+  if (part.constant) return 'constant';   // vacuum over vacuum: the film term is 0, nothing baked
   const entries = (part.material ? [part.material] : part.channels).map((name) => bake.manifest.materials[name]);
   const baked = entries.every((entry) => entry && entry.kind !== 'runtime');
   if (part.mapping === 'named') return baked ? entries[0].kind : null;
@@ -92,6 +93,7 @@ const glslVec3 = (v) => `vec3(${v.map(glslFloat).join(', ')})`;
 // GLSL for one part's film term at (dotNVi, material.iridescenceThickness), by its route.
 function partTerm(bake, record, part, route) {
   const at = 'dotNVi, material.iridescenceThickness';
+  if (route === 'constant') return { call: glslVec3(part.constant) };
   if (route === 'runtime') {
     const film = `lutbakeRuntime, ${at}, 1.0, ${glslFloat(record.film)}`;
     if (part.base) return { call: `lutbake_iridescence(${film}, ${glslFloat(part.base[0])}, ${glslFloat(part.base[1])})` };

@@ -115,6 +115,8 @@ FLAG_OF_PARAMETER = {
     "exact": "--exact",
     "runtime_table": "--runtime-table",
     "max_de": "--max-de",
+    "n_points": "--points",
+    "routes": "--route",
     "material": "--material",
     "filter_bits": "--filter-bits",
     "interpolation": "--interpolation",

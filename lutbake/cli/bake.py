@@ -41,7 +41,15 @@ _AXIS_FLAGS = {
 
 
 def scene_source_options(f: F) -> F:
-    """--gltf and --metal-mapping: a glTF asset as the scene's source (docs/gltf.md)."""
+    """--gltf, --metal-mapping and --route: a glTF asset as the scene's source (docs/gltf.md)."""
+    f = click.option(
+        "--route",
+        "routes",
+        multiple=True,
+        metavar="MATERIAL=runtime|bake",
+        help="With --gltf: serve a glTF material (name or index) from the runtime table, unbaked, or bake it "
+        "(over its extras.lutbake.route); repeatable.",
+    )(f)
     f = click.option(
         "--metal-mapping",
         default=None,
@@ -86,6 +94,7 @@ def bake_cmd(
     scene: str | None,
     gltf: str | None,
     metal_mapping: str | None,
+    routes: tuple[str, ...],
     force: bool,
     out: str | None,
     named_film: str | None,
@@ -112,7 +121,7 @@ def bake_cmd(
         if given:
             flag = "--scene" if scene else "--gltf"
             raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
-        source = _scene_source(scene, gltf, metal_mapping)
+        source = _scene_source(scene, gltf, metal_mapping, routes)
         return _bake_scene(
             source, out, force, backend, device, as_json, progress_meter("bake scene", quiet, force_progress)
         )
@@ -179,12 +188,14 @@ def _print_bakes(results: Sequence[BakeResult], as_json: bool, imports_s: float)
             )
 
 
-def _scene_source(scene_path: str | None, gltf: str | None, metal_mapping: str | None) -> Scene:
+def _scene_source(
+    scene_path: str | None, gltf: str | None, metal_mapping: str | None, routes: tuple[str, ...] = ()
+) -> Scene:
     """The scene model from its one source; what its glTF mapping could not honour goes to stderr, a line each."""
     from lutbake.io.names import terminal_text
     from lutbake.scene.source import load_scene_source, source_warnings
 
-    scene = load_scene_source(scene_path, gltf, metal_mapping)
+    scene = load_scene_source(scene_path, gltf, metal_mapping, routes)
     for line in source_warnings(scene):
         click.echo(f"lutbake: warning: {terminal_text(line)}", err=True)
     return scene
@@ -230,7 +241,9 @@ def _bake_scene(
 )
 @scene_source_options
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as one JSON document.")
-def plan_cmd(scene_path: str | None, gltf: str | None, metal_mapping: str | None, as_json: bool) -> None:
+def plan_cmd(
+    scene_path: str | None, gltf: str | None, metal_mapping: str | None, routes: tuple[str, ...], as_json: bool
+) -> None:
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
@@ -239,7 +252,7 @@ def plan_cmd(scene_path: str | None, gltf: str | None, metal_mapping: str | None
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
 
-    scene = _scene_source(scene_path, gltf, metal_mapping)
+    scene = _scene_source(scene_path, gltf, metal_mapping, routes)
     doc = plan_document(scene)
     if as_json:
         echo_json(doc)

@@ -68,9 +68,11 @@ def report_cmd(
     from lutbake.scene.reports import open_report
 
     report = open_report(lut, out_dir, max_de)
-    if report.kind == "gltf":
-        return _print_receipts(report.run(n_points, seed), out_dir, as_json)
     meter = progress_meter(f"report {Path(lut).name}", quiet, force_progress)
+    if report.kind == "gltf":
+        receipts = report.run(n_points, seed, progress=meter)
+        meter.close()
+        return _print_receipts(receipts, out_dir, as_json)
     summary = report.run(n_points, seed, not no_approximations, search_budget, meter, environment().device)
     meter.close()
     gate_failed = max_de is not None and not summary["gate"]["passed"]
@@ -110,20 +112,32 @@ def _print_summary(summary: Mapping[str, Any], kind: str) -> None:
 
 
 def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: bool) -> int:
-    """`report OUT/ASSET.json`: the receipts of a glTF bake (lutbake/scene/gltf/receipt.py)."""
+    """`report OUT/ASSET.json`: the receipts of a glTF bake (lutbake/scene/gltf/receipt.py); exit 1 when
+    --max-de's gate fails."""
+    gate = receipts.get("gate")
+    failed = gate is not None and not gate["passed"]
     if as_json:
         echo_json(receipts)
-        return 0
+        return EXIT_GATE if failed else 0
     for r in receipts["materials"]:
-        costs = "; ".join(
-            f"{part}: baked p99 {p['de00']['baked']['de00_p99']:.2f}, three.js p99 "
-            f"{p['de00']['threejs']['de00_p99']:.2f}"
+        p99 = {
+            part + (" (runtime table)" if p.get("route") == "runtime" else ""): {
+                k: c["de00_p99"] for k, c in p["de00"].items()
+            }
             for part, p in r["parts"].items()
+        }
+        costs = "; ".join(
+            f"{part}: served p99 {c['baked']:.2f}, three.js p99 {c['threejs']:.2f} (three.js vs glTF's model "
+            f"{c['threejs_vs_gltf_model']:.2f}; glTF's model vs the physics {c['gltf_model_vs_physics']:.2f})"
+            for part, c in p99.items()
         )
         click.echo(f"material {r['gltf_index']} {r['name']!r}: {costs or r['why_not']}")
     if out_dir:
         click.echo(f"receipts in {out_dir}/receipts.html and receipts.json")
-    return 0
+    if gate is not None:
+        verdict = f"{'>' if failed else '<='} {gate['max_de']:g}: {'FAIL' if failed else 'pass'}"
+        click.echo(f"gate: worst served p99 ΔE00 {gate['de00_p99']:.3f} {verdict}")
+    return EXIT_GATE if failed else 0
 
 
 def _print_error_rows(rows: Sequence[Mapping[str, Any]], summary: Mapping[str, Any]) -> None:

@@ -164,20 +164,29 @@ def _schlick(f0: np.ndarray, cos: np.ndarray) -> np.ndarray:
     return f0 * (1 - fresnel) + fresnel
 
 
-def khr_iridescence_rgb(stack: FilmPoints, space: str = "rec709", observer: str = "cie1931") -> np.ndarray:
-    """KHR_materials_iridescence as in three.js' evalIridescence, orders 0–2."""
+def _schlick_as_specified(f0: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    """glTF's F_Schlick (Appendix B.3.4): F0 + (1 − F0)(1 − cos)^5."""
+    return f0 + (1 - f0) * (1 - cos) ** 5
+
+
+def khr_iridescence_rgb(
+    stack: FilmPoints, space: str = "rec709", observer: str = "cie1931", as_specified: bool = False
+) -> np.ndarray:
+    """KHR_materials_iridescence as in three.js' evalIridescence, orders 0–2; ``as_specified``: as the
+    extension's text writes it (glTF's model: Schlick's power, no fade of the film's index at thin films)."""
     e1, e2, e3, k3, c1, opd = _columns(stack, "khr-iridescence-threejs")
     thickness = opd / (2 * e2)
     t = np.clip(thickness / 0.03, 0.0, 1.0)  # three.js fades over 0.03 *nm* (its thickness is in nm)
-    ior = e1 + (e2 - e1) * t * t * (3 - 2 * t)
+    ior = e2 if as_specified else e1 + (e2 - e1) * t * t * (3 - 2 * t)
+    schlick = _schlick_as_specified if as_specified else _schlick
     cos2_sq = 1 - (e1 / ior) ** 2 * (1 - c1**2)
     cos2 = np.sqrt(np.maximum(cos2_sq, 0.0))
-    r12 = _schlick(((ior - e1) / (ior + e1)) ** 2, c1)
+    r12 = schlick(((ior - e1) / (ior + e1)) ** 2, c1)
     t121 = 1 - r12
     phi21 = np.pi - np.where(ior < e1, np.pi, 0.0)
     base_f0 = np.clip(((e3 - 1) ** 2 + k3**2) / ((e3 + 1) ** 2 + k3**2), 0.0, 0.9999)  # metal F0, air reference
     base_ior = (1 + np.sqrt(base_f0)) / (1 - np.sqrt(base_f0))
-    r23 = _schlick(((base_ior - ior) / (base_ior + ior)) ** 2, cos2)
+    r23 = schlick(((base_ior - ior) / (base_ior + ior)) ** 2, cos2)
     phi = phi21 + np.where(base_ior < ior, np.pi, 0.0)
     r123 = np.clip(r12 * r23, 1e-5, 0.9999)
     rs = t121**2 * r23 / (1 - r123)

@@ -14,6 +14,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any
 
+from lutbake.errors import ParameterError
 from lutbake.io.fileset import refuse_overwriting_inputs
 from lutbake.io.progress import no_progress
 from lutbake.lut.sample import Atlas, Lut, load_table
@@ -23,7 +24,7 @@ from lutbake.scene.gltf.receipt import RECEIPT_FILES
 
 __all__ = ["FileReport", "open_report", "GLTF_RECEIPT_POINTS"]
 
-GLTF_RECEIPT_POINTS = 1000  # at most this many points per part of a glTF material's receipt
+GLTF_RECEIPT_POINTS = 10_000  # at most this many points per part of a glTF material's receipt (more: refused)
 
 
 def open_report(
@@ -72,14 +73,21 @@ class FileReport:
         device: str | None = None,
     ) -> dict[str, Any]:
         """The report's document, written into ``out_dir`` when given: a glTF bake's receipts (at most
-        GLTF_RECEIPT_POINTS points per part; receipts.json and .html), or the summary of an atlas
+        GLTF_RECEIPT_POINTS points per part, more refused; gated by ``max_de``; receipts.json and .html),
+        or the summary of an atlas
         (``atlas_summary``) or a LUT (``lut_summary``: with ``approximations``, the stand-in truth of its
         searches on OpenCL ``device``), each row's max searched with ``search_budget`` evaluations (None:
         the report's default for the kind)."""
         if self.kind == "gltf":
             from lutbake.scene.gltf.receipt import gltf_receipts, write_receipts
 
-            receipts = gltf_receipts(self.path, min(n_points, GLTF_RECEIPT_POINTS), seed)
+            if n_points > GLTF_RECEIPT_POINTS:
+                raise ParameterError(
+                    "{n_points} {value} is not allowed for a glTF bake's receipts: at most {bound} per part",
+                    value=n_points,
+                    bound=GLTF_RECEIPT_POINTS,
+                )
+            receipts = gltf_receipts(self.path, n_points, seed, self.max_de, progress)
             if self.out_dir:
                 write_receipts(receipts, self.out_dir)
             return receipts

@@ -8,6 +8,7 @@ line prints one line each.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from os import PathLike
 
 from lutbake.errors import ParameterError
@@ -20,10 +21,12 @@ def load_scene_source(
     scene_path: str | PathLike[str] | None = None,
     gltf_path: str | PathLike[str] | None = None,
     metal_mapping: str | None = None,
+    routes: Sequence[str] = (),
 ) -> Scene:
     """The scene model from exactly one of ``scene_path`` (TOML) and ``gltf_path`` (.gltf/.glb, its metals
     mapped by ``metal_mapping``: 'fitted' (default), 'threejs' or a JSON file naming a lutbake material per
-    glTF material). ParameterError for none or both, or a ``metal_mapping`` without a glTF asset.
+    glTF material; ``routes``: 'MATERIAL=runtime|bake' per glTF material). ParameterError for none or
+    both, or a ``metal_mapping`` without a glTF asset.
 
     >>> load_scene_source()
     Traceback (most recent call last):
@@ -41,7 +44,7 @@ def load_scene_source(
     from lutbake.scene.gltf.materials import load_gltf_scene
 
     assert gltf_path  # one of the two, checked above
-    return load_gltf_scene(gltf_path, metal_mapping or "fitted")
+    return load_gltf_scene(gltf_path, metal_mapping or "fitted", routes=routes)
 
 
 def source_warnings(scene: Scene) -> list[str]:

@@ -174,21 +174,21 @@ console.log(JSON.stringify(out));
 """
 
 
+def _node(script: str) -> dict:
+    """The JSON a module ``script`` prints, run by node in engine/ (no browser)."""
+    require_engine()
+    proc = subprocess.run(
+        ["node", "--input-type=module"], input=script, capture_output=True, text=True, cwd=ROOT / "engine", timeout=60
+    )
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
 def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
     """In node, no browser: a part the bake does not cover, with no runtime table, throws naming the glTF
     material; given one, the part's route is 'runtime'; a serve the plugin does not know, or 'runtime'
     without the table, is refused naming the value."""
-    require_engine()
-    proc = subprocess.run(
-        ["node", "--input-type=module"],
-        input=ROUTE_ERRORS,
-        capture_output=True,
-        text=True,
-        cwd=ROOT / "engine",
-        timeout=60,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout)
+    out = _node(ROUTE_ERRORS)
     assert (
         out["unbaked"]
         == "glTF material 3 'Lens': its dielectric part is not baked; pass { runtime } (loadLutbakeRuntime)"
@@ -196,6 +196,30 @@ def test_a_part_nothing_can_serve_is_one_error_naming_the_material():
     assert out["routes"] == {"gltfIndex": 3, "name": "Lens", "parts": {"dielectric": "runtime"}}
     assert out["runtime"] == "LutbakeGLTFPlugin: serve 'runtime' needs { runtime } (loadLutbakeRuntime)"
     assert out["atlas"] == "LutbakeGLTFPlugin: serve 'atlas' is not 'bake' or 'runtime'"
+
+
+CONSTANT_PART = """
+import * as THREE from 'three';
+import { lutbakeGltfMaterial } from './lutbake-gltf.js';
+const record = { gltf_index: 0, name: 'black', film: 1.0, parts: { metal: { mapping: 'fitted', f0: [0, 0, 0],
+  eta3: [1, 1, 1], kappa3: [0, 0, 0], channels: ['m0-metal', 'm0-metal', 'm0-metal'], constant: [0, 0, 0] } } };
+const bake = { manifest: { materials: {} }, stem: 'x', atlas: null, atlasInclude: '', luts: {}, records: [record] };
+const material = lutbakeGltfMaterial(new THREE.MeshPhysicalMaterial(), record, bake);
+const chunks = ['#include <iridescence_fragment>', '#include <lights_fragment_begin>'];
+const shader = { uniforms: {}, fragmentShader: chunks.join('\\n') };
+material.onBeforeCompile(shader);
+console.log(JSON.stringify({ routes: material.userData.lutbake.parts, fragment: shader.fragmentShader }));
+"""
+
+
+def test_a_vacuum_over_vacuum_part_is_the_constant_zero_without_a_bake():
+    """In node: a part whose film term is 0 (a film of the ambient's index on a base of it: `constant` in its
+    manifest part) needs no baked file and no runtime table; its film term in the shader is vec3(0.0), the
+    other part keeps three.js's own."""
+    out = _node(CONSTANT_PART)
+    assert out["routes"] == {"metal": "constant"}
+    assert "vec3 iridescenceFresnelMetallic = vec3(0.0, 0.0, 0.0);" in out["fragment"]
+    assert "material.diffuseColor )" not in out["fragment"] and "material.specularColor )" in out["fragment"]
 
 
 def test_the_runtime_table_meets_the_contract_along_the_whole_metal_curve():

@@ -84,6 +84,9 @@ def test_sample_by_slice_name_from_the_command_line(tmp_path):
     assert delta_e00(got, truth) <= 1.0
 
 
+_ON = {"iridescenceFactor": 1.0}  # the extension with every other key at its default
+
+
 def _rows(tmp_path, materials, metal_mapping="fitted", **doc):
     scene = load_gltf_scene(write_gltf(tmp_path / "a.gltf", document(materials, **doc)), metal_mapping)
     return scene, material_rows(scene, plan_scene(scene))
@@ -95,9 +98,9 @@ def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):
         [
             iridescent(ior=1.2345678901, d_max=321.5, base_ior=1.61),  # η2 as read; fixed thickness
             iridescent(d_min=700, d_max=250, thickness_texture=True),  # min > max: sorted range
-            {"extensions": {"KHR_materials_iridescence": {}}, "pbrMetallicRoughness": {"metallicFactor": 0}},
+            {"extensions": {"KHR_materials_iridescence": _ON}, "pbrMetallicRoughness": {"metallicFactor": 0}},
             iridescent(iridescenceFactor=0.0),  # no film
-            {"extensions": {"KHR_materials_iridescence": {}}},  # glTF's defaults: a white metal
+            {"extensions": {"KHR_materials_iridescence": _ON}},  # glTF's defaults: a white metal
         ],
         textures=[{}],
     )
@@ -108,7 +111,9 @@ def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):
     default = film[rows[2]["slice"]]
     assert (default.film, default.thickness_nm, default.base) == (1.3, (400.0, 400.0), (1.5, 0.0))
     assert set(rows[2]["defaults"]) >= {"iridescenceIor", "iridescenceThicknessMaximum", "ior"}
-    assert rows[3]["slice"] is None and rows[3]["why_not"] == "iridescenceFactor 0: no film"
+    assert rows[3]["slice"] is None and rows[3]["why_not"].startswith(
+        "iridescenceFactor 0: the extension has no effect"
+    )
     assert rows[4]["metalness"] == [1.0, 1.0] and rows[4]["bases"]["metal"]["f0"] == [1.0, 1.0, 1.0]
     assert "dielectric" not in rows[4]["bases"] and rows[4]["bases"]["metal"]["clamped"]
 
@@ -200,7 +205,8 @@ def test_sphere_grids_plan_every_sphere(tmp_path):
     for name in SPHERE_GRIDS:
         scene = load_gltf_scene(khronos_gltf(name, tmp_path))
         rows = material_rows(scene, plan_scene(scene))
-        assert len(rows) == 343 and all(r["slice"] for r in rows)
+        zero = [r for r in rows if all("constant" in p for p in r["bases"].values())]
+        assert len(rows) == 343 and all(r["slice"] or r in zero for r in rows)
 
 
 # --- metals ---------------------------------------------------------------------------------------
@@ -264,3 +270,260 @@ def test_an_unchanged_asset_is_up_to_date_and_a_changed_material_rebakes_one_sli
     doc["materials"][1]["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessMaximum"] = 520
     again = bake_scene(load_gltf_scene(write_gltf(gltf, doc)), tmp_path / "out")
     assert len(again.computed) == 1 and len(again.reused) == 1
+
+
+# --- the specifications' rules, each from its own text (KhronosGroup/glTF extensions/2.0/Khronos/*/README.md) ---
+
+
+def test_iridescence_factor_defaults_to_zero_and_then_the_extension_has_no_effect(tmp_path):
+    """KHR_materials_iridescence: "iridescenceFactor | number | The iridescence intensity factor. | No, default:
+    0.0" and "If iridescenceFactor is zero (default), the iridescence extension has no effect on the material."
+    A material that omits it (an iridescenceTexture alone included: "iridescence = iridescenceFactor *
+    iridescenceTexture.r") is not baked, its receipt has no parts, and the manifest gives the three.js plugin
+    no part to patch."""
+    omitted = {"extensions": {"KHR_materials_iridescence": {"iridescenceIor": 1.8}}}
+    texture_only = {"extensions": {"KHR_materials_iridescence": {"iridescenceTexture": {"index": 0}}}}
+    doc = document([omitted, texture_only, iridescent(ior=1.8)], textures=[{}])
+    scene, rows = _rows(tmp_path, doc.pop("materials"), **{k: v for k, v in doc.items() if k == "textures"})
+    assert [r["read"]["iridescenceFactor"] for r in rows[:2]] == [{"value": 0.0, "default": True}] * 2
+    assert all(r["slice"] is None and r["lut"] is None and "(its default: omitted)" in r["why_not"] for r in rows[:2])
+    assert [m.name for m in scene.materials] == ["m2-dielectric"]
+    gltf = write_gltf(tmp_path / "f.gltf", document([omitted, iridescent(ior=1.8)]))
+    assert cli("bake", "--gltf", gltf, "--out", tmp_path / "out").returncode == 0
+    manifest = json.loads((tmp_path / "out" / "f.json").read_text())
+    assert [r["parts"] for r in manifest["source"]["materials"]][0] == {}  # the plugin patches parts only
+    receipt = json.loads(cli("report", tmp_path / "out" / "f.json", "--points", 20, "--json").stdout)
+    assert receipt["materials"][0]["parts"] == {} and receipt["materials"][1]["parts"]
+
+
+def test_film_defaults_and_the_thickness_rules(tmp_path):
+    """KHR_materials_iridescence: "iridescenceIor ... No, default: 1.3", "iridescenceThicknessMinimum ...
+    No, default: 100.0", "iridescenceThicknessMaximum ... No, default: 400.0"; "If the thickness texture is not
+    present, it is implicitly sampled as 1.0 so the thin-film thickness is uniformly set to the
+    iridescenceThicknessMaximum value"; with it, "thickness = mix(iridescenceThicknessMinimum,
+    iridescenceThicknessMaximum, iridescenceThicknessTexture.g)", and "The iridescenceThicknessMinimum value
+    MAY be greater than iridescenceThicknessMaximum value" (the same range, read from the other end)."""
+    texture = {"iridescenceThicknessTexture": {"index": 0}}
+    plain = {"metallicFactor": 0}
+    materials = [
+        {"extensions": {"KHR_materials_iridescence": _ON}, "pbrMetallicRoughness": plain},
+        {"extensions": {"KHR_materials_iridescence": {**_ON, **texture}}, "pbrMetallicRoughness": plain},
+        {
+            "extensions": {"KHR_materials_iridescence": {**_ON, **texture, "iridescenceThicknessMinimum": 900}},
+            "pbrMetallicRoughness": plain,
+        },
+    ]
+    scene, rows = _rows(tmp_path, materials, textures=[{}])
+    assert [r["film"] for r in rows] == [1.3, 1.3, 1.3]
+    assert [r["thickness_nm"] for r in rows] == [[400.0, 400.0], [100.0, 400.0], [400.0, 900.0]]
+    assert {"iridescenceIor", "iridescenceThicknessMinimum", "iridescenceThicknessMaximum"} <= set(rows[1]["defaults"])
+
+
+def test_ior_default_valid_values_and_the_specular_glossiness_mode(tmp_path):
+    """KHR_materials_ior: "ior | number | The index of refraction. | No, default: 1.5"; "Valid values for ior are
+    numbers greater than or equal to one. As a special case, a value of zero is allowed"; at zero "The effective
+    IOR becomes positive infinity and the Fresnel term MUST evaluate to 1.0". KHR_materials_iridescence: "The
+    base_ior can be changed using the KHR_materials_ior extension" (of the dielectric; the metal's base is its
+    base colour). An infinite index has no base in lutbake's domain: F0 1 is clamped at η3 10 and said so; a
+    value between 0 and 1 is baked as read, with a warning."""
+    scene, rows = _rows(
+        tmp_path,
+        [iridescent(), iridescent(base_ior=0.0), iridescent(base_ior=0.5), iridescent(base_ior=1.7, metallic=1.0)],
+    )
+    assert rows[0]["bases"]["dielectric"]["base"] == [1.5, 0.0] and "ior" in rows[0]["defaults"]
+    zero = rows[1]["bases"]["dielectric"]
+    assert zero["base"] == [pytest.approx(10.0), 0.0] and zero["f0"] == [1.0, 1.0, 1.0]
+    assert "clamped" in rows[1]["warnings"][0]
+    assert (
+        rows[2]["bases"]["dielectric"]["base"] == [0.5, 0.0]
+        and "valid values are 0 or at least 1" in rows[2]["warnings"][0]
+    )
+    assert "dielectric" not in rows[3]["bases"] and rows[3]["bases"]["metal"]["f0"] == [1.0, 1.0, 1.0]
+
+
+def test_specular_sets_the_dielectric_base_f0_per_channel_and_the_receipt_holds(tmp_path):
+    """KHR_materials_iridescence with KHR_materials_specular: "base_f0 = ((1-base_ior)/(1+base_ior))^2 *
+    base_f0_color", "base_f0 = min(base_f0, float3(1.0))", then "iridescent_fresnel(outside_ior,
+    iridescence_ior, specular_weight * base_f0, iridescence_thickness)"; KHR_materials_specular:
+    "specularFactor ... No, default: 1.0", "specularColorFactor ... No, default: [1.0, 1.0, 1.0]", "The metal
+    BRDF is not affected by the parameter". Each channel's base is the real index whose F0 under air is that
+    (the extension's Fresnel0ToIor); at the defaults it is the ior itself. Its textures vary F0 per texel:
+    baked at the factors, named in one warning per asset. In the receipt a grey specular's slice holds its
+    target; a coloured one, a slice per channel, is far closer than three.js's own term (its composed colour's
+    p99 reaches 1.02-1.13 at 1,000 points where each slice holds 1.0: docs/gltf.md, issue 34 item 3)."""
+    coloured = iridescent(ior=1.35, d_max=420, base_ior=1.6)
+    coloured["extensions"]["KHR_materials_specular"] = {"specularFactor": 0.7, "specularColorFactor": [1.0, 0.4, 2.5]}
+    default = iridescent(ior=1.35, base_ior=1.6)
+    default["extensions"]["KHR_materials_specular"] = {}
+    textured = iridescent(ior=1.9, metallic=0.5)
+    textured["extensions"]["KHR_materials_specular"] = {"specularFactor": 0.5, "specularTexture": {"index": 0}}
+    doc = document([coloured, default, textured], textures=[{}])
+    scene = load_gltf_scene(write_gltf(tmp_path / "spec.gltf", doc))
+    parts = [r["parts"] for r in scene.source["materials"]]
+    f0_ior = (0.6 / 2.6) ** 2
+    want = [0.7 * min(f0_ior * c, 1.0) for c in (1.0, 0.4, 2.5)]
+    eta = np.array(parts[0]["dielectric"]["eta3"])
+    assert (
+        np.allclose(((eta - 1) / (eta + 1)) ** 2, want, rtol=1e-12)
+        and len(set(parts[0]["dielectric"]["channels"])) == 3
+    )
+    assert parts[1]["dielectric"]["base"] == [1.6, 0.0]  # the defaults: the ior exactly
+    root = (0.5 * 0.04) ** 0.5  # F0 = 0.5 × ((1.5 - 1)/(1.5 + 1))^2
+    assert parts[2]["dielectric"]["base"] == [pytest.approx((1 + root) / (1 - root)), 0.0]
+    assert parts[2]["metal"]["f0"] == [1.0, 1.0, 1.0]  # the metal part: its base colour only
+    notes = [w for w in scene.source["asset_warnings"] if "specular textures" in w]
+    assert len(notes) == 1 and "materials[2]" in notes[0]
+    assert cli("bake", "--gltf", tmp_path / "spec.gltf", "--out", tmp_path / "out").returncode == 0
+    proc = cli("report", tmp_path / "out" / "spec.json", "--points", 200, "--json")
+    assert proc.returncode == 0, proc.stderr
+    coloured_receipt, _, grey = (r["parts"]["dielectric"]["de00"] for r in json.loads(proc.stdout)["materials"])
+    assert 3 * coloured_receipt["baked"]["de00_p99"] < coloured_receipt["threejs"]["de00_p99"]
+    assert grey["baked"]["de00_p99"] <= 1.0 < grey["threejs"]["de00_p99"]
+
+
+def test_variants_bake_every_material_a_primitive_can_show(tmp_path):
+    """KHR_materials_variants: "When the active variant is referenced in a mapping, a compliant viewer will
+    apply its material to the primitive" and "When no mapping contains the active variant, or there is no
+    active variant, a compliant viewer will fall back on vanilla glTF behaviour for the primitive": the
+    primitive's own material and each mapped one are baked; a material no primitive or mapping names is not."""
+    mappings = {"mappings": [{"material": 1, "variants": [0]}, {"material": 2, "variants": [1]}]}
+    primitive = {"attributes": {}, "material": 0, "extensions": {"KHR_materials_variants": mappings}}
+    doc = document(
+        [iridescent(ior=1.4), iridescent(ior=1.45), iridescent(ior=1.6), iridescent(ior=1.7)],
+        meshes=[{"primitives": [primitive]}],
+        extensions={"KHR_materials_variants": {"variants": [{"name": "a"}, {"name": "b"}]}},
+    )
+    _, rows = _rows(tmp_path, doc.pop("materials"), meshes=doc["meshes"], extensions=doc["extensions"])
+    assert [r["used_by"] for r in rows] == [["primitive"], ["a"], ["b"], []]
+    assert [bool(r["slice"]) for r in rows] == [True, True, True, False] and "not used" in rows[3]["why_not"]
+
+
+def test_other_extensions_on_a_film_are_named_in_one_warning_per_asset(tmp_path):
+    """Extensions that put a layer over the film or change what its base does (KHR_materials_iridescence:
+    "When adding a clearcoat ontop, an additional interface between the clearcoat and thin-film layer would be
+    created. Due to simplicity and artistical friendlyness, this interface is ignored") and its Exclusions
+    ("This extension must not be used on a material that also uses KHR_materials_unlit"): one warning for the
+    asset naming each extension and the materials with a film that use it; none for a material without one."""
+    coat, sheen, unlit, off = iridescent(), iridescent(ior=1.45), iridescent(ior=1.6), iridescent(iridescenceFactor=0)
+    coat["extensions"]["KHR_materials_clearcoat"] = {"clearcoatFactor": 1}
+    sheen["extensions"].update(KHR_materials_sheen={}, KHR_materials_clearcoat={})
+    unlit["extensions"]["KHR_materials_unlit"] = {}
+    off["extensions"]["KHR_materials_sheen"] = {}  # no film: nothing baked, nothing to say
+    scene = load_gltf_scene(write_gltf(tmp_path / "x.gltf", document([coat, sheen, unlit, off])))
+    lines = [w for w in scene.source["asset_warnings"] if "change what the film" in w]
+    assert len(lines) == 1
+    assert "KHR_materials_clearcoat on materials[0] '', materials[1] ''" in lines[0]
+    assert "KHR_materials_sheen on materials[1] ''" in lines[0] and "materials[3]" not in lines[0]
+    assert "KHR_materials_unlit on materials[2] '': KHR_materials_iridescence must not be used with it" in lines[0]
+
+
+def test_stacks_with_nothing_to_bake_are_served_without_a_bake_and_said_so(tmp_path):
+    """A film of the ambient's index on a base of it (IridescenceMetallicSpheres' black metal under
+    iridescenceIor 1, the fitted mapping's F0 0: vacuum over vacuum) reflects nothing: its part is the constant
+    0, served without a bake (the plugin writes vec3(0.0)), one line per asset says so, and the bake exits 0
+    (it exited 1 on those seven spheres, "p99 ΔE00 0.000 (bound 65.121)"). A film of the ambient's index on any
+    other base is baked as usual."""
+    scene = load_gltf_scene(khronos_gltf("IridescenceMetallicSpheres", tmp_path))
+    zero = [r for r in scene.source["materials"] if r.get("zero_term")]
+    assert len(zero) == 7 and all(r["read"]["iridescenceIor"]["value"] == 1 for r in zero)
+    assert all(r["read"]["baseColorFactor"]["value"][:3] == [0, 0, 0] for r in zero)
+    assert len(scene.materials) == 343 - 7
+    doc = document([iridescent(ior=1.0, metallic=1.0, colour=[0, 0, 0]), iridescent(ior=1.0, base_ior=1.5)])
+    proc = cli("bake", "--gltf", write_gltf(tmp_path / "v.gltf", doc), "--out", tmp_path / "out")
+    assert proc.returncode == 0, proc.stderr
+    assert [x for x in proc.stderr.splitlines() if "1 iridescent material with a part that has nothing" in x]
+    small = load_gltf_scene(tmp_path / "v.gltf")
+    assert "vacuum over vacuum" in material_rows(small, plan_scene(small))[0]["why_not"]  # what `plan` prints
+    manifest = json.loads((tmp_path / "out" / "v.json").read_text())
+    parts = [r["parts"] for r in manifest["source"]["materials"]]
+    assert (
+        parts[0]["metal"]["constant"] == [0.0, 0.0, 0.0] and parts[1]["dielectric"]["material"] in manifest["materials"]
+    )
+    receipt = json.loads(cli("report", tmp_path / "out" / "v.json", "--points", 40, "--json").stdout)
+    assert receipt["materials"][0]["parts"]["metal"]["de00"]["baked"]["de00_max"] == 0.0
+
+
+# --- receipts as a CI gate ------------------------------------------------------------------------------
+
+
+def _baked(tmp_path, materials, *flags):
+    """`bake --gltf` of ``materials`` into tmp_path/out: the manifest's path."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    gltf = write_gltf(tmp_path / "g.gltf", document(materials))
+    proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", *flags)
+    assert proc.returncode == 0, proc.stderr
+    return tmp_path / "out" / "g.json"
+
+
+def test_report_gates_ci_honours_points_and_shows_progress(tmp_path):
+    """`report ASSET.json --max-de X` exits 1 when a part's baked p99 is above X (0 at or below), in text and
+    JSON; --points is honoured up to its bound and refused past it in one line (exit 2, nothing written);
+    --progress shows a line per material."""
+    manifest = _baked(tmp_path, [iridescent(ior=1.4, d_max=300), iridescent(ior=1.7, metallic=1.0, colour=[0.8] * 3)])
+    fail = cli("report", manifest, "--points", 40, "--max-de", 0.01)
+    assert fail.returncode == 1 and "gate: worst served p99 ΔE00" in fail.stdout and "FAIL" in fail.stdout
+    doc = json.loads(cli("report", manifest, "--points", 40, "--max-de", 0.01, "--json").stdout)
+    assert doc["gate"]["passed"] is False and doc["points_per_part"] == 40
+    worst = max(p["de00"]["baked"]["de00_p99"] for r in doc["materials"] for p in r["parts"].values())
+    assert doc["gate"]["de00_p99"] == worst
+    passing = cli("report", manifest, "--points", 40, "--max-de", 5, "--progress")
+    assert passing.returncode == 0 and "pass" in passing.stdout
+    assert "2/2" in passing.stderr and "material 1" in passing.stderr
+    refused = cli("report", manifest, "--points", 10_001, "--out", tmp_path / "rec")
+    assert refused.returncode == 2 and not (tmp_path / "rec").exists()
+    assert refused.stderr.strip().splitlines() == [
+        "lutbake: error: --points 10001 is not allowed for a glTF bake's receipts: at most 10000 per part"
+    ]
+
+
+def test_every_metal_mapping_has_a_receipt_and_it_separates_threejs_from_gltfs_model(tmp_path):
+    """Receipts for the threejs and named mappings (fitted: test_receipts_say_what_each_choice_costs). A named
+    metal's three.js term is fed the glTF material's base colour, which is what three.js shows (the receipt
+    crashed on it: "--base NAME 'Au' differs from the khr-iridescence-threejs's base"). Each part splits
+    three.js's error into three.js vs KHR_materials_iridescence's model (the same F0: small) and that model vs
+    the physics (on a near-black metal, the fitted mapping's departure from Schlick's curve: large)."""
+    named = tmp_path / "named.json"
+    named.write_text(json.dumps({"materials": {"0": "Au"}}))
+    for mapping in ("threejs", str(named)):
+        folder = tmp_path / Path(mapping).stem
+        manifest = _baked(
+            folder, [iridescent(ior=1.5, d_max=350, metallic=1.0, colour=[0.9, 0.7, 0.4])], "--metal-mapping", mapping
+        )
+        proc = cli("report", manifest, "--points", 60, "--json")
+        assert proc.returncode == 0, proc.stderr
+        costs = json.loads(proc.stdout)["materials"][0]["parts"]["metal"]["de00"]
+        assert costs["baked"]["de00_p99"] <= 1.0 < costs["threejs"]["de00_p99"], (mapping, costs)
+    dark = _baked(tmp_path / "dark", [iridescent(ior=1.6, d_max=500, metallic=1.0, colour=[0.01] * 3)])
+    costs = json.loads(cli("report", dark, "--points", 200, "--json").stdout)["materials"][0]["parts"]["metal"]["de00"]
+    assert 5 * costs["threejs_vs_gltf_model"]["de00_p99"] < costs["gltf_model_vs_physics"]["de00_p99"], costs
+
+
+# --- routes ---------------------------------------------------------------------------------------------
+
+
+def test_a_material_can_be_sent_to_the_runtime_table_by_flag_or_extras(tmp_path):
+    """`--route NAME=runtime` or the material's extras.lutbake.route "runtime": its parts are not baked, the
+    manifest says route runtime (the three.js plugin then serves them from the table), `plan` says so, and
+    the receipt scores the runtime table at its points; --route MATERIAL=bake overrides the extras. A value
+    that is neither, or names no material, is refused in one line (exit 2)."""
+    extras = {**iridescent(ior=1.4, d_max=300), "extras": {"lutbake": {"route": "runtime"}}}
+    metal = iridescent(ior=1.8, d_max=500, metallic=1.0, colour=[0.9, 0.6, 0.3], name="gold")
+    flagged_back = {**iridescent(ior=1.6), "extras": {"lutbake": {"route": "runtime"}}}
+    gltf = write_gltf(tmp_path / "r.gltf", document([extras, metal, flagged_back]))
+    plan = json.loads(cli("plan", "--gltf", gltf, "--route", "gold=runtime", "--route", "2=bake", "--json").stdout)
+    rows = plan["gltf_materials"]
+    assert [r["runtime_parts"] for r in rows] == [["dielectric"], ["metal"], []]
+    assert rows[0]["slice"] is None and "runtime table" in rows[0]["why_not"] and rows[2]["slice"]
+    proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", "--route", "gold=runtime", "--route", "2=bake")
+    assert proc.returncode == 0, proc.stderr
+    manifest = json.loads((tmp_path / "out" / "r.json").read_text())
+    parts = [r["parts"] for r in manifest["source"]["materials"]]
+    assert parts[0]["dielectric"]["route_by"] == "extras.lutbake.route" and parts[1]["metal"]["route_by"] == "--route"
+    baked = set(manifest["materials"])
+    assert not baked & set(parts[1]["metal"]["channels"]) and parts[2]["dielectric"]["material"] in baked
+    receipt = json.loads(cli("report", tmp_path / "out" / "r.json", "--points", 60, "--json").stdout)
+    for row in receipt["materials"][:2]:
+        (part,) = row["parts"].values()
+        assert part["route"] == "runtime" and part["de00"]["baked"]["de00_p99"] <= 0.3  # the table's contract p99
+    bad = cli("plan", "--gltf", gltf, "--route", "gold=gpu")
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--route 'gold=gpu'" in bad.stderr

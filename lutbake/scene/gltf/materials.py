@@ -7,9 +7,12 @@ material in the manifest's ``source`` section:
 
 * ambient η1 = 1; film η2 = iridescenceIor exactly (default 1.3, never snapped); thickness the range
   [min, max] (sorted: the spec allows min > max) when iridescenceThicknessTexture is present, else
-  iridescenceThicknessMaximum (default 400 nm); iridescenceFactor 0: no film, nothing baked (the
-  factor and iridescenceTexture only blend the film term in the engine);
-* the dielectric part (metalness < 1 somewhere): base η3 = ior (KHR_materials_ior, default 1.5);
+  iridescenceThicknessMaximum (default 400 nm); iridescenceFactor 0 (its default: a material that omits
+  it has no film): nothing baked (the factor and iridescenceTexture only blend the film term in the
+  engine); a part of a film of the ambient's index on a base of it (vacuum over vacuum) reflects
+  nothing: the constant 0, nothing baked, said so;
+* the dielectric part (metalness < 1 somewhere): base η3 = ior (KHR_materials_ior, default 1.5), or per
+  channel the real index of the F0 KHR_materials_specular gives it (lutbake/scene/gltf/extensions.py);
 * the metal part (metalness > 0 somewhere): each channel's base colour F0 → (η3, κ3) by the metal
   mapping (lutbake/physics/metals.py: ``fitted`` or ``threejs``), or one named lutbake material (a mapping file or
   the material's ``extras.lutbake.metal``); a texture-driven base colour cannot be one slice, so it
@@ -25,16 +28,26 @@ negative thickness, an index outside lutbake's domain) is a one-line ValueError.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from lutbake.errors import ParameterError
 from lutbake.physics.materials import material as named_material
 from lutbake.physics.metals import F0_MAX, MAPPINGS, conductor, reflectance_error
 from lutbake.physics.points import check_value
 from lutbake.scene.gltf.asset import GltfAsset, read_gltf
+from lutbake.scene.gltf.extensions import (
+    EXCLUDED,
+    OTHER_LAYERS,
+    SPECULAR,
+    SPECULAR_TEXTURES,
+    asset_notes,
+    dielectric_f0,
+)
 from lutbake.scene.gltf.mapping import read_metal_mapping
 from lutbake.scene.model import Base, BasePath, Scene, SceneMaterial, check_material_names
 
@@ -44,8 +57,9 @@ if TYPE_CHECKING:
 __all__ = ["load_gltf_scene", "METAL_TABLE_NODES", "FILM_DEFAULTS"]
 
 _EXT = "KHR_materials_iridescence"
+_AMBIENT_INDEX = 1.0  # glTF's outside_ior: the film term is defined under air
 FILM_DEFAULTS = {
-    "iridescenceFactor": 1.0,
+    "iridescenceFactor": 0.0,
     "iridescenceIor": 1.3,
     "iridescenceThicknessMinimum": 100.0,
     "iridescenceThicknessMaximum": 400.0,
@@ -55,7 +69,9 @@ _DRAFT_KEYS = {"iridescenceIOR": "iridescenceIor"}
 METAL_TABLE_NODES = 65  # F0 → (η3, κ3) nodes the engine interpolates for a texture-driven metal
 
 
-def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0) -> Scene:
+def load_gltf_scene(
+    path: str | PathLike[str], metal_mapping: str = "fitted", max_de: float = 1.0, routes: Sequence[str] = ()
+) -> Scene:
     """Read a glTF asset (.gltf or .glb) into a scene: its used iridescent materials, mapped.
 
     Parameters
@@ -67,6 +83,9 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
         {"NAME or INDEX": "lutbake material name"}} naming a lutbake material per glTF material.
     max_de : float
         The target p99 ΔE00 of every slice (as a scene file's ``max_de``).
+    routes : sequence of str
+        'NAME or INDEX=runtime|bake' per glTF material (`--route`), over its ``extras.lutbake.route``:
+        ``runtime`` serves its parts from the runtime table, unbaked (a named metal stays baked).
 
     Returns
     -------
@@ -95,7 +114,7 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
     """
     asset = read_gltf(path)
     default, named, mapping_file = _metal_mapping(metal_mapping, asset)
-    records, materials = _iridescent_materials(asset, named, default)
+    records, materials, notes = _iridescent_materials(asset, named, default, _routes(routes, asset))
     check_material_names([m.name for m in materials], lambda name, message: asset.error(name, message))
     max_de = float(check_value("max_de", max_de)[0])
     source = {
@@ -103,7 +122,7 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
         "asset": asset.path.name,
         "metal_mapping": default,
         "mapping_file": None if mapping_file is None else Path(mapping_file).name,
-        "asset_warnings": asset.warnings,
+        "asset_warnings": asset.warnings + asset_notes(notes) + _no_interference_note(records),
         "materials": records,
     }
     inputs = () if mapping_file is None else (str(mapping_file),)
@@ -111,14 +130,16 @@ def load_gltf_scene(path: str | PathLike[str], metal_mapping: str = "fitted", ma
 
 
 def _iridescent_materials(
-    asset: GltfAsset, named: dict[int, str], default: str
-) -> tuple[list[dict[str, Any]], list[SceneMaterial]]:
+    asset: GltfAsset, named: dict[int, str], default: str, routes: dict[int, str]
+) -> tuple[list[dict[str, Any]], list[SceneMaterial], dict[str, list[str]]]:
     """(the record of every glTF material with the iridescence extension, the scene materials of those
-    the meshes use and that have a film), in the asset's order; a metal base mapped by ``named`` (index →
-    lutbake material), else by the material's extras, else by ``default``."""
+    the meshes use and that have a film, {extension lutbake does not bake: the labels of the materials
+    with a film that use it}), in the asset's order; a metal base mapped by ``named`` (index → lutbake
+    material), else by the material's extras, else by ``default``."""
     used = asset.used_materials()
     records: list[dict[str, Any]] = []
     materials: list[SceneMaterial] = []
+    notes: dict[str, list[str]] = {}
     for index, body in enumerate(asset.materials):
         ext = asset.object(
             asset.object(body, "extensions", f"materials[{index}]"), _EXT, f"materials[{index}].extensions"
@@ -129,9 +150,59 @@ def _iridescent_materials(
         record = reader.record(used.get(index, []))
         if index in used and record["film"] is not None:
             parts = _Parts(reader, record, named.get(index) or reader.extras_metal(), default)
+            route = routes.get(index) or reader.extras_route()
+            if route == "runtime":
+                _to_runtime_table(parts, "--route" if index in routes else "extras.lutbake.route")
             materials += parts.materials
+            for name in reader.unbaked_extensions():
+                notes.setdefault(name, []).append(reader.label)
         records.append(record)
-    return records, materials
+    return records, materials, notes
+
+
+def _no_interference_note(records: list[dict[str, Any]]) -> list[str]:
+    """One line naming the used materials with a part whose film term is zero (none: no line)."""
+    idle = [f"materials[{r['gltf_index']}] {str(r['name'] or '')!r}" for r in records if r.get("zero_term")]
+    if not idle:
+        return []
+    return [
+        f"{len(idle)} iridescent material{'s' if len(idle) > 1 else ''} with a part that has nothing to bake (a "
+        f"film of the ambient's index on a base of it: vacuum over vacuum, its film term is 0; served as the "
+        f"constant 0, no LUT): " + ", ".join(idle)
+    ]
+
+
+_ROUTES = ("runtime", "bake")
+
+
+def _routes(values: Sequence[str], asset: GltfAsset) -> dict[int, str]:
+    """{glTF material index: route} from 'NAME or INDEX=runtime|bake' strings."""
+    by_name = {m.get("name"): i for i, m in enumerate(asset.materials)}
+    routes: dict[int, str] = {}
+    for value in values:
+        key, _, route = value.rpartition("=")
+        index = int(key) if key.isdigit() else by_name.get(key)
+        if route not in _ROUTES or index is None or index >= len(asset.materials):
+            raise ParameterError(
+                "{routes} {value} is not allowed: MATERIAL=runtime or MATERIAL=bake, MATERIAL a glTF material's "
+                "name or index in {asset}",
+                value=repr(value),
+                asset=asset.path.name,
+            )
+        routes[index] = route
+    return routes
+
+
+def _to_runtime_table(parts: _Parts, by: str) -> None:
+    """Serve each part of ``parts`` from the runtime table (``route: runtime``, not baked), as ``by`` asks; a
+    named metal has no (η3, κ3) for the table and stays baked (warned)."""
+    for info in parts.record["parts"].values():
+        if info.get("mapping") == "named":
+            parts.reader.warn(f"{by} runtime: the named metal {info['named']!r} has no (η3, κ3) for it: baked")
+            continue
+        info.update(route="runtime", route_by=by)
+        unbaked = set(_served(info))
+        parts.materials = [m for m in parts.materials if m.name not in unbaked]
 
 
 def _metal_mapping(value: str, asset: GltfAsset) -> tuple[str, dict[int, str], Path | None]:
@@ -198,6 +269,25 @@ class _MaterialReader:
         self.read[key] = True
         return True
 
+    def unbaked_extensions(self) -> list[str]:
+        """The extensions on this material that change what the film sits on or lies under and that lutbake
+        does not bake (KHR_materials_specular's textures among them)."""
+        exts = self.body.get("extensions", {})
+        found = [e for e in (*OTHER_LAYERS, *EXCLUDED) if e in exts]
+        specular = exts.get(SPECULAR)
+        if isinstance(specular, dict) and any(self.read.get(k) for k in SPECULAR_TEXTURES):
+            found.append("specular textures")
+        return found
+
+    def extras_route(self) -> str | None:
+        """``extras.lutbake.route``: 'runtime', 'bake' or None."""
+        extras = self.body.get("extras", {})
+        lutbake = extras.get("lutbake", {}) if isinstance(extras, dict) else {}
+        route = lutbake.get("route") if isinstance(lutbake, dict) else None
+        if route is not None and route not in _ROUTES:
+            raise self.error("extras.lutbake.route", f"= {route!r} is not 'runtime' or 'bake'")
+        return route
+
     def extras_metal(self) -> str | None:
         extras = self.body.get("extras", {})
         lutbake = extras.get("lutbake", {}) if isinstance(extras, dict) else {}
@@ -245,7 +335,8 @@ class _MaterialReader:
         if not used_by:
             record["why_not"] = "not used by any mesh primitive (nor through KHR_materials_variants)"
         elif factor == 0.0:
-            record["why_not"] = "iridescenceFactor 0: no film"
+            given = "" if "iridescenceFactor" in ext else " (its default: omitted)"
+            record["why_not"] = f"iridescenceFactor 0{given}: the extension has no effect, no film"
         else:
             record["film"] = eta2
         return record
@@ -271,9 +362,9 @@ class _Parts:
         colour = self._base_colour(pbr)
         metal_textured = reader.texture(pbr, "metallicRoughnessTexture", pbr_where)
         colour_textured = reader.texture(pbr, "baseColorTexture", pbr_where)
-        ior_ext = reader.asset.object(
-            reader.asset.object(body, "extensions", reader.label), "KHR_materials_ior", f"{reader.label}.extensions"
-        )
+        extensions = reader.asset.object(body, "extensions", reader.label)
+        ior_ext = reader.asset.object(extensions, "KHR_materials_ior", f"{reader.label}.extensions")
+        specular = reader.asset.object(extensions, SPECULAR, f"{reader.label}.extensions")
         ior = reader.number(ior_ext, "ior", 1.5, "KHR_materials_ior.")
         metalness = (0.0 if metal_textured else min(max(metallic, 0.0), 1.0), min(max(metallic, 0.0), 1.0))
         record["metalness"] = list(metalness)
@@ -281,22 +372,63 @@ class _Parts:
         self.thickness = tuple(record["thickness_nm"])
         self.materials: list[SceneMaterial] = []
         if metalness[0] < 1.0:
-            reader._domain("eta3", ior, "KHR_materials_ior.ior")
-            record["parts"]["dielectric"] = {"base": [ior, 0.0], "material": self._add("dielectric", (ior, 0.0), "ior")}
+            self._keep("dielectric", self._dielectric(ior, specular if SPECULAR in extensions else None))
         if metalness[1] > 0.0:
-            record["parts"]["metal"] = self._metal(colour, colour_textured, named, default)
+            self._keep("metal", self._metal(colour, colour_textured, named, default))
+
+    def _keep(self, part: str, info: dict[str, Any]) -> None:
+        """Record ``part``; a part whose every interface is index-matched (a film of the ambient's index on a
+        base of it, every channel) reflects nothing: its film term is the constant 0, served without a bake."""
+        eta3 = info.get("eta3", [info["base"][0]] * 3 if "base" in info else None)
+        kappa3 = info.get("kappa3", [info["base"][1]] * 3 if "base" in info else None)
+        matched = [_AMBIENT_INDEX, *(eta3 or [None])]
+        if self.record["film"] == _AMBIENT_INDEX and set(matched) == {_AMBIENT_INDEX} and not any(kappa3 or [1]):
+            self.materials = [m for m in self.materials if m.name not in _served(info)]
+            info = {**info, "constant": [0.0, 0.0, 0.0]}
+            self.record["zero_term"] = f"the {part} part: vacuum over vacuum, film term 0 (nothing to bake)"
+        self.record["parts"][part] = info
+
+    def _dielectric(self, ior: float, specular: dict[str, Any] | None) -> dict[str, Any]:
+        """The dielectric part: base η3 = ior, or (KHR_materials_specular, or ior 0) per channel the real index
+        whose F0 under air is the film term's base F0 (extensions.dielectric_f0)."""
+        reader, field = self.reader, "KHR_materials_ior.ior"
+        if 0.0 < ior < 1.0:
+            reader.warn(f"KHR_materials_ior.ior {ior:g}: valid values are 0 or at least 1; baked as read")
+        if specular is None and ior != 0.0:
+            reader._domain("eta3", ior, field)
+            return {"base": [ior, 0.0], "material": self._add("dielectric", (ior, 0.0), "ior")}
+        where = f"{SPECULAR}."
+        weight = reader.number(specular or {}, "specularFactor", 1.0, where)
+        colour = self._factor(specular or {}, "specularColorFactor", [1.0, 1.0, 1.0], where)
+        for key in SPECULAR_TEXTURES:
+            reader.texture(specular or {}, key, where)
+        if ior != 0.0 and weight == 1.0 and colour == [1.0, 1.0, 1.0]:  # the ior's own F0: its index exactly
+            reader._domain("eta3", ior, field)
+            return {"base": [ior, 0.0], "material": self._add("dielectric", (ior, 0.0), "ior")}
+        f0 = dielectric_f0(ior, weight, colour)
+        eta, kappa, clamped = conductor(f0, "threejs")  # η = (1 + √F0)/(1 − √F0), κ = 0: the spec's Fresnel0ToIor
+        self._report_clamp(f0, clamped, "dielectric F0")
+        channels = self._channels("dielectric", eta, kappa, f"{SPECULAR} and KHR_materials_ior")
+        if len(set(channels)) == 1:
+            return {"base": [float(eta[0]), 0.0], "material": channels[0], "f0": f0}
+        return {"f0": f0, "eta3": eta.tolist(), "kappa3": kappa.tolist(), "channels": channels}
 
     def _base_colour(self, pbr: dict[str, Any]) -> list[float]:
-        value = pbr.get("baseColorFactor", [1.0, 1.0, 1.0, 1.0])
+        value = self._factor(pbr, "baseColorFactor", [1.0, 1.0, 1.0, 1.0], "pbrMetallicRoughness.")
+        return [min(max(v, 0.0), 1.0) for v in value[:3]]
+
+    def _factor(self, parent: dict[str, Any], key: str, default: list[float], where: str) -> list[float]:
+        """A colour factor of ``len(default)`` numbers (recorded in ``read``, its default flagged)."""
+        value = parent.get(key, default)
         ok = (
             isinstance(value, list)
-            and len(value) == 4
+            and len(value) == len(default)
             and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in value)
         )
         if not ok:
-            raise self.reader.error("pbrMetallicRoughness.baseColorFactor", f"= {value!r} is not 4 numbers")
-        self.reader.read["baseColorFactor"] = {"value": value, "default": "baseColorFactor" not in pbr}
-        return [min(max(float(v), 0.0), 1.0) for v in value[:3]]
+            raise self.reader.error(f"{where}{key}", f"= {value!r} is not {len(default)} numbers")
+        self.reader.read[key] = {"value": value, "default": key not in parent}
+        return [float(v) for v in value]
 
     def _add(self, part: str, base: Base, field: str, base_path: BasePath | None = None) -> str:
         name = f"{self.stem}-{part}"
@@ -312,18 +444,13 @@ class _Parts:
         if named is not None:
             if textured:
                 self.reader.warn(f"baseColorTexture does not change the named metal {named!r}")
-            return {"mapping": "named", "named": named, "channels": [self._add("metal", named, "named metal")] * 3}
+            channels = [self._add("metal", named, "named metal")] * 3
+            return {"mapping": "named", "named": named, "f0": f0, "channels": channels}
         if textured:
             return self._metal_range(f0, mapping)
         eta, kappa, clamped = conductor(f0, mapping)
-        self._report_clamp(f0, clamped, mapping)
-        names: dict[tuple[float, float], str] = {}
-        channels: list[str] = []
-        for c, key in enumerate(zip(eta, kappa)):
-            if key not in names:
-                part = "metal" if len(set(zip(eta, kappa))) == 1 else f"metal-{'rgb'[c]}"
-                names[key] = self._add(part, (float(key[0]), float(key[1])), "pbrMetallicRoughness.baseColorFactor")
-            channels.append(names[key])
+        self._report_clamp(f0, clamped, f"{mapping} mapping")
+        channels = self._channels("metal", eta, kappa, "pbrMetallicRoughness.baseColorFactor")
         return {
             "mapping": mapping,
             "f0": f0,
@@ -336,11 +463,21 @@ class _Parts:
             ),
         }
 
+    def _channels(self, part: str, eta: np.ndarray, kappa: np.ndarray, field: str) -> list[str]:
+        """The scene material serving each channel's base (η3[c], κ3[c]): one for equal bases, else
+        ``<part>-r|g|b``."""
+        names: dict[tuple[float, float], str] = {}
+        for c, key in enumerate(zip(eta, kappa)):
+            if key not in names:
+                name = part if len(set(zip(eta, kappa))) == 1 else f"{part}-{'rgb'[c]}"
+                names[key] = self._add(name, (float(key[0]), float(key[1])), field)
+        return [names[key] for key in zip(eta, kappa)]
+
     def _metal_range(self, f0_factor: list[float], mapping: str) -> dict[str, Any]:
         """A texture-driven base colour: F0 per channel anywhere in [0, factor]; one 4D job over the
         (η3, κ3) box the mapping's curve reaches there, and the curve as a table for the engine."""
         top = min(max(f0_factor), F0_MAX[mapping])
-        self._report_clamp(f0_factor, np.asarray(f0_factor) > F0_MAX[mapping], mapping)
+        self._report_clamp(f0_factor, np.asarray(f0_factor) > F0_MAX[mapping], f"{mapping} mapping")
         nodes = np.linspace(0.0, top, METAL_TABLE_NODES)
         eta, kappa, _ = conductor(nodes, mapping)
         ranges = ((float(eta.min()), float(eta.max())), (float(kappa.min()), float(kappa.max())))
@@ -362,12 +499,24 @@ class _Parts:
             "table": {"f0": nodes.tolist(), "eta3": eta.tolist(), "kappa3": kappa.tolist()},
         }
 
-    def _report_clamp(self, f0: list[float], clamped: np.ndarray, mapping: str) -> None:
+    def _report_clamp(self, f0: list[float], clamped: np.ndarray, what: str) -> None:
+        """Warn where F0 was clamped (``what``: '<mapping> mapping' for a metal, 'dielectric F0')."""
         if np.any(clamped):
-            self.reader.warn(
-                f"base colour F0 up to {max(f0):g} has no finite conductor: clamped to "
-                f"{F0_MAX[mapping]:.4g} ({mapping} mapping)"
-            )
+            metal = what.endswith("mapping")
+            top = F0_MAX[what.split()[0]] if metal else F0_MAX["threejs"]
+            base = "base colour F0 up to {:g} has no finite conductor" if metal else "dielectric F0 up to {:g} has "
+            base += "" if metal else "no index in lutbake's domain (η3 ≤ 10)"
+            self.reader.warn(f"{base.format(max(f0))}: clamped to {top:.4g} ({what})")
+
+
+def _baked(part: dict[str, Any]) -> bool:
+    """Whether a part is served by the bake (not the runtime table, not a constant)."""
+    return part.get("route") != "runtime" and "constant" not in part
+
+
+def _served(part: dict[str, Any]) -> list[str]:
+    """The scene materials serving one part: its one ``material``, or its ``channels``."""
+    return [part["material"]] if "material" in part else list(part["channels"])
 
 
 def _material_stem(index: int, name: object) -> str:
@@ -386,8 +535,8 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
     rows = []
     for r in scene.source["materials"]:
         parts = r["parts"]
-        served = [parts["dielectric"]["material"]] if "dielectric" in parts else []
-        served += parts["metal"]["channels"] if "metal" in parts else []
+        served = [name for part in parts.values() if _baked(part) for name in _served(part)]
+        runtime = [name for name, part in parts.items() if part.get("route") == "runtime"]
         slices = [n for n in dict.fromkeys(served) if kind[n].kind == "slice"]
         luts = [f"{kind[n].id}.exr" for n in dict.fromkeys(served) if kind[n].kind == "lut"]
         rows.append(
@@ -405,7 +554,10 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
                 "slice": slices[0] if slices else None,
                 "slices": slices,
                 "lut": luts[0] if luts else None,
-                "why_not": r.get("why_not"),
+                "runtime_parts": runtime,
+                "why_not": r.get("why_not")
+                or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None)
+                or (None if slices or luts else r.get("zero_term")),
                 "warnings": r["warnings"],
             }
         )
