@@ -124,16 +124,29 @@ def _source(source: dict[str, Any], materials: dict[str, Any]) -> None:
 
 
 def _part(info: object, materials: dict[str, Any], where: str) -> None:
-    """A baked part names materials of this manifest, and its base is numbers."""
+    """A part's base is numbers; a baked part names materials of this manifest, one served unbaked (``route``
+    runtime: the runtime table; ``constant``: a film term that is 0) names what it would have been baked as."""
     if not isinstance(info, dict):
         raise ValueError(f"{where} is not an object")
+    if "constant" in info:
+        _numbers(info["constant"], 3, f"{where}.constant")
+        return
+    route = _at(info, "route", where) if "route" in info else "bake"
+    if route not in ("bake", "runtime"):
+        raise ValueError(f"{where}.route {_shown(route)} is not 'bake' or 'runtime'")
+    known = materials if route == "bake" else None
     names = [info["material"]] if "material" in info else info.get("channels")
-    if not isinstance(names, list) or not names or any(not isinstance(n, str) or n not in materials for n in names):
+    if not isinstance(names, list) or not names or any(not _known(n, known) for n in names):
         raise ValueError(f"{where}: material or channels {_shown(names)} are not materials of this manifest")
     if "material" in info:  # a dielectric part: its base index
         _numbers(_at(info, "base", where), 2, f"{where}.base")
     else:
         _metal_part(info, where)
+
+
+def _known(name: object, materials: dict[str, Any] | None) -> bool:
+    """A material name, and one of ``materials`` unless that is None (a part that was not baked)."""
+    return isinstance(name, str) and (materials is None or name in materials)
 
 
 def _metal_part(info: dict[str, Any], where: str) -> None:

@@ -260,6 +260,13 @@ def _manifest_edits(doc: dict) -> dict:
         ("a material not an object", ("materials", first), [], "is not an object"),
         ("space unknown", ("settings", "space"), "srgb", "settings.space"),
         ("newline in a material's kind", ("materials", first, "kind"), "x\nlutbake: error: forged", "kind"),
+        ("a route unknown", ("source", "materials", 0, "parts", "dielectric", "route"), "gpu", "route"),
+        (
+            "a constant part of two numbers",
+            ("source", "materials", 0, "parts", "dielectric"),
+            {"constant": [0, 0]},
+            "constant",
+        ),
     ]:
         edits[name] = (_resealed(_edited(doc, path, value)), message)
     assert record["parts"], "the fixture's first record has a baked part"
@@ -282,6 +289,8 @@ MANIFEST_EDITS = [
     "a material not an object",
     "space unknown",
     "newline in a material's kind",
+    "a route unknown",
+    "a constant part of two numbers",
 ]
 
 
