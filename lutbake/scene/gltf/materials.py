@@ -101,7 +101,8 @@ def load_gltf_scene(
     Examples
     --------
     >>> import json, lutbake
-    >>> film = {"KHR_materials_iridescence": {"iridescenceIor": 1.33, "iridescenceThicknessMaximum": 380}}
+    >>> film = {"KHR_materials_iridescence": {"iridescenceFactor": 1, "iridescenceIor": 1.33,
+    ...                                       "iridescenceThicknessMaximum": 380}}  # the factor defaults to 0
     >>> asset = {"asset": {"version": "2.0"}, "materials": [
     ...     {"name": "bubble", "extensions": film, "pbrMetallicRoughness": {"metallicFactor": 0}}],
     ...     "meshes": [{"primitives": [{"attributes": {}, "material": 0}]}]}
