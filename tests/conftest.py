@@ -197,7 +197,10 @@ def pytest_terminal_summary(terminalreporter):
 
 
 def node_parses(text: str) -> bool:
-    """Node.js's JSON.parse, a strict parser (no NaN, no Infinity), accepts ``text``."""
+    """Node.js's JSON.parse, a strict parser (no NaN, no Infinity), accepts ``text``; fails (never skips) where
+    Node.js is missing, as the engine tests do."""
+    if shutil.which("node") is None:
+        pytest.fail("the strict-JSON checks need Node.js (apt-get install nodejs)", pytrace=False)
     script = "JSON.parse(require('fs').readFileSync(0, 'utf8'))"
     return subprocess.run(["node", "-e", script], input=text, text=True, capture_output=True).returncode == 0
 

@@ -2,7 +2,6 @@
 progress, refused flag conflicts, material names, and the batch `eval` paths."""
 
 import json
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -37,14 +36,12 @@ def tiny_lut(tmp_path_factory):
     return path
 
 
-@pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is the strict parser this test uses")
 def test_strict_parser_rejects_nan_and_accepts_its_replacement():
     assert not node_parses(json.dumps({"a": float("nan")}))
     doc = json.loads(dumps({"a": float("nan"), "b": [np.float64("inf"), 1.5], "c": {"d": np.float64(2.0)}}))
     assert doc == {"a": None, "b": [None, 1.5], "c": {"d": 2.0}}
 
 
-@pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is the strict parser this test uses")
 def test_every_json_output_parses_with_node(tiny_lut, tmp_path):
     commands = [
         ["eval", "--eta2", "1.33", "--thickness", "300", "--angle", "30", "--eta3", "1.5"],

@@ -2,7 +2,6 @@
 
 import hashlib
 import json
-import shutil
 import subprocess
 import sys
 
@@ -41,7 +40,6 @@ def test_lutbake_check_passes_and_reports_every_case(check_json):
         assert c["passed"] and np.isfinite(c["value"])
 
 
-@pytest.mark.skipif(shutil.which("node") is None, reason="Node.js is the strict parser this test uses")
 def test_check_json_parses_with_node(check_json):
     """`check --json` among the documents tests/cli/test_cli_honest.py parses with node."""
     assert node_parses(check_json)
