@@ -83,7 +83,9 @@ from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 EXAMPLE_POINTS = 200
-SECTIONS = ("setup", "blender_thin_film", "examples", "eevee", "osl", "cost")
+SECTIONS = ("setup", "blender_thin_film", "thin_fade", "examples", "eevee", "osl", "cost")
+FADE_THICKNESSES_NM = (0.0, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0)
+FADE_FILMS = (1.33, 1.5, 2.0, 2.4)  # over a dielectric base η3 1.5, at cos θ 1 and 0.5
 GRAZING_DEG = 85.0
 
 
@@ -225,6 +227,34 @@ def examples(blender, rng, folder: Path) -> dict:
                 row["lutbake_sample_linear"] = stats(delta_e00(lut.sample(pts, interpolation="linear"), truth))
             rows[f"{scene.name}/{read.material}"] = row
     return rows
+
+
+def _smoothstep(lo: float, hi: float, x: np.ndarray) -> np.ndarray:
+    t = np.clip((x - lo) / (hi - lo), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def thin_film_fade(blender) -> dict:
+    """Does Cycles fade its thin film below some thickness? The Principled BSDF's thin film at
+    FADE_THICKNESSES_NM (films FADE_FILMS over η3 1.5, cos θ 1 and 0.5) against the truth with the film's
+    own index, and against the truth with the index faded towards the ambient's below 30 nm and below
+    1 nm (η2' = η1 + (η2 − η1)·smoothstep(0, w, d), w = 30 or 1): per thickness, the max ΔE00 to each."""
+    d = np.repeat(FADE_THICKNESSES_NM, len(FADE_FILMS) * 2)
+    eta2 = np.tile(np.repeat(FADE_FILMS, 2), len(FADE_THICKNESSES_NM))
+    cos_theta = np.tile([1.0, 0.5], len(FADE_THICKNESSES_NM) * len(FADE_FILMS))
+    rendered = blender_film(blender, lutbake.FilmPoints.build(eta2=eta2, thickness_nm=d, cos_theta=cos_theta, eta3=1.5))
+    models = {
+        "no fade": eta2,
+        **{f"fade below {w:g} nm": 1.0 + (eta2 - 1.0) * _smoothstep(0.0, w, d) for w in (30.0, 1.0)},
+    }
+    out = {}
+    for label, film in models.items():
+        de = delta_e00(
+            rendered,
+            lutbake.reference_rgb(lutbake.FilmPoints.build(eta2=film, thickness_nm=d, cos_theta=cos_theta, eta3=1.5)),
+        )
+        out[label] = {f"{t:g} nm": float(de[d == t].max()) for t in FADE_THICKNESSES_NM}
+    return out
 
 
 def eevee_thin_film(blender, rng) -> dict:
@@ -394,6 +424,7 @@ def main():
         sections = {
             "setup": lambda: setup_check(args.blender, rng),
             "blender_thin_film": lambda: blender_thin_film(args.blender, rng, args.points),
+            "thin_fade": lambda: thin_film_fade(args.blender),
             "examples": lambda: examples(args.blender, rng, folder),
             "eevee": lambda: eevee_thin_film(args.blender, rng),
             "osl": lambda: osl_materials(
