@@ -2,6 +2,7 @@
 
     python bench/bench_blender.py [--blender PATH] [--points 2000] [--json bench/blender-result.json]
     python bench/bench_blender.py --sections osl --points 300 --json bench/blender-osl-result.json
+    python bench/bench_blender.py --sections thin_fade
 
 Every figure in docs/blender.md comes from this script. Blender runs as `lutbake blender` runs it
 (lutbake/blender/library.py: a Python with bpy, default ./.venv-blender/bin/python, or $LUTBAKE_BLENDER, or a
@@ -16,6 +17,9 @@ colour per plane, compared with lutbake's ground truth (reference.reference_rgb)
    bases with constant n 0.05–4, k 1.5–9 (Metallic BSDF, Physical Conductor), and over the named metals
    Au, Ag, Cu, Al, Fe, Ti, Cr given to Blender as per-channel n, k at 611/549/464 nm (``--points``/7 each)
    against the dispersive metal.
+2b. ``thin_fade``: does Blender fade its thin film as it thins? The Principled BSDF at d 0–60 nm against
+   the truth with the film's own index and with the index faded towards the ambient's below 30 nm and
+   below 1 nm (``thin_film_fade``).
 3. ``examples``: every example scene bake in docs/scenes, written as a library by `lutbake blender` and
    rendered in Cycles at 200 points per material (θ 0–85°, d over the material's range; η3, κ3 over a
    ranged base's ranges), and Blender's own thin film at the same points (constant film and base

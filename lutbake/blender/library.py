@@ -58,6 +58,7 @@ __all__ = [
     "verify_osl",
     "osl_script",
     "osl_probe_points",
+    "osl_job_probes",
     "probe_points",
     "lutbake_probes",
     "blender_thin_film_probes",
@@ -477,6 +478,22 @@ def osl_probe_points(n_points: int, seed: int = 0) -> tuple[np.ndarray, np.ndarr
     return cos_theta, thickness, eta2, eta3, kappa3
 
 
+def osl_job_probes(n_points: int, seed: int = 0, material: int = 0) -> list[dict[str, Any]]:
+    """Probe.py's probes at ``osl_probe_points(n_points, seed)`` for the job's material ``material``."""
+    cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
+    return [
+        {
+            "material": material,
+            "cos_theta": float(cos_theta[j]),
+            "thickness_nm": float(thickness[j]),
+            "eta2": float(eta2[j]),
+            "eta3_rgb": eta3[j].tolist(),
+            "kappa3_rgb": kappa3[j].tolist(),
+        }
+        for j in range(n_points)
+    ]
+
+
 def verify_osl(
     library: str | PathLike[str],
     kind: str,
@@ -494,20 +511,10 @@ def verify_osl(
     read, expected_colour = _OSL_KINDS[kind]
     cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
     expected = np.maximum(expected_colour(read(table), cos_theta, thickness, eta2, eta3, kappa3), 0.0)
-    probes = [
-        {
-            "cos_theta": float(cos_theta[j]),
-            "thickness_nm": float(thickness[j]),
-            "eta2": float(eta2[j]),
-            "eta3_rgb": eta3[j].tolist(),
-            "kappa3_rgb": kappa3[j].tolist(),
-        }
-        for j in range(n_points)
-    ]
     job = {
         "engine": "CYCLES",
         "osl": True,
-        "probes": probes,
+        "probes": osl_job_probes(n_points, seed),
         "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": _osl_material(kind)}],
     }
     result = render_probes(job, blender)

@@ -17,7 +17,7 @@ from blender_harness import blend_file_state, blender_python
 from lutbake.blender.library import (
     RENDER_TOLERANCE,
     lutbake_probes,
-    osl_probe_points,
+    osl_job_probes,
     probe_points,
     read_scene,
     render_probes,
@@ -25,14 +25,8 @@ from lutbake.blender.library import (
 from lutbake.blender.nodes import OSL_FALLBACK_RGB, osl_warning
 
 SCENE = """
-[scene]
-precision = "float"
-max_de = 3.0
-
-[materials.soap]
-film = 1.33
-thickness_nm = [200, 800]
-base = 1.0
+scene = { precision = "float", space = "rec709", max_de = 3.0 }
+materials.lacquer = { film = 1.45, thickness_nm = [250, 650], base = 1.52 }
 """
 OSL_KINDS = {"exact": ("exact-table", "--exact"), "runtime": ("runtime-table", "--runtime-table")}
 N_PROBES = 6  # per material
@@ -70,20 +64,9 @@ def _render(made: dict, blend: Path, engine: str = "CYCLES", osl: bool = True) -
     """Render the scene's material and the two OSL materials of ``blend``, opened as a user opens it, at
     N_PROBES each: their RGB by material."""
     materials, job_probes = lutbake_probes(made["scene"], blend, made["probes"])
-    cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(N_PROBES)
     for kind in OSL_KINDS:
         materials.append({"kind": "lutbake", "library": str(blend), "material": f"lutbake {kind}"})
-        job_probes += [
-            {
-                "material": len(materials) - 1,
-                "cos_theta": float(cos_theta[j]),
-                "thickness_nm": float(thickness[j]),
-                "eta2": float(eta2[j]),
-                "eta3_rgb": eta3[j].tolist(),
-                "kappa3_rgb": kappa3[j].tolist(),
-            }
-            for j in range(N_PROBES)
-        ]
+        job_probes += osl_job_probes(N_PROBES, material=len(materials) - 1)
     job = {"engine": engine, "osl": osl, "open": str(blend), "materials": materials, "probes": job_probes}
     rgb = np.asarray(render_probes(job, made["blender"])["rgb"]).reshape(len(materials), N_PROBES, 3)
     return dict(zip([p.material for p in made["probes"]] + list(OSL_KINDS), rgb, strict=True))
@@ -99,13 +82,13 @@ def unmoved(made):
     """Renders of both libraries where they were written; the scene's material is what lutbake samples."""
     renders = {name: _render(made, made["folder"] / f"{name}.blend") for name in ("linked", "packed")}
     for render in renders.values():
-        assert np.abs(render["soap"] - _sampled(made)).max() <= 1e-5
+        assert np.abs(render["lacquer"] - _sampled(made)).max() <= 1e-5
         for kind in OSL_KINDS:  # the OSL materials found their tables
             assert np.abs(render[kind] - OSL_FALLBACK_RGB).max(axis=1).min() > 0.1
     return renders
 
 
-def _same(a: dict, b: dict, materials=("soap", *OSL_KINDS)) -> float:
+def _same(a: dict, b: dict, materials=("lacquer", *OSL_KINDS)) -> float:
     return max(float(np.abs(a[m] - b[m]).max()) for m in materials)
 
 
@@ -147,7 +130,7 @@ def test_pack_resources_packs_the_tables_and_unpacking_restores_the_osl_reads(ma
     alone.mkdir()
     shutil.copy(made["folder"] / "packed.blend", alone)
     render = _render(made, alone / "packed.blend")
-    assert _same(render, unmoved["packed"], ("soap",)) <= RENDER_TOLERANCE
+    assert _same(render, unmoved["packed"], ("lacquer",)) <= RENDER_TOLERANCE
     assert all(_is_magenta(render[kind]) for kind in OSL_KINDS), render
     blend_file_state(made["blender"], alone / "packed.blend", unpack=True)
     assert sorted(p.name for p in alone.glob("*.exr")) == ["exact.exr", "runtime.exr", "scene.exr"]
@@ -161,7 +144,7 @@ def test_osl_materials_show_magenta_and_warn_where_osl_does_not_run(made, unmove
     in one line each."""
     render = _render(made, made["folder"] / "linked.blend", engine, osl=False)
     assert all(_is_magenta(render[kind]) for kind in OSL_KINDS), render
-    assert np.abs(render["soap"] - _sampled(made)).max() <= (1e-5 if engine == "CYCLES" else 2e-3)
+    assert np.abs(render["lacquer"] - _sampled(made)).max() <= (1e-5 if engine == "CYCLES" else 2e-3)
     warnings = [osl_warning(f"lutbake {kind}") for kind in OSL_KINDS]
     texts = blend_file_state(made["blender"], made["folder"] / "linked.blend")["texts"]
     assert sorted(texts.values()) == sorted(f"// lutbake: {w}" for w in warnings)
