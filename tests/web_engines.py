@@ -50,20 +50,23 @@ def materials(table):
 
 
 PACKAGES = {"babylon": "@babylonjs/core", "playcanvas": "playcanvas"}  # harness command: the engine's package
+OWN_MODES = {"babylon": "babylon", "playcanvas": "playcanvas", "webgpu": "three"}  # the engine's own term's mode
 
 
 def run_engine(engine, folder):
-    """The spheres of every material rendered by ``engine`` in headless Chromium, for lutbake's term and
-    the engine's own (bench/bench_web_engines.py prints the same run's figures)."""
+    """The spheres of every material rendered by ``engine`` (babylon, playcanvas, or webgpu: three.js's
+    WebGPURenderer) in headless Chromium, for lutbake's term and the engine's own (bench/bench_web_engines.py
+    prints the same run's figures)."""
     require_engine()
-    if not (ENGINE / "node_modules" / PACKAGES[engine]).is_dir():
-        pytest.fail(f"the pinned {PACKAGES[engine]} is missing: cd engine && npm ci", pytrace=False)
+    package = {**PACKAGES, "webgpu": "three"}[engine]
+    if not (ENGINE / "node_modules" / package).is_dir():
+        pytest.fail(f"the pinned {package} is missing: cd engine && npm ci", pytrace=False)
     path = runtime_table_files()
     table = read_runtime_table(path)
     spec = {
         "runtime": f"/{path.with_suffix('').relative_to(ROOT)}",
         "materials": materials(table),
-        "modes": ["runtime", engine],
+        "modes": ["runtime", OWN_MODES[engine]],
         "size": 64,
         "stride": 3,
     }
