@@ -2,7 +2,7 @@
 // engine/package.json): the runtime table as a TSL node, and a drop-in that puts it in place of
 // MeshPhysicalNodeMaterial's thin-film Fresnel term (three's evalIridescence, KHR_materials_iridescence).
 // The material's parameters keep their meaning: iridescence, iridescenceIOR (the film's index),
-// iridescenceThicknessRange/Map (nm). The base under the film: the material's `ior` where it is dielectric;
+// iridescenceThicknessMinimum/Maximum/Map (nm). The base under the film: the material's `ior` where it is dielectric;
 // where it is metallic (metalness > 0) the per-channel n, k you pass as `metal` (lutbake's named metals at
 // 611/549/464 nm: exact.base_rgb, docs/engines.md); the two terms are mixed by metalness, each evaluated only
 // where its weight is non-zero.
@@ -165,8 +165,8 @@ const OUTPUTS = { fresnel: 1, parameters: 2 };
 const OUTPUT = property('vec3', 'lutbakeOutput');
 
 // MeshPhysicalNodeMaterial's lighting model with lutbake's term: start() computes it where three computes its
-// evalIridescence (three's branch is skipped by holding `iridescence` false while the base class starts, so
-// its multiple-scattering terms take lutbake's F0s), finish() writes `output`'s value.
+// evalIridescence, for the direct lights' BRDF and the multiple-scattering F0s alike; finish() writes
+// `output`'s value.
 class LutbakeLightingModel extends PhysicalLightingModel {
   constructor(flags, { runtime, mode, metal, output }) {
     super(...flags);
@@ -187,14 +187,19 @@ class LutbakeLightingModel extends PhysicalLightingModel {
     const metallic = vec3(0).toVar('lutbakeMetallic');
     If(metalness.lessThan(1), () => { dielectric.assign(lutbakeIridescenceNode(...args, ior, 0.0)); });
     If(metalness.greaterThan(0), () => { metallic.assign(lutbakeIridescenceRgbNode(...args, this.metal.eta, this.metal.kappa)); });
-    this.iridescenceFresnel = mix(dielectric, metallic, metalness).toVar('lutbakeFresnel');
-    this.lutbakeFresnel = this.iridescenceFresnel;
-    this.iridescenceF0Dielectric = Schlick_to_F0({ f: dielectric, f90: 1.0, dotVH: cosTheta });
-    this.iridescenceF0Metallic = Schlick_to_F0({ f: metallic, f90: 1.0, dotVH: cosTheta });
-    this.iridescence = false;
-    super.start(builder);
-    this.iridescence = true;
-    return undefined;
+    this.lutbakeFresnel = mix(dielectric, metallic, metalness).toVar('lutbakeFresnel');
+    const terms = {
+      iridescenceFresnel: this.lutbakeFresnel,
+      iridescenceF0Dielectric: Schlick_to_F0({ f: dielectric, f90: 1.0, dotVH: cosTheta }),
+      iridescenceF0Metallic: Schlick_to_F0({ f: metallic, f90: 1.0, dotVH: cosTheta }),
+    };
+    // The base class's start() assigns its own terms and then builds the lights and the multiple scattering
+    // from them: these three hold lutbake's through it (three's evalIridescence nodes, never read, are not
+    // emitted).
+    for (const [name, value] of Object.entries(terms)) {
+      Object.defineProperty(this, name, { get: () => value, set: () => {}, configurable: true, enumerable: true });
+    }
+    return super.start(builder);
   }
 
   finish(builder) {

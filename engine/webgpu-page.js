@@ -41,7 +41,7 @@ function physicalMaterial(m, k) {
   if (m.metal) material.color.setRGB(...m.metal.f0, THREE.LinearSRGBColorSpace);
   material.iridescence = 1;
   material.iridescenceIOR = m.iridescenceIOR;
-  material.iridescenceThicknessRange = [...m.thickness];
+  [material.iridescenceThicknessMinimum, material.iridescenceThicknessMaximum] = m.thickness;
   if (m.thickness[0] !== m.thickness[1]) material.iridescenceThicknessMap = thicknessTexture(k + 1);
   return material;
 }
@@ -70,6 +70,7 @@ window.lutbakeWebgpu = async ({ runtime: stem, materials, modes, size = 96, stri
   const adapter = await webgpu();
   const runtime = await loadLutbakeRuntimeNode(stem);
   const cells = [];
+  const litCells = [];
   for (const [k, m] of materials.entries()) {
     for (const mode of modes) {
       const options = { runtime, mode, metal: m.metal || undefined };
@@ -77,10 +78,16 @@ window.lutbakeWebgpu = async ({ runtime: stem, materials, modes, size = 96, stri
       const params = await render(lutbakeNodeIridescence(physicalMaterial(m, k), { ...options, output: 'parameters' }), size);
       cells.push({ material: k, mode, samples: coveredSamples(fresnel, params, size, stride) });
     }
+    // The lit colour (no output) with each term and with none: the term must reach the lighting.
+    const none = physicalMaterial(m, k);
+    none.iridescence = 0;
+    const lit = { none: await render(none, size) };
+    for (const mode of modes) lit[mode] = await render(lutbakeNodeIridescence(physicalMaterial(m, k), { runtime, mode, metal: m.metal || undefined }), size);
+    litCells.push(Object.fromEntries(Object.entries(lit).map(([mode, pixels]) => [mode, coveredSamples(pixels, pixels, size, stride).map((row) => row.slice(0, 3))])));
   }
   const { type, magFilter, minFilter, generateMipmaps, wrapS, wrapT, anisotropy } = runtime.table;
   return { three: THREE.REVISION, backend: 'webgpu', adapter,
-           texture: { type, magFilter, minFilter, generateMipmaps, wrapS, wrapT, anisotropy }, cells };
+           texture: { type, magFilter, minFilter, generateMipmaps, wrapS, wrapT, anisotropy }, cells, lit: litCells };
 };
 
 // --- cost: wall per draw of the lit sphere filling a size² float target, per material: no iridescence,
@@ -102,13 +109,24 @@ window.lutbakeWebgpuCost = async ({ runtime: stem, materials, size = 256, rounds
   const target = new THREE.RenderTarget(size, size, { type: THREE.FloatType });
   renderer.setRenderTarget(target);
   const wait = () => renderer.readRenderTargetPixelsAsync(target, 0, 0, 1, 1);
+  // The WGSL each entry's pipeline was made from, as the device received it (renderer.debug.getShaderAsync
+  // builds without the scene's lights).
+  const device = renderer.backend.device;
+  const modules = [];
+  const createShaderModule = device.createShaderModule.bind(device);
+  device.createShaderModule = (descriptor) => { modules.push(descriptor.code); return createShaderModule(descriptor); };
   const shaders = {};
   for (const { name, material } of entries) {
+    const first = modules.length;
     sphere.material = material;
     renderer.render(scene, camera);
     await wait();
-    shaders[name] = (await renderer.debug.getShaderAsync(scene, camera, sphere)).fragmentShader;
+    // Materials of one program share its module: the first entry of a mode made it.
+    const mode = name.split('|')[1];
+    shaders[name] = modules.slice(first).find((code) => code.includes('@fragment'))
+      || Object.entries(shaders).find(([other]) => other.endsWith(`|${mode}`))[1];
   }
+  device.createShaderModule = createShaderModule;
   const times = Object.fromEntries(entries.map((e) => [e.name, []]));
   for (let round = 0; round <= rounds; round++) {
     for (let i = 0; i < entries.length; i++) {

@@ -63,3 +63,16 @@ def test_the_tsl_node_meets_the_contract_and_threes_own_term_does_not(webgpu_run
         de_own.max(),
         de.max(),
     )
+
+
+def test_the_lit_colour_takes_the_tsl_nodes_term(webgpu_run):
+    """Each material lit by one directional light (no environment: the direct light's BRDF carries the term)
+    differs from the same material without iridescence and from three.js's own term where the two terms differ."""
+    ours, *_, index = engine_points(webgpu_run, "runtime")
+    own, *_ = engine_points(webgpu_run, "three")
+    for k, lit in enumerate(webgpu_run["result"]["lit"]):
+        none, lutbake, three = (np.array(lit[mode], float) for mode in ("none", "runtime", "three"))
+        assert none.shape == lutbake.shape == three.shape and len(none) >= 300
+        assert np.abs(lutbake - none).max() > 1e-2, k
+        if np.abs(ours[index == k] - own[index == k]).max() > 0.1:
+            assert np.abs(lutbake - three).max() > 1e-3, k
