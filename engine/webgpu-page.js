@@ -4,33 +4,23 @@
 // with the parameters each pixel used, for three.js's own term and lutbake's.
 import * as THREE from 'three/webgpu';
 import { loadLutbakeRuntimeNode, lutbakeNodeIridescence } from './lutbake-tsl.js';
-import { coveredSamples } from './sphere-samples.js';
+import { coveredSamples, sphereCells, thicknessWeights } from './sphere-samples.js';
 
 const renderer = new THREE.WebGPURenderer({ canvas: document.getElementById('view'), antialias: false });
 renderer.toneMapping = THREE.NoToneMapping;
 renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
 const scene = new THREE.Scene();
 const camera = new THREE.OrthographicCamera(-1.02, 1.02, 1.02, -1.02, 0.1, 20);
-camera.position.set(0, 0, 10);
+camera.position.set(0, 0, 3);
 const light = new THREE.DirectionalLight(0xffffff, 2);  // the lighting model runs only where a light is
 light.position.set(-0.3, 0.5, 1);
 scene.add(light);
-// Stretched 3x along the view: its pixels' cos theta = sqrt(1 - r^2) / sqrt(9 r^2 + 1 - r^2) reach below
-// 0.05 within the pixels a 64^2 render covers (a round sphere's outermost pixels stop near 0.1), so the sweep
-// passes through the grazing angles some searched worst points sit at, and still densely through cos 1.
 const sphere = new THREE.Mesh(new THREE.SphereGeometry(1, 96, 64));
-sphere.scale.z = 3;
 scene.add(sphere);
 
-// Film thickness weights (the glTF thickness texture's G) at random per texel, read by nearest filtering.
+// Film thickness weights at random per texel, read by nearest filtering.
 function thicknessTexture(seed) {
-  const data = new Uint8Array(64 * 32 * 4);
-  let state = seed >>> 0;
-  for (let i = 0; i < data.length; i++) {
-    state = (1664525 * state + 1013904223) >>> 0;
-    data[i] = state >>> 24;
-  }
-  const texture = new THREE.DataTexture(data, 64, 32);
+  const texture = new THREE.DataTexture(thicknessWeights(seed), 64, 32);
   texture.magFilter = texture.minFilter = THREE.NearestFilter;
   texture.needsUpdate = true;
   return texture;
@@ -66,18 +56,19 @@ async function webgpu() {
   return adapter.info ? `${adapter.info.vendor} / ${adapter.info.architecture}` : 'unknown';
 }
 
-window.lutbakeWebgpu = async ({ runtime: stem, materials, modes, size = 96, stride = 2 }) => {
+// `stretch` (the tests' 3): the sphere stretched along the view, so its pixels' cos theta =
+// sqrt(1 - r^2) / sqrt(9 r^2 + 1 - r^2) reach below 0.05 within the pixels a 64^2 render covers (a round
+// sphere's outermost pixels stop near 0.1): the sweep passes through the grazing angles some searched worst
+// points sit at, and still densely through cos 1.
+window.lutbakeWebgpu = async ({ runtime: stem, materials, modes, size = 96, stride = 2, image = false, stretch = 3 }) => {
   const adapter = await webgpu();
+  sphere.scale.z = stretch;
+  camera.position.z = 2 + stretch;  // in front of the stretched sphere
   const runtime = await loadLutbakeRuntimeNode(stem);
-  const cells = [];
+  const cells = await sphereCells({ materials, modes, runtime, make: physicalMaterial, attach: lutbakeNodeIridescence,
+                                    render, size, stride, image });
   const litCells = [];
   for (const [k, m] of materials.entries()) {
-    for (const mode of modes) {
-      const options = { runtime, mode, metal: m.metal || undefined };
-      const fresnel = await render(lutbakeNodeIridescence(physicalMaterial(m, k), { ...options, output: 'fresnel' }), size);
-      const params = await render(lutbakeNodeIridescence(physicalMaterial(m, k), { ...options, output: 'parameters' }), size);
-      cells.push({ material: k, mode, samples: coveredSamples(fresnel, params, size, stride) });
-    }
     // The lit colour (no output) with each term and with none: the term must reach the lighting.
     const none = physicalMaterial(m, k);
     none.iridescence = 0;
