@@ -11,9 +11,13 @@ ground truth the contract holds, and three.js's own term, rendered in the same p
 off.
 """
 
+import json
+import subprocess
+
 import numpy as np
 import pytest
-from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX
+from engine_harness import ROOT, require_engine
+from runtime_contract import CONTRACT_MAX, CONTRACT_P99, REGRESSION_MAX, runtime_table_files
 from web_engines import engine_points, run_engine, truth_subset
 
 from lutbake.modes.runtime import runtime_colour
@@ -76,3 +80,49 @@ def test_the_lit_colour_takes_the_tsl_nodes_term(webgpu_run):
         assert np.abs(lutbake - none).max() > 1e-2, k
         if np.abs(ours[index == k] - own[index == k]).max() > 0.1:
             assert np.abs(lutbake - three).max() > 1e-3, k
+
+
+READ_CONSTANTS = """
+const { includeConstants } = await import(process.cwd() + '/engine/lutbake-tsl.js');
+const { readFileSync } = await import('node:fs');
+const out = [];
+for (const path of process.argv.slice(1)) {
+  try { out.push(includeConstants(readFileSync(path, 'utf8'), path)); } catch (e) { out.push(e.message); }
+}
+console.log(JSON.stringify(out));
+"""
+
+
+def test_the_node_takes_the_tables_constants_from_its_include_and_refuses_another(tmp_path):
+    """engine/lutbake-tsl.js reads the layout from the runtime table's .glsl include: the same numbers the
+    table's header states; a LUT's include, or a runtime include missing one constant, is refused by name."""
+    require_engine()
+    path = runtime_table_files()
+    include = path.with_suffix(".glsl").read_text()
+    cut = tmp_path / "cut.glsl"
+    cut.write_text("\n".join(line for line in include.splitlines() if "LUTBAKE_RT_ZOOM =" not in line))
+    lut = ROOT / "lutbake-luts" / "lutbake-eta2-1.33.glsl"
+    proc = subprocess.run(
+        ["node", "--input-type=module", "-e", READ_CONSTANTS, str(path.with_suffix(".glsl")), str(lut), str(cut)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    constants, refused_lut, refused_cut = json.loads(proc.stdout)
+    t = json.loads(path.with_suffix(".json").read_text())["table"]
+    assert constants == {
+        "NU0": pytest.approx(t["nu0_per_nm"], rel=1e-15),
+        "X_MAX": t["x_max_nm"],
+        "ZOOM": t["zoom_nm"],
+        "LAST_SLICE": t["slices"] - 1,
+        "HALF_SPAN": (t["nodes"] - 1) / 2,
+        "NODES": t["nodes"],
+        "TILES": t["tiles_per_row"],
+        "BAND": t["band_rows"] * t["nodes"],
+        "SIZE": [t["width"], t["height"]],
+        "WHITE": pytest.approx(t["white"], rel=1e-15),
+    }
+    assert str(lut) in refused_lut and "not a runtime-table include" in refused_lut
+    assert str(cut) in refused_cut and "LUTBAKE_RT_ZOOM" in refused_cut and "LUTBAKE_RT_NU0" not in refused_cut
