@@ -12,6 +12,7 @@
 //   lutbakeNodeIridescence(material, { runtime });                                  // a MeshPhysicalNodeMaterial
 //   lutbakeNodeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
 //   // or the node alone, in any TSL graph: lutbakeIridescenceNode(runtime, cosTheta, thicknessNm, eta1, eta2, eta3, kappa3)
+//   // (lutbakeIridescenceRgbNode: eta3, kappa3 per channel, vec3 nodes)
 //
 // One source of truth: the table's layout and constants are read from the GLSL include the table ships with
 // (lutbake/shaders/runtime.glsl.in rendered by `lutbake runtime-table`); the arithmetic below is that include's,
@@ -220,8 +221,8 @@ export function lutbakeNodeIridescence(material, { runtime = null, mode = runtim
   if (mode === 'runtime' && !runtime) throw new Error("lutbakeNodeIridescence: mode 'runtime' needs the runtime node's table");
   if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeNodeIridescence: output '${output}' is not fresnel or parameters`);
   if (!material.isMeshPhysicalNodeMaterial) throw new Error('lutbakeNodeIridescence: not a MeshPhysicalNodeMaterial');
-  // The metal is the material's (materials of one program share its nodes, not their values).
   if (output) material.outputNode = vec4(OUTPUT, 1.0);
+  // The metal is the material's (materials of one program share its nodes, not their values).
   material.lutbakeMetalEta = new Vector3(...metal.eta);
   material.lutbakeMetalKappa = new Vector3(...metal.kappa);
   const uniforms = { eta: materialReference('lutbakeMetalEta', 'vec3'), kappa: materialReference('lutbakeMetalKappa', 'vec3') };
