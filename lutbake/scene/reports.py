@@ -93,8 +93,8 @@ class FileReport:
         """The report's document, written into ``out_dir`` when given: a glTF bake's receipts (at most
         GLTF_RECEIPT_POINTS points per part, more refused; gated by ``max_de``; receipts.json and .html),
         or the summary of an atlas (``atlas_summary``), a runtime table (``runtime_table_summary``) or a LUT
-        (``lut_summary``: with ``approximations``, the stand-in truth of its searches on OpenCL ``device``), each row's max searched with ``search_budget`` evaluations (None:
-        the report's default for the kind)."""
+        (``lut_summary``: with ``approximations``, the stand-in truth of its searches on OpenCL ``device``),
+        each row's max searched with ``search_budget`` evaluations (None: the report's default for the kind)."""
         if self.kind == "gltf":
             from lutbake.scene.gltf.receipt import gltf_receipts, write_receipts
 
