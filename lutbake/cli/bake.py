@@ -222,14 +222,16 @@ def _bake_scene(
                 f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
             )
         )
+    for line in result.routes:
+        click.echo(terminal_text(f"lutbake: {scene.file_name}: {line}"), err=True)
     if not result.unmet:
         return 0
     reached = ", ".join(
         f"{name} p99 ΔE00 {r['de00_p99']:.3f} (bound {r['de00_p99_bound']:.3f})" for name, r in result.unmet.items()
     )
     click.echo(
-        f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
-        "(written; see docs/scene.md)",
+        f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met (at the resolution cap, or on a part's composed "
+        f"colour): {reached} (written; see docs/scene.md, docs/gltf.md)",
         err=True,
     )
     return EXIT_GATE

@@ -14,22 +14,27 @@ it lists has the recorded SHA-256.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
+from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set, sha256_file
 from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
+from lutbake.lut.sample import Lut
+from lutbake.physics.points import MAX_INDEX, MAX_OPD_NM
 from lutbake.scene.cache import SceneCache
-from lutbake.scene.jobs import refine_slice, tuned_lut
+from lutbake.scene.gltf.routes import choose_routes, route_lines, source_unmet
+from lutbake.scene.jobs import refine_slice, slice_atlas, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
@@ -38,6 +43,7 @@ from lutbake.tables.includes import atlas_includes, warn_texture_size
 if TYPE_CHECKING:
     import numpy as np
 
+    from lutbake.scene.gltf.scoring import Sampler
     from lutbake.scene.slices import Integrator
 
     # ``progress(done, total, note)``: lutbake.io.progress's Meter, or no_progress.
@@ -46,6 +52,19 @@ if TYPE_CHECKING:
     SliceResult = tuple[SceneJob, np.ndarray, dict[str, Any]]
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult"]
+
+# A film's domain for the bake's direct rule at any point (integrator.evaluate): the rule level is per point,
+# the axes only bound it (η2 and the settings replaced per use).
+_TRUTH_SPEC = BakeSpec(
+    eta2=1.5,
+    eta1=1.0,
+    axes=(
+        Axis("cos_theta", 0.0, 1.0, 2, "sqrt"),
+        Axis("opd_nm", 0.0, MAX_OPD_NM, 2),
+        Axis("eta3", 1.0, MAX_INDEX, 2),
+        Axis("kappa3", 0.0, 10.0, 2, "sqrt"),
+    ),
+)
 
 
 @dataclass
@@ -61,6 +80,8 @@ class SceneResult:
     seconds: float
     # material -> {de00_p99, de00_p99_bound}, where not met
     unmet: dict[str, dict[str, float]] = field(default_factory=dict)
+    # one line per part the bake routed to the runtime table (a glTF source's: the material and why)
+    routes: list[str] = field(default_factory=list)
     device: str | None = None  # the integrator's device, when a job was computed
 
 
@@ -168,18 +189,20 @@ def bake_scene(
     scene_hash = _scene_hash(scene, plan)
     outputs = scene_outputs(out, scene, plan)
     with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
-        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
-        if unmet is not None:
-            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
+        manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
+        if manifest is not None:
+            reused = [j.id for j in plan.jobs]
+            return SceneResult(out, [], [], reused, True, time.perf_counter() - start, *_outcome(manifest))
         run = _JobRun(plan, SceneCache(out), force, backend, progress, device)
         entries, slices = run.all(out, files)
+        routed = _choose_routes(scene, run, entries, slices, out, files)
         atlas = _write_atlas(files, outputs, scene, scene_hash, slices, entries)
+        for name in routed:  # baked, but the runtime table serves it (the glTF source says why)
+            entries[name]["served_by"] = "runtime"
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
         written = sorted(files.members)
     seconds = time.perf_counter() - start
-    return SceneResult(
-        out, written, run.computed, run.reused, False, seconds, _unmet(manifest["materials"]), run.device
-    )
+    return SceneResult(out, written, run.computed, run.reused, False, seconds, *_outcome(manifest), run.device)
 
 
 def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
@@ -272,6 +295,10 @@ class _JobRun:
         """The integrator's device, when a job was computed (it is made only then)."""
         return None if self.integrator is None else self.integrator.device
 
+    def integrator_now(self) -> Integrator:
+        """The integrator, made now if no job needed it."""
+        return self._integrator()
+
     def _integrator(self) -> Integrator:
         if self.integrator is None:
             self.integrator = make_backend(self.backend, device=self.device_choice)
@@ -338,9 +365,9 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
     return manifest
 
 
-def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, dict[str, float]] | None:
-    """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
-    it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
+def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, Any] | None:
+    """The manifest when the set is up to date — unedited (its own hash holds), this scene's, every member
+    it lists present with the recorded hash —; else None."""
     try:
         manifest = read_scene_manifest(manifest_path)  # typed, and its seal holds
         files = manifest["files"]
@@ -349,15 +376,51 @@ def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) 
         ):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
-        return _unmet(manifest["materials"]) if fresh else None
+        return manifest if fresh else None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
 
-def _unmet(entries: dict[str, dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
-    return {
+def _outcome(manifest: dict[str, Any]) -> tuple[dict[str, dict[str, float]], list[str]]:
+    """(what the set's materials and parts did not meet on the route that serves them: their p99 ΔE00 and the
+    bound held; the lines of the parts routed to the runtime table)."""
+    unmet = {
         name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
-        for name, e in entries.items()
-        if not e["target_met"]
+        for name, e in manifest["materials"].items()
+        if not e["target_met"] and e.get("served_by") != "runtime"
     }
+    source = manifest.get("source")
+    return unmet | source_unmet(source), route_lines(source)
+
+
+def _choose_routes(
+    scene: Scene,
+    run: _JobRun,
+    entries: dict[str, dict[str, Any]],
+    slices: list[SliceResult],
+    out: Path,
+    files: FileSet,
+) -> set[str]:
+    """A glTF scene's routes (lutbake/scene/gltf/routes.py), its parts scored on the tables as the engine will
+    read them: each slice as the atlas stores it, each LUT as written; the scene materials the runtime table
+    serves instead. Nothing for other scenes (no runtime route)."""
+    if scene.source is None or scene.source.get("kind") != "gltf":
+        return set()
+    atlases = {name: slice_atlas(job, values) for job, values, _ in slices for name in job.materials}
+    met = {name: bool(r["target_met"]) for job, _, r in slices for name in job.materials}
+    met |= {name: bool(e["target_met"]) for name, e in entries.items()}
+    luts: dict[str, Lut] = {}
+
+    def sampler_of(name: str) -> Sampler:
+        if name in atlases:
+            return functools.partial(atlases[name].sample, "slice")
+        path = out / entries[name]["file"]
+        return luts.setdefault(name, Lut.load(files.members.get(path, path))).sample
+
+    integrator = run.integrator_now()
+
+    def truth_of(eta2: float) -> Sampler:
+        spec = replace(_TRUTH_SPEC, eta2=eta2, eta1=scene.eta1, observer=scene.observer, space=scene.space)
+        return functools.partial(integrator.evaluate, spec)
+
+    return choose_routes(scene, met.__getitem__, sampler_of, truth_of)

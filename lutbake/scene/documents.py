@@ -31,7 +31,8 @@ def plan_document(scene: Scene) -> dict[str, Any]:
 
 def bake_summary(result: SceneResult) -> dict[str, Any]:
     """`bake --scene --json`: the folder, whether it was up to date, the jobs computed and reused, the files
-    written, wall seconds, the materials whose target was not met at the resolution cap, the device."""
+    written, wall seconds, the materials whose target was not met at the resolution cap, the parts routed to
+    the runtime table (a line each: the material and why), the device."""
     return {
         "out": str(result.out_dir),
         "up_to_date": result.up_to_date,
@@ -40,5 +41,6 @@ def bake_summary(result: SceneResult) -> dict[str, Any]:
         "written": [str(p) for p in result.written],
         "seconds": result.seconds,
         "target_unmet": result.unmet,
+        "routed_to_runtime": result.routes,
         "device": result.device,
     }
