@@ -37,6 +37,7 @@ from lutbake.scene.gltf.routes import choose_routes, route_lines, source_unmet
 from lutbake.scene.jobs import refine_slice, slice_atlas, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
+from lutbake.scene.shipping import is_web_member, shipping
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
 from lutbake.tables.includes import atlas_includes, warn_texture_size
 
@@ -83,10 +84,13 @@ class SceneResult:
     # one line per part the bake routed to the runtime table (a glTF source's: the material and why)
     routes: list[str] = field(default_factory=list)
     device: str | None = None  # the integrator's device, when a job was computed
+    # a glTF bake's web set and build artefacts (lutbake/scene/shipping.py)
+    ship: dict[str, Any] = field(default_factory=dict)
 
 
-def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict[str, Path]:
-    """Role -> path of every file of the scene's set (4D LUTs by job id)."""
+def scene_outputs(out: Path, scene: Scene, plan: ScenePlan, for_web: bool = False) -> dict[str, Path]:
+    """Role -> path of every file of the scene's set (4D LUTs by job id); ``for_web``: the web set's roles only
+    (lutbake/scene/shipping.py)."""
     paths = {
         role: out / f"{scene.stem}{suffix}"
         for role, suffix in (("manifest", ".json"), ("glsl", ".glsl"), ("hlsl", ".hlsl"))
@@ -96,7 +100,7 @@ def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict[str, Path]:
     for job in plan.jobs:
         if job.kind == "lut":
             paths.update({f"{job.id}{p.suffix}": p for p in lut_members(out / f"{job.id}.exr")})
-    return paths
+    return {role: p for role, p in paths.items() if is_web_member(p.name, scene.stem)} if for_web else paths
 
 
 def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) -> None:
@@ -131,6 +135,7 @@ def bake_scene(
     backend: str = "auto",
     progress: Progress = no_progress,
     device: str | None = None,
+    for_web: bool = False,
 ) -> SceneResult:
     """Bake what ``scene`` needs into ``out_dir`` as one file set.
 
@@ -153,6 +158,8 @@ def bake_scene(
         ``progress(done, total, note)`` before each job.
     device : str, optional
         OpenCL device (see ``bake_lut``).
+    for_web : bool
+        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache.
 
     Returns
     -------
@@ -187,22 +194,29 @@ def bake_scene(
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
     scene_hash = _scene_hash(scene, plan)
-    outputs = scene_outputs(out, scene, plan)
+    outputs = scene_outputs(out, scene, plan, for_web)
     with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
-        manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
+        manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs, plan if for_web else None)
         if manifest is not None:
-            reused = [j.id for j in plan.jobs]
-            return SceneResult(out, [], [], reused, True, time.perf_counter() - start, *_outcome(manifest))
-        run = _JobRun(plan, SceneCache(out), force, backend, progress, device)
+            reused, seconds = [j.id for j in plan.jobs], time.perf_counter() - start
+            ship = _ship(manifest, scene, for_web)
+            return SceneResult(out, [], [], reused, True, seconds, *_outcome(manifest), ship=ship)
+        run = _JobRun(plan, None if for_web else SceneCache(out), force, backend, progress, device)
         entries, slices = run.all(out, files)
         routed = _choose_routes(scene, run, entries, slices, out, files)
         atlas = _write_atlas(files, outputs, scene, scene_hash, slices, entries)
-        for name in routed:  # baked, but the runtime table serves it (the glTF source says why)
-            entries[name]["served_by"] = "runtime"
+        for name in routed:  # baked, but the runtime table serves it: no entry (the glTF source says why)
+            del entries[name]
+        if for_web:  # no LUT headers or HLSL, no LUT whose parts all went to the runtime table
+            outputs = _served_outputs(outputs, plan, set(entries))
+            for extra in set(files.members) - set(outputs.values()):
+                files.members.pop(extra).unlink()
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
         written = sorted(files.members)
     seconds = time.perf_counter() - start
-    return SceneResult(out, written, run.computed, run.reused, False, seconds, *_outcome(manifest), run.device)
+    outcome = _outcome(manifest)
+    ship = _ship(manifest, scene, for_web)
+    return SceneResult(out, written, run.computed, run.reused, False, seconds, *outcome, run.device, ship)
 
 
 def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
@@ -264,7 +278,8 @@ def _write_manifest(
     """The includes, then the manifest listing every other member's SHA-256 and sealed with its own
     hash, written into the set; the manifest."""
     for lang, text in atlas_includes(manifest, atlas).items():
-        files.temp(outputs[lang]).write_text(text)
+        if lang in outputs:  # the web set has no HLSL
+            files.temp(outputs[lang]).write_text(text)
     manifest["files"] = {
         p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
     }
@@ -278,7 +293,7 @@ class _JobRun:
     def __init__(
         self,
         plan: ScenePlan,
-        cache: SceneCache,
+        cache: SceneCache | None,
         force: bool,
         backend: str,
         progress: Progress,
@@ -318,23 +333,24 @@ class _JobRun:
         return entries, slices
 
     def _slice(self, job: SceneJob) -> tuple[np.ndarray, dict[str, Any]]:
-        cached = None if self.force else self.cache.slice(job)
+        cached = None if self.force or self.cache is None else self.cache.slice(job)
         if cached is not None:
             self.reused.append(job.id)
             return cached
         values, record = refine_slice(job, self._integrator())
         self.computed.append(job.id)
-        return values, self.cache.store_slice(job, values, record)
+        return values, record if self.cache is None else self.cache.store_slice(job, values, record)
 
     def _lut(self, job: SceneJob, out: Path, files: FileSet) -> dict[str, Any]:
         """The record of a ranged-base 4D LUT: reused when intact, else tuned and written."""
         path = out / f"{job.id}.exr"
-        record = None if self.force else self.cache.lut(job, path, lut_members(path))
+        record = None if self.force or self.cache is None else self.cache.lut(job, path, lut_members(path))
         if record is not None:
             self.reused.append(job.id)
             return record
         record = tuned_lut(job, path, self.backend, files, self._integrator(), self.device_choice)
-        self.cache.store_lut(job, record)
+        if self.cache is not None:
+            self.cache.store_lut(job, record)
         self.computed.append(job.id)
         return record
 
@@ -358,18 +374,29 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
         "scene": scene.file_name,
         "scene_hash": scene_hash,
         "settings": scene.settings_key(),
-        "materials": {m.name: entries[m.name] for m in scene.materials},
+        "materials": {m.name: entries[m.name] for m in scene.materials if m.name in entries},
     }
     if scene.source is not None:
         manifest["source"] = scene.source
     return manifest
 
 
-def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, Any] | None:
+def _served_outputs(outputs: dict[str, Path], plan: ScenePlan, served: set[str]) -> dict[str, Path]:
+    """``outputs`` less the files of the 4D jobs none of whose materials the set serves (routed elsewhere)."""
+    unserved = {f"{job.id}." for job in plan.jobs if job.kind == "lut" and not served & set(job.materials)}
+    return {role: p for role, p in outputs.items() if not any(p.name.startswith(u) for u in unserved)}
+
+
+def _up_to_date(
+    manifest_path: Path, scene_hash: str, outputs: dict[str, Path], web_plan: ScenePlan | None = None
+) -> dict[str, Any] | None:
     """The manifest when the set is up to date — unedited (its own hash holds), this scene's, every member
-    it lists present with the recorded hash —; else None."""
+    it lists present with the recorded hash —; else None. ``web_plan``: a web set's, whose LUTs serving no
+    material are not written."""
     try:
         manifest = read_scene_manifest(manifest_path)  # typed, and its seal holds
+        if web_plan is not None:
+            outputs = _served_outputs(outputs, web_plan, set(manifest["materials"]))
         files = manifest["files"]
         if manifest["scene_hash"] != scene_hash or sorted(files) != sorted(
             p.name for p in outputs.values() if p != manifest_path
@@ -387,10 +414,17 @@ def _outcome(manifest: dict[str, Any]) -> tuple[dict[str, dict[str, float]], lis
     unmet = {
         name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
         for name, e in manifest["materials"].items()
-        if not e["target_met"] and e.get("served_by") != "runtime"
+        if not e["target_met"]
     }
     source = manifest.get("source")
     return unmet | source_unmet(source), route_lines(source)
+
+
+def _ship(manifest: dict[str, Any], scene: Scene, for_web: bool) -> dict[str, Any]:
+    """A glTF bake's web set and build artefacts (nothing for other scenes)."""
+    if scene.source is None or scene.source.get("kind") != "gltf":
+        return {}
+    return shipping(manifest, scene.stem, cache=not for_web)
 
 
 def _choose_routes(

@@ -32,7 +32,8 @@ def plan_document(scene: Scene) -> dict[str, Any]:
 def bake_summary(result: SceneResult) -> dict[str, Any]:
     """`bake --scene --json`: the folder, whether it was up to date, the jobs computed and reused, the files
     written, wall seconds, the materials whose target was not met at the resolution cap, the parts routed to
-    the runtime table (a line each: the material and why), the device."""
+    the runtime table (a line each: the material and why), the device, and a glTF bake's web set and build
+    artefacts (``ship``)."""
     return {
         "out": str(result.out_dir),
         "up_to_date": result.up_to_date,
@@ -42,5 +43,6 @@ def bake_summary(result: SceneResult) -> dict[str, Any]:
         "seconds": result.seconds,
         "target_unmet": result.unmet,
         "routed_to_runtime": result.routes,
+        "ship": result.ship,
         "device": result.device,
     }
