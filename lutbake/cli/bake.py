@@ -287,8 +287,8 @@ def plan_cmd(
 ) -> None:
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
-    The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
-    rate measured now, here; the grids themselves go through the bake's integrator.
+    The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, the direct
+    rule's rate for the 4D jobs and the composed-colour checks (docs/gltf.md, How long).
     """
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
@@ -318,7 +318,9 @@ def plan_cmd(
         f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes"
     )
     click.echo(
-        f"time ~{format_seconds(total)} of ground truth at the held-out points, from "
-        f"{doc['seconds_per_truth_point'] * 1e3:.1f} ms per point measured on this machine just now, plus the "
-        "integration and the OpenCL start-up"
+        f"time ~{format_seconds(doc['estimate_seconds'])} to bake here, measured just now: start-up "
+        f"{format_seconds(doc['startup_s'])}, slices {format_seconds(doc['slices_s'])} ("
+        f"{len(doc['sampled_slice_jobs'])} refined now, their mean times the count), 4D LUTs "
+        f"{format_seconds(doc['luts_s'])}, composed-colour checks {format_seconds(doc['checks_s'])} (of it "
+        f"~{format_seconds(total)} of ground truth at {doc['seconds_per_truth_point'] * 1e3:.1f} ms per point)"
     )

@@ -4,9 +4,12 @@ ground truth would take here) and `bake --scene`/`--gltf`'s summary of a bake.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
+from lutbake.integrate.opencl import backend as make_backend
 from lutbake.scene.bake import SceneResult
+from lutbake.scene.estimate import time_estimate
 from lutbake.scene.model import Scene
 
 __all__ = ["plan_document", "bake_summary"]
@@ -14,14 +17,18 @@ __all__ = ["plan_document", "bake_summary"]
 
 def plan_document(scene: Scene) -> dict[str, Any]:
     """`plan --json`: the scene's plan (``ScenePlan.describe``) with each job's ground-truth seconds at the
-    rate measured now on this machine (``seconds_per_truth_point``), and for a glTF scene what each of its
-    materials is served by (``gltf_materials``). Bakes nothing."""
+    rate measured now on this machine (``seconds_per_truth_point``), the bake's seconds here by stage
+    (``estimate_seconds``: lutbake/scene/estimate.py), and for a glTF scene what each of its materials is
+    served by (``gltf_materials``). Writes nothing."""
     from lutbake.scene.plan import plan_scene, truth_rate
 
     plan = plan_scene(scene)
     rate = truth_rate(plan)
     doc = plan.describe(rate)
     doc["seconds_per_truth_point"] = rate
+    start = time.perf_counter()
+    integrator = make_backend("auto")
+    doc.update(time_estimate(plan, integrator, time.perf_counter() - start))
     if scene.source is not None:
         from lutbake.scene.gltf.materials import material_rows
 

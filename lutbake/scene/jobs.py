@@ -57,11 +57,11 @@ if TYPE_CHECKING:
     # A slice's fixed uniform points and their colour by its integrator (``uniform_points``).
     Uniform = tuple[FilmPoints, np.ndarray]
 
-__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut"]
+__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "LUT_SEARCH_BUDGET"]
 
 _LUT_MAX_ROUNDS = 6
 _SEARCH_STARTS = 100  # the worst scored points of each kind a searched max starts from (with the box's own)
-_LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
+LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
 
 
 def uniform_points(job: SceneJob, stack: SliceStack, integrator: Integrator, seed: int = 0) -> Uniform:
@@ -214,7 +214,7 @@ def tuned_lut(
             max_rounds=_LUT_MAX_ROUNDS,
             start=job.counts,
             frozen=frozen,
-            search_budget=_LUT_SEARCH_BUDGET,
+            search_budget=LUT_SEARCH_BUDGET,
             device=device,
         )
         worst = result.best.stats["worst_case"]
@@ -323,7 +323,7 @@ class _PathPoints:
             at,
             de[starts],
             places,
-            _LUT_SEARCH_BUDGET,
+            LUT_SEARCH_BUDGET,
             0,
             self.spec.space,
             self.spec.observer,

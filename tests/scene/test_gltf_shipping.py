@@ -61,3 +61,21 @@ def test_for_web_writes_the_web_set_alone_and_stays_up_to_date(asset):
         "lutbake: error: --for web applies to --gltf bakes only"
     ]
     assert not (asset.parent / "toml").exists()
+
+
+def test_plan_estimates_the_bake_by_stage_measured_now_and_writes_nothing(asset):
+    """`plan --json`'s ``estimate_seconds`` is its stages' sum (start-up, slices from jobs refined now, 4D LUTs,
+    composed-colour checks: one here, the gold metal's three slices); the jobs it refined are the plan's; nothing
+    is written (bench/bench_gltf_plan.py holds the estimate against the bake)."""
+    before = sorted(p.name for p in asset.parent.iterdir())
+    proc = cli("plan", "--gltf", asset, "--json")
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads(proc.stdout)
+    stages = [doc[k] for k in ("startup_s", "slices_s", "luts_s", "checks_s")]
+    assert doc["estimate_seconds"] == pytest.approx(sum(stages), rel=1e-12) and all(s >= 0 for s in stages)
+    assert doc["checks_s"] > 0 and doc["luts_s"] == 0 and doc["slices_s"] > 0
+    slice_ids = [j["id"] for j in doc["jobs"] if j["kind"] == "slice"]
+    assert doc["sampled_slice_jobs"] and set(doc["sampled_slice_jobs"]) <= set(slice_ids)
+    assert sorted(p.name for p in asset.parent.iterdir()) == before
+    text = cli("plan", "--gltf", asset).stdout.splitlines()[-1]
+    assert text.startswith("time ~") and "to bake here, measured just now" in text

@@ -22,7 +22,7 @@ from lutbake.quality.refine import REPORT_POINTS, p99_bound
 from lutbake.scene.gltf.scoring import Sampler, film_points, part_colours, served_materials
 from lutbake.scene.model import Scene
 
-__all__ = ["choose_routes", "route_lines", "source_unmet", "CHECK_SEED"]
+__all__ = ["choose_routes", "composed_parts", "route_lines", "source_unmet", "CHECK_SEED"]
 
 CHECK_SEED = 0  # the bake's check points: fixed, so the same inputs give the same routes and bytes
 AUTO = "auto"
@@ -40,8 +40,9 @@ def choose_routes(
     table; the scene materials no longer served by the bake."""
     assert scene.source is not None  # a glTF scene's
     routed: set[str] = set()
+    composed = {id(info) for _, info in composed_parts(scene.source)}
     for record, info in _baked_parts(scene.source):
-        if _composed(info):
+        if id(info) in composed:
             check = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
             info["target_check"] = check
             why = None if check["met"] else _composed_why(check, scene.max_de)
@@ -65,9 +66,14 @@ def _baked_parts(source: dict[str, Any]) -> Iterator[tuple[dict[str, Any], dict[
                 yield record, info
 
 
-def _composed(info: dict[str, Any]) -> bool:
-    """Whether a part's colour is composed per channel from different tables or bases."""
-    return bool(info.get("texture")) or len(set(served_materials(info))) > 1
+def composed_parts(source: dict[str, Any]) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """(material record, part) of the baked parts whose colour is composed per channel from different tables or
+    bases: a texture-driven metal's 4D LUT, or a slice per channel."""
+    return [
+        (record, info)
+        for record, info in _baked_parts(source)
+        if info.get("texture") or len(set(served_materials(info))) > 1
+    ]
 
 
 def _check(
