@@ -452,10 +452,8 @@ def _choose_routes(
         path = out / entries[name]["file"]
         return luts.setdefault(name, Lut.load(files.members.get(path, path))).sample
 
-    integrator = run.integrator_now()
-
-    def truth_of(eta2: float) -> Sampler:
+    def truth_of(eta2: float) -> Sampler:  # the integrator is made only where a part is checked
         spec = replace(_TRUTH_SPEC, eta2=eta2, eta1=scene.eta1, observer=scene.observer, space=scene.space)
-        return functools.partial(integrator.evaluate, spec)
+        return functools.partial(run.integrator_now().evaluate, spec)
 
     return choose_routes(scene, met.__getitem__, sampler_of, truth_of)
