@@ -137,6 +137,8 @@ def _print_runtime(summary: Mapping[str, Any]) -> None:
 def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: bool) -> int:
     """`report OUT/ASSET.json`: the receipts of a glTF bake (lutbake/scene/gltf/receipt.py); exit 1 when
     --max-de's gate fails."""
+    from lutbake.scene.gltf.receipt import served_by
+
     gate = receipts.get("gate")
     failed = gate is not None and not gate["passed"]
     if as_json:
@@ -144,7 +146,7 @@ def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: b
         return EXIT_GATE if failed else 0
     for r in receipts["materials"]:
         p99 = {
-            part + (" (runtime table)" if p.get("route") == "runtime" else ""): {
+            part + (f" ({served_by(p)})" if p.get("route") == "runtime" else ""): {
                 k: c["de00_p99"] for k, c in p["de00"].items()
             }
             for part, p in r["parts"].items()
