@@ -300,8 +300,7 @@ class SeriesOnDevice:
         plan."""
         program, kernels, plan = self.program, self.program.kernels, self.plan()
         cells = (y1 - y0) * self.spec.image_size[0]
-        lists = [program.scratch(max(1, cells) * 4) for _ in range(2)]
-        counts = [program.zeros(), program.zeros()]
+        lists, counts = [program.scratch(max(1, cells) * 4)], [program.zeros()]
         if plan.offsets is not None:
             args = [*self._band_args(y0), *self._pair_table(plan, plan.offsets), out, lists[0], counts[0]]
             program.run(kernels.bake_rows_series, cells, *args)
@@ -310,6 +309,8 @@ class SeriesOnDevice:
         planned = int(plan.rest_per_row[y0:y1].sum())
         if plan.kept is not None:
             return self._kept_band(plan.kept, y0, y1, out, [*lists, *counts, _checked(program, counts[0], planned)])
+        lists.append(program.scratch(max(1, cells) * 4))
+        counts.append(program.zeros())
         if planned:
             args = [*self._band_args(y0), *self._cauchy(), lists[0], counts[0], out, lists[1], counts[1]]
             program.run(kernels.bake_texels_closed, planned, *args)
