@@ -20,13 +20,26 @@ from lutbake.spectral.rules import MAX_WAVENUMBER_NODES
 if TYPE_CHECKING:
     from lutbake.grid.spec import BakeSpec
 
-__all__ = ["MEMORY", "DEFAULT_MEMORY_LIMIT_GIB", "estimate_memory", "budget", "check_budget"]
+__all__ = [
+    "MEMORY",
+    "KEPT_TEXEL_BYTES",
+    "KEPT_COLOUR_BYTES",
+    "DEFAULT_MEMORY_LIMIT_GIB",
+    "estimate_memory",
+    "budget",
+    "check_budget",
+]
 
 DEFAULT_MEMORY_LIMIT_GIB = 8.0
 # Bake rates measured by bench/bench_b1.py on this project's CI CPU (cells per second).
 _CELLS_PER_SECOND = {"opencl": 8.5e5, "numpy": 2.4e4}
 SERIES_CHUNK = 1 << 16  # columns (or pairs) integrate._series_chunks builds at once
 _MIB = 1 << 20
+# The plan's closed-form colours kept for the bake (integrate.series.KeptColours): bytes per texel (a
+# closed-form texel's index and RGB, a direct texel's index), and the most they take (past it the bake
+# runs the closed form again).
+KEPT_TEXEL_BYTES = {"closed": 32, "direct": 8}
+KEPT_COLOUR_BYTES = 64 * _MIB
 
 
 class PlanOutcome(Protocol):
@@ -52,6 +65,8 @@ class _MemoryModel(TypedDict):
     pair: int
     build: int
     pair_table: int
+    kept_texel: dict[str, int]
+    kept_colours: int
     plan_cell: int
     probes: int
     probes_per_um: float
@@ -81,6 +96,8 @@ MEMORY: _MemoryModel = {
     "build": 1400,  # per column of the chunk (2^16 at most) integrate._series_chunks builds and copies
     # to the device at a time: the chunk and its temporaries (827 B traced)
     "pair_table": 48 * _MIB,  # the pairs' shared Ŵ(mX), when there are (integrate.PAIR_TABLE_BYTES at most)
+    "kept_texel": KEPT_TEXEL_BYTES,  # the plan's closed-form colours kept for the bake ...
+    "kept_colours": KEPT_COLOUR_BYTES,  # ... at most (integrate.series.KeptColours)
     "plan_cell": 12,  # per cell of a band during the plan: the texels left and the series bounds
     "probes": 30 * _MIB,  # the ground truth at the 48 probes (lutbake/spectral/reference.py) ...
     "probes_per_um": 0.52 * _MIB,  # ... and its growth with the thickest film D (finer rules)
@@ -125,6 +142,7 @@ def estimate_memory(
         shared = integrator == "series" and n_eta3 * n_kappa3 >= 8
         terms = pairs * 512 if plan is None else plan.shared_terms
         items["pair_table"] = min(MEMORY["pair_table"], terms * 48) if shared else 0
+        items["kept_colours"] = min(MEMORY["kept_colours"], _kept_bytes(spec, plan)) if integrator == "series" else 0
         planning = min(columns, SERIES_CHUNK) * MEMORY["build"] + band * MEMORY["plan_cell"] + probes
         if integrator == "direct":
             planning += MEMORY["screen"]
@@ -134,6 +152,14 @@ def estimate_memory(
         items["retile"] = spec.cells * 9 * (2 if spec.precision == "half" else 4)
     items["peak"] = sum(items.values())
     return items
+
+
+def _kept_bytes(spec: BakeSpec, plan: PlanOutcome | None) -> int:
+    """Bytes the plan's kept colours would take (before the plan: every texel by the closed form)."""
+    kept = MEMORY["kept_texel"]
+    if plan is None:
+        return spec.cells * kept["closed"]
+    return plan.closed_form_texels * kept["closed"] + plan.direct_texels * kept["direct"]
 
 
 def budget(

@@ -93,7 +93,7 @@ class OpenCLBackend:
         return self._direct
 
     def series_plan(self, spec: BakeSpec) -> SeriesStats:
-        """The rule's outcome over the whole grid (plan_rows: bounds only, no integration)."""
+        """The rule's outcome over the whole grid (plan_rows; plan_texels_closed, which keeps its colours)."""
         if self.integrator == "direct":
             return NumpyBackend.series_plan(spec)
         return self._series_of(spec).plan().stats

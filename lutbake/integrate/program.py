@@ -161,6 +161,7 @@ class Kernels:
     max_chunks: pyopencl.Kernel
     plan_texels_closed: pyopencl.Kernel
     bake_texels_closed: pyopencl.Kernel
+    scatter_rgb: pyopencl.Kernel
 
     @classmethod
     def of(cls, program: pyopencl.Program) -> Kernels:

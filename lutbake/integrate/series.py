@@ -1,7 +1,7 @@
 """The series on the device: the host's inputs of kernels/airy.cl's Fourier series and poles.cl's closed
 form for one spec (``series_chunks``), their buffers, the plan over the whole grid (``BakePlan``: which
-texels each path takes, the largest bounds they enforce, the (cos θ, D) pairs' shared table), and the
-passes that integrate one band of rows (``SeriesOnDevice.enqueue_band``).
+texels each path takes, the largest bounds they enforce, the closed form's colours it kept, the (cos θ,
+D) pairs' shared table), and the passes that integrate one band of rows (``SeriesOnDevice.enqueue_band``).
 
 Each texel is summed as the exact Fourier series (lutbake/spectral/fourier.py) where its rule allows, by
 the poles' closed form (lutbake/spectral/poles.py) where the film propagates and the series would be long,
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from lutbake.grid.memory import SERIES_CHUNK
+from lutbake.grid.memory import KEPT_COLOUR_BYTES, KEPT_TEXEL_BYTES, SERIES_CHUNK
 from lutbake.integrate.program import DeviceProgram, signed_cos_theta2
 from lutbake.spectral.fourier import (
     DEFAULT_SERIES_TOLERANCE,
@@ -70,14 +70,51 @@ class SeriesStats:
         }
 
 
+class KeptColours:
+    """The plan's closed form kept for the bake, over the whole image (texel index y·width + x, ascending):
+    the closed form's texels and their RGB, and the direct quadrature's texels. Filled band by band while
+    it fits KEPT_COLOUR_BYTES (``add`` returns False once it would not: the bake then integrates again)."""
+
+    def __init__(self) -> None:
+        self.bytes = 0
+        self._parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def add(self, first_texel: int, texels: np.ndarray, path: np.ndarray, rgb: np.ndarray) -> bool:
+        """Keep a band's list (band indices ``texels`` from image texel ``first_texel``, their ``path``
+        and ``rgb``); False (keeping nothing more) where it would pass KEPT_COLOUR_BYTES."""
+        closed = path == 1
+        self.bytes += KEPT_TEXEL_BYTES["closed"] * int(closed.sum()) + KEPT_TEXEL_BYTES["direct"] * int((~closed).sum())
+        if self.bytes > KEPT_COLOUR_BYTES:
+            self._parts = []
+            return False
+        order = np.argsort(texels)
+        index, closed, rgb = texels[order] + np.int64(first_texel), closed[order], rgb[order]
+        self._parts.append((index[closed], rgb[closed], index[~closed]))
+        return True
+
+    def whole(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(closed-form texels, their RGB (n, 3), direct texels) over the image."""
+        parts = list(zip(*self._parts)) or [[np.zeros(0, np.int64)], [np.zeros((0, 3))], [np.zeros(0, np.int64)]]
+        return np.concatenate(parts[0]), np.concatenate(parts[1]), np.concatenate(parts[2])
+
+
 class BakePlan:
     """A spec's rule outcome on one device: stats, the texels the series leaves in each image row
-    (``rest_per_row``), and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and enough texels share each pair,
-    their running term offsets (else None: texels evaluate the table)."""
+    (``rest_per_row``), the closed form's colours and the direct texels (``kept``: KeptColours.whole, or
+    None where they did not fit), and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and enough texels share
+    each pair, their running term offsets (else None: texels evaluate the table)."""
 
-    def __init__(self, stats: SeriesStats, pair_terms: np.ndarray, texels_per_pair: int, rest_per_row: np.ndarray):
+    def __init__(
+        self,
+        stats: SeriesStats,
+        pair_terms: np.ndarray,
+        texels_per_pair: int,
+        rest_per_row: np.ndarray,
+        kept: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    ):
         self.stats = stats
         self.rest_per_row = rest_per_row
+        self.kept = kept
         offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
         fits = offsets[-1] * 48 <= PAIR_TABLE_BYTES
         self.offsets = offsets.astype(np.int32) if fits and texels_per_pair >= MIN_TEXELS_PER_PAIR else None
@@ -200,18 +237,21 @@ class SeriesOnDevice:
             n_cos, n_opd, n_eta3, n_kappa3 = self.spec.shape
             pair_terms = np.zeros(n_cos * n_opd, np.int32)
             rest_per_row = np.zeros(self.spec.image_size[1], np.int64)
-            terms = self.program.zeros(pair_terms.size)
+            terms, kept = self.program.zeros(pair_terms.size), KeptColours()
+            keeping = True
             for y0, y1 in self.spec.row_chunks():
-                stats.add(*self._plan_band(y0, y1, terms, rest_per_row))
+                counts, bounds, keeping = self._plan_band(y0, y1, terms, rest_per_row, kept if keeping else None)
+                stats.add(counts, bounds)
             self.program.read(pair_terms, terms)
-            self._plan = BakePlan(stats, pair_terms, n_eta3 * n_kappa3, rest_per_row)
+            self._plan = BakePlan(stats, pair_terms, n_eta3 * n_kappa3, rest_per_row, kept.whole() if keeping else None)
         return self._plan
 
     def _plan_band(
-        self, y0: int, y1: int, terms: pyopencl.Buffer, rest_per_row: np.ndarray
-    ) -> tuple[list[list[int]], list[list[float]]]:
-        """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]]),
-        the pairs' term counts raised in ``terms``, the texels the series leaves counted in ``rest_per_row``."""
+        self, y0: int, y1: int, terms: pyopencl.Buffer, rest_per_row: np.ndarray, kept: KeptColours | None
+    ) -> tuple[list[list[int]], list[list[float]], bool]:
+        """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]],
+        whether ``kept`` (None: keeping nothing) took the band's closed-form colours and direct texels), the
+        pairs' term counts raised in ``terms``, the texels the series leaves counted in ``rest_per_row``."""
         program, kernels = self.program, self.program.kernels
         width = self.spec.image_size[0]
         cells = (y1 - y0) * width
@@ -220,18 +260,21 @@ class SeriesOnDevice:
         program.run(kernels.plan_rows, cells, *self._band_args(y0), terms, rest, rest_count, bounds)
         left, series_bound = program.count(rest_count), program.largest(bounds, cells)
         if not left:
-            return [[cells, 0, 0]], [[series_bound, 0.0]]
+            return [[cells, 0, 0]], [[series_bound, 0.0]], kept is not None
         rest_texels = np.empty(left, np.int32)
         program.read(rest_texels, rest)
         rest_per_row[y0:y1] += np.bincount(rest_texels // width, minlength=y1 - y0)
-        path, bound = np.empty(left, np.int8), np.empty(left, program.dtype)
-        path_buf, bound_buf = (program.scratch(a.nbytes, "w") for a in (path, bound))
-        args = [*self._band_args(y0), *self._cauchy(), rest, rest_count, path_buf, bound_buf]
-        program.run(kernels.plan_texels_closed, left, *args)
+        path, bound, rgb = np.empty(left, np.int8), np.empty(left, program.dtype), np.empty((left, 3), program.dtype)
+        path_buf, bound_buf, rgb_buf = (program.scratch(a.nbytes, "w") for a in (path, bound, rgb))
+        args = [*self._band_args(y0), *self._cauchy(), rest, rest_count, np.int32(kept is not None)]
+        program.run(kernels.plan_texels_closed, left, *args, path_buf, bound_buf, rgb_buf)
         program.read(path, path_buf)
         program.read(bound, bound_buf)
+        if kept is not None:
+            program.read(rgb, rgb_buf)
+        keeping = kept is not None and kept.add(y0 * width, rest_texels, path, rgb)
         closed, direct = np.bincount(path, minlength=3)[1:3]
-        return [[cells - left, closed, direct]], [[series_bound, float(bound[path == 1].max(initial=0.0))]]
+        return [[cells - left, closed, direct]], [[series_bound, float(bound[path == 1].max(initial=0.0))]], keeping
 
     def _pair_table(self, plan: BakePlan, pair_offsets: np.ndarray) -> list[pyopencl.Buffer]:
         """The pairs' shared Ŵ(mX) for bake_rows_series (pair_transform, once per spec), given the plan's
@@ -249,20 +292,25 @@ class SeriesOnDevice:
     def enqueue_band(self, y0: int, y1: int, out: pyopencl.Buffer) -> tuple[list[object], np.ndarray | None]:
         """Enqueue the series on rows [y0, y1) into ``out``, then the closed form at what it leaves: (the
         buffers to keep until they are done, the band's texels left for the direct quadrature, sorted, or
-        None where the plan expects none). The closed form runs over as many work-items as the plan counts
-        texels left in these rows: launched over the whole band, its few busy work-groups came first and
-        PoCL's scheduler gave them all to one thread. The band's own counts are among the buffers kept, as
-        (count, event, planned), for PendingRows to check against the plan."""
+        None where the plan expects none). Where the plan kept its closed form's colours (BakePlan.kept) they
+        are put in place (_kept_band): the plan searched those poles already. Else the closed form runs
+        over as many work-items as the plan counts texels left in these rows: launched over the whole band,
+        its few busy work-groups came first and PoCL's scheduler gave them all to one thread. The band's own
+        counts are among the buffers kept, as (count, event, planned), for PendingRows to check against the
+        plan."""
         program, kernels, plan = self.program, self.program.kernels, self.plan()
         cells = (y1 - y0) * self.spec.image_size[0]
-        lists = [program.scratch(max(1, cells) * 4) for _ in range(2)]
-        counts = [program.zeros(), program.zeros()]
+        lists, counts = [program.scratch(max(1, cells) * 4)], [program.zeros()]
         if plan.offsets is not None:
             args = [*self._band_args(y0), *self._pair_table(plan, plan.offsets), out, lists[0], counts[0]]
             program.run(kernels.bake_rows_series, cells, *args)
         else:
             program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), out, lists[0], counts[0])
         planned = int(plan.rest_per_row[y0:y1].sum())
+        if plan.kept is not None:
+            return self._kept_band(plan.kept, y0, y1, out, [*lists, *counts, _checked(program, counts[0], planned)])
+        lists.append(program.scratch(max(1, cells) * 4))
+        counts.append(program.zeros())
         if planned:
             args = [*self._band_args(y0), *self._cauchy(), lists[0], counts[0], out, lists[1], counts[1]]
             program.run(kernels.bake_texels_closed, planned, *args)
@@ -273,6 +321,22 @@ class SeriesOnDevice:
             program.read(texels, lists[1])
             return keep, np.sort(texels)
         return keep + [_checked(program, counts[1], 0)], None  # the plan said none: the band must agree
+
+    def _kept_band(
+        self, kept: tuple[np.ndarray, np.ndarray, np.ndarray], y0: int, y1: int, out: pyopencl.Buffer, keep: list
+    ) -> tuple[list[object], np.ndarray | None]:
+        """enqueue_band's second pass where the plan kept its closed form: the kept colours of rows [y0, y1)
+        put into ``out`` (scatter_rgb), and the band's direct texels as the plan listed them."""
+        program, width = self.program, self.spec.image_size[0]
+        closed, rgb, direct = kept
+        first, last = (np.searchsorted(index, [y0 * width, y1 * width]) for index in (closed, direct))
+        if first[1] > first[0]:
+            texels = program.input(closed[first[0] : first[1]] - y0 * width, np.int32)
+            colours = program.input(rgb[first[0] : first[1]])
+            program.run(program.kernels.scatter_rgb, int(first[1] - first[0]), texels, colours, out)
+            keep += [texels, colours]
+        band_direct = (direct[last[0] : last[1]] - y0 * width).astype(np.int32)
+        return keep, band_direct if band_direct.size else None
 
 
 def _checked(program: DeviceProgram, counter: pyopencl.Buffer, planned: int) -> tuple[np.ndarray, object, int]:

@@ -313,3 +313,20 @@ def test_a_band_that_leaves_other_texels_than_planned_raises(stiff_spec, kernel_
             fast.bake_rows(stiff_spec, row, row + 1)
     finally:
         plan.rest_per_row[row] += 1
+
+
+def test_the_bake_integrates_again_where_the_plan_could_not_keep_its_colours(stiff_spec, kernel_device, monkeypatch):
+    """The plan keeps the closed form's colours for the bake (it searched the poles there already); past
+    KEPT_COLOUR_BYTES it keeps none and the bake runs the closed form itself: the same bits either way."""
+    import lutbake.integrate.series as series_module
+    from lutbake.grid.memory import KEPT_TEXEL_BYTES
+
+    fast, series = _series_of(stiff_spec, kernel_device)
+    closed, rgb, direct = series.plan().kept
+    assert closed.size == series.plan().stats.closed_form_texels and direct.size == 0
+    kept = _by_bands(fast, stiff_spec, 3)
+    np.testing.assert_array_equal(kept.reshape(-1, 3)[closed], rgb)
+    monkeypatch.setattr(series_module, "KEPT_COLOUR_BYTES", KEPT_TEXEL_BYTES["closed"] * closed.size - 1)
+    fast, series = _series_of(stiff_spec, kernel_device)
+    assert series.plan().kept is None and series.plan().stats.closed_form_texels == closed.size
+    assert np.array_equal(kept.view(np.uint64), _by_bands(fast, stiff_spec, 3).view(np.uint64))

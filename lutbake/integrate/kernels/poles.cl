@@ -192,12 +192,37 @@ __kernel void max_chunks(__global const REAL *values, const int count, const int
     out[gid] = m;
 }
 
+#ifdef LUTBAKE_FP64
+// The closed form at one texel: 1 with the bound it enforces (both polarizations) in *bound and, where
+// `integrate`, its colour in rgb[3]; 0 where it goes to the direct quadrature (out of scope, too many near
+// poles, a bound above tol). The plan and the bake both run this: the same texel gives the same bits.
+inline int closed_form_texel(const SeriesPol sp, const SeriesPol pp, const REAL x, __global const REAL *table,
+                             CAUCHY_ARGS, const REAL tol, const int integrate, REAL *bound, REAL rgb[3]) {
+    CPLX acc[3] = {(CPLX)(0, 0), (CPLX)(0, 0), (CPLX)(0, 0)};
+    Poles poles;
+    if (sp.one_minus_q < 0 || !find_poles(sp.k, sp.q, x, &poles)) return 0;
+    const REAL bs = poles_bound(&poles, gamma_bound, weight_mass);
+    if (bs > tol) return 0;
+    if (integrate) poles_integral(&poles, CAUCHY_PASS, acc);
+    if (!find_poles(pp.k, pp.q, x, &poles)) return 0;
+    const REAL bp = poles_bound(&poles, gamma_bound, weight_mass);
+    if (bp > tol) return 0;
+    if (integrate) poles_integral(&poles, CAUCHY_PASS, acc);
+    *bound = bs + bp;
+    const REAL c0 = (REAL)0.5 * (sp.c0 + pp.c0);
+    for (int c = 0; c < 3; ++c) rgb[c] = c0 * table[12 * c] + acc[c].x;
+    return 1;
+}
+#endif
+
 // The plan's second pass: at the texels the series left (`texel_count` of them in `texels`), the path
-// (1 closed form, 2 direct) and the closed form's bound, per list entry. float32 programs send every
-// such texel to the direct path.
+// (1 closed form, 2 direct), the closed form's bound and, where `integrate`, its colour (rgb_out, 3 per
+// list entry), so that the bake need not search the poles again. float32 programs send every such texel
+// to the direct path.
 __kernel void plan_texels_closed(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
                                  CAUCHY_ARGS, __global const int *texels, __global const int *texel_count,
-                                 __global char *path_out, __global REAL *bound_out, const int n_items)
+                                 const int integrate, __global char *path_out, __global REAL *bound_out,
+                                 __global REAL *rgb_out, const int n_items)
 {
     ITEMS_GUARD
     if (gid >= *texel_count) return;
@@ -206,21 +231,19 @@ __kernel void plan_texels_closed(const int n_cos, const int n_opd, const int wid
     path_out[gid] = 2;
     bound_out[gid] = 0;
 #ifdef LUTBAKE_FP64
-    Poles poles;
-    if (sp.one_minus_q < 0 || !find_poles(sp.k, sp.q, f[0], &poles)) return;
-    const REAL bs = poles_bound(&poles, gamma_bound, weight_mass);
-    if (bs > tol || !find_poles(pp.k, pp.q, f[0], &poles)) return;
-    const REAL bp = poles_bound(&poles, gamma_bound, weight_mass);
-    if (bp > tol) return;
+    REAL closed_bound, rgb[3];
+    if (!closed_form_texel(sp, pp, f[0], table, CAUCHY_PASS, tol, integrate, &closed_bound, rgb)) return;
     path_out[gid] = 1;
-    bound_out[gid] = bs + bp;
+    bound_out[gid] = closed_bound;
+    if (integrate)
+        for (int c = 0; c < 3; ++c) rgb_out[3 * gid + c] = rgb[c];
 #endif
 }
 
-// The bake's second pass: the closed form at the texels the series left (`texels`, `texel_count` of them,
-// read here so that the host need not wait for the first pass); those it cannot take (out of scope, too
-// many near poles, bound above tol) are appended to `rest` for the direct quadrature. Only the float64
-// program integrates; float32 passes every texel on.
+// The bake's second pass where the plan kept no colours: the closed form at the texels the series left
+// (`texels`, `texel_count` of them, read here so that the host need not wait for the first pass); those it
+// cannot take are appended to `rest` for the direct quadrature. Only the float64 program integrates;
+// float32 passes every texel on.
 __kernel void bake_texels_closed(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
                                  CAUCHY_ARGS, __global const int *texels, __global const int *texel_count,
                                  __global REAL *rgb_out, __global int *rest, __global int *rest_count, const int n_items)
@@ -230,19 +253,19 @@ __kernel void bake_texels_closed(const int n_cos, const int n_opd, const int wid
     const int index = texels[gid];
     SERIES_TEXEL(index)
 #ifdef LUTBAKE_FP64
-    CPLX acc[3] = {(CPLX)(0, 0), (CPLX)(0, 0), (CPLX)(0, 0)};
-    Poles poles;
-    int ok = cap < 0 && sp.one_minus_q >= 0
-             && find_poles(sp.k, sp.q, f[0], &poles) && poles_bound(&poles, gamma_bound, weight_mass) <= tol;
-    if (ok) poles_integral(&poles, CAUCHY_PASS, acc);
-    ok = ok && find_poles(pp.k, pp.q, f[0], &poles) && poles_bound(&poles, gamma_bound, weight_mass) <= tol;
-    if (ok) poles_integral(&poles, CAUCHY_PASS, acc);
-    if (ok) {
-        const REAL c0 = (REAL)0.5 * (sp.c0 + pp.c0);
-        __global REAL *rgb = rgb_out + 3 * index;
-        for (int c = 0; c < 3; ++c) rgb[c] = c0 * table[12 * c] + acc[c].x;
+    REAL closed_bound, rgb[3];
+    if (cap < 0 && closed_form_texel(sp, pp, f[0], table, CAUCHY_PASS, tol, 1, &closed_bound, rgb)) {
+        for (int c = 0; c < 3; ++c) rgb_out[3 * index + c] = rgb[c];
         return;
     }
 #endif
     rest[atomic_inc(rest_count)] = index;
+}
+
+// Colours computed ahead (the plan's closed form) put at their texels of a band (`texels`, band indices).
+__kernel void scatter_rgb(__global const int *texels, __global const REAL *rgb, __global REAL *rgb_out,
+                          const int n_items)
+{
+    ITEMS_GUARD
+    for (int c = 0; c < 3; ++c) rgb_out[3 * texels[gid] + c] = rgb[3 * gid + c];
 }
