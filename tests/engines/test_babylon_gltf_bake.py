@@ -1,0 +1,128 @@
+"""A `lutbake bake --gltf` output served in Babylon.js (engine/lutbake-babylon-gltf.js, routes picked by the
+engine-neutral engine/lutbake-routes.js), in headless Chromium (WebGL2 on SwiftShader).
+
+The Khronos showcase asset IridescenceSuzanne (its materials from tests/fixtures/khronos_iridescence.json on
+generated geometry: a film over a dielectric of index 2 at one thickness, the same film over a grey metal, and
+a textured-thickness film over index 1.5) is baked by the CLI with its third material sent to the runtime
+table (`--route 2=runtime`). Babylon's glTF loader loads it with the extension given the bake; each material
+is rendered on a sphere with the film's Fresnel term as output and again with the parameters each pixel used.
+At every pixel the term must be the manifest's model at those parameters to 1e-4: the atlas slice read as
+`lutbake sample` reads it (lutbake.lut.sample.Atlas), one slice per channel for the metal, the runtime model
+(runtime_colour) at the part's base for the runtime part. `serve: 'runtime'` sends every part to the table.
+"""
+
+import json
+import shutil
+import subprocess
+import sys
+import uuid
+
+import numpy as np
+import pytest
+from engine_harness import ROOT, run_harness
+from gltf_assets import khronos_document, stand_in
+from runtime_contract import runtime_table_files
+from web_engines import require_package
+
+from lutbake.lut.sample import Atlas
+from lutbake.modes.runtime import read_runtime_table, runtime_colour
+from lutbake.physics.points import FilmPoints
+
+TOLERANCE = 1e-4
+ASSET = "IridescenceSuzanne"
+ROUTES = {  # glTF material index -> each part's route, served from the bake and with serve 'runtime'
+    "bake": {0: {"dielectric": "slice"}, 1: {"metal": "slice"}, 2: {"dielectric": "runtime"}},
+    "runtime": {0: {"dielectric": "runtime"}, 1: {"metal": "runtime"}, 2: {"dielectric": "runtime"}},
+}
+
+
+@pytest.fixture(scope="module")
+def baked():
+    """The asset's stand-in baked by `lutbake bake --gltf` into a folder the harness serves: (manifest URL
+    path, output folder, the manifest's records by glTF index)."""
+    folder = ROOT / "build" / f"babylon-bake-{uuid.uuid4().hex[:8]}"
+    gltf = stand_in(khronos_document(ASSET), folder, ASSET)
+    out = folder / "out"
+    cli = [sys.executable, "-m", "lutbake", "bake", "--gltf", str(gltf), "--out", str(out), "--route", "2=runtime"]
+    proc = subprocess.run(cli, capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    manifest = json.loads((out / f"{ASSET}.json").read_text())
+    yield gltf, out, manifest
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture(scope="module", params=sorted(ROUTES))
+def served(request, baked, tmp_path_factory):
+    """Babylon's render of every iridescent material of the asset, served by ``serve`` (bake or runtime)."""
+    require_package("@babylonjs/loaders")
+    gltf, out, manifest = baked
+    runtime = runtime_table_files()
+    spec = {
+        "runtime": f"/{runtime.with_suffix('').relative_to(ROOT)}",
+        "asset": f"/{gltf.relative_to(ROOT)}",
+        "manifest": f"/{(out / f'{ASSET}.json').relative_to(ROOT)}",
+        "serve": request.param,
+        "metals": {},
+        "size": 48,
+        "stride": 2,
+    }
+    result = run_harness("babylon-gltf", tmp_path_factory.mktemp(f"babylon-{request.param}"), spec)
+    return request.param, result["cells"], manifest, out, read_runtime_table(runtime)
+
+
+def _expected(part, route, record, out, samples, table):
+    """The manifest's model of one part at each sample's (cos θ, thickness nm)."""
+    cos, thickness = samples[:, 3], samples[:, 4]
+    n = len(samples)
+    if route == "runtime":
+        eta3, kappa3 = (
+            (np.full(3, part["base"][0]), np.full(3, part["base"][1]))
+            if "base" in part
+            else (np.asarray(part["eta3"]), np.asarray(part["kappa3"]))
+        )
+        film = np.full(n, record["film"])
+        return runtime_colour(table, cos, thickness, 1.0, film, np.tile(eta3, (n, 1)), np.tile(kappa3, (n, 1)))
+    names = [part["material"]] * 3 if "material" in part else part["channels"]
+    atlas = Atlas.load(out / f"{ASSET}.exr")
+    return np.stack(
+        [
+            atlas.sample(name, FilmPoints.build(**atlas.film_stack(name), cos_theta=cos, thickness_nm=thickness))[:, c]
+            for c, name in enumerate(names)
+        ],
+        -1,
+    )
+
+
+def test_each_material_is_served_by_its_route_and_equals_the_manifests_model(served):
+    serve, cells, manifest, out, table = served
+    records = {r["gltf_index"]: r for r in manifest["source"]["materials"]}
+    assert {cell["lutbake"]["gltfIndex"]: cell["lutbake"]["parts"] for cell in cells} == ROUTES[serve]
+    for cell in cells:
+        record = records[cell["lutbake"]["gltfIndex"]]
+        samples = np.array(cell["samples"], float)
+        assert len(samples) >= 250, (record["gltf_index"], len(samples))
+        ((part_name, route),) = cell["lutbake"]["parts"].items()
+        assert cell["metallic"] == (1 if part_name == "metal" else 0)
+        expected = _expected(record["parts"][part_name], route, record, out, samples, table)
+        error = np.abs(samples[:, :3] - expected).max()
+        assert error <= TOLERANCE, (serve, record["gltf_index"], route, error)
+
+
+def test_the_check_tells_the_materials_apart(served):
+    """Each material's pixels are far from every other material's term (its film, base and route) at the
+    same parameters: the comparison above can fail."""
+    serve, cells, manifest, out, table = served
+    records = {r["gltf_index"]: r for r in manifest["source"]["materials"]}
+    for cell in cells:
+        samples = np.array(cell["samples"], float)
+        for other in cells:
+            if other is cell:
+                continue
+            record = records[other["lutbake"]["gltfIndex"]]
+            ((part_name, route),) = other["lutbake"]["parts"].items()
+            wrong = _expected(record["parts"][part_name], route, record, out, samples, table)
+            assert np.abs(samples[:, :3] - wrong).max() > 100 * TOLERANCE, (
+                serve,
+                cell["lutbake"],
+                record["gltf_index"],
+            )
