@@ -25,43 +25,14 @@
 //   ... extensionOptions: { lutbake_iridescence: { bake, runtime } } ...
 import { registerGLTFExtension, unregisterGLTFExtension } from '@babylonjs/loaders/glTF/2.0/glTFLoaderExtensionRegistry.js';
 import { lutbakeIridescence, lutbakeTexture } from './lutbake-babylon.js';
-import { loadSceneAtlas } from './lutbake-exr.js';
-import { SERVES, loadBakeManifest, partRoutes, sliceIdent } from './lutbake-routes.js';
+import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-routes.js';
 
 export const NAME = 'lutbake_iridescence';
 
 // The manifest of a glTF bake with its atlas (if any slice serves a part) as a Babylon texture and its include.
 export async function loadLutbakeBakeBabylon(manifestUrl, scene) {
   const bake = await loadBakeManifest(manifestUrl);
-  const slice = Object.values(bake.manifest.materials).find((entry) => entry.kind === 'slice');
-  if (!slice) return { ...bake, atlas: null, include: '' };
-  const atlas = await loadSceneAtlas(bake.folder + slice.file.replace(/\.exr$/, ''));
-  return { ...bake, atlas: lutbakeTexture(atlas, scene), include: atlas.include };
-}
-
-const glslFloat = (x) => (Number.isInteger(x) ? x.toFixed(1) : String(x));
-const glslVec3 = (v) => `vec3(${v.map(glslFloat).join(', ')})`;
-
-// One part's film term by its route, a GLSL expression in the plugin's (cosTheta, thicknessNm) at the film the
-// bake recorded over the ambient index 1 (the bake's model; lutbake-babylon.js mixes the parts).
-function partTerm(bake, record, part, route) {
-  const at = 'cosTheta, thicknessNm';
-  if (route === 'constant') return glslVec3(part.constant);
-  if (route === 'runtime' && part.base) return `lutbake_iridescence(lutbakeTable, ${at}, 1.0, ${glslFloat(record.film)}, ${part.base.map(glslFloat).join(', ')})`;
-  if (route === 'runtime' && part.eta3 && !part.table) {
-    return `lutbake_iridescence_rgb(lutbakeTable, ${at}, 1.0, ${glslFloat(record.film)}, ${glslVec3(part.eta3)}, ${glslVec3(part.kappa3)})`;
-  }
-  const atlas = (name) => `lutbake_atlas_sample(lutbakeAtlas, ${sliceIdent(bake.stem, name)}, ${at})`;
-  if (route === 'slice' && part.material) return atlas(part.material);
-  if (route === 'slice') return `vec3(${part.channels.map((name, c) => `${atlas(name)}.${'rgb'[c]}`).join(', ')})`;
-  throw new Error(`glTF material ${record.gltf_index} '${record.name}': a texture-driven metal (route ${route}) is not served in Babylon.js yet`);
-}
-
-// The plugin's `bake` option for one record: its terms, and the key naming them for Babylon's effect cache.
-function bakeTerms(bake, record, routes) {
-  const terms = Object.fromEntries(Object.entries(routes).map(([name, route]) => [name, partTerm(bake, record, record.parts[name], route)]));
-  const key = `B${bake.manifest.scene_hash.slice(0, 16)}:${record.gltf_index}:${Object.entries(routes).join(',')}`.replace(/[^A-Za-z0-9_]/g, '_');
-  return { terms, include: bake.include, atlas: bake.atlas, key };
+  return { ...bake, atlas: bake.atlas && lutbakeTexture(bake.atlas, scene) };
 }
 
 class LutbakeGltfExtension {

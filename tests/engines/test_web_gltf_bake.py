@@ -1,16 +1,19 @@
-"""A `lutbake bake --gltf` output served in Babylon.js (engine/lutbake-babylon-gltf.js, routes picked by the
-engine-neutral engine/lutbake-routes.js), in headless Chromium (WebGL2 on SwiftShader).
+"""A `lutbake bake --gltf` output served in Babylon.js (engine/lutbake-babylon-gltf.js) and PlayCanvas
+(engine/lutbake-playcanvas.js, lutbakeGltfOptions), routes picked by the engine-neutral
+engine/lutbake-routes.js, in headless Chromium (WebGL2 on SwiftShader).
 
 The Khronos showcase asset IridescenceSuzanne (its materials from tests/fixtures/khronos_iridescence.json on
 generated geometry: a film over a dielectric of index 2 at one thickness, the same film over a grey metal, and
 a textured-thickness film over index 1.5) is baked by the CLI with its third material sent to the runtime
-table (`--route 2=runtime`). Babylon's glTF loader loads it with the extension given the bake; each material
-is rendered on a sphere with the film's Fresnel term as output and again with the parameters each pixel used.
-At every pixel the term must be the manifest's model at those parameters to 1e-4: the atlas slice read as
-`lutbake sample` reads it (lutbake.lut.sample.Atlas), one slice per channel for the metal, the runtime model
-(runtime_colour) at the part's base for the runtime part. `serve: 'runtime'` sends every part to the table.
+table (`--route 2=runtime`). The engine's glTF loader loads it with lutbake's hook given the bake; each
+material is rendered on a sphere with the film's Fresnel term as output and again with the parameters each
+pixel used. At every pixel the term must be the manifest's model at those parameters to 1e-4: the atlas slice
+read as `lutbake sample` reads it (lutbake.lut.sample.Atlas), one slice per channel for the metal, the runtime
+model (runtime_colour) at the part's base for the runtime part. `serve: 'runtime'` sends every part to the
+table.
 """
 
+import copy
 import json
 import shutil
 import subprocess
@@ -20,7 +23,7 @@ import uuid
 import numpy as np
 import pytest
 from engine_harness import ROOT, run_harness
-from gltf_assets import khronos_document, stand_in
+from gltf_assets import iridescent, khronos_document, stand_in
 from runtime_contract import runtime_table_files
 from web_engines import require_package
 
@@ -31,49 +34,71 @@ from lutbake.physics.points import FilmPoints
 TOLERANCE = 1e-4
 ASSET = "IridescenceSuzanne"
 ROUTES = {  # glTF material index -> each part's route, served from the bake and with serve 'runtime'
-    "bake": {0: {"dielectric": "slice"}, 1: {"metal": "slice"}, 2: {"dielectric": "runtime"}},
-    "runtime": {0: {"dielectric": "runtime"}, 1: {"metal": "runtime"}, 2: {"dielectric": "runtime"}},
+    "bake": {0: {"dielectric": "slice"}, 1: {"metal": "slice"}, 2: {"dielectric": "runtime"}, 3: {"metal": "constant"}},
+    "runtime": {
+        0: {"dielectric": "runtime"},
+        1: {"metal": "runtime"},
+        2: {"dielectric": "runtime"},
+        3: {"metal": "constant"},
+    },
 }
 
 
-@pytest.fixture(scope="module")
-def baked():
-    """The asset's stand-in baked by `lutbake bake --gltf` into a folder the harness serves: (manifest URL
-    path, output folder, the manifest's records by glTF index)."""
-    folder = ROOT / "build" / f"babylon-bake-{uuid.uuid4().hex[:8]}"
-    gltf = stand_in(khronos_document(ASSET), folder, ASSET)
+def _bake(doc, folder):
+    """The asset ``doc``'s stand-in baked by `lutbake bake --gltf` into ``folder``: (glTF, output folder,
+    manifest)."""
+    gltf = stand_in(doc, folder, ASSET)
     out = folder / "out"
     cli = [sys.executable, "-m", "lutbake", "bake", "--gltf", str(gltf), "--out", str(out), "--route", "2=runtime"]
     proc = subprocess.run(cli, capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    manifest = json.loads((out / f"{ASSET}.json").read_text())
-    yield gltf, out, manifest
+    return gltf, out, json.loads((out / f"{ASSET}.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def baked():
+    """The asset baked into a folder the harness serves, by engine: PlayCanvas 2.23.3 does not compile a
+    material with a thickness texture (docs/engines.md), so its copy has material 2's removed (its film then
+    at the maximum thickness). Both have a fourth material, a vacuum film on a black metal (vacuum over vacuum
+    under the fitted mapping): its part is the constant 0 (docs/gltf.md)."""
+    folder = ROOT / "build" / f"web-bake-{uuid.uuid4().hex[:8]}"
+    doc = khronos_document(ASSET)
+    doc["materials"].append(iridescent(ior=1.0, metallic=1.0, colour=[0.0, 0.0, 0.0], name="black"))
+    untextured = copy.deepcopy(doc)
+    del untextured["materials"][2]["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessTexture"]
+    yield {"babylon": _bake(doc, folder / "babylon"), "playcanvas": _bake(untextured, folder / "playcanvas")}
     shutil.rmtree(folder, ignore_errors=True)
 
 
-@pytest.fixture(scope="module", params=sorted(ROUTES))
+ENGINES = {"babylon": "@babylonjs/loaders", "playcanvas": "playcanvas"}  # the harness's engine: its package
+
+
+@pytest.fixture(scope="module", params=[(engine, serve) for engine in sorted(ENGINES) for serve in sorted(ROUTES)])
 def served(request, baked, tmp_path_factory):
-    """Babylon's render of every iridescent material of the asset, served by ``serve`` (bake or runtime)."""
-    require_package("@babylonjs/loaders")
-    gltf, out, manifest = baked
+    """The engine's render of every iridescent material of the asset, served by ``serve`` (bake or runtime)."""
+    engine, serve = request.param
+    require_package(ENGINES[engine])
+    gltf, out, manifest = baked[engine]
     runtime = runtime_table_files()
     spec = {
         "runtime": f"/{runtime.with_suffix('').relative_to(ROOT)}",
         "asset": f"/{gltf.relative_to(ROOT)}",
         "manifest": f"/{(out / f'{ASSET}.json').relative_to(ROOT)}",
-        "serve": request.param,
+        "serve": serve,
         "metals": {},
         "size": 48,
         "stride": 2,
     }
-    result = run_harness("babylon-gltf", tmp_path_factory.mktemp(f"babylon-{request.param}"), spec)
-    return request.param, result["cells"], manifest, out, read_runtime_table(runtime)
+    result = run_harness(f"{engine}-gltf", tmp_path_factory.mktemp(f"{engine}-{serve}"), spec)
+    return serve, result["cells"], manifest, out, read_runtime_table(runtime)
 
 
 def _expected(part, route, record, out, samples, table):
     """The manifest's model of one part at each sample's (cos θ, thickness nm)."""
     cos, thickness = samples[:, 3], samples[:, 4]
     n = len(samples)
+    if route == "constant":
+        return np.tile(np.asarray(part["constant"], float), (n, 1))
     if route == "runtime":
         eta3, kappa3 = (
             (np.full(3, part["base"][0]), np.full(3, part["base"][1]))
