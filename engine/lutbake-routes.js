@@ -76,7 +76,7 @@ function partTerm(bake, record, part, route) {
   const atlas = (name) => `lutbake_atlas_sample(lutbakeAtlas, ${sliceIdent(bake.stem, name)}, ${at})`;
   if (route === 'slice' && part.material) return atlas(part.material);
   if (route === 'slice') return `vec3(${part.channels.map((name, c) => `${atlas(name)}.${'rgb'[c]}`).join(', ')})`;
-  throw new Error(`glTF material ${record.gltf_index} '${record.name}': a texture-driven metal (route ${route}) is not served here yet`);
+  throw new Error(`glTF material ${record.gltf_index} '${record.name}': a texture-driven metal (route ${route}) is not served by these terms yet (Babylon.js, PlayCanvas; the three.js plugin serves it)`);
 }
 
 // One record's terms by part ({dielectric, metal}: GLSL expressions, mixed by the engine's metallic weight),

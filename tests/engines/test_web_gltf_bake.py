@@ -151,3 +151,63 @@ def test_the_check_tells_the_materials_apart(served):
                 cell["lutbake"],
                 record["gltf_index"],
             )
+
+
+ROUTE_CASES = """
+import { bakeTerms, partRoutes } from './engine/lutbake-routes.js';
+const bake = { stem: 'Scene', atlas: null, include: '', manifest: { scene_hash: 'ab'.repeat(32), materials: {
+  s: { kind: 'slice' }, r: { kind: 'runtime' }, l: { kind: 'lut' } } } };
+const textured = { mapping: 'fitted', texture: true, table: {}, channels: ['l', 'l', 'l'] };
+const record = (parts) => ({ gltf_index: 7, name: 'Vase', film: 1.3, parts });
+const cases = {
+  slice: [{ dielectric: { material: 's', base: [1.5, 0] } }, true, 'bake'],
+  handedOver: [{ dielectric: { material: 'r', base: [1.5, 0] } }, true, 'bake'],
+  missing: [{ dielectric: { material: 'gone', base: [1.5, 0] } }, true, 'bake'],
+  served: [{ dielectric: { material: 's', base: [1.5, 0] } }, true, 'runtime'],
+  namedKept: [{ metal: { mapping: 'named', channels: ['s', 's', 's'] } }, true, 'runtime'],
+  namedMissing: [{ metal: { mapping: 'named', channels: ['gone', 's', 's'] } }, true, 'bake'],
+  noRuntime: [{ dielectric: { material: 'gone', base: [1.5, 0] } }, false, 'bake'],
+  texturedLut: [{ metal: textured }, true, 'bake'],
+  texturedRuntime: [{ metal: textured }, true, 'runtime'],
+};
+const out = {};
+for (const [name, [parts, runtime, serve]] of Object.entries(cases)) {
+  try {
+    const routes = partRoutes(bake, record(parts), { runtime, serve });
+    out[name] = { routes, terms: bakeTerms(bake, record(parts), routes).terms };
+  } catch (e) { out[name] = { error: e.message }; }
+}
+console.log(JSON.stringify(out));
+"""
+
+
+def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
+    """engine/lutbake-routes.js on hand-made records (node, no browser): a slice where the manifest has one,
+    the runtime table where the part's entry is handed over (`kind: "runtime"`) or absent or `serve` says so,
+    a named metal kept baked; a part that needs the table without one, a named metal the bake lacks and a
+    texture-driven metal (not served by the Babylon.js and PlayCanvas terms yet) are refused, naming the
+    material."""
+    require_package("playcanvas")
+    proc = subprocess.run(
+        ["node", "--input-type=module", "-e", ROUTE_CASES], capture_output=True, text=True, cwd=ROOT, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    got = json.loads(proc.stdout)
+    routes = {name: case.get("routes") for name, case in got.items()}
+    assert routes["slice"] == {"dielectric": "slice"}
+    assert (
+        got["slice"]["terms"]["dielectric"]
+        == "lutbake_atlas_sample(lutbakeAtlas, LUTBAKE_SCENE_S, cosTheta, thicknessNm)"
+    )
+    assert routes["handedOver"] == routes["missing"] == routes["served"] == {"dielectric": "runtime"}
+    assert got["served"]["terms"]["dielectric"].startswith(
+        "lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, 1.0, 1.3, 1.5, 0.0)"
+    )
+    assert routes["namedKept"] == {"metal": "slice"}
+    for name, words in {
+        "namedMissing": "named metal is not in the bake",
+        "noRuntime": "dielectric part is not baked",
+        "texturedLut": "texture-driven metal (route lut)",
+        "texturedRuntime": "texture-driven metal (route runtime)",
+    }.items():
+        assert "glTF material 7 'Vase'" in got[name].get("error", "") and words in got[name]["error"], (name, got[name])
