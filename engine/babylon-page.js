@@ -18,7 +18,7 @@ import { LoadAssetContainerAsync } from '@babylonjs/core/Loading/sceneLoader.js'
 import '@babylonjs/loaders/glTF/glTFFileLoader.js';
 import '@babylonjs/loaders/glTF/2.0/index.js';
 import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
-import { NAME, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
+import { NAME, loadLutbakeBakeBabylon, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
 import { gltfCells, sphereCells, thicknessWeights } from './sphere-samples.js';
 
 const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
@@ -130,15 +130,19 @@ window.lutbakeBabylonCost = async ({ runtime: stem, materials, size = 256, round
 
 // A glTF asset loaded with lutbake's loader extension: each of its iridescent materials rendered on the
 // sphere, its Fresnel term and parameters read back as above (the asset's own meshes are not drawn).
-window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, size = 96, stride = 2 }) => {
+// With `manifest` (a `lutbake bake --gltf` output) the extension serves the bake's routes (`serve`: 'bake' or
+// 'runtime'), each cell saying which (lutbake: {gltfIndex, name, parts}).
+window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, manifest = null, serve = 'bake', size = 96, stride = 2 }) => {
   const runtime = await loadLutbakeRuntime(stem, scene);
+  const bake = manifest && await loadLutbakeBakeBabylon(manifest, scene);
   registerLutbakeGltf();
   const load = async (output) => {
-    const extensionOptions = { [NAME]: { runtime, metals, output } };
+    const extensionOptions = { [NAME]: { runtime, metals, output, bake, serve } };
     const container = await LoadAssetContainerAsync(asset, scene, { pluginOptions: { gltf: { extensionOptions } } });
     return container.materials.filter((m) => m.iridescence && m.iridescence.isEnabled);
   };
-  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: m.indexOfRefraction, metallic: m.metallic }), size, stride);
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: m.indexOfRefraction, metallic: m.metallic,
+                                                        lutbake: (m.metadata && m.metadata.lutbake) || null }), size, stride);
   return { babylon: Engine.Version, cells };
 };
 window.lutbakeReady = true;

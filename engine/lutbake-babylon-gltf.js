@@ -14,20 +14,37 @@
 //   const container = await LoadAssetContainerAsync('IridescenceLamp.gltf', scene, { pluginOptions: { gltf: {
 //     extensionOptions: { lutbake_iridescence: { runtime, metals: { 'Lamp metal': { eta: [...], kappa: [...] } } } } } } });
 //
-// Baked glTF outputs (`lutbake bake --gltf`: atlases and 4D LUTs) are served in three.js only
-// (engine/lutbake-gltf.js); in Babylon every material is served from the runtime table.
+// A `lutbake bake --gltf` output is served as engine/lutbake-gltf.js serves it in three.js (docs/gltf.md):
+// pass `bake` (loadLutbakeBakeBabylon) and each glTF material the manifest records is served, part by part
+// (dielectric, metal: mixed by the material's metallic value), by the route lutbake-routes.js picks: its atlas
+// slice, one slice per channel, the runtime table (`runtime` needed; `serve: 'runtime'` sends every part there)
+// or a constant. A texture-driven metal (a 4D LUT, or the runtime table per texel) is not served yet: it
+// throws, naming the material. What served each material: material.metadata.lutbake ({gltfIndex, name, parts: {dielectric|metal: route}}).
+//
+//   const bake = await loadLutbakeBakeBabylon('build/Lamp/IridescenceLamp.json', scene);
+//   ... extensionOptions: { lutbake_iridescence: { bake, runtime } } ...
 import { registerGLTFExtension, unregisterGLTFExtension } from '@babylonjs/loaders/glTF/2.0/glTFLoaderExtensionRegistry.js';
-import { lutbakeIridescence } from './lutbake-babylon.js';
+import { lutbakeIridescence, lutbakeTexture } from './lutbake-babylon.js';
+import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-routes.js';
 
 export const NAME = 'lutbake_iridescence';
+
+// The manifest of a glTF bake with its atlas (if any slice serves a part) as a Babylon texture and its include.
+export async function loadLutbakeBakeBabylon(manifestUrl, scene) {
+  const bake = await loadBakeManifest(manifestUrl);
+  return { ...bake, atlas: bake.atlas && lutbakeTexture(bake.atlas, scene) };
+}
 
 class LutbakeGltfExtension {
   constructor(loader) {
     this.name = NAME;
     const options = loader.parent.extensionOptions[NAME] || {};
-    this.enabled = Boolean(options.runtime);
+    this.enabled = Boolean(options.runtime || options.bake);
     this.served = {};
-    if (!this.enabled) return;
+    this.options = { serve: 'bake', ...options };
+    this._loader = loader;
+    if (!SERVES.includes(this.options.serve)) throw new Error(`lutbake_iridescence: serve '${this.options.serve}' is not ${SERVES.join(' or ')}`);
+    if (!this.enabled || options.bake) return;
     const { runtime, metals = {}, output = null } = options;
     // Every material the loader creates (variants included), before its properties load: the plugin reads
     // the iridescence settings when the shader is built, so it is inert on materials without iridescence.
@@ -36,7 +53,19 @@ class LutbakeGltfExtension {
       lutbakeIridescence(material, { runtime, metal: metals[material.name] || undefined, output });
       this.served[material.name] = metals[material.name] ? 'runtime, metal per channel' : 'runtime';
     });
-    this._loader = loader;
+  }
+
+  // With a bake: each glTF material (by its index) the manifest records, once Babylon loaded its properties.
+  loadMaterialPropertiesAsync(context, material, babylonMaterial) {
+    const { bake, runtime = null, serve, output = null } = this.options;
+    const record = bake && bake.records.get(material.index);
+    if (!record) return null;
+    return this._loader.loadMaterialPropertiesAsync(context, material, babylonMaterial).then(() => {
+      const routes = partRoutes(bake, record, { runtime: Boolean(runtime), serve });
+      lutbakeIridescence(babylonMaterial, { runtime, bake: bakeTerms(bake, record, routes), output });
+      this.served[record.gltf_index] = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
+      babylonMaterial.metadata = { ...babylonMaterial.metadata, lutbake: this.served[record.gltf_index] };
+    });
   }
 
   dispose() {

@@ -26,14 +26,19 @@ import { loadRuntimeTable } from './lutbake-exr.js';
 // v = 0 (lutbake-exr.js), so the include is compiled with LUTBAKE_SCANLINE0_AT_V0 1.
 export async function loadLutbakeRuntime(stem, scene) {
   const { width, height, texels, include, header } = await loadRuntimeTable(stem);
-  const table = new RawTexture(texels, width, height, Constants.TEXTUREFORMAT_RGBA, scene, false, false,
+  return { table: lutbakeTexture({ width, height, texels }, scene), include, hash: header['lutbake.content_hash'] };
+}
+
+// RGBA half texels (lutbake-exr.js) as the texture lutbake's includes read: bilinear, clamped, no mipmaps.
+export function lutbakeTexture({ width, height, texels }, scene) {
+  const texture = new RawTexture(texels, width, height, Constants.TEXTUREFORMAT_RGBA, scene, false, false,
     Texture.BILINEAR_SAMPLINGMODE, Constants.TEXTURETYPE_HALF_FLOAT);
-  table.wrapU = table.wrapV = Texture.CLAMP_ADDRESSMODE;
+  texture.wrapU = texture.wrapV = Texture.CLAMP_ADDRESSMODE;
   // Babylon's textures filter anisotropically (level 4) by default: between neighbouring pixels the table
   // coordinates jump (they are film parameters, not surface positions), and anisotropic filtering would
   // average texels along that jump. One bilinear read is the include's contract.
-  table.anisotropicFilteringLevel = 1;
-  return { table, include, hash: header['lutbake.content_hash'] };
+  texture.anisotropicFilteringLevel = 1;
+  return texture;
 }
 
 // Babylon's one call of evalIridescence in the PBR fragment shader (pbrBlockIridescence), and main's call of
@@ -45,11 +50,18 @@ const escape = (text) => text.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
 const MODES = { runtime: 1, babylon: 2 };
 const OUTPUTS = { fresnel: 1, parameters: 2 };
 
-// Declarations (before the PBR blocks): the capture of the term for `output`, and with a runtime table the
-// table, its include and the film's term at (eta1, eta2, cos, d). Babylon's preprocessor reads `#if NAME` as
-// `#ifdef NAME`; the include's one `#if` is on LUTBAKE_SCANLINE0_AT_V0, defined 1 here, which both readings
-// take as true.
-function definitions(include) {
+// The runtime table's term over the material's base: a dielectric of index lutbakeIor, a metal per channel.
+const RUNTIME_TERMS = {
+  dielectric: 'lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, eta1, eta2, lutbakeIor, 0.0)',
+  metal: 'lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, eta1, eta2, lutbakeMetalEta, lutbakeMetalKappa)',
+};
+
+// Declarations (before the PBR blocks): the capture of the term for `output`, and for lutbake's term the
+// tables (the runtime table, a glTF bake's atlas), their includes and the film's term at (eta1, eta2, cos, d):
+// `terms.dielectric` and `terms.metal` (GLSL expressions; absent: 0), mixed by the metallic weight.
+// Babylon's preprocessor reads `#if NAME` as `#ifdef NAME`; the includes' `#if` are on
+// LUTBAKE_SCANLINE0_AT_V0, defined 1 here, which both readings take as true (and `#if !NAME` as false).
+function definitions(include, terms) {
   const capture = `
 float lutbakeMetallic = 0.0;
 vec3 lutbakeFresnel = vec3(0.0);
@@ -60,28 +72,31 @@ vec3 lutbakeCapture(vec3 fresnel, float cosTheta, float thicknessNm, float eta2)
   return fresnel;
 }
 `;
-  if (!include) return capture;
+  if (!terms) return capture;
   return `${capture}
 uniform highp sampler2D lutbakeTable;
+uniform highp sampler2D lutbakeAtlas;
 #define LUTBAKE_SCANLINE0_AT_V0 1
 ${include}
 vec3 lutbakeFilmFresnel(float eta1, float eta2, float cosTheta, float thicknessNm) {
   vec3 dielectric = vec3(0.0);
   vec3 metallic = vec3(0.0);
-  if (lutbakeMetallic < 1.0) dielectric = lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, eta1, eta2, lutbakeIor, 0.0);
-  if (lutbakeMetallic > 0.0) metallic = lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, eta1, eta2, lutbakeMetalEta, lutbakeMetalKappa);
+  if (lutbakeMetallic < 1.0) dielectric = ${terms.dielectric || 'vec3(0.0)'};
+  if (lutbakeMetallic > 0.0) metallic = ${terms.metal || 'vec3(0.0)'};
   return lutbakeCapture(mix(dielectric, metallic, lutbakeMetallic), cosTheta, thicknessNm, eta2);
 }
 `;
 }
 
 class LutbakeIridescencePlugin extends MaterialPluginBase {
-  constructor(material, { runtime, mode, metal, output }) {
+  constructor(material, { runtime, mode, metal, output, bake }) {
     super(material, 'LutbakeIridescence', 110, { LUTBAKE_IRIDESCENCE: false, LUTBAKE_MODE: 0, LUTBAKE_OUTPUT: 0, LUTBAKE_TABLE: '' });
     this.runtime = runtime;
     this.mode = mode;
     this.metal = metal;
     this.output = output;
+    this.bake = bake;
+    this.textures = { lutbakeTable: runtime && runtime.table, lutbakeAtlas: bake && bake.atlas };
     this._enable(true);
   }
 
@@ -91,12 +106,18 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
     defines.LUTBAKE_IRIDESCENCE = this._material.iridescence.isEnabled;
     defines.LUTBAKE_MODE = MODES[this.mode];
     defines.LUTBAKE_OUTPUT = OUTPUTS[this.output] || 0;
-    defines.LUTBAKE_TABLE = this.mode === 'runtime' ? `T${this.runtime.hash}` : 'none';  // effects are cached by defines
+    const table = this.runtime ? `T${this.runtime.hash}` : '';
+    defines.LUTBAKE_TABLE = this.mode === 'runtime' ? `${table}${this.bake ? this.bake.key : ''}` : 'none';  // effects are cached by defines
   }
 
-  isReadyForSubMesh() { return this.mode !== 'runtime' || this.runtime.table.isReady(); }
+  // The textures lutbake's term reads (the runtime table, a bake's atlas), by sampler name.
+  lutbakeTextures() {
+    return this.mode === 'runtime' ? Object.entries(this.textures).filter(([, texture]) => texture) : [];
+  }
 
-  getSamplers(samplers) { if (this.mode === 'runtime') samplers.push('lutbakeTable'); }
+  isReadyForSubMesh() { return this.lutbakeTextures().every(([, texture]) => texture.isReady()); }
+
+  getSamplers(samplers) { samplers.push(...this.lutbakeTextures().map(([name]) => name)); }
 
   getUniforms() {
     return {
@@ -110,7 +131,7 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
     uniformBuffer.updateFloat('lutbakeIor', this._material.indexOfRefraction);
     uniformBuffer.updateFloat3('lutbakeMetalEta', ...this.metal.eta);
     uniformBuffer.updateFloat3('lutbakeMetalKappa', ...this.metal.kappa);
-    if (this.mode === 'runtime') uniformBuffer.setTexture('lutbakeTable', this.runtime.table);
+    for (const [name, texture] of this.lutbakeTextures()) uniformBuffer.setTexture(name, texture);
   }
 
   getCustomCode(shaderType) {
@@ -119,7 +140,10 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
       : `lutbakeCapture(${CALL},viewAngle,iridescenceThickness,iridescenceIOR)`;
     const out = { 1: 'lutbakeFresnel', 2: 'lutbakeParameters' }[OUTPUTS[this.output]];
     return {
-      CUSTOM_FRAGMENT_DEFINITIONS: definitions(this.mode === 'runtime' ? this.runtime.include : null),
+      CUSTOM_FRAGMENT_DEFINITIONS: this.mode === 'runtime'
+        ? definitions([this.runtime && this.runtime.include, this.bake && this.bake.include].filter(Boolean).join('\n'),
+          this.bake ? this.bake.terms : RUNTIME_TERMS)
+        : definitions(null, null),
       [`!${escape(CALL)};`]: `${term};`,  // Babylon appends a newline to injected code: keep the ';' on its line
       [`!${escape(BLOCK)}`]: `
 #ifdef METALLICWORKFLOW
@@ -133,15 +157,17 @@ ${BLOCK}`,
 
 const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
 
-// Attach lutbake's term to a PBRMaterial (its iridescence must be enabled); returns the material.
-export function lutbakeIridescence(material, { runtime = null, mode = runtime ? 'runtime' : 'babylon',
+// Attach lutbake's term to a PBRMaterial (its iridescence must be enabled); returns the material. `bake`
+// (lutbake-babylon-gltf.js: a glTF bake's routes) replaces the runtime table's terms by its own: { terms:
+// {dielectric, metal}, include, atlas, key } (the key names the terms for Babylon's effect cache).
+export function lutbakeIridescence(material, { runtime = null, bake = null, mode = runtime || bake ? 'runtime' : 'babylon',
                                                metal = DIELECTRIC_METAL, output = null } = {}) {
   if (!(mode in MODES)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${Object.keys(MODES).join(', ')}`);
-  if (mode === 'runtime' && !runtime) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
+  if (mode === 'runtime' && !runtime && !bake) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
   if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not fresnel or parameters`);
   if (!pbrBlockIridescence.shader.includes(CALL)) {
     throw new Error('lutbakeIridescence: Babylon.js changed pbrBlockIridescence (its evalIridescence call is not found)');
   }
-  material.lutbakeIridescence = new LutbakeIridescencePlugin(material, { runtime, mode, metal, output });
+  material.lutbakeIridescence = new LutbakeIridescencePlugin(material, { runtime, mode, metal, output, bake });
   return material;
 }

@@ -40,7 +40,9 @@ function channelList(bytes, view, at, end, url) {
 // string attribute (lutbake.*) as text.
 function readHeader(bytes, view, url) {
   if (bytes.length < 8 || view.getUint32(0, true) !== MAGIC) fail(url, 'not an OpenEXR file');
-  if (view.getUint8(5) & 0x1e) fail(url, 'a tiled, deep or multi-part EXR; lutbake writes single-part scanline files');
+  // Version flags (bits 9-12): tiled, long names, deep, multi-part. Long names (attribute and channel names up
+  // to 255 bytes; a scene atlas's header has them) read as any name does.
+  if (view.getUint8(5) & 0x1a) fail(url, 'a tiled, deep or multi-part EXR; lutbake writes single-part scanline files');
   const end = Math.min(bytes.length, MAX_HEADER_BYTES);
   const header = {};
   let at = 8;
@@ -127,12 +129,29 @@ async function fetchOk(url) {
   return response;
 }
 
+// STEM.exr's texels and header, and the include STEM.glsl beside it.
+async function loadExrAndInclude(stem) {
+  const [buffer, include] = await Promise.all([
+    fetchOk(`${stem}.exr`).then((r) => r.arrayBuffer()), fetchOk(`${stem}.glsl`).then((r) => r.text())]);
+  return { ...(await readExr(`${stem}.exr`, buffer)), include };
+}
+
+// A glTF bake's atlas (`lutbake bake --gltf`: STEM.exr, STEM.glsl), checked to be one set (the include's first
+// line names the start of the header's scene hash).
+export async function loadSceneAtlas(stem) {
+  const atlas = await loadExrAndInclude(stem);
+  const named = atlas.include.match(/^\/\/ lutbake scene material table \(scene hash ([0-9a-f]+)\)/);
+  const hash = atlas.header['lutbake.scene_hash'];
+  if (!named || typeof hash !== 'string' || !hash.startsWith(named[1])) {
+    fail(stem, `the EXR (scene hash ${hash}) and its include (${named ? named[1] : 'no scene hash'}) are not one bake: bake the scene again`);
+  }
+  return atlas;
+}
+
 // `lutbake runtime-table`'s STEM.exr and STEM.glsl, checked to be one set (the header's content hash is
 // the one the include's second line names: a folder copied mid-bake could pair two bakes).
 export async function loadRuntimeTable(stem) {
-  const [buffer, include] = await Promise.all([
-    fetchOk(`${stem}.exr`).then((r) => r.arrayBuffer()), fetchOk(`${stem}.glsl`).then((r) => r.text())]);
-  const table = await readExr(`${stem}.exr`, buffer);
+  const { include, ...table } = await loadExrAndInclude(stem);
   if (table.header['lutbake.format'] !== 'lutbake-runtime') fail(stem, 'not a lutbake runtime table (lutbake.format)');
   const named = include.match(/^\/\/ content hash ([0-9a-f]+);/m);
   if (!named || named[1] !== table.header['lutbake.content_hash']) {

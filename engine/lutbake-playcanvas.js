@@ -19,17 +19,28 @@
 // 'parameters' the (cos theta, thickness nm, film index) it used; with mode 'playcanvas' they are PlayCanvas's.
 import * as pc from 'playcanvas';
 import { loadRuntimeTable } from './lutbake-exr.js';
+import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-routes.js';
 
 // The runtime table as an RGBA half float texture: bilinear, clamped, no mipmaps, not anisotropic; scanline 0
 // at v = 0 (lutbake-exr.js), so the include is compiled with LUTBAKE_SCANLINE0_AT_V0 1.
 export async function loadLutbakeRuntime(stem, device) {
-  const { width, height, texels, include } = await loadRuntimeTable(stem);
-  const table = new pc.Texture(device, {
-    name: 'lutbake-runtime', width, height, format: pc.PIXELFORMAT_RGBA16F, mipmaps: false, anisotropy: 1,
+  const runtime = await loadRuntimeTable(stem);
+  return { table: lutbakeTexture(device, runtime, 'lutbake-runtime'), include: runtime.include };
+}
+
+function lutbakeTexture(device, { width, height, texels }, name) {
+  return new pc.Texture(device, {
+    name, width, height, format: pc.PIXELFORMAT_RGBA16F, mipmaps: false, anisotropy: 1,
     minFilter: pc.FILTER_LINEAR, magFilter: pc.FILTER_LINEAR,
     addressU: pc.ADDRESS_CLAMP_TO_EDGE, addressV: pc.ADDRESS_CLAMP_TO_EDGE, levels: [texels],
   });
-  return { table, include };
+}
+
+// A `lutbake bake --gltf` output (lutbake-routes.js) with its atlas, if a slice serves a part, as a texture
+// like the runtime table's: for lutbakeGltfOptions({ bake }).
+export async function loadLutbakeBakePlaycanvas(manifestUrl, device) {
+  const bake = await loadBakeManifest(manifestUrl);
+  return { ...bake, atlas: bake.atlas && lutbakeTexture(device, bake.atlas, 'lutbake-atlas') };
 }
 
 // The chunk's interface: getIridescence(cos theta, base F0, thickness nm), and the film index uniform the
@@ -49,13 +60,24 @@ vec3 getIridescence(float cosTheta, vec3 specularity, float iridescenceThickness
 `;
 }
 
-function runtimeChunk(include) {
+// The runtime table's terms over the material's base (eta3: its index; a metal per channel).
+const RUNTIME_TERMS = {
+  dielectric: 'lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, eta3, 0.0)',
+  metal: 'lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, lutbakeMetalEta, lutbakeMetalKappa)',
+};
+
+// lutbake's term: `terms` (GLSL in cosTheta, thicknessNm, eta2, eta3; absent: 0) mixed by metalness, with
+// the samplers and includes they read (the runtime table's, a bake's atlas's: bakeTerms, lutbake-routes.js).
+function lutbakeChunk({ runtime, bake }) {
+  const terms = bake ? bake.terms : RUNTIME_TERMS;
   return chunk(`
-uniform highp sampler2D lutbakeTable;
+${runtime ? 'uniform highp sampler2D lutbakeTable;' : ''}
+${bake && bake.atlas ? 'uniform highp sampler2D lutbakeAtlas;' : ''}
 uniform vec3 lutbakeMetalEta;
 uniform vec3 lutbakeMetalKappa;
 #define LUTBAKE_SCANLINE0_AT_V0 1
-${include}
+${runtime ? runtime.include : ''}
+${bake ? bake.include : ''}
 vec3 lutbakeFilm(float cosTheta, float thicknessNm, float eta2) {
 #ifdef LIT_METALNESS
   float metallic = litArgs_metalness;
@@ -66,8 +88,8 @@ vec3 lutbakeFilm(float cosTheta, float thicknessNm, float eta2) {
 #endif
   vec3 dielectric = vec3(0.0);
   vec3 metal = vec3(0.0);
-  if (metallic < 1.0) dielectric = lutbake_iridescence(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, eta3, 0.0);
-  if (metallic > 0.0) metal = lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, lutbakeMetalEta, lutbakeMetalKappa);
+  if (metallic < 1.0) dielectric = ${terms.dielectric || 'vec3(0.0)'};
+  if (metallic > 0.0) metal = ${terms.metal || 'vec3(0.0)'};
   return mix(dielectric, metal, metallic);
 }`, 'lutbakeFilm(cosTheta, iridescenceThickness, eta2)');
 }
@@ -78,16 +100,20 @@ const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
 
 // Replace a StandardMaterial's iridescence term (mode 'runtime'), or keep PlayCanvas's (its chunk from
 // `device`) and only capture it for `output` (mode 'playcanvas'); returns the material.
-export function lutbakeIridescence(material, { runtime = null, mode = runtime ? 'runtime' : 'playcanvas',
+//
+// `bake` (lutbakeGltfOptions: a glTF bake's routes, bakeTerms of lutbake-routes.js) replaces the runtime
+// table's terms by its own.
+export function lutbakeIridescence(material, { runtime = null, bake = null, mode = runtime || bake ? 'runtime' : 'playcanvas',
                                                metal = DIELECTRIC_METAL, output = null, device = null } = {}) {
   if (!MODES.includes(mode)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${MODES.join(', ')}`);
-  if (mode === 'runtime' && !runtime) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
+  if (mode === 'runtime' && !runtime && !bake) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
   if (mode === 'playcanvas' && !device) throw new Error("lutbakeIridescence: mode 'playcanvas' needs the device (its stock chunk)");
   if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not fresnel or parameters`);
   const chunks = material.getShaderChunks(pc.SHADERLANGUAGE_GLSL);
   if (mode === 'runtime') {
-    chunks.set('iridescenceDiffractionPS', runtimeChunk(runtime.include));
-    material.setParameter('lutbakeTable', runtime.table);
+    chunks.set('iridescenceDiffractionPS', lutbakeChunk({ runtime, bake }));
+    if (runtime) material.setParameter('lutbakeTable', runtime.table);
+    if (bake && bake.atlas) material.setParameter('lutbakeAtlas', bake.atlas);
     material.setParameter('lutbakeMetalEta', metal.eta);
     material.setParameter('lutbakeMetalKappa', metal.kappa);
   } else {
@@ -110,10 +136,26 @@ export function lutbakeIridescence(material, { runtime = null, mode = runtime ? 
 //   const asset = new pc.Asset('lamp', 'container', { url: 'IridescenceLamp.gltf' }, null,
 //                              lutbakeGltfOptions({ runtime, metals: { 'Lamp metal': { eta, kappa } } }));
 //   app.assets.add(asset); app.assets.load(asset);
-export function lutbakeGltfOptions({ runtime, metals = {}, output = null }) {
+//
+// With `bake` (loadLutbakeBakePlaycanvas) each glTF material the bake's manifest records is served by its
+// routes (lutbake-routes.js: slice, slice per channel, runtime table, constant; `serve: 'runtime'` sends every
+// part to the table), recorded in material.lutbake ({gltfIndex, name, parts}); the glTF material's index is
+// its place in the asset's materials, which the global preprocess hook keeps.
+export function lutbakeGltfOptions({ runtime = null, metals = {}, output = null, bake = null, serve = 'bake' }) {
+  if (!SERVES.includes(serve)) throw new Error(`lutbakeGltfOptions: serve '${serve}' is not ${SERVES.join(' or ')}`);
+  let gltfMaterials = [];
+  const served = (gltfMaterial, material) => {
+    const record = bake.records.get(gltfMaterials.indexOf(gltfMaterial));
+    if (!record) return;
+    const routes = partRoutes(bake, record, { runtime: Boolean(runtime), serve });
+    lutbakeIridescence(material, { runtime, bake: bakeTerms(bake, record, routes), output });
+    material.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
+  };
   return {
+    global: { preprocess(gltf) { gltfMaterials = gltf.materials || []; } },
     material: {
       postprocess(gltfMaterial, material) {
+        if (bake) return served(gltfMaterial, material);
         if (!gltfMaterial.extensions?.KHR_materials_iridescence) return;
         lutbakeIridescence(material, { runtime, metal: metals[gltfMaterial.name] || undefined, output });
       },

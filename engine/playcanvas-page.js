@@ -3,7 +3,7 @@
 // with the film's Fresnel term as output and again with the parameters each pixel used, for PlayCanvas's own
 // term and lutbake's.
 import * as pc from 'playcanvas';
-import { loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
+import { loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
 import { gltfCells, sphereCells } from './sphere-samples.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
@@ -102,18 +102,22 @@ window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, ro
 };
 // A glTF asset loaded as a container with lutbake's material hook: each of its iridescent materials rendered
 // on the sphere, its Fresnel term and parameters read back as above (the asset itself is not instantiated).
-window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, size = 96, stride = 2 }) => {
+// With `manifest` (a `lutbake bake --gltf` output) the hook serves the bake's routes (`serve`: 'bake' or
+// 'runtime'), each cell saying which (lutbake: {gltfIndex, name, parts}).
+window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, manifest = null, serve = 'bake', size = 96, stride = 2 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
+  const bake = manifest && await loadLutbakeBakePlaycanvas(manifest, device);
   // PlayCanvas caches a container by URL: the query keeps the two loads (and their hooks) apart.
   const load = (output) => new Promise((ok, no) => {
-    const asset = new pc.Asset(`films-${output}`, 'container', { url: `${url}?output=${output}` }, null,
-                               lutbakeGltfOptions({ runtime, metals, output }));
+    const asset = new pc.Asset(`films-${output}`, 'container', { url: `${url}?output=${output}&serve=${serve}` }, null,
+                               lutbakeGltfOptions({ runtime, metals, output, bake, serve }));
     asset.once('error', no);
     asset.ready(() => ok(asset.resource.data.materials.filter((m) => m.useIridescence)));
     app.assets.add(asset);
     app.assets.load(asset);
   });
-  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: 1 / m.refractionIndex, metallic: m.metalness }), size, stride);
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: 1 / m.refractionIndex, metallic: m.metalness,
+                                                        lutbake: m.lutbake || null }), size, stride);
   return { playcanvas: pc.version, cells };
 };
 window.lutbakeReady = true;

@@ -66,10 +66,7 @@ def run_engine(engine, folder):
 def render_spheres(engine, spec, runtime_path, folder):
     """The page's result for ``spec`` (materials, modes, size, stride, image) with the runtime table at
     ``runtime_path`` (docs/make_engines_figure.py draws the same renders)."""
-    require_engine()
-    package = {**PACKAGES, "webgpu": "three"}[engine]
-    if not (ENGINE / "node_modules" / package).is_dir():
-        pytest.fail(f"the pinned {package} is missing: cd engine && npm ci", pytrace=False)
+    require_package({**PACKAGES, "webgpu": "three"}[engine])
     spec = {**spec, "runtime": f"/{runtime_path.with_suffix('').relative_to(ROOT)}"}
     (folder / "spec.json").write_text(json.dumps(spec))
     proc = subprocess.run(
@@ -81,6 +78,13 @@ def render_spheres(engine, spec, runtime_path, folder):
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
     return json.loads((folder / "result.json").read_text())
+
+
+def require_package(package):
+    """Node, Chromium and the pinned ``package`` (engine/package-lock.json): the test fails without them."""
+    require_engine()
+    if not (ENGINE / "node_modules" / package).is_dir():
+        pytest.fail(f"the pinned {package} is missing: cd engine && npm ci", pytrace=False)
 
 
 def engine_points(run, mode):
