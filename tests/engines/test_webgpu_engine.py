@@ -144,7 +144,16 @@ def test_the_node_takes_the_tables_constants_from_its_include_and_refuses_anothe
     uncut.write_text("\n".join(line for line in include.splitlines() if "#define LUTBAKE_RT_REACH" not in line))
     lut = ROOT / "lutbake-luts" / "lutbake-eta2-1.33.glsl"
     proc = subprocess.run(
-        ["node", "--input-type=module", "-e", READ_CONSTANTS, str(path.with_suffix(".glsl")), str(lut), str(cut), str(uncut)],
+        [
+            "node",
+            "--input-type=module",
+            "-e",
+            READ_CONSTANTS,
+            str(path.with_suffix(".glsl")),
+            str(lut),
+            str(cut),
+            str(uncut),
+        ],
         capture_output=True,
         text=True,
         cwd=ROOT,
@@ -175,4 +184,6 @@ def test_the_node_takes_the_tables_constants_from_its_include_and_refuses_anothe
     }
     assert str(lut) in refused_lut and "not a runtime-table include" in refused_lut
     assert str(cut) in refused_cut and "LUTBAKE_RT_ZOOM" in refused_cut and "LUTBAKE_RT_NU0" not in refused_cut
-    assert str(uncut) in refused_macro and "LUTBAKE_RT_REACH" in refused_macro and "LUTBAKE_RT_SCALE" not in refused_macro
+    assert (
+        str(uncut) in refused_macro and "LUTBAKE_RT_REACH" in refused_macro and "LUTBAKE_RT_SCALE" not in refused_macro
+    )
