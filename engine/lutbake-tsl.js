@@ -16,16 +16,21 @@
 //
 // One source of truth: the table's layout and constants are read from the GLSL include the table ships with
 // (lutbake/shaders/runtime.glsl.in rendered by `lutbake runtime-table`); the arithmetic below is that include's,
-// operation for operation (as lutbake/modes/runtime/model.py is in numpy), and the tests hold all three to 1e-4.
+// operation for operation (as lutbake/modes/runtime/model.py is in numpy): tests/engines/test_webgpu_engine.py holds
+// the node to the model within float32 rounding of the same operations, and all three to 1e-4 (with three.js's WebGL).
 // `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour,
 // 'parameters' the (cos theta, thickness nm, film index) it used; with mode 'three' they are three.js's own.
 import { DataTexture, HalfFloatType, RGBAFormat, LinearFilter, ClampToEdgeWrapping, PhysicalLightingModel, Vector3 } from 'three/webgpu';
-import { If, float, vec2, vec3, vec4, property, texture, clamp, floor, fract, sqrt, max, min, mix, step, abs, length, dot, materialReference,
+import { If, float, vec2, vec3, vec4, property, texture, clamp, floor, fract, sqrt, max, min, mix, select, abs, length, dot, materialReference,
          iridescenceIOR, iridescenceThickness, ior, metalness, normalView, positionViewDirection, Schlick_to_F0 } from 'three/tsl';
 import { loadRuntimeTable } from './lutbake-exr.js';
 
-// The include's constants, by name (lutbake/shaders/runtime.glsl.in: `const highp float|vec2|vec3 NAME = ...;`).
+// The include's constants, by name: its `const highp float|vec2|vec3 LUTBAKE_RT_NAME = ...;` lines and the texture
+// units it derives from them as `#define LUTBAKE_RT_NAME expression` (evaluated here as the GLSL compiler folds
+// them, with LUTBAKE_SCANLINE0_AT_V0 1: the table below has scanline 0 at v = 0).
 const CONSTANTS = ['NU0', 'X_MAX', 'ZOOM', 'LAST_SLICE', 'HALF_SPAN', 'NODES', 'TILES', 'BAND', 'SIZE', 'WHITE'];
+const MACROS = ['V', 'SCALE', 'REACH', 'TILE_STEP', 'TILE_ORIGIN', 'BAND_STEP'];
+const FLAGS = { LUTBAKE_SCANLINE0_AT_V0: true };
 
 export function includeConstants(include, url) {
   const found = {};
@@ -34,9 +39,63 @@ export function includeConstants(include, url) {
     if (numbers.some((v) => !Number.isFinite(v))) throw new Error(`${url}: constant LUTBAKE_RT_${name} is not numeric: ${value}`);
     found[name] = numbers.length === 1 ? numbers[0] : numbers;
   }
-  const missing = CONSTANTS.filter((name) => !(name in found));
+  for (const [name, expression] of activeDefines(include)) {
+    try { found[name] = evaluate(expression, found); } catch (e) { throw new Error(`${url}: macro LUTBAKE_RT_${name}: ${e.message}`); }
+  }
+  const missing = [...CONSTANTS, ...MACROS].filter((name) => !(name in found));
   if (missing.length) throw new Error(`${url}: not a runtime-table include (no LUTBAKE_RT_${missing.join(', LUTBAKE_RT_')})`);
   return found;
+}
+
+// The `#define LUTBAKE_RT_NAME expression` lines the preprocessor keeps (`#if FLAG` by FLAGS; guards kept).
+function* activeDefines(include) {
+  const kept = [];
+  for (const line of include.split('\n')) {
+    const [, directive, flag] = line.match(/^#(if|ifdef|ifndef|else|endif)\b\s*(\w*)/) ?? [];
+    if (directive === 'if') kept.push(FLAGS[flag] === true);
+    else if (directive === 'ifdef' || directive === 'ifndef') kept.push(true);
+    else if (directive === 'else') kept.push(!kept.pop());
+    else if (directive === 'endif') kept.pop();
+    const define = line.match(/^#define LUTBAKE_RT_(\w+) (.+?)\s*(?:\/\/.*)?$/);
+    if (define && kept.every(Boolean)) yield [define[1], define[2]];
+  }
+}
+
+// A macro's constant expression: numbers, LUTBAKE_RT_ names, vec2/vec3(...), .x/.y/.z, unary -, + - * / and
+// parentheses, component-wise on vectors (arrays) as GLSL does.
+function evaluate(expression, names) {
+  const tokens = expression.match(/\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+|\w+|[-+*/().,]|\S/g);
+  let at = 0;
+  const peek = () => tokens[at], take = (t) => { if (tokens[at] !== t) throw new Error(`expected '${t}' at '${tokens[at] ?? 'end'}'`); at += 1; };
+  const apply = (f, a, b) => (Array.isArray(a) || Array.isArray(b)
+    ? [0, 1, 2].slice(0, (Array.isArray(a) ? a : b).length).map((i) => f(Array.isArray(a) ? a[i] : a, Array.isArray(b) ? b[i] : b)) : f(a, b));
+  const ops = { '+': (a, b) => a + b, '-': (a, b) => a - b, '*': (a, b) => a * b, '/': (a, b) => a / b };
+  const binary = (next, symbols) => () => {
+    let value = next();
+    while (symbols.includes(peek())) { const op = tokens[at++]; value = apply(ops[op], value, next()); }
+    return value;
+  };
+  const primary = () => {
+    const token = tokens[at++];
+    let value;
+    if (token === '(') { value = sum(); take(')'); }
+    else if (token === 'vec2' || token === 'vec3') {
+      take('('); value = [sum()];
+      while (peek() === ',') { at += 1; value.push(sum()); }
+      take(')');
+    } else if (/^[\d.]/.test(token ?? '')) value = Number(token);
+    else if (token?.startsWith('LUTBAKE_RT_') && token.slice(11) in names) value = names[token.slice(11)];
+    else throw new Error(`unknown '${token ?? 'end'}'`);
+    while (peek() === '.') { at += 1; value = value['xyz'.indexOf(tokens[at++])]; }
+    if (value === undefined) throw new Error('bad component');
+    return value;
+  };
+  const unary = () => (peek() === '-' ? (at += 1, apply(ops['-'], 0, unary())) : primary());
+  const product = binary(unary, ['*', '/']);
+  const sum = binary(product, ['+', '-']);
+  const value = sum();
+  if (at !== tokens.length) throw new Error(`unexpected '${tokens[at]}'`);
+  return value;
 }
 
 // The runtime table as an RGBA half texture (bilinear, clamped, no mipmaps; scanline 0 at v = 0, as
@@ -56,108 +115,114 @@ export async function loadLutbakeRuntimeNode(stem) {
   return { table, constants, hash: header['lutbake.content_hash'] };
 }
 
-const TWO_PI = 6.283185307179586;
 const mul = (a, b) => vec2(a.x.mul(b.x).sub(a.y.mul(b.y)), a.x.mul(b.y).add(a.y.mul(b.x)));
 
-// e^(2 pi i turns) - 1: polynomials about the nearest quarter turn k, rotated by i^k = (ck, sk) (lutbake_rt_cis_m1).
-function cisM1(turns) {
-  const k = floor(turns.mul(4).add(0.5));
-  const x = turns.sub(k.mul(0.25)).mul(TWO_PI);
-  const x2 = x.mul(x);
-  const cm = x2.mul(float(-0.5).add(x2.mul(float(1 / 24).add(x2.mul(float(-1 / 720).add(x2.mul(1 / 40320)))))));
-  const s = x.mul(float(1).add(x2.mul(float(-1 / 6).add(x2.mul(float(1 / 120).add(x2.mul(float(-1 / 5040).add(x2.mul(1 / 362880)))))))));
-  const halfK = floor(k.mul(0.5));
-  const odd = k.sub(halfK.mul(2));
-  const sign = float(1).sub(halfK.sub(floor(halfK.mul(0.5)).mul(2)).mul(2));
-  const ck = float(1).sub(odd).mul(sign), sk = odd.mul(sign);
-  return vec2(ck.mul(cm).add(ck.sub(1)).sub(sk.mul(s)), sk.mul(cm).add(sk).add(ck.mul(s)));
+// conj(e^(2 pi i turns) - 1) = (-2 s^2, -2 s c), s = sin(pi t), c = cos(pi t) of t = turns - round(turns) by the include's
+// near-minimax polynomials in t^2 (lutbake_rt_cis_m1_conj).
+function cisM1Conj(turns) {
+  const t = turns.sub(floor(turns.add(0.5)));
+  const u = t.mul(t);
+  const s2 = t.mul(float(-6.28317941).add(u.mul(float(10.3347356).add(u.mul(float(-5.08720983).add(u.mul(1.11679188)))))));
+  const c = float(0.999999953).add(u.mul(float(-4.93479286).add(u.mul(float(4.05841191).add(u.mul(float(-1.33188014)
+    .add(u.mul(0.219696764))))))));
+  return vec2(float(-0.5).mul(s2).mul(s2), s2.mul(c));
 }
 
-// Principal square root for Im z >= 0 (lutbake_rt_sqrt).
+// Principal square root for Im z >= 0, its parts picked by one select (lutbake_rt_sqrt).
 function csqrt(z) {
-  const h = sqrt(max(length(z).add(abs(z.x)).mul(0.5), 1e-30));
-  const l = z.y.mul(0.5).div(h);
-  const t = step(0.0, z.x);
-  return vec2(t.mul(h).add(float(1).sub(t).mul(l)), t.mul(l).add(float(1).sub(t).mul(h)));
+  const h = sqrt(max(float(0.5).mul(length(z).add(abs(z.x))), 1e-30));
+  const l = float(0.5).mul(z.y).div(h);
+  return select(z.x.greaterThanEqual(0.0), vec2(h, l), vec2(l, h));
 }
 
-// One polarization: c0, f and the table coordinate w (lutbake_rt_pol; docs/spectral.md).
-function polarization(y1, y2, p, q, em1, beta) {
-  const inv = float(1).div(y1.add(y2));
-  const a = y1.sub(y2).mul(inv);
-  const ea = y1.mul(y2).mul(4).mul(inv).mul(inv);
-  const pq = p.add(q);
-  const n = float(1).div(dot(pq, pq));
-  const at2 = vec2(dot(q, pq), q.y.mul(pq.x).sub(q.x.mul(pq.y))).mul(a.mul(2).mul(n));
-  const eb = max(dot(p, q).mul(4).mul(n), 0.0);
-  const eq = ea.div(max(ea.add(a.mul(a).mul(eb)), 1e-30));
-  const c0 = a.mul(a).add(float(1).sub(eb).mul(ea).mul(eq));
-  const zeta = vec2(y1.mul(2).mul(inv).sub(at2.x), at2.y.negate()).add(mul(vec2(a.sub(at2.x), at2.y.negate()), em1));
-  const kr = eb.mul(eq);
-  const kz = kr.div(max(dot(zeta, zeta), 1e-30));
-  const f = vec2(kr.sub(kz.mul(zeta.x)), kz.mul(zeta.y));
-  const num = vec2(beta.sub(zeta.x), zeta.y.negate());
-  const den = vec2(beta.add(float(1).sub(beta).mul(zeta.x)), float(1).sub(beta).mul(zeta.y));
-  const w = clamp(vec2(dot(num, den), num.y.mul(den.x).sub(num.x.mul(den.y))).div(max(dot(den, den), 1e-30)), -1.0, 1.0);
-  return { c0, f, w };
+// Interface 1-2 of one polarization by admittances y1, y2: a = r12, -a/2, 1 + a, 1 - a^2, a^2 (lutbake_rt_face).
+function face(y1, y2) {
+  const i2 = float(2).div(y1.add(y2));
+  const u1 = y1.mul(i2);
+  const a = u1.sub(1);
+  return { a, na: float(-0.5).mul(a), u1, ea: u1.mul(y2.mul(i2)), a2: a.mul(a) };
 }
 
-// The film's part (lutbake_rt_film), scanline 0 at v = 0.
+// The film's part (lutbake_rt_film): interfaces 1-2, conj(e^(i theta) - 1), the zoom, the slice pair's tile centre
+// (texture coordinates, scanline 0 at v = 0) and its second slice's weight.
 function film(c, cosTheta, thicknessNm, eta1, eta2) {
   const c1 = clamp(cosTheta, 0.0, 1.0);
   const e1c = eta1.mul(c1);
   const g2 = sqrt(max(eta2.sub(eta1).mul(eta2.add(eta1)).add(e1c.mul(e1c)), 1e-30));
-  const x = thicknessNm.mul(2).mul(g2);
-  const em1 = cisM1(fract(x.mul(c.NU0)));
-  const beta = x.mul(2).div(x.mul(2).add(c.ZOOM));
-  const s = sqrt(min(x.div(c.X_MAX), 1.0)).mul(c.LAST_SLICE);
-  const j = min(floor(s), c.LAST_SLICE - 1);
-  const row = floor(j.div(c.TILES));
-  const centre = vec2(j.sub(row.mul(c.TILES)), row).add(0.5).mul(c.NODES).div(vec2(...c.SIZE));
-  return { c1, g2, em1, beta, centre, xt: s.sub(j) };
+  const h = g2.div(eta2.mul(eta2));
+  const xh = thicknessNm.mul(g2);
+  const inv = float(1).div(xh.add(0.25 * c.ZOOM));
+  const beta = xh.mul(inv);
+  const s = min(sqrt(xh.mul(2 * c.LAST_SLICE * c.LAST_SLICE / c.X_MAX)), c.LAST_SLICE - 1 / 4096);
+  const j = floor(s);
+  const tile = j.add(0.5).mul(1 / c.TILES);
+  return {
+    e1c, g2, h, faceS: face(e1c, g2), faceP: face(c1, eta1.mul(h)), em1c: cisM1Conj(xh.mul(2 * c.NU0)),
+    beta, alpha: float(0.25 * c.ZOOM).mul(inv), mobIm: beta.mul(float(2).sub(beta)).mul(c.SCALE[1] / c.SCALE[0]),
+    centre: vec2(fract(tile).mul(c.TILE_STEP[0]), floor(tile).mul(c.TILE_STEP[1]).add(c.TILE_ORIGIN)), xt: s.sub(j),
+  };
 }
 
-// Both polarizations over base eta3 + i kappa3 (lutbake_rt_base).
-function base(f, eta1, eta2, eta3, kappa3) {
-  const e1c = eta1.mul(f.c1);
-  const ek = eta3.mul(2).mul(kappa3);
-  const g3 = csqrt(vec2(eta3.sub(eta1).mul(eta3.add(eta1)).sub(kappa3.mul(kappa3)).add(e1c.mul(e1c)), ek));
-  const e22 = eta2.mul(eta2);
-  const s = polarization(e1c, f.g2, vec2(f.g2, 0.0), g3, f.em1, f.beta);
-  const p = polarization(e22.mul(f.c1), eta1.mul(f.g2), vec2(eta3.sub(kappa3).mul(eta3.add(kappa3)), ek).mul(f.g2),
-    g3.mul(e22), f.em1, f.beta);
-  return { c0: s.c0.add(p.c0).mul(0.5), s, p };
+// One polarization from conj(zeta) (lutbake_rt_pol; docs/spectral.md): c0, the read's weights (the slice blend
+// folded in), re (the white's share) and w, the table coordinate's offset in texture units.
+function polarization(c, fc, p, q, pq, f) {
+  const n4 = float(4).div(dot(pq, pq));
+  const nat2 = vec2(dot(q, pq), q.x.mul(pq.y).sub(q.y.mul(pq.x))).mul(fc.na.mul(n4));
+  const eb = max(dot(p, q).mul(n4), 0.0);
+  const eq = fc.ea.div(max(fc.ea.add(fc.a2.mul(eb)), 1e-30));
+  const kr = eb.mul(eq);
+  const c0 = fc.a2.add(fc.ea.mul(eq.sub(kr)));
+  const zc = vec2(fc.u1.add(nat2.x), nat2.y).add(mul(vec2(fc.a.add(nat2.x), nat2.y), f.em1c));
+  const kz = kr.div(max(dot(zc, zc), 1e-30));
+  const g = vec2(kr.sub(kz.mul(zc.x)), kz.mul(zc.y));
+  const g1 = g.mul(f.xt);
+  const den = vec2(f.beta.add(f.alpha.mul(zc.x)), f.alpha.mul(zc.y));
+  const mob = vec2(f.beta.sub(zc.x).mul(den.x).sub(zc.y.mul(den.y)), f.mobIm.mul(zc.y));
+  const reach = vec2(...c.REACH);
+  const w = clamp(mob.mul(float(c.SCALE[0]).div(max(dot(den, den), 1e-30))), reach.negate(), reach);
+  return { c0, weights: vec4(g.sub(g1), g1), re: g.x, w };
 }
 
-// V of channel `band` at table coordinate w, between the pair's slices (lutbake_rt_uv, lutbake_rt_read):
-// one bilinear read at mip level 0 (valid in any control flow).
-function read(runtime, f, w, band) {
-  const c = runtime.constants;
-  const uv = f.centre.add(w.mul(c.HALF_SPAN).div(vec2(...c.SIZE))).add(vec2(0, band * c.BAND / c.SIZE[1]));
-  const v = texture(runtime.table, uv).level(0);
-  return mix(v.xy, v.zw, f.xt);
+// Both polarizations over base eta3 + i kappa3 (lutbake_rt_base); p scaled by the film's h = g2 / eta2^2.
+function base(c, f, eta1, eta3, kappa3) {
+  const ek = float(2).mul(eta3).mul(kappa3);
+  const g3 = csqrt(vec2(eta3.sub(eta1).mul(eta3.add(eta1)).sub(kappa3.mul(kappa3)).add(f.e1c.mul(f.e1c)), ek));
+  const s = polarization(c, f.faceS, vec2(f.g2, 0.0), g3, vec2(f.g2.add(g3.x), g3.y), f);
+  const pn = vec2(eta3.sub(kappa3).mul(eta3.add(kappa3)), ek).mul(f.h);
+  return { s, p: polarization(c, f.faceP, pn, g3, pn.add(g3), f) };
 }
 
-// Channel `band`'s reflectance of one base's polarizations: (c0 + Re fs + Re fp) W + Re(f V) per polarization.
-function channel(runtime, f, b, band) {
-  const vs = read(runtime, f, b.s.w, band), vp = read(runtime, f, b.p.w, band);
-  return b.c0.add(b.s.f.x).add(b.p.f.x).mul(runtime.constants.WHITE[band])
-    .add(b.s.f.x.mul(vs.x)).sub(b.s.f.y.mul(vs.y)).add(b.p.f.x.mul(vp.x)).sub(b.p.f.y.mul(vp.y));
+// One polarization's weighted read at uv (lutbake_rt_read): one bilinear read at mip level 0 (valid in any control flow).
+const read = (runtime, uv, pol) => dot(texture(runtime.table, uv).level(0), pol.weights);
+
+// White's share: (c0_s + c0_p)/2 + Re of both K e^(i theta) / zeta (lutbake_rt_white).
+const white = (b) => float(0.5).mul(b.s.c0.add(b.p.c0)).add(b.s.re).add(b.p.re);
+
+// Channel band's reflectance over one base: centre, the pair's tile centre in the band (lutbake_rt_channel).
+function channel(runtime, f, b, centre, band) {
+  return white(b).mul(runtime.constants.WHITE[band]).add(read(runtime, centre.add(b.s.w), b.s)).add(read(runtime, centre.add(b.p.w), b.p));
 }
 
 // Linear RGB reflectance of ambient eta1 | film eta2, thicknessNm | base eta3 + i kappa3, one base index
 // (lutbake_iridescence); numbers or float nodes.
 export function lutbakeIridescenceNode(runtime, cosTheta, thicknessNm, eta1, eta2, eta3, kappa3) {
-  const f = film(runtime.constants, float(cosTheta), float(thicknessNm), float(eta1), float(eta2));
-  const b = base(f, float(eta1), float(eta2), float(eta3), float(kappa3));
-  return vec3(channel(runtime, f, b, 0), channel(runtime, f, b, 1), channel(runtime, f, b, 2));
+  const c = runtime.constants;
+  const f = film(c, float(cosTheta), float(thicknessNm), float(eta1), float(eta2));
+  const b = base(c, f, float(eta1), float(eta3), float(kappa3));
+  const us = f.centre.add(b.s.w), up = f.centre.add(b.p.w);
+  const band = (uv, k) => vec2(uv.x, uv.y.add(k * c.BAND_STEP));
+  return white(b).mul(vec3(...c.WHITE)).add(vec3(read(runtime, us, b.s).add(read(runtime, up, b.p)),
+    read(runtime, band(us, 1), b.s).add(read(runtime, band(up, 1), b.p)),
+    read(runtime, band(us, 2), b.s).add(read(runtime, band(up, 2), b.p))));
 }
 
 // The same with one base index per channel, eta3 and kappa3 vec3 nodes (lutbake_iridescence_rgb: metals).
 export function lutbakeIridescenceRgbNode(runtime, cosTheta, thicknessNm, eta1, eta2, eta3, kappa3) {
-  const f = film(runtime.constants, float(cosTheta), float(thicknessNm), float(eta1), float(eta2));
+  const c = runtime.constants;
+  const f = film(c, float(cosTheta), float(thicknessNm), float(eta1), float(eta2));
   const channels = [[eta3.x, kappa3.x], [eta3.y, kappa3.y], [eta3.z, kappa3.z]];
-  return vec3(...channels.map(([e, k], band) => channel(runtime, f, base(f, float(eta1), float(eta2), e, k), band)));
+  return vec3(...channels.map(([e, k], band) => channel(runtime, f, base(c, f, float(eta1), e, k),
+    band ? vec2(f.centre.x, f.centre.y.add(band * c.BAND_STEP)) : f.centre, band)));
 }
 
 const OUTPUTS = { fresnel: 1, parameters: 2 };
