@@ -185,13 +185,15 @@ function sourceHash(text) {
 
 // The GLSL a material's patch adds to three's fragment shader (declarations, lights_fragment_begin with the
 // parts' terms, the test output): a function of the parts' routes and tables only, never of the material's values.
+// A part the record lacks has weight 0 wherever three mixes the two (the bake keeps a part wherever the
+// material's metalness needs it): its term is vec3(0.0), and three's own evalIridescence is not compiled.
 function patchGlsl(bake, terms, runtime, output) {
   let begin = THREE.ShaderChunk.lights_fragment_begin;
   const calls = { dielectric: 'material.specularColor', metal: 'material.diffuseColor' };
   for (const [name, base] of Object.entries(calls)) {
     const three = `evalIridescence( 1.0, material.iridescenceIOR, dotNVi, material.iridescenceThickness, ${base} )`;
     if (!begin.includes(three)) throw new Error('lutbakeGltfMaterial: three.js changed lights_fragment_begin');
-    if (terms[name]) begin = begin.replace(three, terms[name].call);
+    begin = begin.replace(three, terms[name] ? terms[name].call : 'vec3(0.0)');
   }
   const lutTerm = Object.values(terms).find((term) => term.lut);
   const table = Object.values(terms).find((term) => term.table);

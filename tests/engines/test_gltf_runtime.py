@@ -217,12 +217,13 @@ console.log(JSON.stringify({ routes: material.userData.lutbake.parts, fragment: 
 def test_a_vacuum_over_vacuum_part_is_the_constant_zero_without_a_bake():
     """In node: a part whose film term is 0 (a film of the ambient's index on a base of it: `constant` in its
     manifest part) needs no baked file and no runtime table; its film term in the shader is a uniform that
-    holds 0, the other part keeps three.js's own."""
+    holds 0; the part the record lacks (weight 0: metalness 1) is vec3(0.0), three.js's own term is gone."""
     out = _node(CONSTANT_PART)
     assert out["routes"] == {"metal": "constant"}
     assert "vec3 iridescenceFresnelMetallic = lutbakeMetalConstant;" in out["fragment"]
+    assert "vec3 iridescenceFresnelDielectric = vec3(0.0);" in out["fragment"]
     assert out["constant"] == [0, 0, 0]
-    assert "material.diffuseColor )" not in out["fragment"] and "material.specularColor )" in out["fragment"]
+    assert "evalIridescence(" not in out["fragment"]
 
 
 def test_the_runtime_table_meets_the_contract_along_the_whole_metal_curve():
