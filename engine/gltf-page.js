@@ -35,19 +35,23 @@ function renderMesh(mesh, size) {
 }
 
 // {glTF material index: pixels} of every mesh whose material the plugin patched, under `options` (the
-// plugin's), and what served each material (plugin.served).
+// plugin's), what served each material (plugin.served), and how many programs they need (distinct keys).
 async function renders(gltfUrl, bake, options, size) {
   let plugin = null;
   const loader = new GLTFLoader().register((parser) => (plugin = new LutbakeGLTFPlugin(parser, bake, options)));
   const gltf = await loader.loadAsync(gltfUrl);
   const meshes = [];
   gltf.scene.traverse((o) => { if (o.isMesh) meshes.push(o); });
-  const pixels = {};
+  const pixels = {}, keys = new Set();
   for (const mesh of meshes) {
     const index = gltf.parser.associations.get(mesh.material).materials;
-    if (mesh.material.customProgramCacheKey().startsWith('lutbake-gltf:')) pixels[index] = renderMesh(mesh, size);
+    const key = mesh.material.customProgramCacheKey();
+    if (key.startsWith('lutbake-gltf:')) {
+      pixels[index] = renderMesh(mesh, size);
+      keys.add(key);
+    }
   }
-  return { pixels, served: Object.fromEntries(plugin.served) };
+  return { pixels, served: Object.fromEntries(plugin.served), programs: keys.size };
 }
 
 // Per material, at every `stride`-th covered pixel: [film term (3), cos theta, thickness, metalness,
@@ -71,8 +75,10 @@ async function run({ gltf, manifest = null, plan = null, runtime = null, serves 
     }
     materials[index] = samples;
   }
-  const served = Object.fromEntries(serves.map((serve, i) => [serve, rendered[i === 0 ? 0 : i + 2].served]));
-  return { materials, served };
+  const first = (i) => rendered[i === 0 ? 0 : i + 2];   // each serve's fresnel pass
+  const served = Object.fromEntries(serves.map((serve, i) => [serve, first(i).served]));
+  const programs = Object.fromEntries(serves.map((serve, i) => [serve, first(i).programs]));
+  return { materials, served, programs };
 }
 
 // Every mesh of a sphere-grid asset in one scene, `columns` to a row, one unit sphere per cell of `cell`
@@ -158,12 +164,13 @@ window.lutbakeGltfGrid = async ({ gltf, manifest = null, plan = null, runtime = 
 };
 
 // `specs`: one {gltf, manifest} per asset (URLs); one result per spec, {glTF material index: samples}.
-// `served`: per spec, {serve: {glTF material index: {gltfIndex, name, parts: {part: route}}}}.
+// `served`: per spec, {serve: {glTF material index: {gltfIndex, name, parts: {part: route}}}}; `programs`: per
+// spec, {serve: the distinct program cache keys among the patched materials}.
 window.lutbakeGltf = async (specs) => {
   const runs = [];
   for (const spec of specs) runs.push(await run(spec));
   const gl = renderer.getContext();
   return { renderer: gl.getParameter(gl.RENDERER), three: THREE.REVISION, results: runs.map((r) => r.materials),
-           served: runs.map((r) => r.served) };
+           served: runs.map((r) => r.served), programs: runs.map((r) => r.programs) };
 };
 window.lutbakeReady = true;

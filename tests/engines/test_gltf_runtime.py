@@ -85,6 +85,8 @@ def _main(run, asset: str) -> tuple:
 
 
 def test_every_iridescent_material_is_served_as_asked(run):
+    """plugin.served names each part's route, as the manifest says (the bake) or the runtime table; and the
+    patched materials of each asset need one program per distinct route and table among them (_signature)."""
     for asset, bake in run["bakes"].items():
         records = {r["gltf_index"]: r for r in bake["manifest"]["source"]["materials"] if r["parts"]}
         samples, served = _main(run, asset)
@@ -96,6 +98,11 @@ def test_every_iridescent_material_is_served_as_asked(run):
             }
             assert served["bake"][str(index)]["parts"] == kinds, (asset, index)
             assert served["runtime"][str(index)]["parts"] == dict.fromkeys(kinds, "runtime"), (asset, index)
+        k = list(run["bakes"]).index(asset)
+        for serve, programs in run["result"]["programs"][k].items():
+            routes = {int(i): s["parts"] for i, s in served[serve].items()}
+            shapes = {_signature(r, bake["manifest"], routes[i]) for i, r in records.items()}
+            assert programs == len(shapes), (asset, serve, programs, shapes)  # one program per route and table
     assert sum(len(m) for m in run["scores"].values()) == 12  # the showcase's and CarConcept's
 
 
@@ -233,17 +240,16 @@ def test_the_runtime_table_meets_the_contract_along_the_whole_metal_curve():
     assert worst.evaluations >= 400 and worst.value <= REGRESSION_MAX, worst.describe()
 
 
-def _signature(record: dict, manifest: dict, serve: str) -> tuple:
-    """What a material's patched shader depends on, from its manifest record alone: each part's route and
-    shape (a constant; one slice or one per channel; the 4D LUT's file; the runtime table at one base index,
-    one per channel, or through the F0 table)."""
+def _signature(record: dict, manifest: dict, routes: dict) -> tuple:
+    """What a material's patched shader depends on, from its manifest record and its parts' routes (what
+    served them): each part's route and shape (a constant; one slice or one per channel; the 4D LUT's file;
+    the runtime table at one base index, one per channel, or through the F0 table)."""
     shape = []
     for name, part in sorted(record["parts"].items()):
         names = [part["material"]] if "material" in part else part.get("channels", [])
-        if "constant" in part:
-            shape.append((name, "constant"))
-        elif serve == "runtime":
-            shape.append((name, "runtime", "base" if "base" in part else "table" if "table" in part else "rgb"))
+        if routes[name] in ("constant", "runtime"):
+            runtime = "base" if "base" in part else "table" if "table" in part else "rgb"
+            shape.append((name, routes[name], runtime if routes[name] == "runtime" else None))
         else:
             entry = manifest["materials"][names[0]]
             shape.append((name, entry["kind"], len(names) if entry["kind"] == "slice" else entry["file"]))
@@ -275,7 +281,7 @@ def test_materials_on_one_route_and_table_share_one_program(grid):
     assert len(records) == bench.GRID_MATERIALS
     assert grid["float"]["three"]["programs"] == 1
     for run, serve in ((grid["float"], "bake"), (grid["float"], "runtime"), (grid["half"], "runtime")):
-        shapes = {_signature(r, grid["manifest"], serve) for r in records}
+        shapes = {_signature(r, grid["manifest"], run[serve]["served"][str(r["gltf_index"])]["parts"]) for r in records}
         assert len(shapes) == 2, shapes
         assert run[serve]["programs"] == run[serve]["keys"] == len(shapes), (serve, run[serve])
     assert (grid["float"]["runtime"]["precision"], grid["half"]["runtime"]["precision"]) == ("float", "half")
