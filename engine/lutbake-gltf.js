@@ -247,7 +247,7 @@ export function lutbakeGltfMaterial(material, record, bake, { output = null, run
     shader.fragmentShader = fragment;
   };
   const routeKey = Object.entries(routes).map((r) => r.join('=')).join(',');
-  const key = `lutbake-gltf:${routeKey}:${sourceHash(glsl.declarations + glsl.begin + glsl.tail)}`;
+  const key = `lutbake-gltf:${routeKey}:${sourceHash(glsl.declarations + glsl.begin + (glsl.tail ?? ''))}`;
   material.customProgramCacheKey = () => key;
   material.userData.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
   material.needsUpdate = true;
