@@ -124,9 +124,9 @@ def child(path: str, out: str, compute: str, grid: str, device: str) -> None:
     print(json.dumps(row))
 
 
-def _cli_bake(argv: list) -> dict:
-    """`lutbake ARGV` (a bake with --json) in this process: its LUT's stages (the library is imported by
-    then: the row's ``startup_s`` holds the imports)."""
+def cli_json(argv: list) -> dict:
+    """`lutbake ARGV` (a bake with --json) in this process: what it prints (each LUT's stages; the library
+    is imported by then: the row's ``startup_s`` holds the imports)."""
     import contextlib
     import io
 
@@ -139,15 +139,23 @@ def _cli_bake(argv: list) -> dict:
     except SystemExit as exc:
         if exc.code:
             raise
-    return {"stages": json.loads(printed.getvalue())["luts"][0]["stages"]}
+    return json.loads(printed.getvalue())
 
 
-def run_child(script: str, *args: str) -> dict:
-    """``script --child ARGS`` in a fresh process: the JSON line it prints, with the process's wall time
-    and cells per second of it."""
+def _cli_bake(argv: list) -> dict:
+    return {"stages": cli_json(argv)["luts"][0]["stages"]}
+
+
+def run_child(script: str, *args: str, checkout: Path | None = None) -> dict:
+    """``script --child ARGS`` in a fresh process (``checkout``'s lutbake/ first on PYTHONPATH where given:
+    another version, e.g. `git worktree add DIR main`): the JSON line it prints, with the process's wall
+    time, its CPU time over that wall and cells per second of it."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    proc = subprocess.run([sys.executable, script, "--child", *args], capture_output=True, text=True)
+    env = None
+    if checkout is not None:
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(checkout), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, script, "--child", *args], capture_output=True, text=True, env=env)
     if proc.returncode:
         raise SystemExit(f"{' '.join(args)} failed: {proc.stderr.strip()}")
     row = json.loads(proc.stdout.strip().splitlines()[-1])

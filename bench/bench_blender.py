@@ -2,6 +2,7 @@
 
     python bench/bench_blender.py [--blender PATH] [--points 2000] [--json bench/blender-result.json]
     python bench/bench_blender.py --sections osl --points 300 --json bench/blender-osl-result.json
+    python bench/bench_blender.py --sections thin_fade
 
 Every figure in docs/blender.md comes from this script. Blender runs as `lutbake blender` runs it
 (lutbake/blender/library.py: a Python with bpy, default ./.venv-blender/bin/python, or $LUTBAKE_BLENDER, or a
@@ -16,6 +17,9 @@ colour per plane, compared with lutbake's ground truth (reference.reference_rgb)
    bases with constant n 0.05–4, k 1.5–9 (Metallic BSDF, Physical Conductor), and over the named metals
    Au, Ag, Cu, Al, Fe, Ti, Cr given to Blender as per-channel n, k at 611/549/464 nm (``--points``/7 each)
    against the dispersive metal.
+2b. ``thin_fade``: does Blender fade its thin film as it thins? The Principled BSDF at d 0–60 nm against
+   the truth with the film's own index and with the index faded towards the ambient's below 30 nm and
+   below 1 nm (``thin_film_fade``).
 3. ``examples``: every example scene bake in docs/scenes, written as a library by `lutbake blender` and
    rendered in Cycles at 200 points per material (θ 0–85°, d over the material's range; η3, κ3 over a
    ranged base's ranges), and Blender's own thin film at the same points (constant film and base
@@ -83,7 +87,9 @@ from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 
 METALS = ("Au", "Ag", "Cu", "Al", "Fe", "Ti", "Cr")
 EXAMPLE_POINTS = 200
-SECTIONS = ("setup", "blender_thin_film", "examples", "eevee", "osl", "cost")
+SECTIONS = ("setup", "blender_thin_film", "thin_fade", "examples", "eevee", "osl", "cost")
+FADE_THICKNESSES_NM = (0.0, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0)
+FADE_FILMS = (1.33, 1.5, 2.0, 2.4)  # over a dielectric base η3 1.5, at cos θ 1 and 0.5
 GRAZING_DEG = 85.0
 
 
@@ -225,6 +231,34 @@ def examples(blender, rng, folder: Path) -> dict:
                 row["lutbake_sample_linear"] = stats(delta_e00(lut.sample(pts, interpolation="linear"), truth))
             rows[f"{scene.name}/{read.material}"] = row
     return rows
+
+
+def _smoothstep(lo: float, hi: float, x: np.ndarray) -> np.ndarray:
+    t = np.clip((x - lo) / (hi - lo), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def thin_film_fade(blender) -> dict:
+    """Does Cycles fade its thin film below some thickness? The Principled BSDF's thin film at
+    FADE_THICKNESSES_NM (films FADE_FILMS over η3 1.5, cos θ 1 and 0.5) against the truth with the film's
+    own index, and against the truth with the index faded towards the ambient's below 30 nm and below
+    1 nm (η2' = η1 + (η2 − η1)·smoothstep(0, w, d), w = 30 or 1): per thickness, the max ΔE00 to each."""
+    d = np.repeat(FADE_THICKNESSES_NM, len(FADE_FILMS) * 2)
+    eta2 = np.tile(np.repeat(FADE_FILMS, 2), len(FADE_THICKNESSES_NM))
+    cos_theta = np.tile([1.0, 0.5], len(FADE_THICKNESSES_NM) * len(FADE_FILMS))
+    rendered = blender_film(blender, lutbake.FilmPoints.build(eta2=eta2, thickness_nm=d, cos_theta=cos_theta, eta3=1.5))
+    models = {
+        "no fade": eta2,
+        **{f"fade below {w:g} nm": 1.0 + (eta2 - 1.0) * _smoothstep(0.0, w, d) for w in (30.0, 1.0)},
+    }
+    out = {}
+    for label, film in models.items():
+        de = delta_e00(
+            rendered,
+            lutbake.reference_rgb(lutbake.FilmPoints.build(eta2=film, thickness_nm=d, cos_theta=cos_theta, eta3=1.5)),
+        )
+        out[label] = {f"{t:g} nm": float(de[d == t].max()) for t in FADE_THICKNESSES_NM}
+    return out
 
 
 def eevee_thin_film(blender, rng) -> dict:
@@ -394,6 +428,7 @@ def main():
         sections = {
             "setup": lambda: setup_check(args.blender, rng),
             "blender_thin_film": lambda: blender_thin_film(args.blender, rng, args.points),
+            "thin_fade": lambda: thin_film_fade(args.blender),
             "examples": lambda: examples(args.blender, rng, folder),
             "eevee": lambda: eevee_thin_film(args.blender, rng),
             "osl": lambda: osl_materials(

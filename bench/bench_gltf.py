@@ -35,7 +35,11 @@ def write_inputs(folder: Path, n: int, seed: int) -> tuple:
             "name": f"film{i}",
             "pbrMetallicRoughness": {"metallicFactor": 0},
             "extensions": {
-                "KHR_materials_iridescence": {"iridescenceIor": float(f), "iridescenceThicknessMaximum": float(d)},
+                "KHR_materials_iridescence": {  # iridescenceFactor defaults to 0: no film
+                    "iridescenceFactor": 1.0,
+                    "iridescenceIor": float(f),
+                    "iridescenceThicknessMaximum": float(d),
+                },
                 "KHR_materials_ior": {"ior": float(b)},
             },
         }

@@ -5,8 +5,9 @@ For each showcase asset, written from the project's fixture of the Khronos asset
 (tests/fixtures/khronos_iridescence.json: the materials, meshes and KHR_materials_variants as the assets write
 them, no geometry; tests/gltf_assets.khronos_gltf): `lutbake bake --gltf ASSET --out TMP --json` in a fresh
 interpreter (wall and bake seconds, the slices and 4D LUTs), then `lutbake report TMP/ASSET.json --json`:
-per material the p99/max ΔE00 of what was baked, of three.js's own iridescence and of the other metal
-mapping, against the spectral ground truth at 200 held-out points per part. Also the metal mappings
+per material the p99/max ΔE00 of what serves it (the bake, or the runtime table where a part was routed), of
+three.js's own iridescence and of the other metal mapping, against the spectral ground truth at 200 held-out
+points per part. Also the metal mappings
 alone: the searched maximum of |R(θ) − Schlick(θ)| of each mapping's conductor over F0. Ends with the assets'
 credits (authors, licenses, sources), from the fixture.
 """
@@ -79,7 +80,7 @@ def main():
         lines += [
             "## Bakes",
             "",
-            "| asset (license) | slices | 4D LUTs | atlas + LUT bytes | bake (s) | wall (s) |",
+            "| asset (license) | slices | 4D LUTs | EXR bytes of the web set | bake (s) | wall (s) |",
             "|---|---|---|---|---|---|",
         ]
         receipts = {}
@@ -89,7 +90,7 @@ def main():
             wall = time.perf_counter() - start
             manifest = json.loads((tmp / name / f"{name}.json").read_text())
             jobs = {e["job"]: e["kind"] for e in manifest["materials"].values()}
-            size = sum(p.stat().st_size for p in (tmp / name).glob("*.exr"))
+            size = sum((tmp / name / f).stat().st_size for f in baked["ship"]["web"] if f.endswith(".exr"))
             lines.append(
                 f"| {name} ({KHRONOS[name]['credit']['license']}) | "
                 f"{list(jobs.values()).count('slice')} | {list(jobs.values()).count('lut')} | {size} | "
@@ -100,7 +101,7 @@ def main():
             "",
             "## What each choice costs (ΔE00 against the spectral ground truth, p99 / max)",
             "",
-            "| asset | material | part | read as default | baked | three.js | other metal mapping |",
+            "| asset | material | part | read as default | served | three.js | other metal mapping |",
             "|---|---|---|---|---|---|---|",
         ]
         for name, rec in receipts.items():
@@ -114,7 +115,7 @@ def main():
                         part
                         if part == "dielectric"
                         else f"metal ({p['mapping']}{', textured' if p.get('texture') else ''})"
-                    )
+                    ) + (f" → runtime table ({p['route_by']})" if p.get("route") == "runtime" else "")
                     lines.append(
                         f"| {name} | {r['gltf_index']} {r['name']} | {label} | {', '.join(r['defaults']) or '—'} | "
                         f"{cost['baked']['de00_p99']:.2f} / {cost['baked']['de00_max']:.2f} | "
@@ -133,7 +134,7 @@ def main():
             for r in rec["materials"]
             for p in r["parts"].values()
         ]
-        lines += ["", f"Worst baked p99 {worst:.2f}; three.js's own term p99 {min(three):.1f}–{max(three):.1f}.", ""]
+        lines += ["", f"Worst served p99 {worst:.2f}; three.js's own term p99 {min(three):.1f}–{max(three):.1f}.", ""]
     lines += [
         "## Credits",
         "",

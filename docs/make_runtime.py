@@ -34,11 +34,9 @@ from lutbake.physics.points import FilmPoints  # noqa: E402
 from lutbake.quality.runtime_accuracy import (  # noqa: E402
     BOXES,
     NAMED_METALS,
-    Ridge,
     named_error,
+    searched_maxima,
     searched_named_worst,
-    searched_ridge,
-    searched_worst,
     stress_error,
     truth,
 )
@@ -95,26 +93,10 @@ def random_rows(table, n: int, seed: int) -> dict:
     return out
 
 
-def searched_rows(table, budget: int) -> dict:
-    """Per box: the box's search (the full stress grid among its starts) and the search of its η2 ≈ η3 ≈ η1
-    family (quality.runtime_accuracy.Ridge: 30,000 random starts, then the budget); the larger is the max."""
-    out = {}
-    for name, box in BOXES.items():
-        found = {}
-        worst = searched_worst(table, box, budget=budget, seed=1, full_stress=True)
-        found["box"] = (worst, [float(v[0]) for v in box.point(worst.where[None])], worst.evaluations)
-        worst = searched_ridge(table, box, budget=budget, seed=0)
-        found["ridge"] = (worst, [float(v[0]) for v in Ridge(box).point(worst.where[None])], worst.evaluations + 30000)
-        out[name] = {k: {"max": w.value, "at": at, "evaluations": n} for k, (w, at, n) in found.items()}
-        best = max(out[name].values(), key=lambda r: r["max"])
-        out[name].update(max=best["max"], at=best["at"], evaluations=sum(n for _, _, n in found.values()))
-    return out
-
-
 def print_searched(searched: dict):
     print("| base | box search max (where) | ridge search max (where: cos θ, d nm, η2, η3, κ3) |\n|---|---|---|")
     for name, s in searched.items():
-        where = {k: ", ".join(f"{v:.4g}" for v in s[k]["at"]) for k in ("box", "ridge")}
+        where = {k: ", ".join(f"{v:.4g}" for v in s[k]["at"].values()) for k in ("box", "ridge")}
         print(f"| {name} | {s['box']['max']:.3f} ({where['box']}) | {s['ridge']['max']:.3f} ({where['ridge']}) |")
 
 
@@ -126,11 +108,11 @@ def main():
     args = parser.parse_args()
     table = stored_table()
     if args.searched_only:
-        print_searched(searched_rows(table, args.budget))
+        print_searched(searched_maxima(table, args.budget))
         return
     result = {"random": random_rows(table, args.points, seed=22)}
     result["stress"] = {name: stats(stress_error(table, box)) for name, box in BOXES.items()}
-    result["searched"] = searched_rows(table, args.budget)
+    result["searched"] = searched_maxima(table, args.budget)
     rng = np.random.default_rng(23)
     result["named"] = {}
     for metal in NAMED_METALS:

@@ -19,7 +19,7 @@ import '@babylonjs/loaders/glTF/glTFFileLoader.js';
 import '@babylonjs/loaders/glTF/2.0/index.js';
 import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
 import { NAME, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
-import { coveredSamples, gltfCells } from './sphere-samples.js';
+import { gltfCells, sphereCells, thicknessWeights } from './sphere-samples.js';
 
 const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
 const scene = new Scene(engine);
@@ -30,15 +30,10 @@ camera.mode = Camera.ORTHOGRAPHIC_CAMERA;
 [camera.orthoLeft, camera.orthoRight, camera.orthoBottom, camera.orthoTop] = [-1.02, 1.02, -1.02, 1.02];
 const sphere = CreateSphere('sphere', { diameter: 2, segments: 96 }, scene);
 
-// Film thickness weights (the glTF thickness texture's G) at random per texel, read by nearest filtering.
+// Film thickness weights at random per texel, read by nearest filtering.
 function thicknessTexture(seed) {
-  const data = new Uint8Array(64 * 32 * 4);
-  let state = seed >>> 0;
-  for (let i = 0; i < data.length; i++) {
-    state = (1664525 * state + 1013904223) >>> 0;
-    data[i] = state >>> 24;
-  }
-  return new RawTexture(data, 64, 32, Constants.TEXTUREFORMAT_RGBA, scene, false, false, Texture.NEAREST_SAMPLINGMODE);
+  return new RawTexture(thicknessWeights(seed), 64, 32, Constants.TEXTUREFORMAT_RGBA, scene, false, false,
+    Texture.NEAREST_SAMPLINGMODE);
 }
 
 function pbrMaterial(m, k) {
@@ -83,18 +78,10 @@ async function render(material, size) {
   return new Float32Array(pixels.buffer);
 }
 
-window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, stride = 2 }) => {
+window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, stride = 2, image = false }) => {
   const runtime = await loadLutbakeRuntime(stem, scene);
-  const cells = [];
-  for (const [k, m] of materials.entries()) {
-    for (const mode of modes) {
-      const options = { runtime, mode, metal: m.metal || undefined };
-      const fresnel = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'fresnel' }), size);
-      const params = await render(lutbakeIridescence(pbrMaterial(m, k), { ...options, output: 'parameters' }), size);
-      const samples = coveredSamples(fresnel, params, size, stride);
-      cells.push({ material: k, mode, samples });
-    }
-  }
+  const cells = await sphereCells({ materials, modes, runtime, make: pbrMaterial, attach: lutbakeIridescence, render,
+                                    size, stride, image });
   const gl = engine._gl;
   const { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV } = runtime.table;
   return { babylon: Engine.Version, webgl: engine.webGLVersion, renderer: gl.getParameter(gl.RENDERER),

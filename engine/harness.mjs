@@ -8,6 +8,8 @@
 //        node engine/harness.mjs babylon SPEC.json RESULT.json            (tests/engines/test_web_engines.py)
 //        node engine/harness.mjs playcanvas SPEC.json RESULT.json         (tests/engines/test_web_engines.py)
 //        node engine/harness.mjs babylon-gltf SPEC.json RESULT.json       (tests/engines/test_web_engines.py)
+//        node engine/harness.mjs webgpu SPEC.json RESULT.json             (tests/engines/test_webgpu_engine.py)
+//        node engine/harness.mjs webgpu-cost SPEC.json RESULT.json        (bench/bench_web_engines.py cost)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
@@ -34,7 +36,11 @@ function serve() {
   return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok(server)));
 }
 
-async function withPage(fn, pagePath = '/engine/page.html') {
+// WebGL2 pages run with the GPU process off (SwiftShader's GL); WebGPU pages need it on, with WebGPU
+// allowed on SwiftShader's Vulkan (headless Chromium has no adapter otherwise; docs/engines.md).
+const FLAGS = { webgl: ['--disable-gpu', '--enable-unsafe-swiftshader'], webgpu: ['--enable-unsafe-webgpu', '--enable-unsafe-swiftshader'] };
+
+async function withPage(fn, pagePath = '/engine/page.html', api = 'webgl') {
   if (!existsSync(CHROMIUM)) throw new Error(`${CHROMIUM} not found: install Debian's chromium (apt-get install chromium)`);
   const server = await serve();
   const profile = mkdtempSync(join(tmpdir(), 'lutbake-chromium-'));
@@ -43,7 +49,7 @@ async function withPage(fn, pagePath = '/engine/page.html') {
     executablePath: CHROMIUM,
     headless: true,
     viewport: { width: 1200, height: 400 },
-    args: ['--no-sandbox', '--disable-gpu', '--enable-unsafe-swiftshader', '--disable-quic', '--no-first-run',
+    args: ['--no-sandbox', ...FLAGS[api], '--disable-quic', '--no-first-run',
            '--disable-background-networking', '--disable-component-update', '--disable-sync'],
   });
   try {
@@ -69,26 +75,28 @@ function writeAtomic(path, data) {
   renameSync(tmp, path);
 }
 
-// Commands that hand a JSON spec to one page function and write its JSON result: [function, page].
+// Commands that hand a JSON spec to one page function and write its JSON result: [function, page, api].
 const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
                 gltf: ['lutbakeGltf', '/engine/gltf-page.html'], 'gltf-grid': ['lutbakeGltfGrid', '/engine/gltf-page.html'], babylon: ['lutbakeBabylon', '/engine/babylon-page.html'],
                 playcanvas: ['lutbakePlaycanvas', '/engine/playcanvas-page.html'],
                 'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'],
                 'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],
                 'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'],
-                'playcanvas-gltf': ['lutbakePlaycanvasGltf', '/engine/playcanvas-page.html'] };
+                'playcanvas-gltf': ['lutbakePlaycanvasGltf', '/engine/playcanvas-page.html'],
+                webgpu: ['lutbakeWebgpu', '/engine/webgpu-page.html', 'webgpu'],
+                'webgpu-cost': ['lutbakeWebgpuCost', '/engine/webgpu-page.html', 'webgpu'] };
 
 const [command, input, output] = process.argv.slice(2);
 if (command in CALLS) {
   const spec = JSON.parse(readFileSync(input, 'utf8'));
-  const [fn, pagePath] = CALLS[command];
+  const [fn, pagePath, api] = CALLS[command];
   const result = await withPage(async (page, errors) => {
     try {
       return await page.evaluate(([name, s]) => window[name](s), [fn, spec]);
     } catch (e) {
       throw new Error(`${e.message}\n${errors.join('\n')}`);
     }
-  }, pagePath);
+  }, pagePath, api);
   writeAtomic(output, JSON.stringify(result));
 } else if (command === 'view') {
   const spheres = JSON.parse(readFileSync(input, 'utf8'));

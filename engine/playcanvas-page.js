@@ -4,7 +4,7 @@
 // term and lutbake's.
 import * as pc from 'playcanvas';
 import { loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
-import { coveredSamples, gltfCells } from './sphere-samples.js';
+import { gltfCells, sphereCells } from './sphere-samples.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
 const device = app.graphicsDevice;
@@ -49,18 +49,10 @@ async function render(material, size) {
   return pixels;
 }
 
-window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, stride = 2 }) => {
+window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, stride = 2, image = false }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
-  const cells = [];
-  for (const [k, m] of materials.entries()) {
-    for (const mode of modes) {
-      const options = { runtime, mode, metal: m.metal || undefined, device };
-      const fresnel = await render(lutbakeIridescence(standardMaterial(m), { ...options, output: 'fresnel' }), size);
-      const params = await render(lutbakeIridescence(standardMaterial(m), { ...options, output: 'parameters' }), size);
-      const samples = coveredSamples(fresnel, params, size, stride);
-      cells.push({ material: k, mode, samples });
-    }
-  }
+  const attach = (material, options) => lutbakeIridescence(material, { ...options, device });
+  const cells = await sphereCells({ materials, modes, runtime, make: standardMaterial, attach, render, size, stride, image });
   const { format, mipmaps, anisotropy, minFilter, magFilter, addressU, addressV } = runtime.table;
   return { playcanvas: pc.version, device: device.deviceType, renderer: device.unmaskedRenderer ?? '',
            texture: { format, mipmaps, anisotropy, minFilter, magFilter, addressU, addressV }, cells };

@@ -4,6 +4,7 @@ and test_boundary_engine.py."""
 
 import fcntl
 import functools
+import json
 import os
 import shutil
 import subprocess
@@ -102,3 +103,44 @@ def blender_python() -> str:
     if wrong:
         pytest.fail(f"the Blender tests need {wrong}; {INSTALL}", pytrace=False)
     return blender
+
+
+# Run inside Blender by blend_file_state: opens a .blend, optionally unpacks it as a user would (File → External
+# Data → Unpack Resources → Write Files to Original Location) and saves it, runs Report Missing Files (which
+# prints its reports in the background) and prints one JSON line of the file's images and text blocks.
+_FILE_STATE = """
+import bpy, json, sys
+blend, unpack = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else sys.argv[1:]
+bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
+if unpack == "unpack":
+    bpy.ops.file.unpack_all(method="WRITE_ORIGINAL")
+    bpy.ops.wm.save_mainfile()
+bpy.ops.file.report_missing_files()
+state = {
+    "images": {i.name: {"path": i.filepath, "packed": i.packed_file is not None} for i in bpy.data.images},
+    "texts": {t.name: t.as_string().splitlines()[0] for t in bpy.data.texts},
+}
+print("STATE " + json.dumps(state))
+"""
+
+
+def blend_file_state(blender: str, blend: Path, unpack: bool = False) -> dict:
+    """What Blender says of the .blend ``blend``: ``images`` (name → path and whether it is packed), ``texts``
+    (name → first line), ``missing`` (the lines of Report Missing Files naming a path it did not find, and
+    ``none_missing``: whether it said there are none), after unpacking every packed file to its original
+    location when ``unpack``."""
+    args = [str(blend), "unpack" if unpack else "keep"]
+    command = (
+        [blender, "-c", _FILE_STATE, *args]
+        if Path(blender).name.startswith("python")
+        else [blender, "--background", "--factory-startup", "--python-expr", _FILE_STATE, "--", *args]
+    )
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.splitlines()
+    state = json.loads(next(line for line in lines if line.startswith("STATE "))[len("STATE ") :])
+    return {
+        **state,
+        "missing": [line for line in lines if "not found" in line],
+        "none_missing": any("No missing files" in line for line in lines),
+    }

@@ -134,6 +134,7 @@ LONGEST_FIRST = (
     "test_fileset.py",
     "test_exact_engine.py",
     "test_blender.py",
+    "test_blend_files.py",
     "test_scene.py",
     "test_report.py",
     "test_cli_honest.py",

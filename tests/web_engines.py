@@ -50,23 +50,27 @@ def materials(table):
 
 
 PACKAGES = {"babylon": "@babylonjs/core", "playcanvas": "playcanvas"}  # harness command: the engine's package
+OWN_MODES = {"babylon": "babylon", "playcanvas": "playcanvas", "webgpu": "three"}  # the engine's own term's mode
 
 
 def run_engine(engine, folder):
-    """The spheres of every material rendered by ``engine`` in headless Chromium, for lutbake's term and
-    the engine's own (bench/bench_web_engines.py prints the same run's figures)."""
-    require_engine()
-    if not (ENGINE / "node_modules" / PACKAGES[engine]).is_dir():
-        pytest.fail(f"the pinned {PACKAGES[engine]} is missing: cd engine && npm ci", pytrace=False)
+    """The spheres of every material rendered by ``engine`` (babylon, playcanvas, or webgpu: three.js's
+    WebGPURenderer) in headless Chromium, for lutbake's term and the engine's own (bench/bench_web_engines.py
+    prints the same run's figures)."""
     path = runtime_table_files()
     table = read_runtime_table(path)
-    spec = {
-        "runtime": f"/{path.with_suffix('').relative_to(ROOT)}",
-        "materials": materials(table),
-        "modes": ["runtime", engine],
-        "size": 64,
-        "stride": 3,
-    }
+    spec = {"materials": materials(table), "modes": ["runtime", OWN_MODES[engine]], "size": 64, "stride": 3}
+    return {"engine": engine, "table": table, "spec": spec, "result": render_spheres(engine, spec, path, folder)}
+
+
+def render_spheres(engine, spec, runtime_path, folder):
+    """The page's result for ``spec`` (materials, modes, size, stride, image) with the runtime table at
+    ``runtime_path`` (docs/make_engines_figure.py draws the same renders)."""
+    require_engine()
+    package = {**PACKAGES, "webgpu": "three"}[engine]
+    if not (ENGINE / "node_modules" / package).is_dir():
+        pytest.fail(f"the pinned {package} is missing: cd engine && npm ci", pytrace=False)
+    spec = {**spec, "runtime": f"/{runtime_path.with_suffix('').relative_to(ROOT)}"}
     (folder / "spec.json").write_text(json.dumps(spec))
     proc = subprocess.run(
         ["node", str(ENGINE / "harness.mjs"), engine, str(folder / "spec.json"), str(folder / "result.json")],
@@ -76,7 +80,7 @@ def run_engine(engine, folder):
         timeout=900,
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
-    return {"engine": engine, "table": table, "spec": spec, "result": json.loads((folder / "result.json").read_text())}
+    return json.loads((folder / "result.json").read_text())
 
 
 def engine_points(run, mode):

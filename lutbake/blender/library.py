@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from lutbake.blender.nodes import OSL_MATERIALS
+from lutbake.blender.nodes import OSL_MATERIALS, osl_warning
 from lutbake.blender.programs import BLENDER_SPACES, LutRead, SceneReads, SliceRead, scene_reads
 from lutbake.errors import ParameterError
 from lutbake.io.documents import load_json, read_text
@@ -58,6 +58,7 @@ __all__ = [
     "verify_osl",
     "osl_script",
     "osl_probe_points",
+    "osl_job_probes",
     "probe_points",
     "lutbake_probes",
     "blender_thin_film_probes",
@@ -152,23 +153,26 @@ def write_library(
     pack : bool
         Pack the EXRs into the .blend (default) rather than reference them by relative path.
     exact : str or os.PathLike, optional
-        An exact-mode table (`lutbake exact-table`): the OSL script reads it at its absolute path.
+        An exact-mode table (`lutbake exact-table`): the OSL script reads it at its path relative to the
+        .blend (``//``, which Cycles resolves against the .blend's folder), and the .blend holds it as an
+        image too (packed unless ``pack`` is False), which Pack Resources and Report Missing Files see.
     runtime_table : str or os.PathLike, optional
-        A runtime table (`lutbake runtime-table`), read likewise.
+        A runtime table (`lutbake runtime-table`), likewise.
 
     Returns
     -------
     dict
         ``library`` (the path), ``groups`` (material → node group name), ``working_space`` (Blender's name
         of the bake's space: the library file's, and the one a file that appends the groups must use),
-        ``osl_materials`` (kind → OSL material name), ``blender``, ``seconds``.
+        ``osl_materials`` (kind → OSL material name), ``warnings`` (one line per OSL material: where it
+        does not run, and what it shows there), ``blender``, ``seconds``.
     """
     tables = {kind: table for kind, table in (("exact", exact), ("runtime", runtime_table)) if table is not None}
     if manifest is None and not tables:
         raise ParameterError("nothing to write: give a scene manifest, {exact}, {runtime_table}, or several")
     scene = read_scene(manifest) if manifest is not None else None
-    scripts = {kind: osl_script(kind, table) for kind, table in tables.items()}
     out = Path(out)
+    scripts = {kind: osl_script(kind, table, out.absolute().parent) for kind, table in tables.items()}
     if out.suffix != ".blend":
         raise ParameterError("{out_path} {out} must end in .blend", out=repr(str(out)))
     if out.is_dir():
@@ -180,7 +184,7 @@ def write_library(
         blend = tmp.with_name(tmp.name + ".blend")  # Blender saves only to a name ending in .blend
         for kind, text in scripts.items():
             (Path(folder) / f"lutbake_{kind}.osl").write_text(text)
-            args += ["--osl", str(Path(folder) / f"lutbake_{kind}.osl")]
+            args += ["--osl", str(Path(folder) / f"lutbake_{kind}.osl"), str(Path(tables[kind]).absolute())]
         try:
             seconds = _run(exe, "nodes.py", [*args, "--out", str(blend.absolute()), *([] if pack else ["--link"])])
             os.replace(blend, tmp)
@@ -192,6 +196,7 @@ def write_library(
         "groups": groups,
         "working_space": BLENDER_SPACES[scene.space] if scene else None,
         "osl_materials": {kind: _osl_material(kind) for kind in scripts},
+        "warnings": [osl_warning(_osl_material(kind)) for kind in scripts],
         "blender": exe,
         "seconds": seconds,
     }
@@ -274,15 +279,19 @@ def _osl_material(kind: str) -> str:
     return OSL_MATERIALS[f"lutbake_{kind}"][0]
 
 
-def osl_script(kind: str, table: str | PathLike[str]) -> str:
+def osl_script(kind: str, table: str | PathLike[str], blend_folder: str | PathLike[str] | None = None) -> str:
     """The OSL script (shaders/KIND.osl.in, ``kind`` 'exact' or 'runtime') for the table ``table`` (an
-    `exact-table` or `runtime-table` EXR), whose absolute path it reads; ValueError names a file that is
-    not such a table."""
+    `exact-table` or `runtime-table` EXR): it reads the table at ``//`` + its path relative to
+    ``blend_folder`` (the .blend's folder, which Cycles resolves ``//`` against), or at its absolute path
+    without one; ValueError names a file that is not such a table."""
     read, _ = _OSL_KINDS[kind]
     path = Path(table).absolute()
     if not path.is_file():  # before OpenEXR, which prints its own line about it
         raise ParameterError(f"{{{_OSL_PARAMETER[kind]}}} {{table}} is not a file", table=repr(str(table)))
-    return osl_source(read(path).meta, path)
+    meta = read(path).meta
+    if blend_folder is None:
+        return osl_source(meta, path)
+    return osl_source(meta, "//" + Path(os.path.relpath(path, Path(blend_folder).absolute())).as_posix())
 
 
 def read_scene(manifest: str | PathLike[str]) -> SceneReads:
@@ -469,6 +478,22 @@ def osl_probe_points(n_points: int, seed: int = 0) -> tuple[np.ndarray, np.ndarr
     return cos_theta, thickness, eta2, eta3, kappa3
 
 
+def osl_job_probes(n_points: int, seed: int = 0, material: int = 0) -> list[dict[str, Any]]:
+    """Probe.py's probes at ``osl_probe_points(n_points, seed)`` for the job's material ``material``."""
+    cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
+    return [
+        {
+            "material": material,
+            "cos_theta": float(cos_theta[j]),
+            "thickness_nm": float(thickness[j]),
+            "eta2": float(eta2[j]),
+            "eta3_rgb": eta3[j].tolist(),
+            "kappa3_rgb": kappa3[j].tolist(),
+        }
+        for j in range(n_points)
+    ]
+
+
 def verify_osl(
     library: str | PathLike[str],
     kind: str,
@@ -486,20 +511,10 @@ def verify_osl(
     read, expected_colour = _OSL_KINDS[kind]
     cos_theta, thickness, eta2, eta3, kappa3 = osl_probe_points(n_points, seed)
     expected = np.maximum(expected_colour(read(table), cos_theta, thickness, eta2, eta3, kappa3), 0.0)
-    probes = [
-        {
-            "cos_theta": float(cos_theta[j]),
-            "thickness_nm": float(thickness[j]),
-            "eta2": float(eta2[j]),
-            "eta3_rgb": eta3[j].tolist(),
-            "kappa3_rgb": kappa3[j].tolist(),
-        }
-        for j in range(n_points)
-    ]
     job = {
         "engine": "CYCLES",
         "osl": True,
-        "probes": probes,
+        "probes": osl_job_probes(n_points, seed),
         "materials": [{"kind": "lutbake", "library": str(Path(library).absolute()), "material": _osl_material(kind)}],
     }
     result = render_probes(job, blender)

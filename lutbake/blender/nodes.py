@@ -9,9 +9,9 @@ and EEVEE alike (docs/blender.md)::
     python lutbake/blender/nodes.py SCENE.json --out LIB.blend          # a Python with the bpy module
     lutbake blender SCENE.json --out LIB.blend                  # the same, from lutbake (lutbake/blender/library.py)
 
-With ``--osl lutbake_exact.osl`` (lutbake writes it for an exact-mode table: `lutbake blender --exact`) the
+With ``--osl lutbake_exact.osl TABLE.exr`` (lutbake writes it for an exact-mode table: `lutbake blender --exact`) the
 file also holds material ``lutbake exact``: the exact runtime mode, any film and base, as an OSL Script node
-(Cycles with Open Shading Language on; shaders/exact.osl.in); with ``--osl lutbake_runtime.osl``
+(Cycles with Open Shading Language on; shaders/exact.osl.in); with ``--osl lutbake_runtime.osl TABLE.exr``
 (`lutbake blender --runtime-table`), material ``lutbake runtime``: the runtime table's six bilinear reads
 (shaders/runtime.osl.in).
 
@@ -19,7 +19,8 @@ What each material reads, and the maths of the read as a node program, are lutba
 (beside this file, loaded by path when Blender runs it); ``NodeGraph`` builds those programs into nodes,
 each operation one node. Its bilinear fetch is four Closest reads at texel centres blended by Mix nodes,
 not one Linear read (EEVEE samples Linear image nodes with mipmaps and anisotropic filtering, and GPUs
-quantize bilinear weights). Images load as float (``use_half_precision`` off), Non-Color, Extend.
+quantize bilinear weights). Images load as float (``use_half_precision`` off), Non-Color, Extend. Every
+table is named relative to the .blend (``//NAME``), the OSL scripts' too: the file travels with its tables.
 """
 
 from __future__ import annotations
@@ -42,6 +43,8 @@ __all__ = [
     "NodeGraph",
     "build_library",
     "build_osl",
+    "OSL_FALLBACK_RGB",
+    "osl_warning",
     "main",
 ]
 
@@ -207,9 +210,10 @@ def _incidence_group():
     return tree
 
 
-def _material(name: str, incidence, reader):
+def _material(name: str, incidence, reader, fallback_rgb: tuple = (0.8, 0.8, 0.8)):
     """Geometry N·V into ``reader`` (a function adding the node that returns the Fresnel term to a node
-    tree), into a Glossy BSDF (roughness 0)."""
+    tree), into a Glossy BSDF (roughness 0) whose own colour, ``fallback_rgb``, shows where the engine
+    drops the reading node (an OSL Script node outside Cycles with OSL)."""
     import bpy
 
     material = bpy.data.materials.new(name)
@@ -221,6 +225,7 @@ def _material(name: str, incidence, reader):
     tree.links.new(cos_node.outputs[0], next(s for s in read_node.inputs if s.name in ("Cos Theta", "CosTheta")))
     glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
     glossy.inputs["Roughness"].default_value = 0.0
+    glossy.inputs["Color"].default_value = (*fallback_rgb, 1.0)
     tree.links.new(read_node.outputs[0], glossy.inputs["Color"])
     out = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(glossy.outputs[0], out.inputs["Surface"])
@@ -252,19 +257,17 @@ def _script_node(text):
     return add
 
 
-def _load_image(folder: Path, name: str, pack: bool):
+def _load_image(folder: Path, name: str):
     import bpy
 
     image = bpy.data.images.load(str(folder / name), check_existing=True)
     image.colorspace_settings.name = "Non-Color"
     image.use_half_precision = False
     image.alpha_mode = "CHANNEL_PACKED"
-    if pack:
-        image.pack()
     return image
 
 
-def build_library(manifest, pack: bool = True) -> dict:
+def build_library(manifest) -> dict:
     """Node groups and materials for every material of ``manifest`` in the open Blender file; the
     file's working colour space is set to the bake's. Returns material name → node group."""
     import bpy
@@ -272,7 +275,7 @@ def build_library(manifest, pack: bool = True) -> dict:
     scene = programs.read_manifest(manifest)
     if bpy.data.colorspace.working_space != programs.BLENDER_SPACES[scene.space]:
         bpy.ops.wm.set_working_color_space(convert_colors=False, working_space=programs.BLENDER_SPACES[scene.space])
-    images = {r.image: _load_image(scene.folder, r.image, pack) for r in scene.reads}
+    images = {r.image: _load_image(scene.folder, r.image) for r in scene.reads}
     incidence, subgroups, groups = _incidence_group(), {}, {}
     for read in scene.reads:
         groups[read.material] = _read_group(scene, read, images, subgroups)
@@ -299,9 +302,26 @@ OSL_MATERIALS = {
 }
 
 
-def build_osl(osl_path) -> None:
+# What an OSL material shows where its Script node does not run (EEVEE; Cycles with OSL off, or on a GPU
+# other than OptiX): a magenta mirror, Blender's colour for a missing resource, and this warning.
+OSL_FALLBACK_RGB = (1.0, 0.0, 1.0)
+
+
+def osl_warning(material: str) -> str:
+    """The one-line warning of an OSL material: the first line of its script's text block, and the
+    `lutbake blender` report's."""
+    return (
+        f"material {material!r} needs Cycles with Open Shading Language on (CPU, or OptiX); in EEVEE or with "
+        "OSL off it renders as a magenta mirror (1, 0, 1)"
+    )
+
+
+def build_osl(osl_path, table_path) -> None:
     """An OSL Script node (Cycles, OSL on) in the material OSL_MATERIALS names for ``osl_path``'s file name:
-    the script's text (written by lutbake for one table, whose path it holds) is kept in the file."""
+    the script's text (written by lutbake for the table ``table_path``, which it reads at the path relative
+    to the .blend that it holds) is kept in the file, its first line the material's warning. The table is
+    also an image of the material (an Image Texture node, unconnected: Cycles and EEVEE drop it), so that
+    Report Missing Files and Pack Resources see it."""
     import bpy
 
     path = Path(osl_path)
@@ -313,8 +333,12 @@ def build_osl(osl_path) -> None:
     scene = bpy.context.scene
     scene.render.engine, scene.cycles.shading_system = "CYCLES", True
     text = bpy.data.texts.new(path.name)
-    text.from_string(path.read_text())
-    _mark_asset(description, _material(name, _incidence_group(), _script_node(text)))
+    text.from_string(f"// lutbake: {osl_warning(name)}\n{path.read_text()}")
+    material = _material(name, _incidence_group(), _script_node(text), OSL_FALLBACK_RGB)
+    table = material.node_tree.nodes.new("ShaderNodeTexImage")
+    table.image = _load_image(Path(table_path).parent, Path(table_path).name)
+    table.label, table.location = "the script's table (for Pack Resources; not read here)", (260, -300)
+    _mark_asset(description, material)
 
 
 def _mark_asset(description: str, *items):
@@ -340,8 +364,8 @@ def _bundled_modules() -> None:
 
 
 def main(argv=None) -> int:
-    """``lutbake/blender/nodes.py [SCENE.json] [--osl lutbake_MODE.osl ...] --out LIB.blend [--link]``: a new file
-    holding the scene's groups and materials, and the OSL materials (exact mode, runtime table)."""
+    """``lutbake/blender/nodes.py [SCENE.json] [--osl lutbake_MODE.osl TABLE.exr ...] --out LIB.blend [--link]``:
+    a new file holding the scene's groups and materials, and the OSL materials (exact mode, runtime table)."""
     import bpy
 
     if argv is None:
@@ -353,8 +377,10 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--osl",
         action="append",
+        nargs=2,
         default=[],
-        help="lutbake_exact.osl or lutbake_runtime.osl (lutbake writes them for a table); repeatable",
+        metavar=("SCRIPT", "TABLE"),
+        help="lutbake_exact.osl or lutbake_runtime.osl (lutbake writes them for a table) and the table; repeatable",
     )
     args = parser.parse_args(argv)
     if args.manifest is None and not args.osl:
@@ -362,10 +388,17 @@ def main(argv=None) -> int:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     _bundled_modules()
     if args.manifest:
-        build_library(args.manifest, pack=not args.link)
-    for osl in args.osl:
-        build_osl(osl)
-    bpy.ops.wm.save_as_mainfile(filepath=str(Path(args.out).absolute()), relative_remap=True, compress=False)
+        build_library(args.manifest)
+    for script, table in args.osl:
+        build_osl(script, table)
+    out = Path(args.out).absolute()
+    for image in bpy.data.images:
+        if not args.link:
+            image.pack()
+        image.filepath = bpy.path.relpath(image.filepath, start=str(out.parent))  # //NAME: it travels with the .blend
+        for packed in image.packed_files:  # Blender keeps the absolute path: unpack beside the .blend instead,
+            packed.filepath = image.filepath  # where the OSL scripts read their tables
+    bpy.ops.wm.save_as_mainfile(filepath=str(out), relative_remap=True, compress=False)
     return 0
 
 

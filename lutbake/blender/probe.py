@@ -19,9 +19,11 @@ properties read by Attribute nodes (type Object), the way a texture would feed t
 - ``{"kind": "conductor"}``: Blender's Metallic BSDF, Physical Conductor, per-channel n and k, thin film;
 - ``{"kind": "glossy", "color": [r, g, b]}``: a Glossy BSDF of a constant colour (a cost baseline).
 
-Optional job keys: ``cell_px`` (pixels per probe cell, default 4), ``samples`` (Cycles samples per
-pixel, default 1: each probe is deterministic), ``repeat`` (renders of the same scene, default 1) and
-``osl`` (Cycles' Open Shading Language, which the exact mode's Script node needs; default off).
+Optional job keys: ``open`` (a .blend to build the probes in, a material's library when it is the file itself:
+its paths resolve as they do for a user who opens it; default a new file), ``cell_px`` (pixels per probe cell,
+default 4), ``samples`` (Cycles samples per pixel, default 1: each probe is deterministic), ``repeat``
+(renders of the same scene, default 1) and ``osl`` (Cycles' Open Shading Language, which the exact mode's
+Script node needs; default off).
 Result: per probe the mean RGB of the cell's inner pixels and their spread (max − min over those
 pixels and channels), the engine, Blender's version, the first render's wall seconds (with EEVEE's
 shader compilation) and the later ones'.
@@ -60,10 +62,16 @@ FED_INPUTS = {
 
 
 def lutbake_material(spec: dict):
-    """The library's material with its reading node's free inputs fed from the probe's properties."""
-    with bpy.data.libraries.load(spec["library"], link=False) as (source, target):
-        target.materials = [spec["material"]]
-    material = target.materials[0]
+    """The library's material with its reading node's free inputs fed from the probe's properties: the
+    open file's own (job key ``open``) or appended from it. Append rebases the images' relative paths but
+    not a Script node's string inputs: a table path relative to the library (``//NAME``) is made absolute."""
+    if bpy.data.filepath and Path(bpy.data.filepath).samefile(spec["library"]):
+        material = bpy.data.materials[spec["material"]]
+    else:
+        with bpy.data.libraries.load(spec["library"], link=False) as (source, target):
+            target.materials = [spec["material"]]
+        material = target.materials[0]
+        _absolute_script_paths(material.node_tree, spec["library"])
     tree = material.node_tree
     group = next(n for n in tree.nodes if n.type in ("GROUP", "SCRIPT") and len(n.inputs) > 1)
     for socket in group.inputs:
@@ -76,6 +84,13 @@ def lutbake_material(spec: dict):
         tree.links.new(group.outputs[0], emission.inputs["Color"])
         tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     return material
+
+
+def _absolute_script_paths(tree, library: str):
+    for node in tree.nodes:
+        for socket in node.inputs if node.type == "SCRIPT" else ():
+            if socket.type == "STRING" and socket.default_value.startswith("//"):
+                socket.default_value = bpy.path.abspath(socket.default_value, start=str(Path(library).parent))
 
 
 def principled_material(spec: dict):
@@ -132,8 +147,12 @@ def _plane(material):
 
 
 def build_scene(job: dict):
-    """Planes, camera and world for ``job``'s probes; returns the scene."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    """Planes, camera and world for ``job``'s probes, in a new file or in the file ``job["open"]`` (where
+    relative paths resolve against that file's folder, as for a user who opens it); returns the scene."""
+    if job.get("open"):
+        bpy.ops.wm.open_mainfile(filepath=job["open"], load_ui=False)
+    else:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     materials = [MATERIALS[spec["kind"]](spec) for spec in job["materials"]]
     n = len(job["probes"])

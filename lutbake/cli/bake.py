@@ -73,6 +73,14 @@ def scene_source_options(f: F) -> F:
 @scene_source_options
 @click.option("--force", is_flag=True, help="With --scene or --gltf: recompute every slice and LUT.")
 @click.option(
+    "--for",
+    "for_target",
+    type=click.Choice(["web"]),
+    default=None,
+    help="With --gltf: write only the web set (what a three.js page loads: the manifest, EXR tables, GLSL "
+    "includes); no HLSL, LUT headers or cache (docs/gltf.md, What to ship).",
+)
+@click.option(
     "--out",
     "out",
     type=click.Path(),
@@ -96,6 +104,7 @@ def bake_cmd(
     metal_mapping: str | None,
     routes: tuple[str, ...],
     force: bool,
+    for_target: str | None,
     out: str | None,
     named_film: str | None,
     named_base: str | None,
@@ -121,10 +130,11 @@ def bake_cmd(
         if given:
             flag = "--scene" if scene else "--gltf"
             raise BadInput(f"{given[0]} cannot be combined with {flag}: the {flag[2:]} file sets films and axes")
+        if for_target and not gltf:
+            raise BadInput("--for web applies to --gltf bakes only")
         source = _scene_source(scene, gltf, metal_mapping, routes)
-        return _bake_scene(
-            source, out, force, backend, device, as_json, progress_meter("bake scene", quiet, force_progress)
-        )
+        meter = progress_meter("bake scene", quiet, force_progress)
+        return _bake_scene(source, out, force, backend, device, as_json, meter, for_target == "web")
     if force:
         raise BadInput("--force applies to --scene and --gltf bakes only (a LUT bake always recomputes)")
     if metal_mapping is not None:
@@ -202,14 +212,22 @@ def _scene_source(
 
 
 def _bake_scene(
-    scene: Scene, out: str | None, force: bool, backend: str, device: str | None, as_json: bool, meter: Meter
+    scene: Scene,
+    out: str | None,
+    force: bool,
+    backend: str,
+    device: str | None,
+    as_json: bool,
+    meter: Meter,
+    for_web: bool = False,
 ) -> int:
     from lutbake.scene.bake import bake_scene
     from lutbake.scene.documents import bake_summary
 
     if out is None:
         raise BadInput("--out DIR is required with --scene or --gltf")
-    result = bake_scene(scene, out, force, backend, meter, device)  # checks every output before it makes the folder
+    # checks every output before it makes the folder
+    result = bake_scene(scene, out, force, backend, meter, device, for_web)
     meter.close("up to date" if result.up_to_date else "done")
     if as_json:
         echo_json(bake_summary(result))
@@ -222,17 +240,40 @@ def _bake_scene(
                 f"wrote {len(result.written)} files to {out}/ in {result.seconds:.1f} s"
             )
         )
+    if result.ship and not as_json:
+        _print_shipping(result.ship, out)
+    for line in result.routes:
+        click.echo(terminal_text(f"lutbake: {scene.file_name}: {line}"), err=True)
     if not result.unmet:
         return 0
     reached = ", ".join(
         f"{name} p99 ΔE00 {r['de00_p99']:.3f} (bound {r['de00_p99_bound']:.3f})" for name, r in result.unmet.items()
     )
     click.echo(
-        f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met at the resolution cap: {reached} "
-        "(written; see docs/scene.md)",
+        f"lutbake: target p99 ΔE00 ≤ {scene.max_de:g} not met (at the resolution cap, or on a part's composed "
+        f"colour): {reached} (written; see docs/scene.md, docs/gltf.md)",
         err=True,
     )
     return EXIT_GATE
+
+
+def _print_shipping(ship: dict[str, Any], out: str) -> None:
+    """Two lines: the web set (with the page's modules and the runtime table where a part needs it), and the
+    build artefacts, each with what it is for."""
+    runtime = ship["runtime_table_parts"]
+    table = f"; and the runtime table (lutbake runtime-table --out DIR): {runtime} part(s) use it" if runtime else ""
+    click.echo(
+        terminal_text(
+            f"ship for the web (what engine/lutbake-gltf.js fetches): {', '.join(ship['web'])} in {out}/, with "
+            f"the page's modules {', '.join(ship['page_modules'])}{table}"
+        )
+    )
+    by_role: dict[str, list[str]] = {}
+    for name, why in ship["build"].items():
+        by_role.setdefault(why, []).append(name)
+    if by_role:
+        named = "; ".join(f"{', '.join(names)}: {why}" for why, names in by_role.items())
+        click.echo(terminal_text(f"build artefacts (no page loads them): {named}"))
 
 
 @click.command("plan")
@@ -246,8 +287,8 @@ def plan_cmd(
 ) -> None:
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
-    The time is the ground truth at each job's held-out points, the bulk of a scene bake, at a
-    rate measured now, here; the grids themselves go through the bake's integrator.
+    The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, the direct
+    rule's rate for the 4D jobs and the composed-colour checks (docs/gltf.md, How long).
     """
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
@@ -277,7 +318,9 @@ def plan_cmd(
         f"holds); a generic 4D LUT would take {doc['generic_4d_bytes']} bytes"
     )
     click.echo(
-        f"time ~{format_seconds(total)} of ground truth at the held-out points, from "
-        f"{doc['seconds_per_truth_point'] * 1e3:.1f} ms per point measured on this machine just now, plus the "
-        "integration and the OpenCL start-up"
+        f"time ~{format_seconds(doc['estimate_seconds'])} to bake here, measured just now: start-up "
+        f"{format_seconds(doc['startup_s'])}, slices {format_seconds(doc['slices_s'])} ("
+        f"{len(doc['sampled_slice_jobs'])} refined now, their mean times the count), 4D LUTs "
+        f"{format_seconds(doc['luts_s'])}, composed-colour checks {format_seconds(doc['checks_s'])} (of it "
+        f"~{format_seconds(total)} of ground truth at {doc['seconds_per_truth_point'] * 1e3:.1f} ms per point)"
     )

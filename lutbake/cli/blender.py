@@ -64,6 +64,8 @@ def blender_cmd(
         click.echo(f"lutbake: error: {terminal_text(str(exc))}", err=True)
         return EXIT_GATE
     verified = [v for k, v in doc.items() if k.startswith("verify") and v]
+    for warning in doc["warnings"]:
+        click.echo(f"lutbake: warning: {terminal_text(warning)}", err=True)
     if as_json:
         echo_json(doc)
     else:

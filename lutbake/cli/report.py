@@ -93,7 +93,10 @@ def report_cmd(
 
 def _print_summary(summary: Mapping[str, Any], kind: str) -> None:
     """The error table (the LUT's or atlas's row, then the approximations' or the slices'), the runtime
-    paths' costs, and where the searched max lies."""
+    paths' costs, and where the searched max lies (a runtime table: ``_print_runtime``)."""
+    if kind == "runtime":
+        _print_runtime(summary)
+        return
     rows = summary["slices"] if kind == "atlas" else summary["approximations"]
     _print_error_rows([summary["lut_error"]] + rows, summary)
     if summary.get("runtime_paths"):
@@ -111,9 +114,31 @@ def _print_summary(summary: Mapping[str, Any], kind: str) -> None:
     )
 
 
+def _print_runtime(summary: Mapping[str, Any]) -> None:
+    """Per base box: the held-out points' p99 and max, each search's max with where it sits, the box's
+    searched max (the larger search's)."""
+
+    def where(at: Mapping[str, float]) -> str:
+        return " ".join(f"{k}={v:.5g}" for k, v in at.items())
+
+    click.echo(f"runtime table {summary['content_hash']}: ΔE00 against the ground truth (η1 = 1)")
+    for name, b in summary["boxes"].items():
+        h = b["held_out"]
+        click.echo(f"{name}: held-out p99 {h['p99']:.3f} max {h['max']:.3f} ({h['points']} random points)")
+        for search in ("box", "ridge"):
+            s = b[search]
+            click.echo(
+                f"  {search} search: ΔE00 {s['max']:.4f} at {where(s['at'])} ({s['evaluations']} evaluations, "
+                f"{s['found_by']})"
+            )
+        click.echo(f"  searched max: ΔE00 {b['max']:.4f} at {where(b['at'])} ({b['evaluations']} evaluations)")
+
+
 def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: bool) -> int:
     """`report OUT/ASSET.json`: the receipts of a glTF bake (lutbake/scene/gltf/receipt.py); exit 1 when
     --max-de's gate fails."""
+    from lutbake.scene.gltf.receipt import served_by
+
     gate = receipts.get("gate")
     failed = gate is not None and not gate["passed"]
     if as_json:
@@ -121,7 +146,7 @@ def _print_receipts(receipts: Mapping[str, Any], out_dir: str | None, as_json: b
         return EXIT_GATE if failed else 0
     for r in receipts["materials"]:
         p99 = {
-            part + (" (runtime table)" if p.get("route") == "runtime" else ""): {
+            part + (f" ({served_by(p)})" if p.get("route") == "runtime" else ""): {
                 k: c["de00_p99"] for k, c in p["de00"].items()
             }
             for part, p in r["parts"].items()

@@ -42,9 +42,9 @@ class PendingRows:
     def result(self) -> np.ndarray:
         if self._event is not None:
             self._event.wait()
-            for item in self._keep:
-                if isinstance(item, tuple) and (item[1].wait() or item[0][0]):
-                    raise RuntimeError(f"{item[0][0]} texels left for a direct pass the plan did not expect")
+            for item in self._keep:  # (count, event, planned): a pass's count of texels against the plan's
+                if isinstance(item, tuple) and (item[1].wait() or item[0][0] != item[2]):
+                    raise RuntimeError(f"a band's pass left {item[0][0]} texels where the plan counted {item[2]}")
             self._event, self._keep = None, ()
             self._rows = self._finish(self._rows)
         return self._rows.astype(np.float64, copy=False)

@@ -71,11 +71,13 @@ class SeriesStats:
 
 
 class BakePlan:
-    """A spec's rule outcome on one device: stats, and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and
-    enough texels share each pair, their running term offsets (else None: texels evaluate the table)."""
+    """A spec's rule outcome on one device: stats, the texels the series leaves in each image row
+    (``rest_per_row``), and, when the pairs' Ŵ(mX) fit PAIR_TABLE_BYTES and enough texels share each pair,
+    their running term offsets (else None: texels evaluate the table)."""
 
-    def __init__(self, stats: SeriesStats, pair_terms: np.ndarray, texels_per_pair: int):
+    def __init__(self, stats: SeriesStats, pair_terms: np.ndarray, texels_per_pair: int, rest_per_row: np.ndarray):
         self.stats = stats
+        self.rest_per_row = rest_per_row
         offsets = np.concatenate([[0], np.cumsum(pair_terms, dtype=np.int64)])
         fits = offsets[-1] * 48 <= PAIR_TABLE_BYTES
         self.offsets = offsets.astype(np.int32) if fits and texels_per_pair >= MIN_TEXELS_PER_PAIR else None
@@ -197,24 +199,31 @@ class SeriesOnDevice:
             stats = SeriesStats()
             n_cos, n_opd, n_eta3, n_kappa3 = self.spec.shape
             pair_terms = np.zeros(n_cos * n_opd, np.int32)
+            rest_per_row = np.zeros(self.spec.image_size[1], np.int64)
             terms = self.program.zeros(pair_terms.size)
             for y0, y1 in self.spec.row_chunks():
-                stats.add(*self._plan_band(y0, y1, terms))
+                stats.add(*self._plan_band(y0, y1, terms, rest_per_row))
             self.program.read(pair_terms, terms)
-            self._plan = BakePlan(stats, pair_terms, n_eta3 * n_kappa3)
+            self._plan = BakePlan(stats, pair_terms, n_eta3 * n_kappa3, rest_per_row)
         return self._plan
 
-    def _plan_band(self, y0: int, y1: int, terms: pyopencl.Buffer) -> tuple[list[list[int]], list[list[float]]]:
+    def _plan_band(
+        self, y0: int, y1: int, terms: pyopencl.Buffer, rest_per_row: np.ndarray
+    ) -> tuple[list[list[int]], list[list[float]]]:
         """The rule over rows [y0, y1): ([[series, closed-form, direct texels]], [[their largest bounds]]),
-        the pairs' term counts raised in ``terms``."""
+        the pairs' term counts raised in ``terms``, the texels the series leaves counted in ``rest_per_row``."""
         program, kernels = self.program, self.program.kernels
-        cells = (y1 - y0) * self.spec.image_size[0]
+        width = self.spec.image_size[0]
+        cells = (y1 - y0) * width
         rest, rest_count = program.scratch(max(1, cells) * 4), program.zeros()
         bounds = program.scratch(max(1, cells) * np.dtype(program.dtype).itemsize)
         program.run(kernels.plan_rows, cells, *self._band_args(y0), terms, rest, rest_count, bounds)
         left, series_bound = program.count(rest_count), program.largest(bounds, cells)
         if not left:
             return [[cells, 0, 0]], [[series_bound, 0.0]]
+        rest_texels = np.empty(left, np.int32)
+        program.read(rest_texels, rest)
+        rest_per_row[y0:y1] += np.bincount(rest_texels // width, minlength=y1 - y0)
         path, bound = np.empty(left, np.int8), np.empty(left, program.dtype)
         path_buf, bound_buf = (program.scratch(a.nbytes, "w") for a in (path, bound))
         args = [*self._band_args(y0), *self._cauchy(), rest, rest_count, path_buf, bound_buf]
@@ -240,8 +249,10 @@ class SeriesOnDevice:
     def enqueue_band(self, y0: int, y1: int, out: pyopencl.Buffer) -> tuple[list[object], np.ndarray | None]:
         """Enqueue the series on rows [y0, y1) into ``out``, then the closed form at what it leaves: (the
         buffers to keep until they are done, the band's texels left for the direct quadrature, sorted, or
-        None where the plan expects none: the band's own count of them is then among the buffers kept,
-        as (count, event), for PendingRows to check)."""
+        None where the plan expects none). The closed form runs over as many work-items as the plan counts
+        texels left in these rows: launched over the whole band, its few busy work-groups came first and
+        PoCL's scheduler gave them all to one thread. The band's own counts are among the buffers kept, as
+        (count, event, planned), for PendingRows to check against the plan."""
         program, kernels, plan = self.program, self.program.kernels, self.plan()
         cells = (y1 - y0) * self.spec.image_size[0]
         lists = [program.scratch(max(1, cells) * 4) for _ in range(2)]
@@ -251,15 +262,21 @@ class SeriesOnDevice:
             program.run(kernels.bake_rows_series, cells, *args)
         else:
             program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), out, lists[0], counts[0])
-        if plan.stats.closed_form_texels or plan.stats.direct_texels:
+        planned = int(plan.rest_per_row[y0:y1].sum())
+        if planned:
             args = [*self._band_args(y0), *self._cauchy(), lists[0], counts[0], out, lists[1], counts[1]]
-            program.run(kernels.bake_texels_closed, cells, *args)
-        keep: list[object] = [*lists, *counts]
+            program.run(kernels.bake_texels_closed, planned, *args)
+        keep: list[object] = [*lists, *counts, _checked(program, counts[0], planned)]
         left = program.count(counts[1]) if plan.stats.direct_texels else 0
         if left:
             texels = np.empty(left, np.int32)
             program.read(texels, lists[1])
             return keep, np.sort(texels)
-        # the plan said none: check that the band agrees (the same rule ran)
-        unplanned = np.zeros(1, np.int32)
-        return keep + [(unplanned, program.read(unplanned, counts[1], blocking=False))], None
+        return keep + [_checked(program, counts[1], 0)], None  # the plan said none: the band must agree
+
+
+def _checked(program: DeviceProgram, counter: pyopencl.Buffer, planned: int) -> tuple[np.ndarray, object, int]:
+    """(count, the event of its copy, ``planned``): a band's counter read back without waiting, for
+    PendingRows to hold against what the plan counted (the same rule ran on the same texels)."""
+    count = np.zeros(1, np.int32)
+    return count, program.read(count, counter, blocking=False), planned

@@ -16,5 +16,6 @@ shader- and terminal-safe forms of a name, importing nothing: ``OBSERVERS``, ``S
 callback every long call takes and the command line's ``Meter``: ``meter``, ``no_progress``,
 ``format_seconds``) and ``signals`` (SIGINT, SIGTERM and SIGHUP as a clean unwind, for the command line
 only: ``Interrupted``, ``STOP_SIGNALS``, ``exit_status``, ``set_handler``, ``stop_signals_held``,
-``raise_interrupted``, ``interrupted_at_start_up``, ``hold_stop_signals_in_extension_imports``).
+``raise_interrupted``, ``interrupted_at_start_up``, ``hold_stop_signals_in_extension_imports``) and ``cores``
+(the default size of a pool of worker threads: ``usable_cores``).
 """

@@ -39,6 +39,7 @@ from lutbake.quality.measure import (
     HeldOutPoints,
     held_out_points,
     proxy_truth,
+    remembered,
     score,
     search_max,
     search_slice,
@@ -209,7 +210,7 @@ def _scored_rows(
     """(ErrorStats, RGB at the held-out points) of each row of ``reads``, timed, its max searched over the
     whole domain (``search_max``, climbing the bake's own spectral rule: ``proxy_truth`` on ``device``)."""
     space, observer = lut.meta["space"], lut.meta["observer"]
-    proxy = proxy_truth(lut, device=device)
+    proxy = remembered(proxy_truth(lut, device=device))
     stats: dict[str, ErrorStats] = {}
     rgb: dict[str, np.ndarray] = {}
     for name, read in reads.items():

@@ -7,7 +7,9 @@ inputs (what a GPU receives):
 - a stress grid of the extremes: grazing incidence (cos θ down to 0), no film (d 0), films matching the
   ambient (η2 1.0001) and bases matching it (η3 1, 1.0001), the metal box's corners;
 - a searched maximum per box (worstcase.find_worst: corners, edges, the singular faces, random starts,
-  compass refinement), the stress grid among its starts.
+  compass refinement), the stress grid among its starts, and one over the box's η2 ≈ η3 ≈ η1 family
+  (``Ridge``); the larger of the two is the box's max (``searched_maxima``, what `lutbake report` prints
+  for a runtime table and docs/make_runtime.py writes into docs/engines.md).
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -39,6 +43,8 @@ __all__ = [
     "searched_worst",
     "searched_ridge",
     "searched_named_worst",
+    "searched_maxima",
+    "runtime_table_summary",
     "Ridge",
 ]
 
@@ -259,3 +265,61 @@ def searched_named_worst(table: RuntimeTable, metal: str, budget: int = 2000, se
     """worstcase.find_worst over (cos θ, d, η2) for a named metal at its per-channel indices."""
     singular = {k: v for k, v in _SINGULAR.items() if set(v) <= {"cos_theta", "thickness_nm", "eta2"}}
     return find_worst(named_error(table, metal), _AXES[:3], singular=singular, budget=budget, seed=seed)
+
+
+def _found(worst: WorstCase, columns: tuple, evaluations: int) -> dict:
+    """A search's max, where it sits (cos θ, d nm, η2, η3, κ3) and what it cost."""
+    at = dict(zip(("cos_theta", "thickness_nm", "eta2", "eta3", "kappa3"), (float(c[0]) for c in columns)))
+    return {"max": worst.value, "at": at, "evaluations": evaluations, "found_by": worst.best.how()}
+
+
+def searched_maxima(
+    table: RuntimeTable, budget: int = 6000, scatter: int = 30000, filter_bits: int | None = None
+) -> dict[str, dict]:
+    """Per box: the box's search (``searched_worst``, the full stress grid among its starts, seed 1) and the
+    ridge's (``searched_ridge``, ``scatter`` random starts, seed 0), each ``budget`` evaluations; the box's
+    max, where and evaluations are the larger search's (evaluations: both searches')."""
+    out = {}
+    for name, box in BOXES.items():
+        worst = searched_worst(table, box, budget=budget, seed=1, filter_bits=filter_bits, full_stress=True)
+        found = {"box": _found(worst, box.point(worst.where[None]), worst.evaluations)}
+        worst = searched_ridge(table, box, budget=budget, scatter=scatter, seed=0, filter_bits=filter_bits)
+        found["ridge"] = _found(worst, Ridge(box).point(worst.where[None]), worst.evaluations + scatter)
+        best = max(found.values(), key=lambda r: r["max"])
+        total = sum(r["evaluations"] for r in found.values())
+        out[name] = {**found, "max": best["max"], "at": best["at"], "evaluations": total}
+    return out
+
+
+def runtime_table_summary(
+    table: RuntimeTable,
+    n_points: int = 1000,
+    seed: int = 0,
+    budget: int = 6000,
+    out_dir: str | PathLike[str] | None = None,
+    max_de: float | None = None,
+) -> dict:
+    """`lutbake report` of a runtime table: per box, ΔE00 p99 and max at ``n_points`` random points (seed
+    ``seed``) and the searched maxima (``searched_maxima``, ``budget`` evaluations a search, 5 × ``budget``
+    ridge starts: 30,000 at the default, as docs/engines.md's figures). Its row (``lut_error``): the worst
+    box's p99 and searched max. Written to ``out_dir``/summary.json when given, then gated by ``max_de``."""
+    from lutbake.io.strictjson import dumps
+    from lutbake.quality.report import REPORT_FILES, gate
+    from lutbake.tables.lutfile import write_text_atomic
+
+    searched = searched_maxima(table, budget=budget, scatter=5 * budget)
+    boxes = {}
+    for name, box in BOXES.items():
+        de = random_error(table, box, n_points, seed)
+        held_out = {"points": n_points, "p99": float(np.percentile(de, 99)), "max": float(de.max())}
+        boxes[name] = {"held_out": held_out, **searched[name]}
+    row = {
+        "name": "lutbake-runtime",
+        "de00_p99": max(b["held_out"]["p99"] for b in boxes.values()),
+        "de00_max": max(b["max"] for b in boxes.values()),
+    }
+    summary = {"kind": "runtime", "content_hash": table.meta["content_hash"], "lut_error": row, "boxes": boxes}
+    if out_dir:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        write_text_atomic(Path(out_dir) / REPORT_FILES[0], dumps(summary) + "\n")
+    return gate(summary, max_de)

@@ -14,30 +14,37 @@ it lists has the recorded SHA-256.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lutbake.errors import ParameterError
+from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set, sha256_file
 from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
+from lutbake.lut.sample import Lut
+from lutbake.physics.points import MAX_INDEX, MAX_OPD_NM
 from lutbake.scene.cache import SceneCache
-from lutbake.scene.jobs import refine_slice, tuned_lut
+from lutbake.scene.gltf.routes import choose_routes, route_lines, source_unmet
+from lutbake.scene.jobs import refine_slice, slice_atlas, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
+from lutbake.scene.shipping import is_web_member, shipping
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
 from lutbake.tables.includes import atlas_includes, warn_texture_size
 
 if TYPE_CHECKING:
     import numpy as np
 
+    from lutbake.scene.gltf.scoring import Sampler
     from lutbake.scene.slices import Integrator
 
     # ``progress(done, total, note)``: lutbake.io.progress's Meter, or no_progress.
@@ -46,6 +53,19 @@ if TYPE_CHECKING:
     SliceResult = tuple[SceneJob, np.ndarray, dict[str, Any]]
 
 __all__ = ["bake_scene", "check_scene_outputs", "scene_outputs", "SceneResult"]
+
+# A film's domain for the bake's direct rule at any point (integrator.evaluate): the rule level is per point,
+# the axes only bound it (η2 and the settings replaced per use).
+_TRUTH_SPEC = BakeSpec(
+    eta2=1.5,
+    eta1=1.0,
+    axes=(
+        Axis("cos_theta", 0.0, 1.0, 2, "sqrt"),
+        Axis("opd_nm", 0.0, MAX_OPD_NM, 2),
+        Axis("eta3", 1.0, MAX_INDEX, 2),
+        Axis("kappa3", 0.0, 10.0, 2, "sqrt"),
+    ),
+)
 
 
 @dataclass
@@ -61,11 +81,16 @@ class SceneResult:
     seconds: float
     # material -> {de00_p99, de00_p99_bound}, where not met
     unmet: dict[str, dict[str, float]] = field(default_factory=dict)
+    # one line per part the bake routed to the runtime table (a glTF source's: the material and why)
+    routes: list[str] = field(default_factory=list)
     device: str | None = None  # the integrator's device, when a job was computed
+    # a glTF bake's web set and build artefacts (lutbake/scene/shipping.py)
+    ship: dict[str, Any] = field(default_factory=dict)
 
 
-def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict[str, Path]:
-    """Role -> path of every file of the scene's set (4D LUTs by job id)."""
+def scene_outputs(out: Path, scene: Scene, plan: ScenePlan, for_web: bool = False) -> dict[str, Path]:
+    """Role -> path of every file of the scene's set (4D LUTs by job id); ``for_web``: the web set's roles only
+    (lutbake/scene/shipping.py)."""
     paths = {
         role: out / f"{scene.stem}{suffix}"
         for role, suffix in (("manifest", ".json"), ("glsl", ".glsl"), ("hlsl", ".hlsl"))
@@ -75,7 +100,7 @@ def scene_outputs(out: Path, scene: Scene, plan: ScenePlan) -> dict[str, Path]:
     for job in plan.jobs:
         if job.kind == "lut":
             paths.update({f"{job.id}{p.suffix}": p for p in lut_members(out / f"{job.id}.exr")})
-    return paths
+    return {role: p for role, p in paths.items() if is_web_member(p.name, scene.stem)} if for_web else paths
 
 
 def check_scene_outputs(out: Path, scene: Scene, plan: ScenePlan | None = None) -> None:
@@ -110,6 +135,7 @@ def bake_scene(
     backend: str = "auto",
     progress: Progress = no_progress,
     device: str | None = None,
+    for_web: bool = False,
 ) -> SceneResult:
     """Bake what ``scene`` needs into ``out_dir`` as one file set.
 
@@ -132,6 +158,8 @@ def bake_scene(
         ``progress(done, total, note)`` before each job.
     device : str, optional
         OpenCL device (see ``bake_lut``).
+    for_web : bool
+        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache.
 
     Returns
     -------
@@ -166,20 +194,29 @@ def bake_scene(
     plan = plan_scene(scene)
     check_scene_outputs(out, scene, plan)
     scene_hash = _scene_hash(scene, plan)
-    outputs = scene_outputs(out, scene, plan)
+    outputs = scene_outputs(out, scene, plan, for_web)
     with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
-        unmet = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs)
-        if unmet is not None:
-            return SceneResult(out, [], [], [j.id for j in plan.jobs], True, time.perf_counter() - start, unmet)
-        run = _JobRun(plan, SceneCache(out), force, backend, progress, device)
+        manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs, plan if for_web else None)
+        if manifest is not None:
+            reused, seconds = [j.id for j in plan.jobs], time.perf_counter() - start
+            ship = _ship(manifest, scene, for_web)
+            return SceneResult(out, [], [], reused, True, seconds, *_outcome(manifest), ship=ship)
+        run = _JobRun(plan, None if for_web else SceneCache(out), force, backend, progress, device)
         entries, slices = run.all(out, files)
+        routed = _choose_routes(scene, run, entries, slices, out, files)
         atlas = _write_atlas(files, outputs, scene, scene_hash, slices, entries)
+        for name in routed:  # baked, but the runtime table serves it: no entry (the glTF source says why)
+            del entries[name]
+        if for_web:  # no LUT headers or HLSL, no LUT whose parts all went to the runtime table
+            outputs = _served_outputs(outputs, plan, set(entries))
+            for extra in set(files.members) - set(outputs.values()):
+                files.members.pop(extra).unlink()
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
         written = sorted(files.members)
     seconds = time.perf_counter() - start
-    return SceneResult(
-        out, written, run.computed, run.reused, False, seconds, _unmet(manifest["materials"]), run.device
-    )
+    outcome = _outcome(manifest)
+    ship = _ship(manifest, scene, for_web)
+    return SceneResult(out, written, run.computed, run.reused, False, seconds, *outcome, run.device, ship)
 
 
 def _scene_hash(scene: Scene, plan: ScenePlan) -> str:
@@ -241,11 +278,13 @@ def _write_manifest(
     """The includes, then the manifest listing every other member's SHA-256 and sealed with its own
     hash, written into the set; the manifest."""
     for lang, text in atlas_includes(manifest, atlas).items():
-        files.temp(outputs[lang]).write_text(text)
+        if lang in outputs:  # the web set has no HLSL
+            files.temp(outputs[lang]).write_text(text)
     manifest["files"] = {
         p.name: sha256_file(files.members.get(p, p)) for p in outputs.values() if p != outputs["manifest"]
     }
-    files.temp(outputs["manifest"]).write_text(json.dumps(sealed(manifest), indent=2) + "\n")
+    # compact: engines read it; people read the receipts and `bake`'s lines (an indented manifest was 1.7x)
+    files.temp(outputs["manifest"]).write_text(json.dumps(sealed(manifest), separators=(",", ":")) + "\n")
     return manifest
 
 
@@ -255,7 +294,7 @@ class _JobRun:
     def __init__(
         self,
         plan: ScenePlan,
-        cache: SceneCache,
+        cache: SceneCache | None,
         force: bool,
         backend: str,
         progress: Progress,
@@ -271,6 +310,10 @@ class _JobRun:
     def device(self) -> str | None:
         """The integrator's device, when a job was computed (it is made only then)."""
         return None if self.integrator is None else self.integrator.device
+
+    def integrator_now(self) -> Integrator:
+        """The integrator, made now if no job needed it."""
+        return self._integrator()
 
     def _integrator(self) -> Integrator:
         if self.integrator is None:
@@ -291,23 +334,24 @@ class _JobRun:
         return entries, slices
 
     def _slice(self, job: SceneJob) -> tuple[np.ndarray, dict[str, Any]]:
-        cached = None if self.force else self.cache.slice(job)
+        cached = None if self.force or self.cache is None else self.cache.slice(job)
         if cached is not None:
             self.reused.append(job.id)
             return cached
         values, record = refine_slice(job, self._integrator())
         self.computed.append(job.id)
-        return values, self.cache.store_slice(job, values, record)
+        return values, record if self.cache is None else self.cache.store_slice(job, values, record)
 
     def _lut(self, job: SceneJob, out: Path, files: FileSet) -> dict[str, Any]:
         """The record of a ranged-base 4D LUT: reused when intact, else tuned and written."""
         path = out / f"{job.id}.exr"
-        record = None if self.force else self.cache.lut(job, path, lut_members(path))
+        record = None if self.force or self.cache is None else self.cache.lut(job, path, lut_members(path))
         if record is not None:
             self.reused.append(job.id)
             return record
         record = tuned_lut(job, path, self.backend, files, self._integrator(), self.device_choice)
-        self.cache.store_lut(job, record)
+        if self.cache is not None:
+            self.cache.store_lut(job, record)
         self.computed.append(job.id)
         return record
 
@@ -331,33 +375,85 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
         "scene": scene.file_name,
         "scene_hash": scene_hash,
         "settings": scene.settings_key(),
-        "materials": {m.name: entries[m.name] for m in scene.materials},
+        "materials": {m.name: entries[m.name] for m in scene.materials if m.name in entries},
     }
     if scene.source is not None:
         manifest["source"] = scene.source
     return manifest
 
 
-def _up_to_date(manifest_path: Path, scene_hash: str, outputs: dict[str, Path]) -> dict[str, dict[str, float]] | None:
-    """When the set is up to date — the manifest unedited (its own hash holds), this scene's, every member
-    it lists present with the recorded hash — what its materials did not meet (``_unmet``); else None."""
+def _served_outputs(outputs: dict[str, Path], plan: ScenePlan, served: set[str]) -> dict[str, Path]:
+    """``outputs`` less the files of the 4D jobs none of whose materials the set serves (routed elsewhere)."""
+    unserved = {f"{job.id}." for job in plan.jobs if job.kind == "lut" and not served & set(job.materials)}
+    return {role: p for role, p in outputs.items() if not any(p.name.startswith(u) for u in unserved)}
+
+
+def _up_to_date(
+    manifest_path: Path, scene_hash: str, outputs: dict[str, Path], web_plan: ScenePlan | None = None
+) -> dict[str, Any] | None:
+    """The manifest when the set is up to date — unedited (its own hash holds), this scene's, every member
+    it lists present with the recorded hash —; else None. ``web_plan``: a web set's, whose LUTs serving no
+    material are not written."""
     try:
         manifest = read_scene_manifest(manifest_path)  # typed, and its seal holds
+        if web_plan is not None:
+            outputs = _served_outputs(outputs, web_plan, set(manifest["materials"]))
         files = manifest["files"]
         if manifest["scene_hash"] != scene_hash or sorted(files) != sorted(
             p.name for p in outputs.values() if p != manifest_path
         ):
             return None
         fresh = all(sha256_file(manifest_path.parent / name) == digest for name, digest in files.items())
-        return _unmet(manifest["materials"]) if fresh else None
+        return manifest if fresh else None
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
 
-def _unmet(entries: dict[str, dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Materials whose target was not met at the resolution cap: their p99 ΔE00 and the bound held."""
-    return {
+def _outcome(manifest: dict[str, Any]) -> tuple[dict[str, dict[str, float]], list[str]]:
+    """(what the set's materials and parts did not meet on the route that serves them: their p99 ΔE00 and the
+    bound held; the lines of the parts routed to the runtime table)."""
+    unmet = {
         name: {"de00_p99": e["de00_p99"], "de00_p99_bound": e["de00_p99_bound"]}
-        for name, e in entries.items()
+        for name, e in manifest["materials"].items()
         if not e["target_met"]
     }
+    source = manifest.get("source")
+    return unmet | source_unmet(source), route_lines(source)
+
+
+def _ship(manifest: dict[str, Any], scene: Scene, for_web: bool) -> dict[str, Any]:
+    """A glTF bake's web set and build artefacts (nothing for other scenes)."""
+    if scene.source is None or scene.source.get("kind") != "gltf":
+        return {}
+    return shipping(manifest, scene.stem, cache=not for_web)
+
+
+def _choose_routes(
+    scene: Scene,
+    run: _JobRun,
+    entries: dict[str, dict[str, Any]],
+    slices: list[SliceResult],
+    out: Path,
+    files: FileSet,
+) -> set[str]:
+    """A glTF scene's routes (lutbake/scene/gltf/routes.py), its parts scored on the tables as the engine will
+    read them: each slice as the atlas stores it, each LUT as written; the scene materials the runtime table
+    serves instead. Nothing for other scenes (no runtime route)."""
+    if scene.source is None or scene.source.get("kind") != "gltf":
+        return set()
+    atlases = {name: slice_atlas(job, values) for job, values, _ in slices for name in job.materials}
+    met = {name: bool(r["target_met"]) for job, _, r in slices for name in job.materials}
+    met |= {name: bool(e["target_met"]) for name, e in entries.items()}
+    luts: dict[str, Lut] = {}
+
+    def sampler_of(name: str) -> Sampler:
+        if name in atlases:
+            return functools.partial(atlases[name].sample, "slice")
+        path = out / entries[name]["file"]
+        return luts.setdefault(name, Lut.load(files.members.get(path, path))).sample
+
+    def truth_of(eta2: float) -> Sampler:  # the integrator is made only where a part is checked
+        spec = replace(_TRUTH_SPEC, eta2=eta2, eta1=scene.eta1, observer=scene.observer, space=scene.space)
+        return functools.partial(run.integrator_now().evaluate, spec)
+
+    return choose_routes(scene, met.__getitem__, sampler_of, truth_of)

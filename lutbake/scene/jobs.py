@@ -57,11 +57,11 @@ if TYPE_CHECKING:
     # A slice's fixed uniform points and their colour by its integrator (``uniform_points``).
     Uniform = tuple[FilmPoints, np.ndarray]
 
-__all__ = ["uniform_points", "refine_slice", "tuned_lut"]
+__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "LUT_SEARCH_BUDGET"]
 
 _LUT_MAX_ROUNDS = 6
 _SEARCH_STARTS = 100  # the worst scored points of each kind a searched max starts from (with the box's own)
-_LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
+LUT_SEARCH_BUDGET = 20000  # a 4D job's searched max (tune's, as `report`'s)
 
 
 def uniform_points(job: SceneJob, stack: SliceStack, integrator: Integrator, seed: int = 0) -> Uniform:
@@ -92,14 +92,10 @@ def _slice_measure(
     centre (their colour from the grid of centres, slices.integrate_slice), held to the bound."""
     pts, truth = uniform
     s = job.scene
-    stored = np.float16 if s.precision == "half" else np.float32
 
     def measure(counts: tuple[int, ...], label: str) -> tuple[Trial, _ScoredSlice]:
         values = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space)
-        header = {**slice_header(job, [0, 0, counts[0], counts[1]]), "materials": ["slice"]}
-        atlas = Atlas(
-            {"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]}, values.astype(stored)
-        )
+        atlas = slice_atlas(job, values)
         cos_c, d_c = (g.ravel() for g in np.meshgrid(*slice_grid(counts, job.thickness_nm, centres=True)))
         centre_truth = integrate_slice(stack, counts, job.thickness_nm, integrator, s.observer, s.space, centres=True)
         de_u = delta_e00(atlas.sample("slice", pts), truth, s.observer, s.space)
@@ -112,6 +108,15 @@ def _slice_measure(
         return Trial(counts, p99, atlas.image.nbytes, 0.0, gated=bound), scored
 
     return measure
+
+
+def slice_atlas(job: SceneJob, values: np.ndarray) -> Atlas:
+    """A slice's values (rows, columns, 3) as the atlas stores them (rounded to the scene's precision), alone
+    in an atlas whose one material is 'slice': what the engine samples, without the packing."""
+    s, (rows, columns) = job.scene, values.shape[:2]
+    header = {**slice_header(job, [0, 0, columns, rows]), "materials": ["slice"]}
+    stored = np.float16 if s.precision == "half" else np.float32
+    return Atlas({"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]}, values.astype(stored))
 
 
 def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dict[str, Any]]:
@@ -209,7 +214,7 @@ def tuned_lut(
             max_rounds=_LUT_MAX_ROUNDS,
             start=job.counts,
             frozen=frozen,
-            search_budget=_LUT_SEARCH_BUDGET,
+            search_budget=LUT_SEARCH_BUDGET,
             device=device,
         )
         worst = result.best.stats["worst_case"]
@@ -318,7 +323,7 @@ class _PathPoints:
             at,
             de[starts],
             places,
-            _LUT_SEARCH_BUDGET,
+            LUT_SEARCH_BUDGET,
             0,
             self.spec.space,
             self.spec.observer,

@@ -8,7 +8,7 @@ tools such as ``oiiotool --info -v``. Nothing time- or machine-dependent is writ
 same bytes.
 
 OpenEXR compresses the blocks of 16 rows in its own thread pool, sized here to the cores this process may
-run on (``compression_threads``): its Python binding holds the interpreter while it writes, so a writer
+run on (``usable_cores``): its Python binding holds the interpreter while it writes, so a writer
 thread in Python would not overlap anything, but the pool's threads do, and each block is compressed alike
 on any number of them (the bytes do not depend on the thread count: tests/tables/test_table_files.py).
 
@@ -31,15 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ExrRows", "exr_rows", "write_image", "read_pixels", "flat_attributes", "compression_threads"]
+from lutbake.io.cores import usable_cores
 
-
-def compression_threads() -> int:
-    """The cores this process may run on: the size of OpenEXR's compression pool by default."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # no affinity outside Linux
-        return os.cpu_count() or 1
+__all__ = ["ExrRows", "exr_rows", "write_image", "read_pixels", "flat_attributes"]
 
 
 def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
@@ -62,7 +56,7 @@ def flat_attributes(meta: dict, prefix: str = "lutbake") -> dict:
 
 class ExrRows:
     """An open EXR receiving bands of rows in order: ``channels`` ("RGB" or "RGBA") of ``precision``
-    ('half' or 'float') texels, compressed on ``threads`` of OpenEXR's pool (None: compression_threads();
+    ('half' or 'float') texels, compressed on ``threads`` of OpenEXR's pool (None: usable_cores();
     0: on the writing thread alone)."""
 
     def __init__(
@@ -78,7 +72,7 @@ class ExrRows:
         import Imath
         import OpenEXR
 
-        threads = compression_threads() if threads is None else threads
+        threads = usable_cores() if threads is None else threads
         if OpenEXR.global_thread_count() != threads:  # the pool is the process's: resized only when it differs
             OpenEXR.set_global_thread_count(threads)
 

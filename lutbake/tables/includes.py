@@ -54,11 +54,12 @@ def shader_includes(meta: dict, table_name: str) -> dict:
     return {suffix: shader_template(f"{stem}.{suffix}.in").substitute(fields) for suffix in ("glsl", "hlsl")}
 
 
-def osl_source(meta: dict, table_path: Path) -> str:
-    """The OSL script of an exact or runtime table (header ``meta``) that Cycles reads at ``table_path``;
-    ValueError when the path cannot stand in an OSL string."""
+def osl_source(meta: dict, table_path: str | Path) -> str:
+    """The OSL script of an exact or runtime table (header ``meta``) that Cycles reads at ``table_path`` (as
+    Blender writes it: ``//`` for the .blend's folder); ValueError when the path cannot stand in an OSL string."""
     stem = _TEMPLATES[meta["format"]][0]
-    fields = {**include_fields(meta, table_path.name), "table_path": shader_string(str(table_path))}
+    path = str(table_path)
+    fields = {**include_fields(meta, path.rsplit("/", 1)[-1]), "table_path": shader_string(path)}
     return shader_template(f"{stem}.osl.in").substitute(fields)
 
 

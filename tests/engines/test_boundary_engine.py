@@ -4,9 +4,9 @@ exact-mode and runtime includes, unmodified, on every combination of the boundar
 and 2. No channel may be NaN or Inf; each must be the float64 evaluation of the same math (exact.exact_colour,
 runtime.runtime_colour) and meet its bound against the ground truth, which at cos θ1 = 0 is white (r12 = −1,
 physics/optics.py). Before the include resolved a = (Y1 − Y2)/(Y1 + Y2) at Y1 = Y2 = 0, the exact mode
-returned NaN at every point with cos θ1 = 0 and η2 = η1. The exact mode's OSL script runs the same points
-in Cycles (tests/engines/osl_points.py: a Script node fed constants, which the probe rig's tilted planes
-cannot do at cos θ1 = 0); there the old script's NaN came out black."""
+returned NaN at every point with cos θ1 = 0 and η2 = η1. The exact mode's and the runtime table's OSL scripts
+run the same points in Cycles (tests/engines/osl_points.py: a Script node fed constants, which the probe rig's
+tilted planes cannot do at cos θ1 = 0); there the old exact script's NaN came out black."""
 
 import itertools
 import json
@@ -125,15 +125,22 @@ def test_grazing_incidence_is_white_in_every_path(boundary_run):
         assert np.abs(got[grazing] - white).max() <= 1e-3
 
 
-@pytest.fixture(scope="module")
-def osl_run(tmp_path_factory):
-    """(points, Cycles RGB, float64 RGB, ground truth): the exact mode's OSL script at boundary_points."""
+@pytest.fixture(scope="module", params=["exact", "runtime"])
+def osl_run(request, tmp_path_factory):
+    """(kind, points, Cycles RGB, float64 RGB, ground truth): the exact mode's OSL script at boundary_points under
+    ambients 1 and 2, the runtime table's under 1 (as boundary_run)."""
     from blender_harness import blender_python
 
-    exact = make_dropin.write_exact_table()
-    points = boundary_points((1.0, 2.0))
-    folder = tmp_path_factory.mktemp("osl-boundary")
-    (folder / "job.json").write_text(json.dumps({"osl": osl_script("exact", exact), "points": points.T.tolist()}))
+    kind = request.param
+    if kind == "exact":
+        path, points = make_dropin.write_exact_table(), boundary_points((1.0, 2.0))
+        table = read_exact_table(path)
+        model = _by_film(points, lambda q, e1, e2: exact_colour(table, q[0], q[1], e1, e2, q[4], q[5]).values)
+    else:
+        path, points = runtime_table_files(), boundary_points((1.0,))
+        model = runtime_colour(read_runtime_table(path), *points)
+    folder = tmp_path_factory.mktemp(f"osl-boundary-{kind}")
+    (folder / "job.json").write_text(json.dumps({"osl": osl_script(kind, path), "points": points.T.tolist()}))
     proc = subprocess.run(
         [
             blender_python(),
@@ -146,15 +153,14 @@ def osl_run(tmp_path_factory):
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
     got = np.array(json.loads((folder / "result.json").read_text())["rgb"], float)
-    table = read_exact_table(exact)
-    expected = _by_film(points, lambda q, e1, e2: exact_colour(table, q[0], q[1], e1, e2, q[4], q[5]).values)
-    return points, got, expected, _by_film(points, _truth)
+    return kind, points, got, model, _by_film(points, _truth)
 
 
 @pytest.mark.parametrize("boundary", sorted(BOUNDARIES))
 def test_the_osl_script_on_the_boundary_is_finite_the_model_and_the_truth(osl_run, boundary):
-    points, got, model, truth = osl_run
+    """The exact mode's and the runtime table's OSL scripts in Cycles: finite, the float64 model, the bound."""
+    kind, points, got, model, truth = osl_run
     on = BOUNDARIES[boundary](points)
-    assert on.sum() >= 96 and np.isfinite(got[on]).all()
+    assert on.sum() >= {"exact": 96, "runtime": 54}[kind] and np.isfinite(got[on]).all()
     assert np.abs(got[on] - model[on]).max() <= MODEL_TOLERANCE
-    assert delta_e00(got[on], truth[on]).max() <= TRUTH_BOUND["exact"]
+    assert delta_e00(got[on], truth[on]).max() <= TRUTH_BOUND[kind]

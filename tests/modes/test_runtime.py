@@ -187,6 +187,37 @@ def test_runtime_table_command_writes_one_set_deterministically(tmp_path):
     assert before == {p.name: p.read_bytes() for p in tmp_path.iterdir()}
 
 
+def test_report_of_a_runtime_table_prints_the_searched_max_and_where(tmp_path):
+    """`lutbake report RUNTIME.exr` prints per box the box search's and the ridge search's max with where each
+    sits, and the larger as the box's searched max: the same numbers and places as the same searches (same
+    budget, starts and seeds) run here on the file's table."""
+    out = tmp_path / "rt.exr"
+    assert subprocess.run([sys.executable, "-m", "lutbake.cli", "runtime-table", "--out", str(out)]).returncode == 0
+    report = [sys.executable, "-m", "lutbake.cli", "report", str(out), "--points", "20", "--search-budget", "100"]
+    proc = subprocess.run(report, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    printed = {}
+    for line in proc.stdout.splitlines():
+        if not line.startswith(" "):
+            box = line.split(":")[0]
+        elif " search" in line or "searched max" in line:
+            label, rest = line.strip().split(": ΔE00 ")
+            value, at = rest.split(" (")[0].split(" at ")
+            printed[box, label] = (float(value), at)
+    table = read_runtime_table(out)
+    for name, box in BOXES.items():
+        worst = searched_worst(table, box, budget=100, seed=1, full_stress=True)
+        ridge = searched_ridge(table, box, budget=100, scatter=500, seed=0)
+        places = {"box search": box.point(worst.where[None]), "ridge search": Ridge(box).point(ridge.where[None])}
+        values = {"box search": worst.value, "ridge search": ridge.value}
+        best = max(values, key=values.__getitem__)
+        places["searched max"], values["searched max"] = places[best], values[best]
+        keys = ("cos_theta", "thickness_nm", "eta2", "eta3", "kappa3")
+        for label, value in values.items():
+            at = " ".join(f"{k}={float(v[0]):.5g}" for k, v in zip(keys, places[label]))
+            assert printed[name, label] == (pytest.approx(value, abs=5e-5), at), (name, label, proc.stdout)
+
+
 @pytest.mark.parametrize("out", ["rt.png", "missing/rt.exr"])
 def test_runtime_table_refuses_bad_output_in_one_line(tmp_path, out):
     proc = subprocess.run(

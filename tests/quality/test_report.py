@@ -18,6 +18,7 @@ from lutbake.lut.sample import Lut
 from lutbake.modes.approximations import belcour_barla_rgb, eval_sensitivity, khr_iridescence_rgb
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
+from lutbake.quality.measure import held_out_points, proxy_truth, remembered, search_max
 from lutbake.quality.report import report_lut
 from lutbake.spectral.reference import reference_colour
 from lutbake.tables.lutfile import exr_stream
@@ -397,3 +398,42 @@ def test_cell_centre_points_sit_at_cell_centres_of_an_admittance_grid():
     assert np.allclose(coords % 1.0, 0.5, atol=1e-9)
     uniform_eta3 = Axis("eta3", 1.0, 3.0, 5).to_unit(pts.stack.eta3[centre]) * 4
     assert not np.allclose(uniform_eta3 % 1.0, 0.5, atol=1e-3)  # the admittance cells are not η3's
+
+
+def test_rows_integrate_the_truth_once_at_their_common_starts_and_search_as_before(lut_path):
+    """Two rows' searches through one remembered proxy: the same searched maxima as through the proxy
+    itself, with fewer stacks integrated (the rows' corners, edges, faces and scatter are shared)."""
+    lut = Lut.load(lut_path)
+    axes, meta = lut.axes, lut.meta
+    pts = held_out_points(axes, lut.eta1, lut.eta2, meta["observer"], meta["space"], 40, seed=0)
+    rows = {
+        "lut": lambda stack: lut.sample(stack),
+        "khr": lambda stack: khr_iridescence_rgb(stack, meta["space"], meta["observer"]),
+    }
+    integrated = {"direct": 0, "remembered": 0}
+
+    def counting(name):
+        truth = proxy_truth(lut, backend="numpy")
+
+        def read(stack):
+            integrated[name] += len(stack)
+            return truth(stack)
+
+        return read
+
+    found = {}
+    for name, proxy in (("direct", counting("direct")), ("remembered", remembered(counting("remembered")))):
+        found[name] = [
+            search_max(
+                read,
+                lut,
+                pts,
+                delta_e00(read(pts.stack), pts.truth, meta["observer"], meta["space"]),
+                proxy,
+                BUDGET,
+                seed=1,
+            )
+            for read in rows.values()
+        ]
+    assert found["remembered"] == found["direct"]
+    assert integrated["remembered"] < 0.8 * integrated["direct"]

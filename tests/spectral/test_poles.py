@@ -2,6 +2,8 @@
 transform, a converged Gauss–Legendre quadrature of the whole integral in long double, the converged
 series, the ground truth, and the kernel's direct quadrature."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from long_quadrature import LONG, U_DOUBLE, U_LONG, BandRule, gauss_legendre
@@ -251,3 +253,63 @@ def test_kernel_closed_form_equals_the_direct_quadrature(stiff_spec, kernel_devi
     beyond = series_colour(stiff_spec.texel_stacks(params)).path == 1
     assert (beyond & resolved).sum() > 100
     assert np.abs(closed - direct)[resolved].max() <= 1e-7
+
+
+# The closed form's pass runs over the texels the plan counts in a band's rows (lutbake/integrate/series.py),
+# and a band's value does not depend on how the image is cut into bands.
+
+
+def _series_of(spec, device):
+    from lutbake.integrate.opencl import OpenCLBackend
+
+    fast = OpenCLBackend(spec.compute, device=device)
+    return fast, fast._series_of(spec)
+
+
+def test_plan_counts_per_row_the_texels_numpy_leaves_beyond_the_series(stiff_spec, kernel_device):
+    _, series = _series_of(stiff_spec, kernel_device)
+    width, height = stiff_spec.image_size
+    params = [np.ravel(p) for p in stiff_spec.cell_params(0, height)]
+    beyond = series_colour(stiff_spec.texel_stacks(params), integrate=False).path.reshape(height, width) > 0
+    rest_per_row = series.plan().rest_per_row
+    assert 0 < np.count_nonzero(rest_per_row) < height  # some rows hold none: their bands skip the pass
+    np.testing.assert_array_equal(rest_per_row, beyond.sum(axis=1))
+
+
+def _by_bands(fast, spec, rows_per_band):
+    height = spec.image_size[1]
+    return np.concatenate(
+        [fast.bake_rows(spec, y, min(y + rows_per_band, height)) for y in range(0, height, rows_per_band)]
+    )
+
+
+def test_bands_of_any_height_give_the_same_bits(stiff_spec, kernel_device):
+    fast, _ = _series_of(stiff_spec, kernel_device)
+    whole = _by_bands(fast, stiff_spec, stiff_spec.image_size[1])
+    for rows_per_band in (1, 3):
+        assert np.array_equal(whole.view(np.uint64), _by_bands(fast, stiff_spec, rows_per_band).view(np.uint64))
+
+
+def test_float32_bands_of_any_height_agree_to_an_ulp(stiff_spec, kernel_device):
+    """float32: what the series leaves goes to the direct quadrature (the counts checked against the plan's
+    on the way). Intel's runtime rounds a few texels one float32 ulp apart as the band's height moves them
+    between its vector lanes and the scalar remainder (so did the code before the closed form's launch
+    followed the plan); a bake cuts its bands alike every time, so its bytes do not move."""
+    spec = replace(stiff_spec, compute="float32")
+    fast, _ = _series_of(spec, kernel_device)
+    whole = _by_bands(fast, spec, spec.image_size[1])
+    ulp = np.spacing(whole.astype(np.float32)).astype(np.float64)
+    for rows_per_band in (1, 3):
+        assert np.all(np.abs(_by_bands(fast, spec, rows_per_band) - whole) <= ulp)
+
+
+def test_a_band_that_leaves_other_texels_than_planned_raises(stiff_spec, kernel_device):
+    fast, series = _series_of(stiff_spec, kernel_device)
+    plan = series.plan()
+    row = int(np.flatnonzero(plan.rest_per_row)[0])
+    plan.rest_per_row[row] -= 1  # the plan now counts one texel fewer than the series leaves
+    try:
+        with pytest.raises(RuntimeError, match="where the plan counted"):
+            fast.bake_rows(stiff_spec, row, row + 1)
+    finally:
+        plan.rest_per_row[row] += 1

@@ -163,3 +163,12 @@ def test_rules_are_built_once_per_machine_and_read_back_bit_exact(tmp_path, monk
     spectral.wavenumber_rule.cache_clear()
     np.testing.assert_array_equal(wavenumber_rule(256, knots_nm=(450.0,)).weights, fresh.weights)
     spectral.wavenumber_rule.cache_clear()
+
+
+def test_reference_does_not_depend_on_its_thread_count(rng):
+    """The points' chunks are fixed by the points and the rule, not by the threads that run them: one
+    thread and three give the same bits (thick films: many chunks at the finest rules)."""
+    pts = _hard_points(rng, n=40)[0]
+    one, three = (reference_colour(pts, workers=w) for w in (1, 3))
+    assert np.array_equal(one.values, three.values)
+    assert np.array_equal(one.nodes_per_nm, three.nodes_per_nm)

@@ -22,57 +22,55 @@ if TYPE_CHECKING:
 __all__ = ["runtime_colour", "runtime_rgb"]
 
 F = np.float32
-_TWO_PI = F(6.283185307179586)
 
 
-def _cis_m1(turns):
-    """e^(2πi turns) − 1 as (re, im): the include's polynomials about the nearest quarter turn k, rotated by
-    i^k = (ck, sk)."""
-    k = np.floor(F(4) * turns + F(0.5))
-    x = _TWO_PI * (turns - F(0.25) * k)
-    x2 = x * x
-    cm = x2 * (F(-0.5) + x2 * (F(1 / 24) + x2 * (F(-1 / 720) + x2 * F(1 / 40320))))
-    s = x * (F(1) + x2 * (F(-1 / 6) + x2 * (F(1 / 120) + x2 * (F(-1 / 5040) + x2 * F(1 / 362880)))))
-    half_k = np.floor(F(0.5) * k)
-    odd = k - F(2) * half_k
-    sign = F(1) - F(2) * (half_k - F(2) * np.floor(F(0.5) * half_k))
-    ck, sk = (F(1) - odd) * sign, odd * sign
-    return ck * cm + (ck - F(1)) - sk * s, sk * cm + sk + ck * s
+def _cis_m1_conj(turns):
+    """conj(e^(2πi turns) − 1) as (re, im): with t = turns − round(turns), (−2s², −2sc), s = sin πt and c = cos πt
+    by the include's near-minimax polynomials in t²."""
+    t = turns - np.floor(turns + F(0.5))
+    u = t * t
+    s2 = t * (F(-6.28317941) + u * (F(10.3347356) + u * (F(-5.08720983) + u * F(1.11679188))))
+    c = F(0.999999953) + u * (F(-4.93479286) + u * (F(4.05841191) + u * (F(-1.33188014) + u * F(0.219696764))))
+    return F(-0.5) * s2 * s2, s2 * c
 
 
 def _sqrt(re, im):
-    """Principal square root for im ≥ 0 (a step picks the larger part, as the include does)."""
+    """Principal square root for im ≥ 0 (a select picks the larger part, as the include does)."""
     h = np.sqrt(np.maximum(F(0.5) * (np.hypot(re, im) + np.abs(re)), F(1e-30)))
     lo = F(0.5) * im / h
-    t = (re >= 0).astype(F)
-    return t * h + (F(1) - t) * lo, t * lo + (F(1) - t) * h
+    right = re >= 0
+    return np.where(right, h, lo), np.where(right, lo, h)
 
 
-def _pol(y1, y2, p, q, em1, beta):
-    """One polarization: (c0, f, w) as lutbake_rt_pol computes them (complex values as (re, im) pairs)."""
-    inv = F(1) / (y1 + y2)
-    a = (y1 - y2) * inv
-    ea = F(4) * y1 * y2 * inv * inv
-    pq = (p[0] + q[0], p[1] + q[1])
-    n = F(1) / (pq[0] * pq[0] + pq[1] * pq[1])
-    scale = F(2) * a * n
-    at2 = (scale * (q[0] * pq[0] + q[1] * pq[1]), scale * (q[1] * pq[0] - q[0] * pq[1]))
-    eb = np.maximum(F(4) * (p[0] * q[0] + p[1] * q[1]) * n, F(0))
-    eq = ea / np.maximum(ea + a * a * eb, F(1e-30))
-    c0 = a * a + (F(1) - eb) * ea * eq
-    ab = (a - at2[0], -at2[1])
-    zeta = (F(2) * y1 * inv - at2[0] + (ab[0] * em1[0] - ab[1] * em1[1]), -at2[1] + (ab[0] * em1[1] + ab[1] * em1[0]))
+def _face(y1, y2):
+    """Interface 1-2 of one polarization: (a, −a/2, 1 + a, 1 − a², a²) as lutbake_rt_face computes them."""
+    i2 = F(2) / (y1 + y2)
+    u1 = y1 * i2
+    a = u1 - F(1)
+    return {"a": a, "na": F(-0.5) * a, "u1": u1, "ea": u1 * (y2 * i2), "a2": a * a}
+
+
+def _pol(face, p, q, pq, film):
+    """One polarization: (c0, the read's weights (4 columns), Re of its white share, w in texels) as lutbake_rt_pol
+    computes them, from conj(ζ) (complex values as (re, im) pairs)."""
+    n4 = F(4) / (pq[0] * pq[0] + pq[1] * pq[1])
+    scale = face["na"] * n4
+    nat2 = (scale * (q[0] * pq[0] + q[1] * pq[1]), scale * (q[0] * pq[1] - q[1] * pq[0]))
+    eb = np.maximum((p[0] * q[0] + p[1] * q[1]) * n4, F(0))
+    eq = face["ea"] / np.maximum(face["ea"] + face["a2"] * eb, F(1e-30))
     kr = eb * eq
-    kz = kr / np.maximum(zeta[0] * zeta[0] + zeta[1] * zeta[1], F(1e-30))
-    f = (kr - kz * zeta[0], kz * zeta[1])
-    num = (beta - zeta[0], -zeta[1])
-    den = (beta + (F(1) - beta) * zeta[0], (F(1) - beta) * zeta[1])
-    dd = np.maximum(den[0] * den[0] + den[1] * den[1], F(1e-30))
-    w = (
-        np.clip((num[0] * den[0] + num[1] * den[1]) / dd, F(-1), F(1)),
-        np.clip((num[1] * den[0] - num[0] * den[1]) / dd, F(-1), F(1)),
-    )
-    return c0, f, w
+    c0 = face["a2"] + face["ea"] * (eq - kr)
+    ab, em = (face["a"] + nat2[0], nat2[1]), film["em1c"]
+    zc = (face["u1"] + nat2[0] + (ab[0] * em[0] - ab[1] * em[1]), nat2[1] + (ab[0] * em[1] + ab[1] * em[0]))
+    kz = kr / np.maximum(zc[0] * zc[0] + zc[1] * zc[1], F(1e-30))
+    g = (kr - kz * zc[0], kz * zc[1])
+    g1 = (g[0] * film["xt"], g[1] * film["xt"])
+    weights = np.stack([g[0] - g1[0], g[1] - g1[1], g1[0], g1[1]], axis=1)
+    den = (film["beta"] + film["alpha"] * zc[0], film["alpha"] * zc[1])
+    mob = ((film["beta"] - zc[0]) * den[0] - zc[1] * den[1], film["mob_im"] * zc[1])
+    r = film["half"] / np.maximum(den[0] * den[0] + den[1] * den[1], F(1e-30))
+    w = (np.clip(mob[0] * r, -film["half"], film["half"]), np.clip(mob[1] * r, -film["half"], film["half"]))
+    return c0, weights, g[0], w
 
 
 def _film(meta, cos_theta, thickness_nm, eta1, eta2):
@@ -80,32 +78,42 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     c1 = np.clip(cos_theta, F(0), F(1))
     e1c = eta1 * c1
     g2 = np.sqrt(np.maximum((eta2 - eta1) * (eta2 + eta1) + e1c * e1c, F(1e-30)))
-    x = F(2) * thickness_nm * g2
-    turns = F(t["nu0_per_nm"]) * x
-    em1 = _cis_m1(turns - np.floor(turns))
-    beta = F(2) * x / (F(2) * x + F(t["zoom_nm"]))
+    h = g2 / (eta2 * eta2)
+    xh = thickness_nm * g2
+    quarter_zoom = F(0.25 * t["zoom_nm"])
+    inv = F(1) / (xh + quarter_zoom)
+    beta = xh * inv
     last = F(t["slices"] - 1)
-    s = np.sqrt(np.minimum(x / F(t["x_max_nm"]), F(1))) * last
-    j = np.minimum(np.floor(s), last - F(1))
-    tiles = F(t["tiles_per_row"])
-    row = np.floor(j / tiles)
-    centre = ((j - row * tiles + F(0.5)) * F(t["nodes"]), (row + F(0.5)) * F(t["nodes"]))  # texels
-    return {"c1": c1, "g2": g2, "em1": em1, "beta": beta, "xt": s - j, "centre": centre}
+    s = np.minimum(np.sqrt(xh * F(2 * float(last) ** 2 / t["x_max_nm"])), last - F(1 / 4096))
+    j = np.floor(s)
+    tile = (j + F(0.5)) * F(1 / t["tiles_per_row"])
+    nodes = F(t["nodes"])
+    centre = ((tile - np.floor(tile)) * F(t["tiles_per_row"] * t["nodes"]), np.floor(tile) * nodes + F(0.5) * nodes)
+    return {
+        "e1c": e1c,
+        "g2": g2,
+        "h": h,
+        "face_s": _face(e1c, g2),
+        "face_p": _face(c1, eta1 * h),
+        "em1c": _cis_m1_conj(xh * F(2 * t["nu0_per_nm"])),
+        "beta": beta,
+        "alpha": quarter_zoom * inv,
+        "mob_im": beta * (F(2) - beta),
+        "half": F(0.5 * (t["nodes"] - 1)),
+        "xt": s - j,
+        "centre": centre,  # texels
+    }
 
 
 def _base(film, eta1, eta2, eta3, kappa3):
-    """((c0_s + c0_p)/2, (f, w) for s, (f, w) for p) over one base index per point."""
-    e1c = eta1 * film["c1"]
+    """Both polarizations' (c0, weights, white share, w) over one base index per point."""
     ek = F(2) * eta3 * kappa3
-    g3 = _sqrt((eta3 - eta1) * (eta3 + eta1) - kappa3 * kappa3 + e1c * e1c, ek)
-    e22 = eta2 * eta2
+    g3 = _sqrt((eta3 - eta1) * (eta3 + eta1) - kappa3 * kappa3 + film["e1c"] * film["e1c"], ek)
     g2 = film["g2"]
-    c0s, fs, ws = _pol(e1c, g2, (g2, F(0) * g2), g3, film["em1"], film["beta"])
-    n3 = ((eta3 - kappa3) * (eta3 + kappa3), ek)
-    c0p, fp, wp = _pol(
-        e22 * film["c1"], eta1 * g2, (g2 * n3[0], g2 * n3[1]), (e22 * g3[0], e22 * g3[1]), film["em1"], film["beta"]
-    )
-    return F(0.5) * (c0s + c0p), (fs, ws), (fp, wp)
+    s = _pol(film["face_s"], (g2, F(0) * g2), g3, (g2 + g3[0], g3[1]), film)
+    pn = (film["h"] * ((eta3 - kappa3) * (eta3 + kappa3)), film["h"] * ek)
+    p = _pol(film["face_p"], pn, g3, (pn[0] + g3[0], pn[1] + g3[1]), film)
+    return s, p
 
 
 def _bilinear(image, x, y, bits):
@@ -126,17 +134,13 @@ def _bilinear(image, x, y, bits):
     return top * (F(1) - ty) + bottom * ty
 
 
-def _read(
-    table: RuntimeTable, film: dict, w: tuple[np.ndarray, np.ndarray], band: npt.ArrayLike, bits: int | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """V (re, im) of channel band ``band`` (an array or int) at table coordinate w, between the pair's slices."""
+def _read(table: RuntimeTable, film: dict, pol: tuple, band: npt.ArrayLike, bits: int | None) -> np.ndarray:
+    """One polarization's read of channel band ``band`` (an array or int) at its w, weighted: Re(K e^(iθ) V / ζ)."""
     t = table.meta["table"]
-    half = F(0.5 * (t["nodes"] - 1))
-    x = film["centre"][0] + w[0] * half
-    y = film["centre"][1] + w[1] * half + np.asarray(band, F) * F(t["band_rows"] * t["nodes"])
-    v = _bilinear(table.image, x, y, bits)
-    xt = film["xt"]
-    return v[:, 0] + (v[:, 2] - v[:, 0]) * xt, v[:, 1] + (v[:, 3] - v[:, 1]) * xt
+    w = pol[3]
+    x = film["centre"][0] + w[0]
+    y = film["centre"][1] + w[1] + np.asarray(band, F) * F(t["band_rows"] * t["nodes"])
+    return (_bilinear(table.image, x, y, bits) * pol[1]).sum(axis=1)
 
 
 def runtime_colour(
@@ -165,12 +169,11 @@ def runtime_colour(
         else [(np.broadcast_to(eta3, (n,)), np.broadcast_to(kappa3, (n,)))]
     )
     for c, (e3, k3) in enumerate(bases):
-        c0, (fs, ws), (fp, wp) = _base(film, args[1], args[2], e3, k3)
+        s, p = _base(film, args[1], args[2], e3, k3)
+        share = F(0.5) * (s[0] + p[0]) + s[2] + p[2]
         for band in [c] if per_channel else range(3):
-            vs, vp = _read(table, film, ws, band, filter_bits), _read(table, film, wp, band, filter_bits)
-            colour[:, band] = (
-                (c0 + fs[0] + fp[0]) * white[band] + fs[0] * vs[0] - fs[1] * vs[1] + fp[0] * vp[0] - fp[1] * vp[1]
-            )
+            departure = _read(table, film, s, band, filter_bits) + _read(table, film, p, band, filter_bits)
+            colour[:, band] = share * white[band] + departure
     return colour.astype(float)
 
 

@@ -49,6 +49,7 @@ from lutbake.scene.gltf.extensions import (
     dielectric_f0,
 )
 from lutbake.scene.gltf.mapping import read_metal_mapping
+from lutbake.scene.gltf.scoring import served_materials
 from lutbake.scene.model import Base, BasePath, Scene, SceneMaterial, check_material_names
 
 if TYPE_CHECKING:
@@ -85,7 +86,8 @@ def load_gltf_scene(
         The target p99 ΔE00 of every slice (as a scene file's ``max_de``).
     routes : sequence of str
         'NAME or INDEX=runtime|bake' per glTF material (`--route`), over its ``extras.lutbake.route``:
-        ``runtime`` serves its parts from the runtime table, unbaked (a named metal stays baked).
+        ``runtime`` serves its parts from the runtime table, unbaked (a named metal stays baked); ``bake`` keeps
+        them baked where they miss their target (else such a part goes to the runtime table: routes.py).
 
     Returns
     -------
@@ -152,8 +154,12 @@ def _iridescent_materials(
         if index in used and record["film"] is not None:
             parts = _Parts(reader, record, named.get(index) or reader.extras_metal(), default)
             route = routes.get(index) or reader.extras_route()
+            by = "--route" if index in routes else "extras.lutbake.route"
             if route == "runtime":
-                _to_runtime_table(parts, "--route" if index in routes else "extras.lutbake.route")
+                _to_runtime_table(parts, by)
+            elif route == "bake":  # forced: the bake keeps it even where it misses its target (exit 1 then)
+                for info in parts.record["parts"].values():
+                    info.update(route="bake", route_by=by)
             materials += parts.materials
             for name in reader.unbaked_extensions():
                 notes.setdefault(name, []).append(reader.label)
@@ -202,7 +208,7 @@ def _to_runtime_table(parts: _Parts, by: str) -> None:
             parts.reader.warn(f"{by} runtime: the named metal {info['named']!r} has no (η3, κ3) for it: baked")
             continue
         info.update(route="runtime", route_by=by)
-        unbaked = set(_served(info))
+        unbaked = set(served_materials(info))
         parts.materials = [m for m in parts.materials if m.name not in unbaked]
 
 
@@ -384,7 +390,7 @@ class _Parts:
         kappa3 = info.get("kappa3", [info["base"][1]] * 3 if "base" in info else None)
         matched = [_AMBIENT_INDEX, *(eta3 or [None])]
         if self.record["film"] == _AMBIENT_INDEX and set(matched) == {_AMBIENT_INDEX} and not any(kappa3 or [1]):
-            self.materials = [m for m in self.materials if m.name not in _served(info)]
+            self.materials = [m for m in self.materials if m.name not in served_materials(info)]
             info = {**info, "constant": [0.0, 0.0, 0.0]}
             self.record["zero_term"] = f"the {part} part: vacuum over vacuum, film term 0 (nothing to bake)"
         self.record["parts"][part] = info
@@ -515,11 +521,6 @@ def _baked(part: dict[str, Any]) -> bool:
     return part.get("route") != "runtime" and "constant" not in part
 
 
-def _served(part: dict[str, Any]) -> list[str]:
-    """The scene materials serving one part: its one ``material``, or its ``channels``."""
-    return [part["material"]] if "material" in part else list(part["channels"])
-
-
 def _material_stem(index: int, name: object) -> str:
     """'m<index>' and the glTF name as far as it is an identifier (ASCII, '-' for the rest), ≤ 40 chars."""
     slug = re.sub(r"[^A-Za-z0-9_]+", "-", str(name or "")).strip("-")[:30]
@@ -536,7 +537,7 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
     rows = []
     for r in scene.source["materials"]:
         parts = r["parts"]
-        served = [name for part in parts.values() if _baked(part) for name in _served(part)]
+        served = [name for part in parts.values() if _baked(part) for name in served_materials(part)]
         runtime = [name for name, part in parts.items() if part.get("route") == "runtime"]
         slices = [n for n in dict.fromkeys(served) if kind[n].kind == "slice"]
         luts = [f"{kind[n].id}.exr" for n in dict.fromkeys(served) if kind[n].kind == "lut"]

@@ -33,18 +33,14 @@ from lutbake.io.progress import Progress, no_progress
 from lutbake.io.strictjson import dumps
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.approximations import khr_iridescence_rgb
-from lutbake.modes.runtime.model import runtime_rgb
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.metals import MAPPINGS, conductor
-from lutbake.physics.points import FilmPoints
+from lutbake.scene.gltf.scoring import Bases, Sampler, film_points, film_stacks, part_colours, per_channel
 from lutbake.spectral.reference import reference_colour
 
-__all__ = ["RECEIPT_FILES", "gltf_receipts", "write_receipts"]
+__all__ = ["RECEIPT_FILES", "gltf_receipts", "served_by", "write_receipts"]
 
 RECEIPT_FILES = ("receipts.json", "receipts.html")
-
-# A channel's base as FilmPoints.build keywords: {eta3, kappa3} (numbers or arrays) or {base: a name}.
-Bases = dict[str, Any]
 
 
 def gltf_receipts(
@@ -63,9 +59,10 @@ def gltf_receipts(
     if not isinstance(source, dict) or source.get("kind") != "gltf":
         raise ValueError(f"{str(path)!r} is not the manifest of a glTF bake (lutbake bake --gltf)")
     rng = np.random.default_rng(seed)
+    sampler_of = _manifest_samplers(manifest, path.parent)
     rows = []
     for k, record in enumerate(source["materials"]):
-        rows.append(_receipt(record, manifest, path.parent, n_points, rng))
+        rows.append(_receipt(record, sampler_of, n_points, rng))
         progress(k + 1, len(source["materials"]), f"material {record['gltf_index']}")
     receipts = {
         "asset": source["asset"],
@@ -81,7 +78,7 @@ def gltf_receipts(
 
 
 def _receipt(
-    record: dict[str, Any], manifest: dict[str, Any], folder: Path, n: int, rng: np.random.Generator
+    record: dict[str, Any], sampler_of: Callable[[str], Sampler], n: int, rng: np.random.Generator
 ) -> dict[str, Any]:
     row: dict[str, Any] = {
         k: record.get(k)
@@ -92,16 +89,13 @@ def _receipt(
     row["parts"] = {}
     if record["film"] is None:
         return row
-    cos_t = rng.uniform(0.0, 1.0, n) ** 2
-    d_lo, d_hi = record["thickness_nm"]
-    thickness = rng.uniform(d_lo, d_hi, n)
+    cos_t, thickness = points = film_points(record, n, rng)
     for part, info in record["parts"].items():
-        bases, baked, f0 = _part(info, manifest, folder, record["film"], cos_t, thickness, rng)
-        stacks = _stacks(record["film"], cos_t, thickness, bases)
-        truth = _per_channel(lambda s: reference_colour(s).values, stacks)
+        colours = part_colours(record["film"], info, sampler_of, points, rng, lambda s: reference_colour(s).values)
+        bases, truth, f0 = colours.bases, colours.truth, colours.f0
         threejs, model = _gltf_model(record["film"], cos_t, thickness, f0)
         costs: dict[str, Mapping[str, float | str]] = {
-            "baked": _stats(baked, truth),
+            "baked": _stats(colours.served, truth),
             "threejs": _stats(threejs, truth),
             "threejs_vs_gltf_model": _stats(threejs, model),
             "gltf_model_vs_physics": _stats(model, truth),
@@ -116,62 +110,18 @@ def _receipt(
     return row
 
 
-def _part(
-    info: dict[str, Any],
-    manifest: dict[str, Any],
-    folder: Path,
-    eta2: float,
-    cos_t: np.ndarray,
-    thickness: np.ndarray,
-    rng: np.random.Generator,
-) -> tuple[list[Bases], np.ndarray, list[Any]]:
-    """(base keywords per channel, what the engine reads, the glTF material's F0 per channel) of one part at
-    the points."""
-    bases, f0 = _bases(info, cos_t.size, rng)
-    return bases, _served_rgb(info, manifest, folder, _stacks(eta2, cos_t, thickness, bases)), f0
+def _manifest_samplers(manifest: dict[str, Any], folder: Path) -> Callable[[str], Sampler]:
+    """Scene material name -> its table's sampler, each file beside the manifest loaded once."""
+    loaded: dict[str, Atlas | Lut] = {}
 
+    def sampler_of(name: str) -> Sampler:
+        entry = manifest["materials"][name]
+        if entry["file"] not in loaded:
+            loaded[entry["file"]] = (Lut if entry["kind"] == "lut" else Atlas).load(folder / entry["file"])
+        table = loaded[entry["file"]]
+        return table.sample if isinstance(table, Lut) else lambda stack: table.sample(name, stack)
 
-def _bases(info: dict[str, Any], n: int, rng: np.random.Generator) -> tuple[list[Bases], list[Any]]:
-    """(FilmPoints.build base keywords per channel, the glTF material's F0 per channel): a texture-driven
-    metal's F0 drawn uniform up to each channel's reach, mapped through the manifest's table."""
-    if "material" in info:  # one base for every channel
-        base = {"eta3": info["base"][0], "kappa3": info["base"][1]}
-        return [base] * 3, info.get("f0") or [_f0(info["base"][0], info["base"][1])] * 3
-    if info.get("texture"):
-        table = info["table"]
-        f0 = [rng.uniform(0.0, top, n) for top in info["f0_max"]]
-        return [
-            {"eta3": np.interp(f, table["f0"], table["eta3"]), "kappa3": np.interp(f, table["f0"], table["kappa3"])}
-            for f in f0
-        ], f0
-    if info.get("mapping") == "named":
-        return [{"base": info["named"]}] * 3, info["f0"]
-    unique: dict[tuple[float, float], Bases] = {}
-    return [unique.setdefault((e, k), {"eta3": e, "kappa3": k}) for e, k in zip(info["eta3"], info["kappa3"])], info[
-        "f0"
-    ]
-
-
-def _served_rgb(info: dict[str, Any], manifest: dict[str, Any], folder: Path, stacks: list[FilmPoints]) -> np.ndarray:
-    """What the engine reads at the stacks, per channel: the runtime table (a part routed to it), the 4D LUT,
-    or the atlas slice(s)."""
-    if "constant" in info:  # vacuum over vacuum: nothing reflects
-        return np.broadcast_to(np.asarray(info["constant"], float), (stacks[0].cos_theta.size, 3))
-    if info.get("route") == "runtime":
-        return _per_channel(runtime_rgb, stacks)
-    names = [info["material"]] * 3 if "material" in info else info["channels"]
-    entries = [manifest["materials"][name] for name in names]
-    if entries[0]["kind"] == "lut":
-        return _per_channel(Lut.load(folder / entries[0]["file"]).sample, stacks)
-    atlas = Atlas.load(folder / entries[0]["file"])
-    if len(set(names)) == 1:
-        return _per_channel(lambda s: atlas.sample(names[0], s), stacks)
-    return np.stack([atlas.sample(name, stacks[c])[:, c] for c, name in enumerate(names)], axis=-1)
-
-
-def _f0(eta: Any, kappa: Any) -> Any:
-    """Normal-incidence reflectance under air of a base η + iκ."""
-    return ((eta - 1.0) ** 2 + kappa**2) / ((eta + 1.0) ** 2 + kappa**2)
+    return sampler_of
 
 
 def _gltf_model(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, f0: list[Any]) -> tuple[np.ndarray, np.ndarray]:
@@ -179,15 +129,15 @@ def _gltf_model(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, f0: list[
     Both read only F0 from the base; a base η3 = 1, κ3 = 2√(F0/(1 − F0)) carries any F0 < 1 inside lutbake's
     domain (F0 clamped to 0.9999, as three.js clamps it)."""
     bases: dict[int, Bases] = {}
-    per_channel = []
+    channel_bases = []
     for value in f0:
         if id(value) not in bases:
             clipped = np.clip(np.asarray(value, float), 0.0, 0.9999)
             bases[id(value)] = {"eta3": 1.0, "kappa3": 2.0 * np.sqrt(clipped / (1.0 - clipped))}
-        per_channel.append(bases[id(value)])
-    stacks = _stacks(eta2, cos_t, thickness, per_channel)
-    model = _per_channel(lambda s: khr_iridescence_rgb(s, as_specified=True), stacks)
-    return _per_channel(khr_iridescence_rgb, stacks), model
+        channel_bases.append(bases[id(value)])
+    stacks = film_stacks(eta2, cos_t, thickness, channel_bases)
+    model = per_channel(lambda s: khr_iridescence_rgb(s, as_specified=True), stacks)
+    return per_channel(khr_iridescence_rgb, stacks), model
 
 
 def _other_truth(
@@ -203,29 +153,22 @@ def _other_truth(
                 "eta3": eta if np.ndim(b["eta3"]) else eta[0],
                 "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0],
             }
-    stacks = _stacks(eta2, cos_t, thickness, [other[id(b)] for b in bases])
-    return _per_channel(lambda s: reference_colour(s).values, stacks)
-
-
-def _stacks(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, bases: list[Bases]) -> list[FilmPoints]:
-    """One FilmPoints per channel; channels sharing a base (the same dict) share one object."""
-    built: dict[int, FilmPoints] = {}
-    for b in bases:
-        if id(b) not in built:
-            built[id(b)] = FilmPoints.build(eta2=eta2, cos_theta=cos_t, thickness_nm=thickness, **b)
-    return [built[id(b)] for b in bases]
-
-
-def _per_channel(colour: Callable[[FilmPoints], np.ndarray], stacks: list[FilmPoints]) -> np.ndarray:
-    """RGB with channel c from ``colour(stacks[c])`` (one evaluation when the stacks are one)."""
-    if all(s is stacks[0] for s in stacks):
-        return colour(stacks[0])
-    return np.stack([colour(s)[:, c] for c, s in enumerate(stacks)], axis=-1)
+    stacks = film_stacks(eta2, cos_t, thickness, [other[id(b)] for b in bases])
+    return per_channel(lambda s: reference_colour(s).values, stacks)
 
 
 def _stats(rgb: np.ndarray, truth: np.ndarray) -> dict[str, float]:
     de = delta_e00(rgb, truth)
     return {"de00_p99": float(np.percentile(de, 99)), "de00_max": float(de.max()), "de00_mean": float(de.mean())}
+
+
+def served_by(part: dict[str, Any]) -> str:
+    """What serves a part and, where the bake or the user chose it, why."""
+    if "constant" in part:
+        return "the constant 0 (nothing to bake)"
+    route = "the runtime table" if part.get("route") == "runtime" else "the bake's tables"
+    why = part.get("route_why") or (f"forced by {part['route_by']}" if part.get("route_by") else "")
+    return f"{route} ({why})" if why else route
 
 
 _HTML_COLUMNS = ("baked", "threejs", "threejs_vs_gltf_model", "gltf_model_vs_physics", "other_mapping")
@@ -273,7 +216,7 @@ def _html(receipts: dict[str, Any]) -> str:
             parts.append(f"<p>warning: {esc(w)}</p>")
         if r["parts"]:
             parts.append(
-                "<table><tr><th>part</th><th>mapping</th><th>baked p99 / max</th>"
+                "<table><tr><th>part</th><th>mapping</th><th>served by</th><th>served p99 / max</th>"
                 "<th>three.js p99 / max</th><th>three.js vs glTF's model</th><th>glTF's model vs the physics</th>"
                 "<th>other mapping p99 / max</th></tr>"
             )
@@ -283,7 +226,7 @@ def _html(receipts: dict[str, Any]) -> str:
                     for c in (p["de00"].get(k) for k in _HTML_COLUMNS)
                 ]
                 parts.append(
-                    f"<tr><td>{esc(name)}</td><td>{esc(str(p.get('mapping', 'ior')))}</td>"
+                    f"<tr><td>{esc(name)}</td><td>{esc(str(p.get('mapping', 'ior')))}</td><td>{esc(served_by(p))}</td>"
                     + "".join(f"<td>{c}</td>" for c in cells)
                     + "</tr>"
                 )

@@ -1,0 +1,127 @@
+"""Which route serves each part of a glTF bake: the bake's own tables, or the runtime table when they cannot
+meet the target (issue 34 item 3, docs/gltf.md "Routes").
+
+After the jobs run, every part is checked on the colour the engine composes, by the receipt's own scoring
+(lutbake/scene/gltf/scoring.py: ``part_colours``) at `report`'s 1,000 points, held to the bound a fresh
+report's p99 stays under at 99 % of seeds (quality.refine.p99_bound): a part whose channels come from
+different slices, or from a 4D LUT read at each channel's F0, can miss where each slice meets it. A single
+slice's part takes its slice's own verdict (refined on a superset of the receipt's points). A part that
+misses is routed to the runtime table (``route`` runtime, ``route_by`` auto, ``route_why``), checked there,
+and printed one line each; a named metal has no (η3, κ3) for the table and stays baked, unmet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from lutbake.physics.colorimetry import delta_e00
+from lutbake.quality.refine import REPORT_POINTS, p99_bound
+from lutbake.scene.gltf.scoring import Sampler, film_points, part_colours, served_materials
+from lutbake.scene.model import Scene
+
+__all__ = ["choose_routes", "composed_parts", "route_lines", "source_unmet", "CHECK_SEED"]
+
+CHECK_SEED = 0  # the bake's check points: fixed, so the same inputs give the same routes and bytes
+AUTO = "auto"
+
+
+def choose_routes(
+    scene: Scene,
+    met: Callable[[str], bool],
+    sampler_of: Callable[[str], Sampler],
+    truth_of: Callable[[float], Sampler],
+) -> set[str]:
+    """Check every baked part of ``scene``'s glTF source (``met(scene material)``: its job's own verdict;
+    ``sampler_of``: what the engine reads; ``truth_of(film η2)``: the bake's integrator's colour), recording
+    ``target_check`` on the parts checked on their composed colour and routing the misses to the runtime
+    table; the scene materials no longer served by the bake."""
+    assert scene.source is not None  # a glTF scene's
+    routed: set[str] = set()
+    composed = {id(info) for _, info in composed_parts(scene.source)}
+    for record, info in _baked_parts(scene.source):
+        if id(info) in composed:
+            check = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
+            info["target_check"] = check
+            why = None if check["met"] else _composed_why(check, scene.max_de)
+        else:
+            missed = [m for m in served_materials(info) if not met(m)]
+            why = f"its slice {missed[0]} misses p99 ΔE00 {scene.max_de:g} at the resolution cap" if missed else None
+        # Forced to the bake, or a named metal (no (η3, κ3) for the table): it stays, unmet if it misses.
+        if why is None or info.get("route") == "bake" or info.get("mapping") == "named":
+            continue
+        info.update(route="runtime", route_by=AUTO, route_why=why)
+        info["target_check"] = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
+        routed.update(served_materials(info))
+    return routed
+
+
+def _baked_parts(source: dict[str, Any]) -> Iterator[tuple[dict[str, Any], dict[str, Any]]]:
+    """(material record, part) of every part the bake serves."""
+    for record in source["materials"]:
+        for info in record["parts"].values() if record["film"] is not None else ():
+            if info.get("route") != "runtime" and "constant" not in info:
+                yield record, info
+
+
+def composed_parts(source: dict[str, Any]) -> list[tuple[dict[str, Any], dict[str, Any]]]:
+    """(material record, part) of the baked parts whose colour is composed per channel from different tables or
+    bases: a texture-driven metal's 4D LUT, or a slice per channel."""
+    return [
+        (record, info)
+        for record, info in _baked_parts(source)
+        if info.get("texture") or len(set(served_materials(info))) > 1
+    ]
+
+
+def _check(
+    record: dict[str, Any], info: dict[str, Any], sampler_of: Callable[[str], Sampler], truth: Sampler, max_de: float
+) -> dict[str, Any]:
+    """The part's composed colour scored as the receipt scores it, at REPORT_POINTS points of CHECK_SEED."""
+    rng = np.random.default_rng(CHECK_SEED)
+    colours = part_colours(record["film"], info, sampler_of, film_points(record, REPORT_POINTS, rng), rng, truth)
+    de = delta_e00(colours.served, colours.truth)
+    bound = p99_bound(de)
+    return {
+        "served_by": info.get("route", "bake"),
+        "points": REPORT_POINTS,
+        "de00_p99": float(np.percentile(de, 99)),
+        "de00_p99_bound": bound,
+        "met": bound <= max_de,
+    }
+
+
+def _composed_why(check: dict[str, Any], max_de: float) -> str:
+    return (
+        f"its composed colour (a table per channel) reaches p99 ΔE00 {check['de00_p99']:.3f} (bound "
+        f"{check['de00_p99_bound']:.3f} at {check['points']:,} points) > the target {max_de:g}"
+    )
+
+
+def route_lines(source: dict[str, Any] | None) -> list[str]:
+    """One line per part the bake routed to the runtime table: the glTF material, the part, why."""
+    if source is None or source.get("kind") != "gltf":
+        return []
+    return [
+        f"materials[{r['gltf_index']}] {str(r['name'] or '')!r}: the {name} part is served by the runtime table: "
+        f"{info['route_why']}"
+        for r in source["materials"]
+        for name, info in r["parts"].items()
+        if info.get("route_by") == AUTO
+    ]
+
+
+def source_unmet(source: dict[str, Any] | None) -> dict[str, dict[str, float]]:
+    """Parts whose composed check missed on the route that serves them: {label: p99, bound}."""
+    if source is None or source.get("kind") != "gltf":
+        return {}
+    unmet = {}
+    for r in source["materials"]:
+        for name, info in r["parts"].items():
+            check = info.get("target_check", {"met": True})
+            if not check["met"]:
+                label = f"materials[{r['gltf_index']}] {str(r['name'] or '')!r} {name} part"
+                unmet[label] = {k: check[k] for k in ("de00_p99", "de00_p99_bound")}
+    return unmet

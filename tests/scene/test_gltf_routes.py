@@ -1,0 +1,84 @@
+"""Routes of a glTF bake (issue 34 item 3): the bake's target check scores a part's composed colour as its
+receipt does, so that the bake never calls met what the receipt fails; a part that misses goes to the runtime
+table by itself (manifest, one printed line, receipt), unless the user forces the bake."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+from gltf_assets import document, iridescent, write_gltf
+
+from lutbake.scene.gltf.receipt import gltf_receipts
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "lutbake.cli", *map(str, args)], capture_output=True, text=True)
+
+
+def coloured_specular(**extra):
+    """A dielectric base whose KHR_materials_specular colour makes each channel's F0 differ: three slices,
+    each meeting p99 1.0 on its own, whose composed colour reaches p99 1.02-1.13 (issue 34)."""
+    material = iridescent(ior=1.35, d_max=420, base_ior=1.6)
+    material["extensions"]["KHR_materials_specular"] = {"specularFactor": 0.7, "specularColorFactor": [1.0, 0.4, 2.5]}
+    return {**material, **extra}
+
+
+@pytest.fixture(scope="module")
+def baked(tmp_path_factory):
+    """The coloured specular twice, once forced to the bake (extras.lutbake.route), once left to lutbake: (the
+    folder, the bake's process)."""
+    folder = tmp_path_factory.mktemp("routes")
+    forced = coloured_specular(name="forced", extras={"lutbake": {"route": "bake"}})
+    gltf = write_gltf(folder / "routes.gltf", document([forced, coloured_specular(name="free")]))
+    return folder, cli("bake", "--gltf", gltf, "--out", folder / "out")
+
+
+def parts(folder):
+    manifest = json.loads((folder / "out" / "routes.json").read_text())
+    return manifest, [r["parts"]["dielectric"] for r in manifest["source"]["materials"]]
+
+
+def test_a_part_that_misses_goes_to_the_runtime_table_recorded_printed_and_receipted(baked):
+    """The part left to lutbake: each channel's slice met the target, its composed colour did not, so the
+    runtime table serves it: route runtime, route_by auto and why in the manifest's source, no manifest entry
+    for its slices (engines then serve the part from the runtime table), its check rescored on the table, one
+    stderr line naming the material and why (again when the set is up to date), the receipt's JSON and HTML
+    say so. The forced part stays baked and unmet: exit 1
+    naming it (a bake never reports a target met that its receipt fails)."""
+    folder, proc = baked
+    manifest, (forced, free) = parts(folder)
+    assert free["route"] == "runtime" and free["route_by"] == "auto" and "composed colour" in free["route_why"]
+    assert free["target_check"]["served_by"] == "runtime" and free["target_check"]["met"]
+    assert all(manifest["materials"][n]["target_met"] for n in forced["channels"])  # each slice alone: met
+    assert not set(free["channels"]) & set(manifest["materials"])  # engines read the runtime table for it
+    assert forced["route"] == "bake" and forced["target_check"]["served_by"] == "bake"
+    assert not forced["target_check"]["met"] and forced["target_check"]["de00_p99_bound"] > 1.0
+    lines = [line for line in proc.stderr.splitlines() if "runtime table" in line]
+    assert lines == [
+        "lutbake: routes.gltf: materials[1] 'free': the dielectric part is served by the runtime table: "
+        + free["route_why"]
+    ]
+    assert proc.returncode == 1 and "materials[0] 'forced' dielectric part p99" in proc.stderr.splitlines()[-1]
+    again = cli("bake", "--gltf", folder / "routes.gltf", "--out", folder / "out")
+    assert "up to date" in again.stdout and lines[0] in again.stderr.splitlines() and again.returncode == 1
+    report = cli("report", folder / "out" / "routes.json", "--points", 40, "--out", folder / "receipts")
+    assert "(the runtime table (its composed colour" in report.stdout
+    assert "the runtime table (its composed colour" in (folder / "receipts" / "receipts.html").read_text()
+
+
+@pytest.mark.slow
+def test_a_part_the_bake_calls_met_passes_its_receipt_at_every_seed(baked):
+    """The seed sweep that would have caught the composed-colour miss: at 1,000 points, as `report` scores, a part
+    the bake calls met passes its receipt at every seed; the forced part, whose slices each call themselves met
+    (what the bake used to report), fails its receipt at some seed, and the bake calls it unmet."""
+    folder, _ = baked
+    manifest, checked = parts(folder)
+    verdicts = [part["target_check"]["met"] for part in checked]
+    assert verdicts == [False, True]
+    assert all(manifest["materials"][n]["target_met"] for n in checked[0]["channels"])
+    served = []
+    for seed in (1, 2, 3):
+        receipts = gltf_receipts(folder / "out" / "routes.json", 1000, seed)
+        served.append([r["parts"]["dielectric"]["de00"]["baked"]["de00_p99"] for r in receipts["materials"]])
+    assert all(p99[1] <= 1.0 for p99 in served) and any(p99[0] > 1.0 for p99 in served), served
