@@ -163,52 +163,65 @@ def _table(path: Path):
 _TABLES: dict = {}
 
 
-def baked_term(record: dict, manifest: dict, folder: Path, rows: np.ndarray) -> np.ndarray:
-    """The film term lutbake's samplers give at each row's parameters (the plugin's columns: cos θ 3,
-    thickness 4, metalness 5, base colour 7-9): (1 − m)·dielectric + m·metal, each part its constant, its
-    slice, a slice per channel, or its 4D LUT read per channel at the base its F0 table maps the colour to."""
-    from lutbake.physics.points import FilmPoints
-
-    cos, thickness, metalness, colour = rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 7:10]
+def _mix(record: dict, rows: np.ndarray, term) -> np.ndarray:
+    """(1 − m)·dielectric + m·metal at each row's metalness (column 5), each part's term(part) (n, 3)."""
     out = np.zeros((len(rows), 3))
     for name, part in record["parts"].items():
-        names = [part["material"]] if "material" in part else part.get("channels", [])
-        if "constant" in part:
-            term = np.tile(part["constant"], (len(rows), 1))
-        elif manifest["materials"][names[0]]["kind"] == "slice":
-            atlas = _table(folder / manifest["materials"][names[0]]["file"])
-            reads = [
-                atlas.sample(n, FilmPoints.build(**atlas.film_stack(n), cos_theta=cos, thickness_nm=thickness))
-                for n in names
-            ]
-            term = reads[0] if len(reads) == 1 else np.stack([reads[c][:, c] for c in range(3)], axis=1)
-        else:
-            lut = _table(folder / manifest["materials"][names[0]]["file"])
-            eta3, kappa3 = part_bases(part, colour)
-            pts = FilmPoints.build(
-                eta2=lut.eta2, cos_theta=cos[:, None], thickness_nm=thickness[:, None], eta3=eta3, kappa3=kappa3
-            )
-            term = np.diagonal(lut.sample(pts), axis1=1, axis2=2)
-        out += (1.0 - metalness if name == "dielectric" else metalness)[:, None] * term
+        out += (1.0 - rows[:, 5] if name == "dielectric" else rows[:, 5])[:, None] * term(part)
     return out
+
+
+def _runtime_part(record: dict, part: dict, table, rows: np.ndarray) -> np.ndarray:
+    """One part's film term from the runtime table's include (runtime.model): its constant, one base index,
+    or one per channel (a texture-driven metal's through its F0 table at the row's base colour)."""
+    from lutbake.modes.runtime import runtime_colour
+
+    cos, thickness, colour = rows[:, 3], rows[:, 4], rows[:, 7:10]
+    if "constant" in part:
+        return np.tile(part["constant"], (len(rows), 1))
+    bases = part["base"] if "base" in part else part_bases(part, colour)
+    return runtime_colour(table, cos, thickness, 1.0, record["film"], *bases)
+
+
+def _baked_part(part: dict, manifest: dict, folder: Path, rows: np.ndarray) -> np.ndarray:
+    """One part's film term from the bake: its slice, a slice per channel, or its 4D LUT read per channel at
+    the base its F0 table maps the row's colour to."""
+    from lutbake.physics.points import FilmPoints
+
+    cos, thickness, colour = rows[:, 3], rows[:, 4], rows[:, 7:10]
+    names = [part["material"]] if "material" in part else part["channels"]
+    table = _table(folder / manifest["materials"][names[0]]["file"])
+    if manifest["materials"][names[0]]["kind"] == "slice":
+        reads = [
+            table.sample(n, FilmPoints.build(**table.film_stack(n), cos_theta=cos, thickness_nm=thickness))
+            for n in names
+        ]
+        return reads[0] if len(reads) == 1 else np.stack([reads[c][:, c] for c in range(3)], axis=1)
+    eta3, kappa3 = part_bases(part, colour)
+    pts = FilmPoints.build(
+        eta2=table.eta2, cos_theta=cos[:, None], thickness_nm=thickness[:, None], eta3=eta3, kappa3=kappa3
+    )
+    return np.diagonal(table.sample(pts), axis1=1, axis2=2)
+
+
+def baked_term(record: dict, manifest: dict, folder: Path, rows: np.ndarray, runtime=None) -> np.ndarray:
+    """The film term the plugin serves from a bake at each row's parameters (its columns: cos θ 3, thickness
+    4, metalness 5, base colour 7-9), mixed by metalness: each part its constant, its slice(s) or 4D LUT
+    (lutbake's samplers), or, where the bake does not cover it (routed to the runtime table), the RUNTIME
+    table's include."""
+
+    def term(part: dict) -> np.ndarray:
+        entry = manifest["materials"].get(part.get("material") or part.get("channels", [None])[0])
+        if "constant" in part or entry is None or entry["kind"] == "runtime":
+            return _runtime_part(record, part, runtime, rows)
+        return _baked_part(part, manifest, folder, rows)
+
+    return _mix(record, rows, term)
 
 
 def runtime_term(record: dict, table, rows: np.ndarray) -> np.ndarray:
-    """The film term the runtime table's include gives at each row's parameters (runtime.model: one base
-    index, or one per channel), mixed by metalness as baked_term's."""
-    from lutbake.modes.runtime import runtime_colour
-
-    cos, thickness, metalness, colour = rows[:, 3], rows[:, 4], rows[:, 5], rows[:, 7:10]
-    out = np.zeros((len(rows), 3))
-    for name, part in record["parts"].items():
-        if "constant" in part:
-            term = np.tile(part["constant"], (len(rows), 1))
-        elif "base" in part:
-            term = runtime_colour(table, cos, thickness, 1.0, record["film"], *part["base"])
-        else:
-            term = runtime_colour(table, cos, thickness, 1.0, record["film"], *part_bases(part, colour))
-        out += (1.0 - metalness if name == "dielectric" else metalness)[:, None] * term
-    return out
+    """The film term the runtime table's include gives at each row's parameters, mixed by metalness."""
+    return _mix(record, rows, lambda part: _runtime_part(record, part, table, rows))
 
 
 def grid_spec(grid: dict, serves=GRID_SERVES, precision=None, samples: bool = True, cell: int = 20) -> dict:

@@ -21,7 +21,10 @@ from lutbake.scene.gltf.materials import load_gltf_scene
 from lutbake.spectral.reference import reference_colour
 
 sys.path.insert(0, str(ROOT / "bench"))
-from bench_gltf_runtime import baked_term  # noqa: E402  (the film term lutbake's samplers give at a pixel)
+from bench_gltf_runtime import baked_term, runtime_stem  # noqa: E402  (the film term the plugin serves at a pixel)
+from runtime_contract import runtime_table_files  # noqa: E402
+
+from lutbake.modes.runtime import read_runtime_table  # noqa: E402
 
 TOLERANCE = 1e-4
 
@@ -67,10 +70,16 @@ def bakes():
 
 @pytest.fixture(scope="module")
 def plugin_run(bakes, tmp_path_factory):
-    """One Chromium run over every asset: {asset: (manifest, folder, {glTF material index: samples})}."""
+    """One Chromium run over every asset, the runtime table given for the parts the bake routed to it:
+    {asset: (manifest, folder, {glTF material index: samples})}."""
     require_engine()
+    runtime = runtime_stem()
     specs = [
-        {"gltf": f"/{gltf.relative_to(ROOT)}", "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}"}
+        {
+            "gltf": f"/{gltf.relative_to(ROOT)}",
+            "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}",
+            "runtime": runtime,
+        }
         for name, (gltf, _, out) in bakes.items()
     ]
     results = run_harness("gltf", tmp_path_factory.mktemp("plugin"), specs)["results"]
@@ -116,10 +125,11 @@ def test_plugin_film_term_equals_lutbake_sample(plugin_run, asset):
     manifest, folder, result = plugin_run[asset]
     records = {r["gltf_index"]: r for r in manifest["source"]["materials"] if r["parts"]}
     assert sorted(map(int, result)) == sorted(records)  # every baked material was patched
+    table = read_runtime_table(runtime_table_files())
     for index, samples in result.items():
         assert len(samples) > 100, (asset, index)
         rows = np.array(samples)
-        error = np.abs(rows[:, :3] - baked_term(records[int(index)], manifest, folder, rows)).max()
+        error = np.abs(rows[:, :3] - baked_term(records[int(index)], manifest, folder, rows, table)).max()
         assert error <= TOLERANCE, (asset, index, error)
 
 

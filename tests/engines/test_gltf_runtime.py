@@ -92,9 +92,13 @@ def test_every_iridescent_material_is_served_as_asked(run):
         samples, served = _main(run, asset)
         assert sorted(map(int, samples)) == sorted(records), asset
         for index, record in records.items():
-            kinds = {
-                part: bake["manifest"]["materials"][info.get("material") or info["channels"][0]]["kind"]
+            entries = {
+                part: bake["manifest"]["materials"].get(info.get("material") or info["channels"][0], {})
                 for part, info in record["parts"].items()
+            }  # absent: routed to the runtime table by the bake
+            kinds = {
+                part: "constant" if "constant" in record["parts"][part] else entry.get("kind", "runtime")
+                for part, entry in entries.items()
             }
             assert served["bake"][str(index)]["parts"] == kinds, (asset, index)
             assert served["runtime"][str(index)]["parts"] == dict.fromkeys(kinds, "runtime"), (asset, index)
