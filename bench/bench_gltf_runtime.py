@@ -1,6 +1,7 @@
 """A glTF scene baked or served by the runtime table: error, bytes on the GPU and cost, in one three.js run.
 
     python bench/bench_gltf_runtime.py [--json bench/gltf-runtime-result.json]
+    python bench/bench_gltf_runtime.py --first-frame 5 [--json bench/gltf-first-frame-result.json]
 
 The Khronos showcase assets' materials (tests/fixtures/khronos_iridescence.json, on generated spheres and
 gradient textures: tests/gltf_assets.stand_in) are baked (`bake --gltf`'s library call, timed), then three.js
@@ -12,7 +13,10 @@ parameters that pixel used (cos θ, thickness, metalness, base colour through th
 EXRLoader uploads it (RGBA half, 8 bytes a texel; the runtime table's from lutbake report's table). Reads and
 SPIR-V arithmetic per pixel: lutbake report's table (lutbake/modes/runtime/costs.py). And a searched maximum
 of the runtime table along the whole fitted metal curve the plugin reads for texture-driven metals
-(curve_worst), which the pixels sample only in part.
+(curve_worst), which the pixels sample only in part. And the first frame of a 49-material sphere grid
+(IridescenceMetallicSpheres' 100 nm block, one sphere per material) through the plugin, baked and from the
+runtime table, as a ratio to stock three.js's own iridescence drawing the same grid in the same page, with
+each one's renderer.info.programs (first_frames; `--first-frame ROUNDS` runs only that).
 """
 
 import argparse
@@ -42,28 +46,41 @@ SIZE, STRIDE = 64, 3  # rendered square, and every STRIDE-th pixel returned
 SERVES = ("bake", "runtime")
 GPU_TEXEL_BYTES = 8  # EXRLoader's default upload: RGBA half
 CURVE_BUDGET = 2000  # evaluations of the search along the metal mapping's curve (curve_worst)
+GRID, GRID_MATERIALS = "IridescenceMetallicSpheres", 49  # its 100 nm block: 7 grey bases x 7 film indices
+GRID_SERVES = ("three", "bake", "runtime")  # stock three.js's own iridescence, then lutbake's plugin
+FIRST_FRAME_ROUNDS = 5  # fresh Chromium runs of the grid's first frame (first_frames)
+
+
+def bake_stand_in(doc: dict, folder: Path, name: str) -> dict:
+    """The stand-in of glTF document DOC baked into FOLDER/NAME/out: {gltf, manifest, out, bake_s}."""
+    from lutbake.scene.bake import bake_scene
+    from lutbake.scene.gltf.materials import load_gltf_scene
+
+    gltf = stand_in(doc, folder / name, name)
+    start = time.perf_counter()
+    result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
+    if result.unmet:
+        raise RuntimeError(f"{name}: the bake missed its target: {result.unmet}")
+    return {
+        "gltf": gltf,
+        "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
+        "out": folder / name / "out",
+        "bake_s": time.perf_counter() - start,
+    }
 
 
 def bake_stand_ins(folder: Path, names=SHOWCASE) -> dict:
     """Each asset's stand-in baked into FOLDER/NAME/out: {asset: {gltf, manifest, out, bake_s}}."""
-    from lutbake.scene.bake import bake_scene
-    from lutbake.scene.gltf.materials import load_gltf_scene
-
     folder.mkdir(parents=True, exist_ok=True)
-    out = {}
-    for name in names:
-        gltf = stand_in(khronos_document(name), folder / name, name)
-        start = time.perf_counter()
-        result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
-        if result.unmet:
-            raise RuntimeError(f"{name}: the bake missed its target: {result.unmet}")
-        out[name] = {
-            "gltf": gltf,
-            "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
-            "out": folder / name / "out",
-            "bake_s": time.perf_counter() - start,
-        }
-    return out
+    return {name: bake_stand_in(khronos_document(name), folder, name) for name in names}
+
+
+def bake_grid(folder: Path) -> dict:
+    """The sphere grid (GRID's first GRID_MATERIALS materials: one thickness, every base colour under every
+    film index, each sphere its own glTF material) baked as bake_stand_in does."""
+    doc = khronos_document(GRID)
+    doc["materials"] = doc["materials"][:GRID_MATERIALS]
+    return bake_stand_in(doc, folder, "grid")
 
 
 def url(path: Path) -> str:
@@ -75,13 +92,14 @@ def runtime_stem() -> str:
     return url(write_runtime_table().with_suffix(""))
 
 
-def render(specs: list) -> dict:
-    """engine/harness.mjs gltf: one Chromium run over every spec ({gltf, manifest|plan, runtime, serves})."""
+def render(specs, command: str = "gltf") -> dict:
+    """engine/harness.mjs COMMAND in one Chromium run: gltf over every spec ({gltf, manifest|plan, runtime,
+    serves}), gltf-grid over one (engine/gltf-page.js, lutbakeGltfGrid)."""
     with tempfile.TemporaryDirectory() as tmp:
         spec, result = Path(tmp) / "spec.json", Path(tmp) / "result.json"
         spec.write_text(json.dumps(specs))
         proc = subprocess.run(
-            ["node", str(ROOT / "engine" / "harness.mjs"), "gltf", str(spec), str(result)],
+            ["node", str(ROOT / "engine" / "harness.mjs"), command, str(spec), str(result)],
             capture_output=True,
             text=True,
             cwd=ROOT,
@@ -131,6 +149,119 @@ def film_truth(record: dict, rows: np.ndarray, film=None) -> np.ndarray:
         eta3, kappa3 = part_bases(part, colour[at])
         out[at] += weight[at, None] * truth(cos[at], thickness[at], eta2, eta3, kappa3)
     return out
+
+
+def _table(path: Path):
+    """An atlas or LUT of a bake, read once per process."""
+    from lutbake.lut.sample import load_table
+
+    if path not in _TABLES:
+        _TABLES[path] = load_table(path)
+    return _TABLES[path]
+
+
+_TABLES: dict = {}
+
+
+def _mix(record: dict, rows: np.ndarray, term) -> np.ndarray:
+    """(1 − m)·dielectric + m·metal at each row's metalness (column 5), each part's term(part) (n, 3)."""
+    out = np.zeros((len(rows), 3))
+    for name, part in record["parts"].items():
+        out += (1.0 - rows[:, 5] if name == "dielectric" else rows[:, 5])[:, None] * term(part)
+    return out
+
+
+def _runtime_part(record: dict, part: dict, table, rows: np.ndarray) -> np.ndarray:
+    """One part's film term from the runtime table's include (runtime.model): its constant, one base index,
+    or one per channel (a texture-driven metal's through its F0 table at the row's base colour)."""
+    from lutbake.modes.runtime import runtime_colour
+
+    cos, thickness, colour = rows[:, 3], rows[:, 4], rows[:, 7:10]
+    if "constant" in part:
+        return np.tile(part["constant"], (len(rows), 1))
+    bases = part["base"] if "base" in part else part_bases(part, colour)
+    return runtime_colour(table, cos, thickness, 1.0, record["film"], *bases)
+
+
+def _baked_part(part: dict, manifest: dict, folder: Path, rows: np.ndarray) -> np.ndarray:
+    """One part's film term from the bake: its slice, a slice per channel, or its 4D LUT read per channel at
+    the base its F0 table maps the row's colour to."""
+    from lutbake.physics.points import FilmPoints
+
+    cos, thickness, colour = rows[:, 3], rows[:, 4], rows[:, 7:10]
+    names = [part["material"]] if "material" in part else part["channels"]
+    table = _table(folder / manifest["materials"][names[0]]["file"])
+    if manifest["materials"][names[0]]["kind"] == "slice":
+        reads = [
+            table.sample(n, FilmPoints.build(**table.film_stack(n), cos_theta=cos, thickness_nm=thickness))
+            for n in names
+        ]
+        return reads[0] if len(reads) == 1 else np.stack([reads[c][:, c] for c in range(3)], axis=1)
+    eta3, kappa3 = part_bases(part, colour)
+    pts = FilmPoints.build(
+        eta2=table.eta2, cos_theta=cos[:, None], thickness_nm=thickness[:, None], eta3=eta3, kappa3=kappa3
+    )
+    return np.diagonal(table.sample(pts), axis1=1, axis2=2)
+
+
+def baked_term(record: dict, manifest: dict, folder: Path, rows: np.ndarray, runtime=None) -> np.ndarray:
+    """The film term the plugin serves from a bake at each row's parameters (its columns: cos θ 3, thickness
+    4, metalness 5, base colour 7-9), mixed by metalness: each part its constant, its slice(s) or 4D LUT
+    (lutbake's samplers), or, where the bake does not cover it (routed to the runtime table), the RUNTIME
+    table's include."""
+
+    def term(part: dict) -> np.ndarray:
+        entry = manifest["materials"].get(part.get("material") or part.get("channels", [None])[0])
+        if "constant" in part or entry is None or entry["kind"] == "runtime":
+            return _runtime_part(record, part, runtime, rows)
+        return _baked_part(part, manifest, folder, rows)
+
+    return _mix(record, rows, term)
+
+
+def runtime_term(record: dict, table, rows: np.ndarray) -> np.ndarray:
+    """The film term the runtime table's include gives at each row's parameters, mixed by metalness."""
+    return _mix(record, rows, lambda part: _runtime_part(record, part, table, rows))
+
+
+def grid_spec(grid: dict, serves=GRID_SERVES, precision=None, samples: bool = True, cell: int = 20) -> dict:
+    """engine/gltf-page.js lutbakeGltfGrid's spec for the baked grid (bake_grid), the runtime table beside."""
+    return {
+        "gltf": url(grid["gltf"]),
+        "manifest": url(grid["out"] / "grid.json"),
+        "runtime": runtime_stem(),
+        "precision": precision,
+        "serves": list(serves),
+        "columns": 7,
+        "cell": cell,
+        "stride": 1,
+        "samples": samples,
+    }
+
+
+def first_frames(grid: dict, rounds: int) -> dict:
+    """The grid's first frame (compile, upload, draw, read back) in ROUNDS fresh Chromium runs, the serves in
+    a rotated order each round: each serve's milliseconds and programs, its ratio to stock three.js's frame
+    in the same page each round, and their median."""
+    runs = []
+    for k in range(rounds):
+        serves = GRID_SERVES[k % 3 :] + GRID_SERVES[: k % 3]
+        runs.append(render(grid_spec(grid, serves, samples=False, cell=32), command="gltf-grid"))
+    frames = {}
+    for serve in GRID_SERVES:
+        ratios = [r[serve]["first_frame_ms"] / r["three"]["first_frame_ms"] for r in runs]
+        frames[serve] = {
+            "first_frame_ms": [round(r[serve]["first_frame_ms"], 1) for r in runs],
+            "programs": runs[0][serve]["programs"],
+            "ratios_to_three": [round(x, 2) for x in ratios],
+            "ratio_to_three": float(np.median(ratios)),
+        }
+    return {
+        "materials": GRID_MATERIALS,
+        "rounds": rounds,
+        "serves": frames,
+        "precision": runs[0]["runtime"]["precision"],
+    }
 
 
 def score(result: dict, bakes: dict, seed: int = 7) -> dict:
@@ -242,10 +373,26 @@ def summary(bakes: dict, scores: dict) -> dict:
     }
 
 
+def first_frame_main(rounds: int, path: Path) -> None:
+    """--first-frame: the sphere grid's first frame only (first_frames), written to PATH and printed."""
+    folder = ROOT / "build" / f"bench-gltf-grid-{os.getpid()}"
+    try:
+        doc = {**first_frames(bake_grid(folder), rounds), "load_average": os.getloadavg()}
+    finally:
+        subprocess.run(["rm", "-rf", str(folder)], check=False)
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    print(json.dumps(doc, indent=1))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", type=Path, default=ROOT / "bench" / "gltf-runtime-result.json")
+    parser.add_argument(
+        "--json", type=Path, default=None, help="where the result goes (default: bench/...-result.json)"
+    )
+    parser.add_argument("--first-frame", type=int, metavar="ROUNDS", default=0, help="only the grid's first frame")
     args = parser.parse_args()
+    if args.first_frame:
+        return first_frame_main(args.first_frame, args.json or ROOT / "bench" / "gltf-first-frame-result.json")
     folder = ROOT / "build" / f"bench-gltf-runtime-{os.getpid()}"
     try:
         bakes = bake_stand_ins(folder)
@@ -255,10 +402,11 @@ def main():
             "three": result["three"],
             **summary(bakes, score(result, bakes)),
             "metal_curve_worst": curve_worst(CURVE_BUDGET).describe(),
+            "first_frame": first_frames(bake_grid(folder), FIRST_FRAME_ROUNDS),
         }
     finally:
         subprocess.run(["rm", "-rf", str(folder)], check=False)
-    args.json.write_text(json.dumps(doc, indent=1) + "\n")
+    (args.json or ROOT / "bench" / "gltf-runtime-result.json").write_text(json.dumps(doc, indent=1) + "\n")
     print("| asset | glTF material | film | parts | baked p99 / max | runtime p99 / max |\n|---|---|---|---|---|---|")
     for r in doc["materials"]:
         print(
@@ -269,7 +417,10 @@ def main():
     worst = {k: v for k, v in doc["metal_curve_worst"].items() if k != "starts"}
     print(
         json.dumps(
-            {**{k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average")}, "metal_curve_worst": worst},
+            {
+                **{k: doc[k] for k in ("pooled", "gpu_bytes", "bake_s", "load_average", "first_frame")},
+                "metal_curve_worst": worst,
+            },
             indent=1,
         )
     )

@@ -77,7 +77,7 @@ function writeAtomic(path, data) {
 
 // Commands that hand a JSON spec to one page function and write its JSON result: [function, page, api].
 const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-cost': ['lutbakeDropinCost'],
-                gltf: ['lutbakeGltf', '/engine/gltf-page.html'], babylon: ['lutbakeBabylon', '/engine/babylon-page.html'],
+                gltf: ['lutbakeGltf', '/engine/gltf-page.html'], 'gltf-grid': ['lutbakeGltfGrid', '/engine/gltf-page.html'], babylon: ['lutbakeBabylon', '/engine/babylon-page.html'],
                 playcanvas: ['lutbakePlaycanvas', '/engine/playcanvas-page.html'],
                 'babylon-gltf': ['lutbakeBabylonGltf', '/engine/babylon-page.html'],
                 'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],

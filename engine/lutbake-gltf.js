@@ -12,7 +12,10 @@
 //   const gltf = await loader.loadAsync('IridescenceLamp.gltf');
 //
 // Materials loaded later (KHR_materials_variants: parser.getDependency('material', i)) go through the
-// plugin too. `output` (tests): 'fresnel' writes material.iridescenceFresnel, 'parameters' (cos theta,
+// plugin too. Materials differ by uniforms, not shader source: their film index, base, slices and constants
+// are uniforms, so every material whose parts take the same routes through the same atlas, LUT or runtime
+// table shares one program (49 spheres of one grid: 2 programs, docs/engines.md).
+// `output` (tests): 'fresnel' writes material.iridescenceFresnel, 'parameters' (cos theta,
 // thickness nm, metalness, iridescence), 'basecolor' the base colour the metal part was mapped from.
 //
 // The runtime table (`lutbake runtime-table`, loadLutbakeRuntime) serves any film and base with no bake: pass
@@ -42,12 +45,13 @@ export async function loadLutbakeBake(manifestUrl) {
   const folder = manifestUrl.slice(0, manifestUrl.lastIndexOf('/') + 1);
   const manifest = JSON.parse(await loadText(manifestUrl));
   if (!manifest.source || manifest.source.kind !== 'gltf') throw new Error(`${manifestUrl}: not a lutbake glTF bake`);
-  const bake = { manifest, stem: manifest.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', luts: {},
-                 records: manifest.source.materials };
+  const bake = { manifest, stem: manifest.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', slices: {},
+                 luts: {}, records: manifest.source.materials };
   for (const entry of Object.values(manifest.materials)) {
     if (entry.kind === 'slice' && !bake.atlas) {
       bake.atlas = await new EXRLoader().loadAsync(folder + entry.file);
       bake.atlasInclude = await loadText(folder + entry.file.replace(/\.exr$/, '.glsl'));
+      bake.slices = atlasSlices(bake.atlasInclude);
     } else if (entry.kind === 'lut' && !bake.luts[entry.file]) {
       bake.luts[entry.file] = await loadLutbakeLut(folder + entry.file.replace(/\.exr$/, ''));
     }
@@ -60,8 +64,23 @@ export async function loadLutbakeBake(manifestUrl) {
 export async function loadLutbakePlan(planUrl) {
   const plan = JSON.parse(await loadText(planUrl));
   if (!Array.isArray(plan.gltf_materials)) throw new Error(`${planUrl}: not a lutbake plan of a glTF asset (plan --gltf --json)`);
-  return { manifest: { materials: {} }, stem: plan.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', luts: {},
+  return { manifest: { materials: {} }, stem: plan.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', slices: {}, luts: {},
            records: plan.gltf_materials.map((r) => ({ ...r, parts: r.bases || {} })) };
+}
+
+// The slices lutbake's atlas include defines (`const LutbakeSlice NAME = LutbakeSlice(vec4(..), vec2(..),
+// vec2(..));`), by constant name: {rect, thickness_nm, atlas_size}, the values a material's uniforms carry.
+function atlasSlices(include) {
+  const slices = {};
+  const number = '(-?[0-9.eE+-]+)';
+  const vec = (n) => `vec${n}\\(${Array(n).fill(number).join(', ')}\\)`;
+  const line = new RegExp(`const LutbakeSlice (\\w+) = LutbakeSlice\\(${vec(4)}, ${vec(2)}, ${vec(2)}\\);`, 'g');
+  for (const m of include.matchAll(line)) {
+    const v = m.slice(2).map(Number);
+    slices[m[1]] = { rect: new THREE.Vector4(...v.slice(0, 4)), thickness_nm: new THREE.Vector2(v[4], v[5]),
+                     atlas_size: new THREE.Vector2(v[6], v[7]) };
+  }
+  return slices;
 }
 
 // The constant lutbake's atlas include defines for a material of the scene (lutfile.shader_ident).
@@ -87,28 +106,38 @@ function partRoute(bake, part, serve) {
   return serve === 'runtime' || !baked ? 'runtime' : entries[0].kind;
 }
 
-const glslFloat = (x) => (Number.isInteger(x) ? x.toFixed(1) : String(x));
-const glslVec3 = (v) => `vec3(${v.map(glslFloat).join(', ')})`;
-
-// GLSL for one part's film term at (dotNVi, material.iridescenceThickness), by its route.
-function partTerm(bake, record, part, route) {
+// GLSL for one part's film term at (dotNVi, material.iridescenceThickness), by its route. The call reads the
+// material's values (film index, base, slices, constant) from uniforms named for the part (`values`: this
+// material's), never from literals: materials whose parts take the same routes through the same tables compile
+// to the same source and share one program.
+function partTerm(bake, record, name, part, route) {
   const at = 'dotNVi, material.iridescenceThickness';
-  if (route === 'constant') return { call: glslVec3(part.constant) };
+  const u = name === 'dielectric' ? 'lutbakeDielectric' : 'lutbakeMetal';
+  if (route === 'constant') {
+    return { call: `${u}Constant`, uniforms: `uniform highp vec3 ${u}Constant;`,
+             values: { [`${u}Constant`]: new THREE.Vector3(...part.constant) } };
+  }
   if (route === 'runtime') {
-    const film = `lutbakeRuntime, ${at}, 1.0, ${glslFloat(record.film)}`;
-    if (part.base) return { call: `lutbake_iridescence(${film}, ${glslFloat(part.base[0])}, ${glslFloat(part.base[1])})` };
-    if (part.table) {
-      return { call: `lutbakeRuntimeMetal(${film}, material.diffuseColor)`, table: part.table };
+    const film = `lutbakeRuntime, ${at}, 1.0, lutbakeFilm`;
+    if (part.base) {
+      return { call: `lutbake_iridescence(${film}, ${u}Base.x, ${u}Base.y)`, uniforms: `uniform highp vec2 ${u}Base;`,
+               values: { [`${u}Base`]: new THREE.Vector2(...part.base) } };
     }
-    return { call: `lutbake_iridescence_rgb(${film}, ${glslVec3(part.eta3)}, ${glslVec3(part.kappa3)})` };
+    if (part.table) return { call: `lutbakeRuntimeMetal(${film}, material.diffuseColor)`, table: part.table, values: {} };
+    return { call: `lutbake_iridescence_rgb(${film}, ${u}Eta, ${u}Kappa)`,
+             uniforms: `uniform highp vec3 ${u}Eta;\nuniform highp vec3 ${u}Kappa;`,
+             values: { [`${u}Eta`]: new THREE.Vector3(...part.eta3), [`${u}Kappa`]: new THREE.Vector3(...part.kappa3) } };
   }
-  const atlas = (name) => `lutbake_atlas_sample(lutbakeAtlas, ${sliceIdent(bake.stem, name)}, ${at})`;
-  if (part.material) return { call: atlas(part.material) };
-  const entry = bake.manifest.materials[part.channels[0]];
-  if (entry.kind === 'slice') {
-    return { call: `vec3(${part.channels.map((name, c) => `${atlas(name)}.${'rgb'[c]}`).join(', ')})` };
+  const names = part.material ? [part.material] : part.channels;
+  const entry = bake.manifest.materials[names[0]];
+  if (entry.kind !== 'slice') {
+    return { call: `lutbakeTexturedMetal(material.diffuseColor, ${at})`, lut: bake.luts[entry.file], table: part.table, values: {} };
   }
-  return { call: `lutbakeTexturedMetal(material.diffuseColor, ${at})`, lut: bake.luts[entry.file], table: part.table };
+  const slices = names.map((material) => bake.slices[sliceIdent(bake.stem, material)]);
+  if (slices.includes(undefined)) throw new Error(`glTF material ${record.gltf_index} '${record.name}': a slice of its ${name} part is not in the atlas include`);
+  const read = (k) => `lutbake_atlas_sample(lutbakeAtlas, ${u}Slices[${k}], ${at})`;
+  return { call: names.length === 1 ? read(0) : `vec3(${read(0)}.r, ${read(1)}.g, ${read(2)}.b)`,
+           uniforms: `uniform LutbakeSlice ${u}Slices[${names.length}];`, values: { [`${u}Slices`]: slices } };
 }
 
 // A texture-driven metal's base per texel and channel: the mapping's F0 -> (eta3, kappa3) table, whose F0
@@ -141,8 +170,62 @@ const RUNTIME_METAL_GLSL = `highp vec3 lutbakeRuntimeMetal(highp sampler2D table
   return lutbake_iridescence_rgb(table, cosTheta, thickness, eta1, eta2, vec3(r.x, g.x, b.x), vec3(r.y, g.y, b.y));
 }`;
 
+// cyrb53: a 53-bit hash of the GLSL a patch adds, the part of the program cache key that names its source.
+function sourceHash(text) {
+  let h1 = 0xdeadbeef, h2 = 0x41c6ce57;
+  for (let i = 0; i < text.length; i++) {
+    const c = text.charCodeAt(i);
+    h1 = Math.imul(h1 ^ c, 2654435761);
+    h2 = Math.imul(h2 ^ c, 1597334677);
+  }
+  h1 = Math.imul(h1 ^ (h1 >>> 16), 2246822507) ^ Math.imul(h2 ^ (h2 >>> 13), 3266489909);
+  h2 = Math.imul(h2 ^ (h2 >>> 16), 2246822507) ^ Math.imul(h1 ^ (h1 >>> 13), 3266489909);
+  return (4294967296 * (2097151 & h2) + (h1 >>> 0)).toString(36);
+}
+
+// The GLSL a material's patch adds to three's fragment shader (declarations, lights_fragment_begin with the
+// parts' terms, the test output): a function of the parts' routes and tables only, never of the material's values.
+// A part the record lacks has weight 0 wherever three mixes the two (the bake keeps a part wherever the
+// material's metalness needs it): its term is vec3(0.0), and three's own evalIridescence is not compiled.
+function patchGlsl(bake, terms, runtime, output) {
+  let begin = THREE.ShaderChunk.lights_fragment_begin;
+  const calls = { dielectric: 'material.specularColor', metal: 'material.diffuseColor' };
+  for (const [name, base] of Object.entries(calls)) {
+    const three = `evalIridescence( 1.0, material.iridescenceIOR, dotNVi, material.iridescenceThickness, ${base} )`;
+    if (!begin.includes(three)) throw new Error('lutbakeGltfMaterial: three.js changed lights_fragment_begin');
+    begin = begin.replace(three, terms[name] ? terms[name].call : 'vec3(0.0)');
+  }
+  const lutTerm = Object.values(terms).find((term) => term.lut);
+  const table = Object.values(terms).find((term) => term.table);
+  const declarations = ['uniform highp sampler2D lutbakeAtlas;', 'uniform highp sampler2D lutbakeLut;', bake.atlasInclude];
+  if (runtime) declarations.push('uniform highp sampler2D lutbakeRuntime;', 'uniform highp float lutbakeFilm;', runtime.include);
+  declarations.push(...Object.values(terms).filter((term) => term.uniforms).map((term) => term.uniforms));
+  if (table) declarations.push(conductorGlsl(table.table.f0.length));
+  if (lutTerm) declarations.push(lutTerm.lut.include, texturedMetalGlsl(lutTerm.lut));
+  if (table && !lutTerm) declarations.push(RUNTIME_METAL_GLSL);
+  const tail = output ? `#include <dithering_fragment>\n  gl_FragColor = ${OUTPUTS[output]};` : null;
+  return { declarations: declarations.join('\n'), begin, tail };
+}
+
+// This material's uniform values: the tables it reads and the values its parts' terms name.
+function patchUniforms(bake, record, terms, runtime) {
+  const lutTerm = Object.values(terms).find((term) => term.lut);
+  const table = Object.values(terms).find((term) => term.table);
+  const values = { lutbakeAtlas: bake.atlas, lutbakeLut: lutTerm ? lutTerm.lut.table : null,
+                   ...Object.assign({}, ...Object.values(terms).map((term) => term.values)) };
+  if (runtime) Object.assign(values, { lutbakeRuntime: runtime.table, lutbakeFilm: record.film });
+  if (table) {
+    const { f0, eta3, kappa3 } = table.table;
+    values.lutbakeMetalTable = f0.map((_, i) => new THREE.Vector2(eta3[i], kappa3[i]));
+    values.lutbakeMetalF0Max = f0[f0.length - 1];
+  }
+  return values;
+}
+
 // Patch a MeshPhysicalMaterial loaded from glTF material `record.gltf_index` (its manifest or plan record):
-// each part by its route (partRoute), recorded in material.userData.lutbake.
+// each part by its route (partRoute), recorded in material.userData.lutbake. The material's film index, base,
+// slices and constant are uniforms: three.js caches programs by customProgramCacheKey, here the routes and a hash
+// of the added GLSL, so materials on the same routes through the same atlas, LUT or runtime table share a program.
 export function lutbakeGltfMaterial(material, record, bake, { output = null, runtime = null, serve = 'bake' } = {}) {
   const terms = {}, routes = {};
   for (const [name, part] of Object.entries(record.parts)) {
@@ -151,42 +234,21 @@ export function lutbakeGltfMaterial(material, record, bake, { output = null, run
     if (routes[name] === 'runtime' && !runtime) {
       throw new Error(`glTF material ${record.gltf_index} '${record.name}': its ${name} part is not baked; pass { runtime } (loadLutbakeRuntime)`);
     }
-    terms[name] = partTerm(bake, record, part, routes[name]);
+    terms[name] = partTerm(bake, record, name, part, routes[name]);
   }
-  const lutTerm = Object.values(terms).find((term) => term.lut);
-  const table = Object.values(terms).find((term) => term.table);
+  const glsl = patchGlsl(bake, terms, runtime, output);
+  const values = patchUniforms(bake, record, terms, runtime);
   material.onBeforeCompile = (shader) => {
-    let begin = THREE.ShaderChunk.lights_fragment_begin;
-    const calls = { dielectric: 'material.specularColor', metal: 'material.diffuseColor' };
-    for (const [name, base] of Object.entries(calls)) {
-      const three = `evalIridescence( 1.0, material.iridescenceIOR, dotNVi, material.iridescenceThickness, ${base} )`;
-      if (!begin.includes(three)) throw new Error('lutbakeGltfMaterial: three.js changed lights_fragment_begin');
-      if (terms[name]) begin = begin.replace(three, terms[name].call);
-    }
-    const declarations = ['uniform highp sampler2D lutbakeAtlas;', 'uniform highp sampler2D lutbakeLut;', bake.atlasInclude];
-    shader.uniforms.lutbakeAtlas = { value: bake.atlas };
-    shader.uniforms.lutbakeLut = { value: lutTerm ? lutTerm.lut.table : null };
-    if (runtime) {
-      declarations.push('uniform highp sampler2D lutbakeRuntime;', runtime.include);
-      shader.uniforms.lutbakeRuntime = { value: runtime.table };
-    }
-    if (table) {
-      const { f0, eta3, kappa3 } = table.table;
-      shader.uniforms.lutbakeMetalTable = { value: f0.map((_, i) => new THREE.Vector2(eta3[i], kappa3[i])) };
-      shader.uniforms.lutbakeMetalF0Max = { value: f0[f0.length - 1] };
-      declarations.push(conductorGlsl(f0.length));
-    }
-    if (lutTerm) declarations.push(lutTerm.lut.include, texturedMetalGlsl(lutTerm.lut));
-    if (table && !lutTerm) declarations.push(RUNTIME_METAL_GLSL);
+    for (const [name, value] of Object.entries(values)) shader.uniforms[name] = { value };
     let fragment = shader.fragmentShader
-      .replace('#include <iridescence_fragment>', `#include <iridescence_fragment>\n${declarations.join('\n')}`)
-      .replace('#include <lights_fragment_begin>', begin);
-    if (output) fragment = fragment.replace('#include <dithering_fragment>', `#include <dithering_fragment>\n  gl_FragColor = ${OUTPUTS[output]};`);
+      .replace('#include <iridescence_fragment>', `#include <iridescence_fragment>\n${glsl.declarations}`)
+      .replace('#include <lights_fragment_begin>', glsl.begin);
+    if (glsl.tail) fragment = fragment.replace('#include <dithering_fragment>', glsl.tail);
     shader.fragmentShader = fragment;
   };
-  // Programs are cached by this key: each glTF material's patch, by its routes, is its own program.
   const routeKey = Object.entries(routes).map((r) => r.join('=')).join(',');
-  material.customProgramCacheKey = () => `lutbake-gltf:${bake.stem}:${record.gltf_index}:${routeKey}:${output}`;
+  const key = `lutbake-gltf:${routeKey}:${sourceHash(glsl.declarations + glsl.begin + (glsl.tail ?? ''))}`;
+  material.customProgramCacheKey = () => key;
   material.userData.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
   material.needsUpdate = true;
   return material;

@@ -5,6 +5,7 @@ film term lutbake's samplers return for that pixel's cos θ, thickness, metalnes
 
 import json
 import shutil
+import sys
 import uuid
 
 import numpy as np
@@ -18,6 +19,12 @@ from lutbake.physics.points import FilmPoints
 from lutbake.scene.bake import bake_scene
 from lutbake.scene.gltf.materials import load_gltf_scene
 from lutbake.spectral.reference import reference_colour
+
+sys.path.insert(0, str(ROOT / "bench"))
+from bench_gltf_runtime import baked_term, runtime_stem  # noqa: E402  (the film term the plugin serves at a pixel)
+from runtime_contract import runtime_table_files  # noqa: E402
+
+from lutbake.modes.runtime import read_runtime_table  # noqa: E402
 
 TOLERANCE = 1e-4
 
@@ -43,37 +50,6 @@ def _generated() -> dict:
     )
 
 
-def _expected(sample: list, record: dict, manifest: dict, folder) -> np.ndarray:
-    """The film term lutbake's samplers give at one pixel's parameters: mix(dielectric, metal, metalness)."""
-    cos_t, thickness, metalness = sample[3], sample[4], sample[5]
-    colour = np.array(sample[7:10])
-    terms = {}
-    for part, info in record["parts"].items():
-        if "material" in info:
-            terms[part] = _slice(manifest, folder, info["material"], cos_t, thickness)
-        elif manifest["materials"][info["channels"][0]]["kind"] == "slice":
-            terms[part] = np.array(
-                [_slice(manifest, folder, n, cos_t, thickness)[c] for c, n in enumerate(info["channels"])]
-            )
-        else:
-            lut, table = Lut.load(folder / manifest["materials"][info["channels"][0]]["file"]), info["table"]
-            pts = FilmPoints.build(
-                eta2=lut.eta2,
-                cos_theta=cos_t,
-                thickness_nm=thickness,
-                eta3=np.interp(colour, table["f0"], table["eta3"]),
-                kappa3=np.interp(colour, table["f0"], table["kappa3"]),
-            )
-            terms[part] = np.diag(lut.sample(pts))
-    dielectric, metal = terms.get("dielectric", np.zeros(3)), terms.get("metal", np.zeros(3))
-    return dielectric * (1.0 - metalness) + metal * metalness
-
-
-def _slice(manifest, folder, name, cos_t, thickness) -> np.ndarray:
-    atlas = Atlas.load(folder / manifest["materials"][name]["file"])
-    return atlas.sample(name, FilmPoints.build(**atlas.film_stack(name), cos_theta=cos_t, thickness_nm=thickness))[0]
-
-
 @pytest.fixture(scope="module")
 def bakes():
     """Every asset's stand-in (gltf_assets.stand_in), baked by `bake --gltf`'s library call into a folder the
@@ -94,10 +70,16 @@ def bakes():
 
 @pytest.fixture(scope="module")
 def plugin_run(bakes, tmp_path_factory):
-    """One Chromium run over every asset: {asset: (manifest, folder, {glTF material index: samples})}."""
+    """One Chromium run over every asset, the runtime table given for the parts the bake routed to it:
+    {asset: (manifest, folder, {glTF material index: samples})}."""
     require_engine()
+    runtime = runtime_stem()
     specs = [
-        {"gltf": f"/{gltf.relative_to(ROOT)}", "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}"}
+        {
+            "gltf": f"/{gltf.relative_to(ROOT)}",
+            "manifest": f"/{(out / f'{name}.json').relative_to(ROOT)}",
+            "runtime": runtime,
+        }
         for name, (gltf, _, out) in bakes.items()
     ]
     results = run_harness("gltf", tmp_path_factory.mktemp("plugin"), specs)["results"]
@@ -143,11 +125,12 @@ def test_plugin_film_term_equals_lutbake_sample(plugin_run, asset):
     manifest, folder, result = plugin_run[asset]
     records = {r["gltf_index"]: r for r in manifest["source"]["materials"] if r["parts"]}
     assert sorted(map(int, result)) == sorted(records)  # every baked material was patched
+    table = read_runtime_table(runtime_table_files())
     for index, samples in result.items():
         assert len(samples) > 100, (asset, index)
-        got = np.array([s[:3] for s in samples])
-        expected = np.array([_expected(s, records[int(index)], manifest, folder) for s in samples])
-        assert np.abs(got - expected).max() <= TOLERANCE, (asset, index, np.abs(got - expected).max())
+        rows = np.array(samples)
+        error = np.abs(rows[:, :3] - baked_term(records[int(index)], manifest, folder, rows, table)).max()
+        assert error <= TOLERANCE, (asset, index, error)
 
 
 def test_the_check_can_fail(plugin_run):
@@ -159,8 +142,7 @@ def test_the_check_can_fail(plugin_run):
         **record,
         "parts": {"metal": {**record["parts"]["metal"], "channels": [record["parts"]["metal"]["channels"][0]] * 3}},
     }
-    samples = result["2"]
-    error = max(np.abs(np.array(s[:3]) - _expected(s, wrong, manifest, folder)).max() for s in samples)
-    assert error > 100 * TOLERANCE
+    rows = np.array(result["2"])
+    assert np.abs(rows[:, :3] - baked_term(wrong, manifest, folder, rows)).max() > 100 * TOLERANCE
     metalness = {round(s[5], 6) for s in result["4"]}
     assert len(metalness) > 10  # the half-metal's metalness varies over the sphere: both parts are exercised
