@@ -32,6 +32,7 @@
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { loadLutbakeLut } from './lutbake-iridescence.js';
+import { partRoute, sliceIdent } from './lutbake-routes.js';
 
 async function loadText(url) {
   const response = await fetch(url);
@@ -83,28 +84,11 @@ function atlasSlices(include) {
   return slices;
 }
 
-// The constant lutbake's atlas include defines for a material of the scene (lutfile.shader_ident).
-function sliceIdent(stem, material) {
-  const ident = `${stem}_${material}`.replace(/[^A-Za-z0-9]/g, '_').toUpperCase();
-  return ident.startsWith('LUTBAKE_') ? ident : `LUTBAKE_${ident}`;
-}
-
 const OUTPUTS = {
   fresnel: 'vec4(material.iridescenceFresnel, 1.0)',
   parameters: 'vec4(dotNVi, material.iridescenceThickness, material.metalness, material.iridescence)',
   basecolor: 'vec4(material.diffuseColor, 1.0)',
 };
-
-// What serves one part of a material: its slice(s) or 4D LUT from the bake, or the runtime table where the
-// bake does not cover it, where its manifest entry hands it to the runtime path, or where `serve` says so
-// (a named metal stays baked: its spectral index has no per-channel (eta3, kappa3) for the runtime path).
-function partRoute(bake, part, serve) {
-  if (part.constant) return 'constant';   // vacuum over vacuum: the film term is 0, nothing baked
-  const entries = (part.material ? [part.material] : part.channels).map((name) => bake.manifest.materials[name]);
-  const baked = entries.every((entry) => entry && entry.kind !== 'runtime');
-  if (part.mapping === 'named') return baked ? entries[0].kind : null;
-  return serve === 'runtime' || !baked ? 'runtime' : entries[0].kind;
-}
 
 // GLSL for one part's film term at (dotNVi, material.iridescenceThickness), by its route. The call reads the
 // material's values (film index, base, slices, constant) from uniforms named for the part (`values`: this

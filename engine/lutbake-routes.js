@@ -2,7 +2,8 @@
 // engine: the manifest's record of a glTF material names, per part (dielectric, metal), an atlas slice, one
 // slice per channel, a 4D LUT, the runtime table (the part's entry absent or `kind: "runtime"`) or a constant
 // (vacuum over vacuum); and each route as a GLSL term (bakeTerms) for the engine's file to compile
-// (lutbake-babylon-gltf.js, lutbake-playcanvas.js).
+// (lutbake-babylon-gltf.js, lutbake-playcanvas.js). The three.js plugin (lutbake-gltf.js) takes its routes and
+// slice names from here too and writes its own terms (uniforms, so that materials share programs).
 //
 //   import { loadBakeManifest, partRoutes } from './lutbake-routes.js';
 //   const bake = await loadBakeManifest('build/iridescence/IridescenceLamp.json');
@@ -30,7 +31,7 @@ export async function loadBakeManifest(manifestUrl) {
 }
 
 // The constant the atlas include defines for a slice of the scene (lutfile.shader_ident).
-function sliceIdent(stem, material) {
+export function sliceIdent(stem, material) {
   const ident = `${stem}_${material}`.replace(/[^A-Za-z0-9]/g, '_').toUpperCase();
   return ident.startsWith('LUTBAKE_') ? ident : `LUTBAKE_${ident}`;
 }
@@ -38,8 +39,9 @@ function sliceIdent(stem, material) {
 // One part's route: 'constant', 'slice', 'lut' or 'runtime' ('runtime' where the bake does not cover the part,
 // where its entry hands it to the runtime path, or where `serve` is 'runtime'); null for a named metal the bake
 // lacks (its spectral index has no per-channel (eta3, kappa3) for the runtime table).
-function partRoute(entries, part, serve) {
-  if (part.constant) return 'constant';
+export function partRoute(bake, part, serve) {
+  if (part.constant) return 'constant';   // vacuum over vacuum: the film term is 0, nothing baked
+  const entries = (part.material ? [part.material] : part.channels || []).map((m) => bake.manifest.materials[m]);
   const baked = entries.every((entry) => entry && entry.kind !== 'runtime');
   if (part.mapping === 'named') return baked ? entries[0].kind : null;
   return serve === 'runtime' || !baked ? 'runtime' : entries[0].kind;
@@ -49,8 +51,7 @@ function partRoute(entries, part, serve) {
 export function partRoutes(bake, record, { runtime = false, serve = 'bake' } = {}) {
   const routes = {};
   for (const [name, part] of Object.entries(record.parts)) {
-    const entries = (part.material ? [part.material] : part.channels || []).map((m) => bake.manifest.materials[m]);
-    routes[name] = partRoute(entries, part, serve);
+    routes[name] = partRoute(bake, part, serve);
     const what = `glTF material ${record.gltf_index} '${record.name}'`;
     if (routes[name] === null) throw new Error(`${what}: its named metal is not in the bake`);
     if (routes[name] === 'runtime' && !runtime) throw new Error(`${what}: its ${name} part is not baked; pass the runtime table`);

@@ -4,7 +4,7 @@ what it is for. `bake --gltf --for web` writes the web set alone.
 
 The web set, read from the manifest as the plugin reads it (loadLutbakeBake): the manifest, the atlas and
 its GLSL include where a material entry is a slice, each 4D LUT a material entry names and its GLSL
-include; beside them the page's modules (engine/lutbake-gltf.js, which imports lutbake-iridescence.js) and,
+include; beside them the page's modules (engine/lutbake-gltf.js and the modules it imports) and,
 where a part is routed to the runtime table, that table's files (`lutbake runtime-table`).
 """
 
@@ -15,7 +15,12 @@ from typing import Any
 
 __all__ = ["PAGE_MODULES", "CACHE_FOLDER", "shipping", "is_web_member"]
 
-PAGE_MODULES = ("engine/lutbake-gltf.js", "engine/lutbake-iridescence.js")
+PAGE_MODULES = (
+    "engine/lutbake-gltf.js",
+    "engine/lutbake-iridescence.js",
+    "engine/lutbake-routes.js",
+    "engine/lutbake-exr.js",
+)
 CACHE_FOLDER = ".lutbake-cache"
 # A member's suffix -> what it is for, where a page does not load it.
 _BUILD_ROLES = {

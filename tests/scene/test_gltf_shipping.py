@@ -2,11 +2,15 @@
 engine/lutbake-gltf.js fetches) and the build artefacts; `--for web` writes the web set alone."""
 
 import json
+import re
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from gltf_assets import document, iridescent, write_gltf
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def cli(*args):
@@ -24,6 +28,19 @@ def asset(tmp_path_factory):
     return write_gltf(folder / "ship.gltf", document(materials))
 
 
+def _imported_modules(entry: str) -> list[str]:
+    """``entry`` and every project module it imports, directly or not (``from './x.js'``), in the order
+    first imported: what a page that loads ``entry`` fetches besides the engine."""
+    order, pending = [], [entry]
+    while pending:
+        module = pending.pop(0)
+        if module not in order:
+            order.append(module)
+            text = (ROOT / module).read_text()
+            pending += [f"engine/{name}" for name in re.findall(r"^import .* from '\./([\w.-]+\.js)';", text, re.M)]
+    return order
+
+
 def test_a_bake_names_the_web_set_and_the_build_artefacts(asset):
     """The web set is the manifest, the atlas and its GLSL include (what loadLutbakeBake fetches), beside the
     page's modules and the runtime table where a part uses it; the HLSL include and the cache are named as
@@ -33,7 +50,7 @@ def test_a_bake_names_the_web_set_and_the_build_artefacts(asset):
     assert proc.returncode == 0, proc.stderr
     ship = json.loads(proc.stdout)["ship"]
     assert ship["web"] == ["ship.json", "ship.exr", "ship.glsl"] and ship["runtime_table_parts"] == 1
-    assert ship["page_modules"] == ["engine/lutbake-gltf.js", "engine/lutbake-iridescence.js"]
+    assert ship["page_modules"] == _imported_modules("engine/lutbake-gltf.js")
     assert set(ship["build"]) == {"ship.hlsl", ".lutbake-cache/"} and "HLSL" in ship["build"]["ship.hlsl"]
     assert {p.name for p in out.iterdir()} == {*ship["web"], "ship.hlsl", ".lutbake-cache"}
     text = cli("bake", "--gltf", asset, "--out", out).stdout.splitlines()
