@@ -214,6 +214,7 @@ def test_sphere_grids_plan_every_sphere(tmp_path):
 
 def test_conductor_reflectance_matches_tmm():
     import tmm  # a test dependency ([test] extra): missing, the test fails rather than skips
+
     for eta, kappa, theta in ((0.3, 2.5, 0.7), (1.8, 1.06, 1.3), (1.5, 0.0, 1.0), (0.05, 2.3, 1.55)):
         expected = 0.5 * sum(tmm.coh_tmm(p, [1, eta + 1j * kappa], [np.inf, np.inf], theta, 500.0)["R"] for p in "sp")
         assert conductor_reflectance(eta, kappa, np.cos(theta)) == pytest.approx(expected, abs=1e-12)
