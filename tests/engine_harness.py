@@ -53,9 +53,9 @@ def require_engine() -> None:
         pytest.fail(f"{context}; install {'; '.join(missing)}", pytrace=False)
 
 
-def run_harness(command: str, folder: Path, jobs: list, timeout: int = 600) -> dict:
-    """`node engine/harness.mjs COMMAND jobs.json result.json` in one Chromium run, ``jobs`` written into
-    ``folder``: the result document (its "results" in the jobs' order)."""
+def run_harness(command: str, folder: Path, jobs: list | dict, timeout: int = 600) -> dict:
+    """`node engine/harness.mjs COMMAND jobs.json result.json` in one Chromium run, ``jobs`` (a list of jobs, or
+    one page's spec) written into ``folder``: the result document (its "results" in the jobs' order)."""
     (folder / "jobs.json").write_text(json.dumps(jobs))
     proc = subprocess.run(
         ["node", str(ENGINE / "harness.mjs"), command, str(folder / "jobs.json"), str(folder / "result.json")],

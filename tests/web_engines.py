@@ -1,12 +1,9 @@
 """The Babylon.js and PlayCanvas runs the web-engine tests and bench/bench_web_engines.py share: the materials
 (random, searched worst, named metals), one engine's render in headless Chromium, and its pixels as points."""
 
-import json
-import subprocess
-
 import numpy as np
 import pytest
-from engine_harness import ENGINE, ROOT, require_engine
+from engine_harness import ENGINE, ROOT, require_engine, run_harness
 from runtime_contract import runtime_table_files
 
 from lutbake.modes.exact import base_rgb
@@ -68,16 +65,7 @@ def render_spheres(engine, spec, runtime_path, folder):
     ``runtime_path`` (docs/make_engines_figure.py draws the same renders)."""
     require_package({**PACKAGES, "webgpu": "three"}[engine])
     spec = {**spec, "runtime": f"/{runtime_path.with_suffix('').relative_to(ROOT)}"}
-    (folder / "spec.json").write_text(json.dumps(spec))
-    proc = subprocess.run(
-        ["node", str(ENGINE / "harness.mjs"), engine, str(folder / "spec.json"), str(folder / "result.json")],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=900,
-    )
-    assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads((folder / "result.json").read_text())
+    return run_harness(engine, folder, spec, timeout=900)
 
 
 def require_package(package):
