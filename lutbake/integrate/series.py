@@ -303,8 +303,8 @@ class SeriesOnDevice:
         cells = (y1 - y0) * width
         lists, counts = [program.scratch(max(1, cells) * 4)], [program.zeros()]
         band = _band_of(plan.kept, y0 * width, y1 * width) if plan.kept is not None else None
-        left = program.input(_left_mask(band, cells), np.int8) if band is not None else counts[0]  # unread if None
-        rule = [left, np.int32(band is not None), out, lists[0], counts[0]]
+        mask = program.input(_left_mask(band, cells), np.int8) if band is not None else counts[0]  # unread if None
+        rule: list = [mask, np.int32(band is not None), out, lists[0], counts[0]]
         if plan.offsets is not None:
             program.run(
                 kernels.bake_rows_series, cells, *self._band_args(y0), *self._pair_table(plan, plan.offsets), *rule
@@ -313,7 +313,7 @@ class SeriesOnDevice:
             program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), *rule)
         planned = int(plan.rest_per_row[y0:y1].sum())
         if band is not None:
-            return self._kept_band(band, out, [*lists, *counts, left, _checked(program, counts[0], planned)])
+            return self._kept_band(band, out, [*lists, *counts, mask, _checked(program, counts[0], planned)])
         lists.append(program.scratch(max(1, cells) * 4))
         counts.append(program.zeros())
         if planned:
