@@ -20,6 +20,7 @@ p99, the bound held, the searched max).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -38,6 +39,7 @@ from lutbake.physics.points import FilmPoints
 from lutbake.quality.measure import SLICE_SEARCH_BUDGET, search_slice, search_stacks
 from lutbake.quality.refine import (
     REPORT_POINTS,
+    Refinement,
     Trial,
     bound_level,
     mixture_percentile,
@@ -57,7 +59,7 @@ if TYPE_CHECKING:
     # A slice's fixed uniform points and their colour by its integrator (``uniform_points``).
     Uniform = tuple[FilmPoints, np.ndarray]
 
-__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "LUT_SEARCH_BUDGET"]
+__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "refine_path", "LUT_SEARCH_BUDGET"]
 
 _LUT_MAX_ROUNDS = 6
 _SEARCH_STARTS = 100  # the worst scored points of each kind a searched max starts from (with the box's own)
@@ -194,14 +196,7 @@ def tuned_lut(
     spec = job.lut_spec()
     frozen = (1,) if job.fixed_thickness else ()
     if "base_path" in job.key:
-        points = _PathPoints.build(spec, job.key["base_path"], integrator)
-        result = refine(
-            _path_measure(spec, points, integrator),
-            job.counts,
-            job.scene.max_de,
-            frozen=frozen,
-            max_rounds=_LUT_MAX_ROUNDS,
-        )
+        points, result = refine_path(job, integrator)
         assert isinstance(result.artefact, Lut)  # what _path_measure builds
         worst = points.searched(result.artefact, integrator)
     else:
@@ -246,6 +241,16 @@ def tuned_lut(
     }
 
 
+def refine_path(job: SceneJob, integrator: Integrator) -> tuple[_PathPoints, Refinement]:
+    """A 4D job read along its ``base_path``: its scored points and its refinement to the smallest counts
+    that meet the target there (the Lut is the result's artefact); its search is left to the caller."""
+    spec = job.lut_spec()
+    points = _PathPoints.build(spec, job.key["base_path"], integrator)
+    frozen = (1,) if job.fixed_thickness else ()
+    measure = _path_measure(spec, points, integrator)
+    return points, refine(measure, job.counts, job.scene.max_de, frozen=frozen, max_rounds=_LUT_MAX_ROUNDS)
+
+
 @dataclass
 class _PathPoints:
     """Where the engine reads a 4D LUT along a base path (a texture-driven glTF metal: docs/gltf.md), in
@@ -288,6 +293,21 @@ class _PathPoints:
             delta_e00(lut.sample(self.single), self.truth_single, observer, space),
             delta_e00(_composed(lut.sample, self.channels), self.truth_channels, observer, space),
         )
+
+    def search_step_seconds(self, lut: Lut, integrator: Integrator, steps: int = 5) -> float:
+        """Seconds per evaluation of ``searched``'s error (the stack, the LUT's read, the direct rule, ΔE00)
+        in one compass step of its starts: ``_SEARCH_STARTS`` single-base points at once, the median of
+        ``steps`` such steps (what `plan` counts a 4D job's search at: lutbake/scene/estimate.py)."""
+        seconds = []
+        for step in range(steps):
+            at = self.single_at[step * _SEARCH_STARTS : (step + 1) * _SEARCH_STARTS]
+            start = time.perf_counter()
+            stack = _path_stack(
+                self.spec, self.path, self.single.cos_theta[: len(at)], self.single.opd_nm[: len(at)], at
+            )
+            delta_e00(lut.sample(stack), integrator.evaluate(self.spec, stack), self.spec.observer, self.spec.space)
+            seconds.append((time.perf_counter() - start) / len(at))
+        return float(np.median(seconds))
 
     def searched(self, lut: Lut, integrator: Integrator) -> dict[str, Any]:
         """The max along the path (one base for every channel) over (√cos θ, D, position along the path),

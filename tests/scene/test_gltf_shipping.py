@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from gltf_assets import document, iridescent, write_gltf
+from gltf_assets import document, iridescent, khronos_gltf, write_gltf
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -96,3 +96,21 @@ def test_plan_estimates_the_bake_by_stage_measured_now_and_writes_nothing(asset)
     assert sorted(p.name for p in asset.parent.iterdir()) == before
     text = cli("plan", "--gltf", asset).stdout.splitlines()[-1]
     assert text.startswith("time ~") and "to bake here, measured just now" in text
+
+
+def test_plan_refines_a_texture_driven_metal_now_and_says_each_parts_route(tmp_path):
+    """CompareIridescence's texture-driven metal: `plan` refines its 4D job now (``sampled_lut_jobs``, counted
+    in ``luts_s``: bench/bench_gltf_plan.py holds it within 2x of the bake) and says each part's route: a forced
+    route as final, a baked part's as the bake's unless its check misses (only the bake can tell)."""
+    gltf = khronos_gltf("CompareIridescence", tmp_path)
+    doc = json.loads(cli("plan", "--gltf", gltf, "--json").stdout)
+    luts = [j["id"] for j in doc["jobs"] if j["kind"] == "lut"]
+    assert doc["sampled_lut_jobs"] == luts[:1] and len(luts) == 1 and doc["luts_s"] > 0
+    (row,) = doc["gltf_materials"]
+    assert row["routes"]["metal"] == {"route": "bake", "by": "auto", "unless": row["routes"]["metal"]["unless"]}
+    assert "composed colour" in row["routes"]["metal"]["unless"] and "slice" in row["routes"]["dielectric"]["unless"]
+    forced = json.loads(cli("plan", "--gltf", gltf, "--route", "1=runtime", "--json").stdout)
+    assert forced["gltf_materials"][0]["routes"] == {p: {"route": "runtime", "by": "--route"} for p in row["routes"]}
+    assert forced["luts_s"] == 0 and forced["sampled_lut_jobs"] == [] and not forced["jobs"]
+    text = cli("plan", "--gltf", gltf, "--route", "1=runtime").stdout
+    assert "metal → runtime (--route)" in text

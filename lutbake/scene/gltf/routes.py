@@ -22,7 +22,7 @@ from lutbake.quality.refine import REPORT_POINTS, p99_bound
 from lutbake.scene.gltf.scoring import Sampler, film_points, part_colours, served_materials
 from lutbake.scene.model import Scene
 
-__all__ = ["choose_routes", "composed_parts", "route_lines", "source_unmet", "CHECK_SEED"]
+__all__ = ["choose_routes", "composed_parts", "planned_routes", "route_lines", "source_unmet", "CHECK_SEED"]
 
 CHECK_SEED = 0  # the bake's check points: fixed, so the same inputs give the same routes and bytes
 AUTO = "auto"
@@ -74,6 +74,24 @@ def composed_parts(source: dict[str, Any]) -> list[tuple[dict[str, Any], dict[st
         for record, info in _baked_parts(source)
         if info.get("texture") or len(set(served_materials(info))) > 1
     ]
+
+
+def planned_routes(source: dict[str, Any], record: dict[str, Any]) -> dict[str, dict[str, str]]:
+    """What `plan` knows of each part's route before the bake: {part: {route, by, unless}}: a constant or a
+    forced route (``--route``, extras) is final; a part the bake serves stays baked ``unless`` its check
+    misses (its composed colour, or its slice at the resolution cap; then the runtime table serves it), which
+    only the bake can tell."""
+    composed = {id(info) for _, info in composed_parts(source)}
+    routes = {}
+    for name, info in record["parts"].items() if record["film"] is not None else ():
+        if "constant" in info:
+            routes[name] = {"route": "constant", "by": "stack"}
+        elif "route_by" in info:
+            routes[name] = {"route": info["route"], "by": info["route_by"]}
+        else:
+            miss = "its composed colour (a table per channel)" if id(info) in composed else "its slice"
+            routes[name] = {"route": "bake", "by": AUTO, "unless": f"{miss} misses the target"}
+    return routes
 
 
 def _check(
