@@ -274,6 +274,8 @@ def _print_shipping(ship: dict[str, Any], out: str) -> None:
     if by_role:
         named = "; ".join(f"{', '.join(names)}: {why}" for why, names in by_role.items())
         click.echo(terminal_text(f"build artefacts (no page loads them): {named}"))
+    if ship.get("removed"):
+        click.echo(terminal_text(f"removed the earlier bake's build artefacts: {', '.join(ship['removed'])}"))
 
 
 @click.command("plan")

@@ -37,7 +37,7 @@ from lutbake.scene.gltf.routes import choose_routes, route_lines, source_unmet
 from lutbake.scene.jobs import refine_slice, slice_atlas, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
-from lutbake.scene.shipping import is_web_member, shipping
+from lutbake.scene.shipping import earlier_build_artefacts, is_web_member, remove_build_artefacts, shipping
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
 from lutbake.tables.includes import atlas_includes, warn_texture_size
 
@@ -159,7 +159,8 @@ def bake_scene(
     device : str, optional
         OpenCL device (see ``bake_lut``).
     for_web : bool
-        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache.
+        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache; the
+        build artefacts an earlier bake of ``out_dir`` wrote (as its manifest names them) are removed.
 
     Returns
     -------
@@ -195,6 +196,7 @@ def bake_scene(
     check_scene_outputs(out, scene, plan)
     scene_hash = _scene_hash(scene, plan)
     outputs = scene_outputs(out, scene, plan, for_web)
+    earlier = earlier_build_artefacts(out, scene.stem) if for_web else []  # a full bake's, read before it goes
     with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
         manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs, plan if for_web else None)
         if manifest is not None:
@@ -213,9 +215,10 @@ def bake_scene(
                 files.members.pop(extra).unlink()
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
         written = sorted(files.members)
+    removed = remove_build_artefacts(earlier, written)
     seconds = time.perf_counter() - start
     outcome = _outcome(manifest)
-    ship = _ship(manifest, scene, for_web)
+    ship = _ship(manifest, scene, for_web) | ({"removed": removed} if removed else {})
     return SceneResult(out, written, run.computed, run.reused, False, seconds, *outcome, run.device, ship)
 
 
