@@ -27,7 +27,7 @@ from lutbake.errors import ParameterError
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set, sha256_file
-from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
+from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed, shared_metal_tables
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
 from lutbake.lut.sample import Lut
@@ -380,8 +380,9 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
         "settings": scene.settings_key(),
         "materials": {m.name: entries[m.name] for m in scene.materials if m.name in entries},
     }
-    if scene.source is not None:
-        manifest["source"] = scene.source
+    if scene.source is not None:  # each texture-driven metal's table written once (io/manifest.py)
+        manifest["source"], tables = shared_metal_tables(scene.source)
+        manifest |= {"metal_tables": tables} if tables else {}
     return manifest
 
 
