@@ -460,4 +460,15 @@ def _choose_routes(
         spec = replace(_TRUTH_SPEC, eta2=eta2, eta1=scene.eta1, observer=scene.observer, space=scene.space)
         return functools.partial(run.integrator_now().evaluate, spec)
 
-    return choose_routes(scene, met.__getitem__, sampler_of, truth_of)
+    def rerefine(names: list[str], factor: float) -> set[str]:  # the slices serving ``names``, refined in place
+        changed: set[str] = set()
+        for i, (job, _, record) in enumerate(slices):
+            if set(job.materials) & set(names):
+                target = record["de00_p99_bound"] * factor
+                values, again = refine_slice(job, run.integrator_now(), target, tuple(record["counts"]))
+                slices[i] = (job, values, {**again, "rerefined_to": target})
+                atlases.update({name: slice_atlas(job, values) for name in job.materials})
+                changed.update(job.materials)
+        return changed
+
+    return choose_routes(scene, met.__getitem__, sampler_of, truth_of, rerefine)

@@ -121,16 +121,18 @@ def slice_atlas(job: SceneJob, values: np.ndarray) -> Atlas:
     return Atlas({"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]}, values.astype(stored))
 
 
-def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dict[str, Any]]:
-    """The slice grown until its stored values meet the scene's target on `report`'s statistic at any
-    seed, then its max searched: (values (rows, columns, 3) in float64, record)."""
+def refine_slice(
+    job: SceneJob, integrator: Integrator, target: float | None = None, start: tuple[int, ...] | None = None
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The slice grown from ``start`` (the job's counts) until its stored values meet ``target`` (the scene's)
+    on `report`'s statistic at any seed, then its max searched: (values (rows, columns, 3) in float64,
+    record; ``target_met`` is against the scene's target)."""
     s = job.scene
     stack = job.stack()  # one stack: it keeps what it learns about its materials' spectra
     uniform = uniform_points(job, stack, integrator)
     frozen = (1,) if job.fixed_thickness else ()
-    result = refine(
-        _slice_measure(job, stack, uniform, integrator), job.counts, s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT
-    )
+    measure = _slice_measure(job, stack, uniform, integrator)
+    result = refine(measure, start or job.counts, target or s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT)
     best = result.artefact
     assert isinstance(best, _ScoredSlice)  # what _slice_measure builds
     worst = _searched_slice(job, stack, uniform, best, integrator)
@@ -138,7 +140,7 @@ def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dic
         "counts": list(result.counts),
         "de00_p99": result.best.de00_p99,
         "de00_p99_bound": result.best.held,
-        "target_met": result.met,
+        "target_met": result.best.held <= s.max_de,
         "de00_max": worst["de00_max"],
         "worst_case": worst,
         "scored_points": {"uniform": len(best.de00_uniform), "cell_centres": len(best.de00_centres)},
