@@ -290,8 +290,7 @@ def plan_cmd(
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, one glTF 4D
-    job refined for real with its search's evaluations timed, the composed-colour checks (docs/gltf.md, How
-    long). For a glTF asset, each part's route where it is known before the bake.
+    job run for real (refined, its max searched), the composed-colour checks (docs/gltf.md, How long). For a glTF asset, each part's route where it is known before the bake.
     """
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
@@ -328,7 +327,7 @@ def plan_cmd(
         f"time ~{format_seconds(doc['estimate_seconds'])} to bake here, measured just now: start-up "
         f"{format_seconds(doc['startup_s'])}, slices {format_seconds(doc['slices_s'])} ("
         f"{len(doc['sampled_slice_jobs'])} refined now, their mean times the count), 4D LUTs "
-        f"{format_seconds(doc['luts_s'])} ({len(doc['sampled_lut_jobs'])} refined now, its search counted), "
+        f"{format_seconds(doc['luts_s'])} ({len(doc['sampled_lut_jobs'])} run now, times the count), "
         f"composed-colour checks {format_seconds(doc['checks_s'])} (of it "
         f"~{format_seconds(total)} of ground truth at {doc['seconds_per_truth_point'] * 1e3:.1f} ms per point)"
     )

@@ -5,10 +5,9 @@ A bake's time is its integrator's start-up, its slice jobs (each refined until i
 searched), its 4D jobs (refined, then their max searched over ``LUT_SEARCH_BUDGET`` evaluations) and a glTF
 scene's composed-colour checks (lutbake/scene/gltf/routes.py). Measured now: the start-up (making the
 integrator), up to ``SAMPLED_SLICES`` of the plan's slice jobs refined for real (spread over the plan; their
-mean times the count), and one 4D job read along a base path (a texture-driven glTF metal) refined for real
-(jobs.refine_path: its points, every trial the bake's refinement makes) with its search counted as its
-budget of evaluations at the seconds one compass step of its starts takes (jobs._PathPoints.search_step_seconds),
-times the count of such jobs. A 4D job over a whole base box (a TOML scene's ranged base) is counted as the
+mean times the count), and one 4D job read along a base path (a texture-driven glTF metal) run for real as
+the bake runs it (jobs.refine_path: its points, every trial of its refinement; then its searched max), times
+the count of such jobs. A 4D job over a whole base box (a TOML scene's ranged base) is counted as the
 direct rule's seconds per point times the points it evaluates, at ``LUT_COST_PER_POINT`` of that rate. The
 composed checks: their points at the direct rule's rate. Nothing is written.
 """
@@ -68,14 +67,15 @@ def time_estimate(plan: ScenePlan, integrator: Integrator, startup_s: float) -> 
 
 
 def _timed_path_job(job: SceneJob, integrator: Integrator) -> float:
-    """Seconds of a path job: its refinement run now, its searched max's budget at the measured seconds per
-    evaluation, and its final grid baked once more (the file the bake writes: the winning trial's seconds)."""
+    """Seconds of a path job run now as the bake runs it: its refinement and its searched max (whose cost is
+    where it climbs: grazing angles and long paths, where the direct rule is dearest; a compass step of its
+    starts timed alone was 3-5x short), and its final grid baked once more (the winning trial's seconds: the
+    file the bake writes)."""
     start = time.perf_counter()
     points, result = refine_path(job, integrator)
-    refined = time.perf_counter() - start
     assert isinstance(result.artefact, Lut)  # what the path refinement builds
-    search = LUT_SEARCH_BUDGET * points.search_step_seconds(result.artefact, integrator)
-    return refined + search + result.best.seconds
+    points.searched(result.artefact, integrator)
+    return time.perf_counter() - start + result.best.seconds
 
 
 def _timed_slice(job: SceneJob, integrator: Integrator) -> float:

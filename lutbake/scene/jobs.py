@@ -20,7 +20,6 @@ p99, the bound held, the searched max).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -295,21 +294,6 @@ class _PathPoints:
             delta_e00(lut.sample(self.single), self.truth_single, observer, space),
             delta_e00(_composed(lut.sample, self.channels), self.truth_channels, observer, space),
         )
-
-    def search_step_seconds(self, lut: Lut, integrator: Integrator, steps: int = 5) -> float:
-        """Seconds per evaluation of ``searched``'s error (the stack, the LUT's read, the direct rule, ΔE00)
-        in one compass step of its starts: ``_SEARCH_STARTS`` single-base points at once, the median of
-        ``steps`` such steps (what `plan` counts a 4D job's search at: lutbake/scene/estimate.py)."""
-        seconds = []
-        for step in range(steps):
-            at = self.single_at[step * _SEARCH_STARTS : (step + 1) * _SEARCH_STARTS]
-            start = time.perf_counter()
-            stack = _path_stack(
-                self.spec, self.path, self.single.cos_theta[: len(at)], self.single.opd_nm[: len(at)], at
-            )
-            delta_e00(lut.sample(stack), integrator.evaluate(self.spec, stack), self.spec.observer, self.spec.space)
-            seconds.append((time.perf_counter() - start) / len(at))
-        return float(np.median(seconds))
 
     def searched(self, lut: Lut, integrator: Integrator) -> dict[str, Any]:
         """The max along the path (one base for every channel) over (√cos θ, D, position along the path),
