@@ -290,7 +290,8 @@ def plan_cmd(
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
     The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, one glTF 4D
-    job run for real (refined, its max searched), the composed-colour checks (docs/gltf.md, How long). For a glTF asset, each part's route where it is known before the bake.
+    job run for real (refined, its max searched), the composed-colour checks (docs/gltf.md, How long). For a
+    glTF asset, each part's route where it is known before the bake.
     """
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
