@@ -105,7 +105,7 @@ MEMORY: _MemoryModel = {
     # one where the image is one band): RGB float64 on the host and
     # the device, the lists of texels left (direct: levels), the plan's mask of them (1 B)
     "numpy_cell": 168,  # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
-    "numpy_chunk": 330,  # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
+    "numpy_chunk": 250,  # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most; 160-249 B traced)
     "screen": 750 << 16,  # capped_texels: one chunk of 2^16 texels screened and filtered
 }
 

@@ -94,7 +94,19 @@ def _exprel(x: ArrayLike) -> np.ndarray:
     x = np.asarray(x, complex)
     small = np.abs(x) < 1e-8
     safe = np.where(small, 1.0, x)
-    return np.where(small, 1.0 + x / 2.0, np.expm1(safe) / safe)
+    return np.where(small, 1.0 + x / 2.0, _expm1(safe) / safe)
+
+
+def _expm1(x: np.ndarray) -> np.ndarray:
+    """eˣ − 1 for complex x, numpy's formula for it (expm1(Re x)·cos(Im x) − 2 sin²(Im x / 2) + i e^{Re x}
+    sin(Im x)) on real arrays: numpy's vectorized sin/cos/exp, where np.expm1 of a complex array calls
+    libm per element (~7x slower)."""
+    re, im = x.real, x.imag
+    half = np.sin(im / 2)
+    out = np.empty(x.shape, complex)
+    np.subtract(np.expm1(re) * np.cos(im), 2 * half * half, out=out.real)
+    np.multiply(np.exp(re), np.sin(im), out=out.imag)
+    return out
 
 
 def _stack_terms(
@@ -106,10 +118,13 @@ def _stack_terms(
     thickness_nm: ArrayLike,
     wavelength_nm: ArrayLike,
 ) -> tuple[_Terms, np.ndarray, np.ndarray]:
-    """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each (indices resolved)."""
-    e1, e2, e3, k3, c1, d, lam = np.broadcast_arrays(
-        *(np.asarray(v, dtype=float) for v in (eta1, eta2, eta3, kappa3, cos_theta1, thickness_nm, wavelength_nm))
+    """Admittances (Y1, Y2, Y3) per polarization, the phase Φ and W for each (indices resolved). The
+    admittances keep the indices' and cos θ1's shape (a stack's (P, 1) columns: once per point, not once
+    per wavelength node); Φ and W broadcast against the thickness and the wavelengths."""
+    e1, e2, e3, k3, c1 = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (eta1, eta2, eta3, kappa3, cos_theta1))
     )
+    d, lam = np.asarray(thickness_nm, float), np.asarray(wavelength_nm, float)
     g1 = e1 * c1 + 0j
     g2 = normal_admittance(e2, 0.0, e1, c1)
     g3 = normal_admittance(e3, k3, e1, c1)
@@ -134,7 +149,10 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
 
         def scaled(z: np.ndarray) -> np.ndarray:  # real divisions: numpy's complex path overflows here too
-            return np.real(z) / scale + 1j * (np.imag(z) / scale)
+            out = np.empty(np.broadcast_shapes(np.shape(z), scale.shape), complex)
+            np.divide(np.real(z), scale, out=out.real)
+            np.divide(np.imag(z), scale, out=out.imag)
+            return out
 
         return scaled(num) / scaled(den)
 
@@ -162,8 +180,10 @@ def _transmitted_power(
 
 
 def _terms(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[_Terms, np.ndarray, np.ndarray]:
-    """``_stack_terms`` of the stack at ``wavelength_nm`` (named materials taken there)."""
-    eta2, eta3, kappa3 = stack.indices(wavelength_nm)
+    """``_stack_terms`` of the stack at ``wavelength_nm`` (named materials taken there; constant indices
+    left unbroadcast, so the admittances are computed per point)."""
+    named = stack.film is not None or stack.base is not None
+    eta2, eta3, kappa3 = stack.indices(wavelength_nm) if named else (stack.eta2, stack.eta3, stack.kappa3)
     return _stack_terms(stack.eta1, eta2, eta3, kappa3, stack.cos_theta, stack.thickness_nm, wavelength_nm)
 
 
@@ -172,6 +192,19 @@ def film_amplitudes(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.nda
     terms, _, c1 = _terms(stack, wavelength_nm)
     r_s, r_p = (_airy_amplitude(*terms[pol], c1)[0] for pol in ("s", "p"))
     return r_s, r_p
+
+
+def _reflected_power(
+    y1: np.ndarray, y3: np.ndarray, r: np.ndarray, den: np.ndarray, phi: np.ndarray, cos_theta1: np.ndarray
+) -> np.ndarray:
+    """|r|² where it is ≤ 1/2, else 1 − T, the power into the base computed only there (NaN included, as a
+    np.where over both branches took it)."""
+    power = np.asarray(np.abs(r) ** 2)  # complex division scales, so tiny admittances cannot underflow
+    high = ~(power <= 0.5)
+    if high.any():
+        at_high = [np.broadcast_to(a, power.shape)[high] for a in (y1, y3, den, phi, cos_theta1)]
+        power[high] = 1.0 - _transmitted_power(*at_high)
+    return power
 
 
 def film_reflectance(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -188,9 +221,7 @@ def film_reflectance(stack: FilmPoints, wavelength_nm: ArrayLike) -> tuple[np.nd
     for pol in ("s", "p"):
         y1, _, y3, _ = terms[pol]
         r, _, den = _airy_amplitude(*terms[pol], c1)
-        direct = np.abs(r) ** 2  # complex division scales, so tiny admittances cannot underflow
-        complement = 1.0 - _transmitted_power(y1, y3, den, phi, c1)
-        out.append(np.where(direct <= 0.5, direct, complement))
+        out.append(_reflected_power(y1, y3, r, den, phi, c1))
     return out[0], out[1], 0.5 * (out[0] + out[1])
 
 

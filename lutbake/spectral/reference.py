@@ -54,17 +54,24 @@ def spectral_reflectance(points: FilmPoints, wavelength_nm: npt.ArrayLike) -> tu
 
 def _integrate(points: FilmPoints, rule: SpectralRule, pool: ThreadPoolExecutor | None = None) -> np.ndarray:
     """The rule's sums at every point, chunk by chunk on ``pool``'s threads (numpy's loops release the
-    interpreter, so the chunks run on every core), else in this thread."""
-    out = np.empty((len(points), rule.weights.shape[0]))
+    interpreter, so the chunks run on every core), else in this thread. A rule finer than a chunk (a resonant
+    point's 2048 nodes per nm: 963k nodes) is cut into spans of nodes summed in order, so its temporaries stay
+    in cache too."""
+    span = min(rule.count, _CELLS_PER_CHUNK)
+    spans = range(0, rule.count, span)
     step = max(1, _CELLS_PER_CHUNK // rule.count)
+    partial = np.empty((len(spans), len(points), rule.weights.shape[0]))
 
-    def chunk(start: int) -> None:
+    def chunk(start: int, node: int) -> None:
         part = subset(points, slice(start, start + step))
-        out[start : start + step] = spectral_reflectance(part, rule.wavelength_nm)[2] @ rule.weights.T
+        nodes = slice(node, node + span)
+        reflectance = spectral_reflectance(part, rule.wavelength_nm[nodes])[2]
+        partial[node // span, start : start + step] = reflectance @ rule.weights[:, nodes].T
 
-    for _ in (pool.map if pool else map)(chunk, range(0, len(points), step)):
+    jobs = [(start, node) for start in range(0, len(points), step) for node in spans]
+    for _ in (pool.map if pool else map)(lambda job: chunk(*job), jobs):
         pass
-    return out
+    return partial.sum(axis=0) if len(spans) > 1 else partial[0]
 
 
 def subset(points: FilmPoints, index: slice | np.ndarray) -> FilmPoints:

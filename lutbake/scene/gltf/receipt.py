@@ -35,12 +35,24 @@ from lutbake.lut.sample import Atlas, Lut
 from lutbake.modes.approximations import khr_iridescence_rgb
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.metals import MAPPINGS, conductor
-from lutbake.scene.gltf.scoring import Bases, Sampler, film_points, film_stacks, part_colours, per_channel
-from lutbake.spectral.reference import reference_colour
+from lutbake.scene.gltf.scoring import (
+    Bases,
+    Sampler,
+    SharedTruth,
+    film_points,
+    film_stacks,
+    part_colours,
+    per_channel,
+    truth_rgb,
+)
 
 __all__ = ["RECEIPT_FILES", "gltf_receipts", "served_by", "write_receipts"]
 
 RECEIPT_FILES = ("receipts.json", "receipts.html")
+# Points whose truth one batch of consecutive materials integrates together (SharedTruth): ~32 sphere-grid
+# materials at 1,000 points and two stacks each, enough to keep every core's chunks busy, few enough that
+# progress moves every few seconds and the batch's colours stay a few MB.
+_POINTS_PER_BATCH = 65_536
 
 
 def gltf_receipts(
@@ -49,10 +61,13 @@ def gltf_receipts(
     seed: int = 0,
     max_de: float | None = None,
     progress: Progress = no_progress,
+    shared_truth: bool = True,
 ) -> dict[str, Any]:
     """The receipts of the glTF bake whose manifest is ``manifest_path`` (ValueError if it is not one), with
     ``gate`` {max_de, worst p99, passed} when ``max_de`` is given; ``progress`` (done, total, note) after
-    each material."""
+    each batch's materials. ``shared_truth``: consecutive materials' ground truth integrated together, once
+    per distinct stack (False: once per part and mapping, as each part asks; the same receipts to rounding,
+    bench/bench_receipts.py)."""
     path = Path(manifest_path)
     manifest = read_scene_manifest(path)  # typed (the source records too) and sealed
     source = manifest.get("source")
@@ -60,10 +75,14 @@ def gltf_receipts(
         raise ValueError(f"{str(path)!r} is not the manifest of a glTF bake (lutbake bake --gltf)")
     rng = np.random.default_rng(seed)
     sampler_of = _manifest_samplers(manifest, path.parent)
-    rows = []
-    for k, record in enumerate(source["materials"]):
-        rows.append(_receipt(record, sampler_of, n_points, rng))
-        progress(k + 1, len(source["materials"]), f"material {record['gltf_index']}")
+    records = source["materials"]
+    per_batch = max(1, _POINTS_PER_BATCH // (2 * n_points))
+    rows: list[dict[str, Any]] = []
+    for start in range(0, len(records), per_batch):
+        batch = records[start : start + per_batch]
+        rows += _batch_receipts(batch, sampler_of, n_points, rng, shared_truth)
+        for done, record in enumerate(batch, start + 1):
+            progress(done, len(records), f"material {record['gltf_index']}")
     receipts = {
         "asset": source["asset"],
         "manifest": path.name,
@@ -77,8 +96,24 @@ def gltf_receipts(
     return receipts
 
 
+def _batch_receipts(
+    batch: list[dict[str, Any]], sampler_of: Callable[[str], Sampler], n: int, rng: np.random.Generator, shared: bool
+) -> list[dict[str, Any]]:
+    """The receipts of consecutive materials. Shared: a first pass at the same points (the generator's state
+    replayed) records every stack whose truth they need, one SharedTruth integration serves them all."""
+    if not shared:
+        return [_receipt(record, sampler_of, n, rng, truth_rgb) for record in batch]
+    truth = SharedTruth()
+    state = rng.bit_generator.state
+    for record in batch:
+        _receipt(record, sampler_of, n, rng, truth.record)
+    truth.integrate()
+    rng.bit_generator.state = state
+    return [_receipt(record, sampler_of, n, rng, truth.colour) for record in batch]
+
+
 def _receipt(
-    record: dict[str, Any], sampler_of: Callable[[str], Sampler], n: int, rng: np.random.Generator
+    record: dict[str, Any], sampler_of: Callable[[str], Sampler], n: int, rng: np.random.Generator, truth: Sampler
 ) -> dict[str, Any]:
     row: dict[str, Any] = {
         k: record.get(k)
@@ -91,20 +126,20 @@ def _receipt(
         return row
     cos_t, thickness = points = film_points(record, n, rng)
     for part, info in record["parts"].items():
-        colours = part_colours(record["film"], info, sampler_of, points, rng, lambda s: reference_colour(s).values)
-        bases, truth, f0 = colours.bases, colours.truth, colours.f0
+        colours = part_colours(record["film"], info, sampler_of, points, rng, truth)
+        bases, f0 = colours.bases, colours.f0
         threejs, model = _gltf_model(record["film"], cos_t, thickness, f0)
         costs: dict[str, Mapping[str, float | str]] = {
-            "baked": _stats(colours.served, truth),
-            "threejs": _stats(threejs, truth),
+            "baked": _stats(colours.served, colours.truth),
+            "threejs": _stats(threejs, colours.truth),
             "threejs_vs_gltf_model": _stats(threejs, model),
-            "gltf_model_vs_physics": _stats(model, truth),
+            "gltf_model_vs_physics": _stats(model, colours.truth),
         }
         if info.get("mapping") in MAPPINGS:
             other = next(m for m in MAPPINGS if m != info["mapping"])
             costs["other_mapping"] = {
                 "mapping": other,
-                **_stats(_other_truth(info, other, record["film"], cos_t, thickness, bases), truth),
+                **_stats(_other_truth(info, other, record["film"], cos_t, thickness, bases, truth), colours.truth),
             }
         row["parts"][part] = {**{k: v for k, v in info.items() if k != "table"}, "de00": costs}
     return row
@@ -141,7 +176,13 @@ def _gltf_model(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, f0: list[
 
 
 def _other_truth(
-    info: dict[str, Any], mapping: str, eta2: float, cos_t: np.ndarray, thickness: np.ndarray, bases: list[Bases]
+    info: dict[str, Any],
+    mapping: str,
+    eta2: float,
+    cos_t: np.ndarray,
+    thickness: np.ndarray,
+    bases: list[Bases],
+    truth: Sampler,
 ) -> np.ndarray:
     """The ground truth with each channel's F0 mapped by ``mapping`` instead."""
     other: dict[int, Bases] = {}
@@ -154,7 +195,7 @@ def _other_truth(
                 "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0],
             }
     stacks = film_stacks(eta2, cos_t, thickness, [other[id(b)] for b in bases])
-    return per_channel(lambda s: reference_colour(s).values, stacks)
+    return per_channel(truth, stacks)
 
 
 def _stats(rgb: np.ndarray, truth: np.ndarray) -> dict[str, float]:
