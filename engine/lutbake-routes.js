@@ -43,9 +43,12 @@ export async function loadBakeManifest(manifestUrl, upload) {
 
 // A texture-driven metal's F0 -> (eta3, kappa3) table: `entry` is the metal part of a glTF material's record
 // (`texture: true`); its F0 nodes run uniformly from 0 to f0Max (the mapping's curve, clamped past its end).
-// Engine code reads the table only through here: where the manifest keeps it may change.
+// Engine code reads the table only through here: the part holds it, or names one of the manifest's
+// top-level `metal_tables` (one per mapping).
 export function metalTable(manifest, entry) {
-  const { f0, eta3, kappa3 } = entry.table;
+  const table = typeof entry.table === 'string' ? (manifest.metal_tables || {})[entry.table] : entry.table;
+  if (!table) throw new Error(`metal table '${entry.table}' is not in the manifest's metal_tables`);
+  const { f0, eta3, kappa3 } = table;
   return { f0, eta3, kappa3, f0Max: f0[f0.length - 1] };
 }
 

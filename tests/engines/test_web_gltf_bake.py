@@ -145,9 +145,10 @@ def test_the_check_tells_the_materials_apart(served):
 ROUTE_CASES = """
 import { bakeTerms, partRoutes } from './engine/lutbake-routes.js';
 const bake = { stem: 'Scene', atlas: null, include: '', manifest: { scene_hash: 'ab'.repeat(32), materials: {
-  s: { kind: 'slice' }, r: { kind: 'runtime' }, l: { kind: 'lut', file: 'l.exr' } } },
+  s: { kind: 'slice' }, r: { kind: 'runtime' }, l: { kind: 'lut', file: 'l.exr' } }, metal_tables: {} },
   luts: { 'l.exr': { texture: 'the LUT texture', include: '// the LUT include', ident: 'LUTBAKE_L' } } };
 const table = { f0: [0, 0.25, 0.5], eta3: [1, 1.25, 0.5], kappa3: [0, 1.5, 3] };
+bake.manifest.metal_tables.fitted = table;   // a table at the manifest's top level, named by the part
 const textured = { mapping: 'fitted', texture: true, table, channels: ['l', 'l', 'l'] };
 const record = (parts) => ({ gltf_index: 7, name: 'Vase', film: 1.3, parts });
 const cases = {
@@ -160,6 +161,8 @@ const cases = {
   noRuntime: [{ dielectric: { material: 'gone', base: [1.5, 0] } }, false, 'bake'],
   texturedLut: [{ metal: textured }, true, 'bake'],
   texturedRuntime: [{ metal: textured }, true, 'runtime'],
+  texturedNamed: [{ metal: { ...textured, table: 'fitted' } }, true, 'bake'],
+  texturedUnnamed: [{ metal: { ...textured, table: 'gone' } }, true, 'bake'],
 };
 const out = {};
 for (const [name, [parts, runtime, serve]] of Object.entries(cases)) {
@@ -210,9 +213,11 @@ def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
     clamp = "clamp(f0 / 0.5, 0.0, 1.0) * 2.0"
     for name, reads in {
         "texturedLut": ["// the LUT include", "lutbake_sample(lutbakeLut, LUTBAKE_L, cosTheta, opd, g.x, g.y).g"],
+        "texturedNamed": ["// the LUT include"],
         "texturedRuntime": [
             "lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, 1.3, vec3(r.x, g.x, b.x)"
         ],
     }.items():
         for text in [table, clamp, *reads]:
             assert text in got[name]["include"], (name, text)
+    assert "metal table 'gone' is not in the manifest's metal_tables" in got["texturedUnnamed"]["error"]
