@@ -37,6 +37,7 @@ sys.path.insert(0, str(ROOT / "docs"))
 from gltf_assets import SHOWCASE, khronos_document, stand_in  # noqa: E402
 from make_dropin import write_runtime_table  # noqa: E402
 
+from lutbake.io.manifest import read_scene_manifest  # noqa: E402
 from lutbake.physics.colorimetry import delta_e00  # noqa: E402
 from lutbake.quality.runtime_accuracy import truth  # noqa: E402
 from lutbake.tables.headers import check_structure, exr_header  # noqa: E402
@@ -63,7 +64,7 @@ def bake_stand_in(doc: dict, folder: Path, name: str) -> dict:
         raise RuntimeError(f"{name}: the bake missed its target: {result.unmet}")
     return {
         "gltf": gltf,
-        "manifest": json.loads((folder / name / "out" / f"{name}.json").read_text()),
+        "manifest": read_scene_manifest(folder / name / "out" / f"{name}.json"),  # metal tables in place
         "out": folder / name / "out",
         "bake_s": time.perf_counter() - start,
     }

@@ -47,7 +47,7 @@ export async function loadLutbakeBake(manifestUrl) {
   const manifest = JSON.parse(await loadText(manifestUrl));
   if (!manifest.source || manifest.source.kind !== 'gltf') throw new Error(`${manifestUrl}: not a lutbake glTF bake`);
   const bake = { manifest, stem: manifest.scene.replace(/\.[^.]*$/, ''), atlas: null, atlasInclude: '', slices: {},
-                 luts: {}, records: manifest.source.materials };
+                 luts: {}, records: manifest.source.materials.map((record) => withMetalTables(manifest, record)) };
   for (const entry of Object.values(manifest.materials)) {
     if (entry.kind === 'slice' && !bake.atlas) {
       bake.atlas = await new EXRLoader().loadAsync(folder + entry.file);
@@ -58,6 +58,18 @@ export async function loadLutbakeBake(manifestUrl) {
     }
   }
   return bake;
+}
+
+// A texture-driven metal's part names its F0 -> (eta3, kappa3) table, written once at the manifest's top level
+// (manifest.metal_tables: one per metal mapping); the record as the plugin reads it holds the table itself.
+function withMetalTables(manifest, record) {
+  const parts = Object.fromEntries(Object.entries(record.parts).map(([name, part]) => {
+    if (typeof part.table !== 'string') return [name, part];
+    const table = (manifest.metal_tables || {})[part.table];
+    if (!table) throw new Error(`glTF material ${record.gltf_index} '${record.name}': metal table '${part.table}' is not in the manifest's metal_tables`);
+    return [name, { ...part, table }];
+  }));
+  return { ...record, parts };
 }
 
 // `lutbake plan --gltf ASSET --json`: each material's mapping (film, thickness, bases) and no baked file, so

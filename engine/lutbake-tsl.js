@@ -115,7 +115,6 @@ export async function loadLutbakeRuntimeNode(stem) {
   return { table, constants, hash: header['lutbake.content_hash'] };
 }
 
-const mul = (a, b) => vec2(a.x.mul(b.x).sub(a.y.mul(b.y)), a.x.mul(b.y).add(a.y.mul(b.x)));
 
 // conj(e^(2 pi i turns) - 1) = (-2 s^2, -2 s c), s = sin(pi t), c = cos(pi t) of t = turns - round(turns) by the include's
 // near-minimax polynomials in t^2 (lutbake_rt_cis_m1_conj).
@@ -128,79 +127,93 @@ function cisM1Conj(turns) {
   return vec2(float(-0.5).mul(s2).mul(s2), s2.mul(c));
 }
 
-// Principal square root for Im z >= 0, its parts picked by one select (lutbake_rt_sqrt).
-function csqrt(z) {
-  const h = sqrt(max(float(0.5).mul(length(z).add(abs(z.x))), 1e-30));
-  const l = float(0.5).mul(z.y).div(h);
+// sqrt(2) times the principal square root for Im z >= 0, its parts picked by one select (lutbake_rt_sqrt2).
+function csqrt2(z) {
+  const h = sqrt(max(length(z).add(abs(z.x)), 1e-30));
+  const l = z.y.div(h);
   return select(z.x.greaterThanEqual(0.0), vec2(h, l), vec2(l, h));
 }
 
-// Interface 1-2 of one polarization by admittances y1, y2: a = r12, -a/2, 1 + a, 1 - a^2, a^2 (lutbake_rt_face).
+// Interface 1-2 of one polarization by admittances y1, y2: a = r12, -a/2, 1 + a, 1 - a^2, 1 - a^2 + 1e-30, a^2
+// (lutbake_rt_face).
 function face(y1, y2) {
   const i2 = float(2).div(y1.add(y2));
   const u1 = y1.mul(i2);
   const a = u1.sub(1);
-  return { a, na: float(-0.5).mul(a), u1, ea: u1.mul(y2.mul(i2)), a2: a.mul(a) };
+  const ea = u1.mul(y2.mul(i2));
+  return { a, na: float(-0.5).mul(a), u1, ea, eaTiny: ea.add(1e-30), a2: a.mul(a) };
 }
 
-// The film's part (lutbake_rt_film): interfaces 1-2, conj(e^(i theta) - 1), the zoom, the slice pair's tile centre
-// (texture coordinates, scanline 0 at v = 0) and its second slice's weight.
+// The film's part (lutbake_rt_film): sqrt(2) g2 and sqrt(2) g2 / eta2^2, (eta1 sin theta)^2, interfaces 1-2,
+// conj(e^(i theta) - 1) and cos theta, the zoom (ba = 2X / ZOOM and the Moebius map's constants in texture units),
+// the slice pair's tile centre (texture coordinates, scanline 0 at v = 0) and its second slice's weight.
 function film(c, cosTheta, thicknessNm, eta1, eta2) {
   const c1 = clamp(cosTheta, 0.0, 1.0);
   const e1c = eta1.mul(c1);
   const g2 = sqrt(max(eta2.sub(eta1).mul(eta2.add(eta1)).add(e1c.mul(e1c)), 1e-30));
   const h = g2.div(eta2.mul(eta2));
   const xh = thicknessNm.mul(g2);
-  const inv = float(1).div(xh.add(0.25 * c.ZOOM));
-  const beta = xh.mul(inv);
+  const em1c = cisM1Conj(xh.mul(2 * c.NU0));
+  const ba = xh.mul(4 / c.ZOOM);
   const s = min(sqrt(xh.mul(2 * c.LAST_SLICE * c.LAST_SLICE / c.X_MAX)), c.LAST_SLICE - 1 / 4096);
   const j = floor(s);
   const tile = j.add(0.5).mul(1 / c.TILES);
   return {
-    e1c, g2, h, faceS: face(e1c, g2), faceP: face(c1, eta1.mul(h)), em1c: cisM1Conj(xh.mul(2 * c.NU0)),
-    beta, alpha: float(0.25 * c.ZOOM).mul(inv), mobIm: beta.mul(float(2).sub(beta)).mul(c.SCALE[1] / c.SCALE[0]),
+    e1c, g2r: float(1.41421356).mul(g2), hr: float(1.41421356).mul(h), sin2: eta1.sub(e1c).mul(eta1.add(e1c)),
+    faceS: face(e1c, g2), faceP: face(c1, eta1.mul(h)), em1c, cosPhase: float(1).add(em1c.x), ba,
+    kv: vec2(...c.SCALE).mul(ba.mul(float(2).add(ba))), w0: float(-c.SCALE[0]).sub(ba.mul(c.SCALE[0])),
     centre: vec2(fract(tile).mul(c.TILE_STEP[0]), floor(tile).mul(c.TILE_STEP[1]).add(c.TILE_ORIGIN)), xt: s.sub(j),
   };
 }
 
-// One polarization from conj(zeta) (lutbake_rt_pol; docs/spectral.md): c0, the read's weights (the slice blend
-// folded in), re (the white's share) and w, the table coordinate's offset in texture units.
+// One polarization from conj(zeta) (lutbake_rt_pol; docs/spectral.md): c0, g = conj(K e^(i theta) / zeta) (its real
+// part the white's share) and w, the table coordinate's offset in texture units (partial fractions in e = ba + zeta).
 function polarization(c, fc, p, q, pq, f) {
   const n4 = float(4).div(dot(pq, pq));
   const nat2 = vec2(dot(q, pq), q.x.mul(pq.y).sub(q.y.mul(pq.x))).mul(fc.na.mul(n4));
   const eb = max(dot(p, q).mul(n4), 0.0);
-  const eq = fc.ea.div(max(fc.ea.add(fc.a2.mul(eb)), 1e-30));
+  const eq = fc.ea.div(fc.eaTiny.add(fc.a2.mul(eb)));
   const kr = eb.mul(eq);
   const c0 = fc.a2.add(fc.ea.mul(eq.sub(kr)));
-  const zc = vec2(fc.u1.add(nat2.x), nat2.y).add(mul(vec2(fc.a.add(nat2.x), nat2.y), f.em1c));
+  const abx = fc.a.add(nat2.x);
+  const zc = vec2(fc.u1.add(nat2.x).add(abx.mul(f.em1c.x).sub(nat2.y.mul(f.em1c.y))),
+    nat2.y.mul(f.cosPhase).add(abx.mul(f.em1c.y)));
   const kz = kr.div(max(dot(zc, zc), 1e-30));
   const g = vec2(kr.sub(kz.mul(zc.x)), kz.mul(zc.y));
-  const g1 = g.mul(f.xt);
-  const den = vec2(f.beta.add(f.alpha.mul(zc.x)), f.alpha.mul(zc.y));
-  const mob = vec2(f.beta.sub(zc.x).mul(den.x).sub(zc.y.mul(den.y)), f.mobIm.mul(zc.y));
+  const ec = vec2(f.ba.add(zc.x), zc.y);
+  const t = f.kv.div(max(dot(ec, ec), 1e-30));
   const reach = vec2(...c.REACH);
-  const w = clamp(mob.mul(float(c.SCALE[0]).div(max(dot(den, den), 1e-30))), reach.negate(), reach);
-  return { c0, weights: vec4(g.sub(g1), g1), re: g.x, w };
+  const w = clamp(vec2(f.w0.add(t.x.mul(ec.x)), t.y.mul(ec.y)), reach.negate(), reach);
+  return { c0, g, w };
 }
 
-// Both polarizations over base eta3 + i kappa3 (lutbake_rt_base); p scaled by the film's h = g2 / eta2^2.
+// Both polarizations over base eta3 + i kappa3 (lutbake_rt_base): g3 scaled by sqrt(2), p by the film's
+// sqrt(2) g2 / eta2^2, n3^2 = zx + (eta1 sin theta)^2.
 function base(c, f, eta1, eta3, kappa3) {
   const ek = float(2).mul(eta3).mul(kappa3);
-  const g3 = csqrt(vec2(eta3.sub(eta1).mul(eta3.add(eta1)).sub(kappa3.mul(kappa3)).add(f.e1c.mul(f.e1c)), ek));
-  const s = polarization(c, f.faceS, vec2(f.g2, 0.0), g3, vec2(f.g2.add(g3.x), g3.y), f);
-  const pn = vec2(eta3.sub(kappa3).mul(eta3.add(kappa3)), ek).mul(f.h);
+  const zx = eta3.sub(eta1).mul(eta3.add(eta1)).sub(kappa3.mul(kappa3)).add(f.e1c.mul(f.e1c));
+  const g3 = csqrt2(vec2(zx, ek));
+  const s = polarization(c, f.faceS, vec2(f.g2r, 0.0), g3, vec2(f.g2r.add(g3.x), g3.y), f);
+  const pn = vec2(zx.add(f.sin2), ek).mul(f.hr);
   return { s, p: polarization(c, f.faceP, pn, g3, pn.add(g3), f) };
 }
 
-// One polarization's weighted read at uv (lutbake_rt_read): one bilinear read at mip level 0 (valid in any control flow).
-const read = (runtime, uv, pol) => dot(texture(runtime.table, uv).level(0), pol.weights);
+// One bilinear read at mip level 0 (valid in any control flow).
+const texel = (runtime, uv) => texture(runtime.table, uv).level(0);
+
+// One polarization's read weights, the slices' blend folded into g (lutbake_rt_weights).
+const weights = (g, xt) => { const g1 = g.mul(xt); return vec4(g.sub(g1), g1); };
 
 // White's share: (c0_s + c0_p)/2 + Re of both K e^(i theta) / zeta (lutbake_rt_white).
-const white = (b) => float(0.5).mul(b.s.c0.add(b.p.c0)).add(b.s.re).add(b.p.re);
+const white = (b) => float(0.5).mul(b.s.c0.add(b.p.c0)).add(b.s.g.x).add(b.p.g.x);
+
+// One polarization's single read, the slices blended in the texel (lutbake_rt_read1).
+const read1 = (runtime, uv, g, xt) => { const v = texel(runtime, uv); return dot(mix(v.xy, v.zw, xt), g); };
 
 // Channel band's reflectance over one base: centre, the pair's tile centre in the band (lutbake_rt_channel).
 function channel(runtime, f, b, centre, band) {
-  return white(b).mul(runtime.constants.WHITE[band]).add(read(runtime, centre.add(b.s.w), b.s)).add(read(runtime, centre.add(b.p.w), b.p));
+  return white(b).mul(runtime.constants.WHITE[band]).add(read1(runtime, centre.add(b.s.w), b.s.g, f.xt))
+    .add(read1(runtime, centre.add(b.p.w), b.p.g, f.xt));
 }
 
 // Linear RGB reflectance of ambient eta1 | film eta2, thicknessNm | base eta3 + i kappa3, one base index
@@ -210,10 +223,10 @@ export function lutbakeIridescenceNode(runtime, cosTheta, thicknessNm, eta1, eta
   const f = film(c, float(cosTheta), float(thicknessNm), float(eta1), float(eta2));
   const b = base(c, f, float(eta1), float(eta3), float(kappa3));
   const us = f.centre.add(b.s.w), up = f.centre.add(b.p.w);
-  const band = (uv, k) => vec2(uv.x, uv.y.add(k * c.BAND_STEP));
-  return white(b).mul(vec3(...c.WHITE)).add(vec3(read(runtime, us, b.s).add(read(runtime, up, b.p)),
-    read(runtime, band(us, 1), b.s).add(read(runtime, band(up, 1), b.p)),
-    read(runtime, band(us, 2), b.s).add(read(runtime, band(up, 2), b.p))));
+  const ws = weights(b.s.g, f.xt), wp = weights(b.p.g, f.xt);
+  const read = (uv, k, w) => dot(texel(runtime, k ? vec2(uv.x, uv.y.add(k * c.BAND_STEP)) : uv), w);
+  return white(b).mul(vec3(...c.WHITE)).add(vec3(read(us, 0, ws).add(read(up, 0, wp)),
+    read(us, 1, ws).add(read(up, 1, wp)), read(us, 2, ws).add(read(up, 2, wp))));
 }
 
 // The same with one base index per channel, eta3 and kappa3 vec3 nodes (lutbake_iridescence_rgb: metals).

@@ -274,6 +274,8 @@ def _print_shipping(ship: dict[str, Any], out: str) -> None:
     if by_role:
         named = "; ".join(f"{', '.join(names)}: {why}" for why, names in by_role.items())
         click.echo(terminal_text(f"build artefacts (no page loads them): {named}"))
+    if ship.get("removed"):
+        click.echo(terminal_text(f"removed the earlier bake's build artefacts: {', '.join(ship['removed'])}"))
 
 
 @click.command("plan")
@@ -287,8 +289,9 @@ def plan_cmd(
 ) -> None:
     """What `bake --scene` or `bake --gltf` would bake: slices, axes, counts, bytes, and time (bakes nothing).
 
-    The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, the direct
-    rule's rate for the 4D jobs and the composed-colour checks (docs/gltf.md, How long).
+    The time is measured now, here: the integrator's start-up, a few slice jobs refined for real, one glTF 4D
+    job run for real (refined, its max searched), the composed-colour checks (docs/gltf.md, How long). For a
+    glTF asset, each part's route where it is known before the bake.
     """
     from lutbake.io.progress import format_seconds
     from lutbake.scene.documents import plan_document
@@ -311,7 +314,11 @@ def plan_cmd(
         )
     for row in doc.get("gltf_materials", []):
         served = row["slice"] or row["lut"] or f"nothing: {row['why_not']}"
-        click.echo(f"  glTF material {row['gltf_index']} {row['name']!r}: {served}")
+        route_text = "".join(
+            f"; {part} → {r['route']} ({r['by']}{'; the runtime table if ' + r['unless'] if 'unless' in r else ''})"
+            for part, r in row["routes"].items()
+        )
+        click.echo(f"  glTF material {row['gltf_index']} {row['name']!r}: {served}{route_text}")
     total = sum(j["truth_seconds_estimate"] for j in doc["jobs"])
     click.echo(
         f"total {doc['bytes_start_total']} bytes at the starting counts (slices grow until the target "
@@ -321,6 +328,7 @@ def plan_cmd(
         f"time ~{format_seconds(doc['estimate_seconds'])} to bake here, measured just now: start-up "
         f"{format_seconds(doc['startup_s'])}, slices {format_seconds(doc['slices_s'])} ("
         f"{len(doc['sampled_slice_jobs'])} refined now, their mean times the count), 4D LUTs "
-        f"{format_seconds(doc['luts_s'])}, composed-colour checks {format_seconds(doc['checks_s'])} (of it "
+        f"{format_seconds(doc['luts_s'])} ({len(doc['sampled_lut_jobs'])} run now, times the count), "
+        f"composed-colour checks {format_seconds(doc['checks_s'])} (of it "
         f"~{format_seconds(total)} of ground truth at {doc['seconds_per_truth_point'] * 1e3:.1f} ms per point)"
     )

@@ -101,9 +101,9 @@ MEMORY: _MemoryModel = {
     "plan_cell": 12,  # per cell of a band during the plan: the texels left and the series bounds
     "probes": 30 * _MIB,  # the ground truth at the 48 probes (lutbake/spectral/reference.py) ...
     "probes_per_um": 0.52 * _MIB,  # ... and its growth with the thickest film D (finer rules)
-    "flight_cell": {"series": 45, "direct": 80},  # per cell of the bands in flight (the one written, the next baking;
+    "flight_cell": {"series": 46, "direct": 80},  # per cell of the bands in flight (the one written, the next baking;
     # one where the image is one band): RGB float64 on the host and
-    # the device, the lists of texels left (direct: levels)
+    # the device, the lists of texels left (direct: levels), the plan's mask of them (1 B)
     "numpy_cell": 168,  # per cell of a band on the numpy path: the stacks, levels and RGB, two bands
     "numpy_chunk": 330,  # per (cell, node) pair of NumpyBackend's optics chunk (2^19 at most)
     "screen": 750 << 16,  # capped_texels: one chunk of 2^16 texels screened and filtered

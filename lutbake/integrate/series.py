@@ -299,16 +299,21 @@ class SeriesOnDevice:
         counts are among the buffers kept, as (count, event, planned), for PendingRows to check against the
         plan."""
         program, kernels, plan = self.program, self.program.kernels, self.plan()
-        cells = (y1 - y0) * self.spec.image_size[0]
+        width = self.spec.image_size[0]
+        cells = (y1 - y0) * width
         lists, counts = [program.scratch(max(1, cells) * 4)], [program.zeros()]
+        band = _band_of(plan.kept, y0 * width, y1 * width) if plan.kept is not None else None
+        mask = program.input(_left_mask(band, cells), np.int8) if band is not None else counts[0]  # unread if None
+        rule: list = [mask, np.int32(band is not None), out, lists[0], counts[0]]
         if plan.offsets is not None:
-            args = [*self._band_args(y0), *self._pair_table(plan, plan.offsets), out, lists[0], counts[0]]
-            program.run(kernels.bake_rows_series, cells, *args)
+            program.run(
+                kernels.bake_rows_series, cells, *self._band_args(y0), *self._pair_table(plan, plan.offsets), *rule
+            )
         else:
-            program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), out, lists[0], counts[0])
+            program.run(kernels.bake_rows_series_table, cells, *self._band_args(y0), *rule)
         planned = int(plan.rest_per_row[y0:y1].sum())
-        if plan.kept is not None:
-            return self._kept_band(plan.kept, y0, y1, out, [*lists, *counts, _checked(program, counts[0], planned)])
+        if band is not None:
+            return self._kept_band(band, out, [*lists, *counts, mask, _checked(program, counts[0], planned)])
         lists.append(program.scratch(max(1, cells) * 4))
         counts.append(program.zeros())
         if planned:
@@ -323,20 +328,36 @@ class SeriesOnDevice:
         return keep + [_checked(program, counts[1], 0)], None  # the plan said none: the band must agree
 
     def _kept_band(
-        self, kept: tuple[np.ndarray, np.ndarray, np.ndarray], y0: int, y1: int, out: pyopencl.Buffer, keep: list
+        self, band: tuple[np.ndarray, np.ndarray, np.ndarray], out: pyopencl.Buffer, keep: list
     ) -> tuple[list[object], np.ndarray | None]:
-        """enqueue_band's second pass where the plan kept its closed form: the kept colours of rows [y0, y1)
-        put into ``out`` (scatter_rgb), and the band's direct texels as the plan listed them."""
-        program, width = self.program, self.spec.image_size[0]
-        closed, rgb, direct = kept
-        first, last = (np.searchsorted(index, [y0 * width, y1 * width]) for index in (closed, direct))
-        if first[1] > first[0]:
-            texels = program.input(closed[first[0] : first[1]] - y0 * width, np.int32)
-            colours = program.input(rgb[first[0] : first[1]])
-            program.run(program.kernels.scatter_rgb, int(first[1] - first[0]), texels, colours, out)
+        """enqueue_band's second pass where the plan kept its closed form: the band's kept colours (``band``:
+        _band_of) put into ``out`` (scatter_rgb), and its direct texels as the plan listed them."""
+        program = self.program
+        closed, rgb, direct = band
+        if closed.size:
+            texels, colours = program.input(closed, np.int32), program.input(rgb)
+            program.run(program.kernels.scatter_rgb, closed.size, texels, colours, out)
             keep += [texels, colours]
-        band_direct = (direct[last[0] : last[1]] - y0 * width).astype(np.int32)
-        return keep, band_direct if band_direct.size else None
+        return keep, direct if direct.size else None
+
+
+def _band_of(
+    kept: tuple[np.ndarray, np.ndarray, np.ndarray], first: int, end: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The plan's kept lists (KeptColours.whole) for image texels [first, end): (closed-form texels, their
+    RGB, direct texels), texels as band indices (int32)."""
+    closed, rgb, direct = kept
+    (c0, c1), (d0, d1) = (np.searchsorted(index, [first, end]) for index in (closed, direct))
+    return (closed[c0:c1] - first).astype(np.int32), rgb[c0:c1], (direct[d0:d1] - first).astype(np.int32)
+
+
+def _left_mask(band: tuple[np.ndarray, np.ndarray, np.ndarray], cells: int) -> np.ndarray:
+    """1 at each of a band's ``cells`` texels that the plan left to the closed form or the direct quadrature
+    (``band``: _band_of), else 0: the series kernels' ``left``."""
+    left = np.zeros(max(1, cells), np.int8)
+    left[band[0]] = 1
+    left[band[2]] = 1
+    return left
 
 
 def _checked(program: DeviceProgram, counter: pyopencl.Buffer, planned: int) -> tuple[np.ndarray, object, int]:

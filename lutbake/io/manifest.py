@@ -7,10 +7,16 @@ nesting and integers bounded), then checked, before any field is used: its forma
 ranges of every field a reader takes (docs/scene.md, "The manifest"), files named as plain names beside
 it, and its seal (``manifest_hash``, the SHA-256 of the rest), so a manifest edited since lutbake wrote
 it is refused in one line instead of being half-trusted. ValueError names the file and the field.
+
+A texture-driven metal's F0 → (η3, κ3) table is written once per distinct table at the top level
+(``metal_tables``, named by its metal mapping: 'fitted', 'threejs', then 'fitted-2' ...) and its part names
+it (``table``: the name); ``shared_metal_tables`` makes that form from a glTF source, and the reader gives
+back the source with each part's table in place, as the bake's records hold it.
 """
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import math
@@ -21,7 +27,14 @@ from typing import Any
 from lutbake.io.documents import load_json, read_text
 from lutbake.io.names import SPACES
 
-__all__ = ["MANIFEST_FORMAT", "MAX_MANIFEST_BYTES", "manifest_hash", "read_scene_manifest", "sealed"]
+__all__ = [
+    "MANIFEST_FORMAT",
+    "MAX_MANIFEST_BYTES",
+    "manifest_hash",
+    "read_scene_manifest",
+    "sealed",
+    "shared_metal_tables",
+]
 
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 MAX_MANIFEST_BYTES = 256 << 20  # ~10^5 materials with their glTF records
@@ -54,6 +67,36 @@ def read_scene_manifest(path: str | PathLike[str]) -> dict[str, Any]:
         _check(doc)
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
+    return _tables_in_place(doc)
+
+
+def shared_metal_tables(source: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(a copy of a glTF ``source`` whose texture-driven metals name their table, {name: table}): one table
+    per distinct table, named by its mapping ('fitted', then 'fitted-2' for a second distinct one)."""
+    source, tables = copy.deepcopy(source), dict[str, Any]()
+    for info in _texture_parts(source):
+        table = info["table"]
+        name = next((n for n, t in tables.items() if t == table), None)
+        if name is None:
+            taken = sum(n.split("-")[0] == info["mapping"] for n in tables)
+            name = info["mapping"] + (f"-{taken + 1}" if taken else "")
+            tables[name] = table
+        info["table"] = name
+    return source, tables
+
+
+def _texture_parts(source: dict[str, Any]) -> list[dict[str, Any]]:
+    """The parts of a glTF source's materials that carry a table (texture-driven metals)."""
+    return [info for r in source.get("materials", []) for info in r.get("parts", {}).values() if "table" in info]
+
+
+def _tables_in_place(doc: dict[str, Any]) -> dict[str, Any]:
+    """``doc`` (checked) with each part's table name replaced by its ``metal_tables`` entry."""
+    if "metal_tables" not in doc:
+        return doc
+    doc = {**doc, "source": copy.deepcopy(doc["source"])}
+    for info in _texture_parts(doc["source"]):
+        info["table"] = doc["metal_tables"][info["table"]]
     return doc
 
 
@@ -72,8 +115,9 @@ def _check(doc: dict[str, Any]) -> None:
     for name, digest in _object(doc, "files").items():
         _plain(name, f"files.{name}")
         _hex(digest, f"files.{name}", 64)
+    tables = _metal_tables(doc)
     if "source" in doc:
-        _source(_object(doc, "source"), materials)
+        _source(_object(doc, "source"), materials, tables)
     if doc.get("manifest_hash") != manifest_hash(doc):
         raise ValueError("manifest_hash does not hold: edited since lutbake wrote it (bake the scene again)")
 
@@ -98,7 +142,21 @@ def _material(name: str, entry: object) -> None:
         raise ValueError(f"{where}.axes.thickness_nm: min {low} and max {high} are not 0 <= min <= max")
 
 
-def _source(source: dict[str, Any], materials: dict[str, Any]) -> None:
+def _metal_tables(doc: dict[str, Any]) -> dict[str, Any]:
+    """``metal_tables``: at most one per material, each an F0 → (η3, κ3) table of 2 to MAX_CURVE_NODES nodes."""
+    tables = _object(doc, "metal_tables") if "metal_tables" in doc else {}
+    if len(tables) > MAX_MATERIALS:
+        raise ValueError(f"metal_tables: {len(tables):,} of them, at most {MAX_MATERIALS:,} are allowed")
+    for name in tables:
+        table = _object(tables, name, "metal_tables")
+        nodes = table.get("f0")
+        count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
+        for key in ("f0", "eta3", "kappa3"):
+            _numbers(_at(table, key, f"metal_tables.{name}"), count, f"metal_tables.{name}.{key}")
+    return tables
+
+
+def _source(source: dict[str, Any], materials: dict[str, Any], tables: dict[str, Any]) -> None:
     """A glTF bake's record of the asset (lutbake/scene/gltf/receipt.py reads it back)."""
     if _at(source, "kind", "source") != "gltf":
         return
@@ -120,10 +178,10 @@ def _source(source: dict[str, Any], materials: dict[str, Any]) -> None:
         _number(record, "film", where)
         _numbers(_at(record, "thickness_nm", where), 2, f"{where}.thickness_nm")
         for part, info in record["parts"].items():
-            _part(info, materials, f"{where}.parts.{part}")
+            _part(info, materials, tables, f"{where}.parts.{part}")
 
 
-def _part(info: object, materials: dict[str, Any], where: str) -> None:
+def _part(info: object, materials: dict[str, Any], tables: dict[str, Any], where: str) -> None:
     """A part's base is numbers; a baked part names materials of this manifest, one served unbaked (``route``
     runtime: the runtime table; ``constant``: a film term that is 0) names what it would have been baked as."""
     if not isinstance(info, dict):
@@ -141,7 +199,7 @@ def _part(info: object, materials: dict[str, Any], where: str) -> None:
     if "material" in info:  # a dielectric part: its base index
         _numbers(_at(info, "base", where), 2, f"{where}.base")
     else:
-        _metal_part(info, where)
+        _metal_part(info, tables, where)
 
 
 def _known(name: object, materials: dict[str, Any] | None) -> bool:
@@ -149,19 +207,18 @@ def _known(name: object, materials: dict[str, Any] | None) -> bool:
     return isinstance(name, str) and (materials is None or name in materials)
 
 
-def _metal_part(info: dict[str, Any], where: str) -> None:
-    """A metal part, per channel: a named material, a texture's F0 → (η3, κ3) curve, or three bases."""
+def _metal_part(info: dict[str, Any], tables: dict[str, Any], where: str) -> None:
+    """A metal part, per channel: a named material, a texture's F0 → (η3, κ3) curve (a ``metal_tables``
+    name), or three bases."""
     if len(info["channels"]) != 3:
         raise ValueError(f"{where}.channels: not one material per channel (3)")
     if info.get("mapping") == "named":
         _text(info, "named", where)
     elif info.get("texture"):
         _numbers(_at(info, "f0_max", where), 3, f"{where}.f0_max")
-        table = _object(info, "table", where)
-        nodes = table.get("f0")
-        count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
-        for key in ("f0", "eta3", "kappa3"):
-            _numbers(_at(table, key, f"{where}.table"), count, f"{where}.table.{key}")
+        table = _at(info, "table", where)
+        if not isinstance(table, str) or table not in tables:
+            raise ValueError(f"{where}.table {_shown(table)} is not the name of a metal_tables entry")
     else:
         for key in ("eta3", "kappa3"):
             _numbers(_at(info, key, where), 3, f"{where}.{key}")

@@ -27,7 +27,7 @@ from lutbake.errors import ParameterError
 from lutbake.grid.spec import Axis, BakeSpec
 from lutbake.integrate.opencl import backend as make_backend
 from lutbake.io.fileset import FileSet, open_set, sha256_file
-from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed
+from lutbake.io.manifest import MANIFEST_FORMAT, read_scene_manifest, sealed, shared_metal_tables
 from lutbake.io.progress import no_progress
 from lutbake.lut.bake import lut_members
 from lutbake.lut.sample import Lut
@@ -37,7 +37,7 @@ from lutbake.scene.gltf.routes import choose_routes, route_lines, source_unmet
 from lutbake.scene.jobs import refine_slice, slice_atlas, tuned_lut
 from lutbake.scene.model import Scene
 from lutbake.scene.plan import SceneJob, ScenePlan, plan_scene
-from lutbake.scene.shipping import is_web_member, shipping
+from lutbake.scene.shipping import earlier_build_artefacts, is_web_member, remove_build_artefacts, shipping
 from lutbake.tables.atlas import ERROR_KEYS, atlas_header, pack_atlas, slice_entry, write_atlas
 from lutbake.tables.includes import atlas_includes, warn_texture_size
 
@@ -159,7 +159,8 @@ def bake_scene(
     device : str, optional
         OpenCL device (see ``bake_lut``).
     for_web : bool
-        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache.
+        Write the web set alone (lutbake/scene/shipping.py): no HLSL includes, no LUT headers, no cache; the
+        build artefacts an earlier bake of ``out_dir`` wrote (as its manifest names them) are removed.
 
     Returns
     -------
@@ -195,6 +196,7 @@ def bake_scene(
     check_scene_outputs(out, scene, plan)
     scene_hash = _scene_hash(scene, plan)
     outputs = scene_outputs(out, scene, plan, for_web)
+    earlier = earlier_build_artefacts(out, scene.stem) if for_web else []  # a full bake's, read before it goes
     with _new_folder(out), open_set(out, f"scene-{scene.stem}") as files:
         manifest = None if force else _up_to_date(outputs["manifest"], scene_hash, outputs, plan if for_web else None)
         if manifest is not None:
@@ -213,9 +215,10 @@ def bake_scene(
                 files.members.pop(extra).unlink()
         manifest = _write_manifest(files, outputs, _manifest(scene, scene_hash, entries), atlas)
         written = sorted(files.members)
+    removed = remove_build_artefacts(earlier, written)
     seconds = time.perf_counter() - start
     outcome = _outcome(manifest)
-    ship = _ship(manifest, scene, for_web)
+    ship = _ship(manifest, scene, for_web) | ({"removed": removed} if removed else {})
     return SceneResult(out, written, run.computed, run.reused, False, seconds, *outcome, run.device, ship)
 
 
@@ -377,8 +380,9 @@ def _manifest(scene: Scene, scene_hash: str, entries: dict[str, dict[str, Any]])
         "settings": scene.settings_key(),
         "materials": {m.name: entries[m.name] for m in scene.materials if m.name in entries},
     }
-    if scene.source is not None:
-        manifest["source"] = scene.source
+    if scene.source is not None:  # each texture-driven metal's table written once (io/manifest.py)
+        manifest["source"], tables = shared_metal_tables(scene.source)
+        manifest |= {"metal_tables": tables} if tables else {}
     return manifest
 
 
@@ -456,4 +460,15 @@ def _choose_routes(
         spec = replace(_TRUTH_SPEC, eta2=eta2, eta1=scene.eta1, observer=scene.observer, space=scene.space)
         return functools.partial(run.integrator_now().evaluate, spec)
 
-    return choose_routes(scene, met.__getitem__, sampler_of, truth_of)
+    def rerefine(names: list[str], factor: float) -> set[str]:  # the slices serving ``names``, refined in place
+        changed: set[str] = set()
+        for i, (job, _, record) in enumerate(slices):
+            if set(job.materials) & set(names):
+                target = record["de00_p99_bound"] * factor
+                values, again = refine_slice(job, run.integrator_now(), target, tuple(record["counts"]))
+                slices[i] = (job, values, {**again, "rerefined_to": target})
+                atlases.update({name: slice_atlas(job, values) for name in job.materials})
+                changed.update(job.materials)
+        return changed
+
+    return choose_routes(scene, met.__getitem__, sampler_of, truth_of, rerefine)

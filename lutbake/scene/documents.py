@@ -22,13 +22,14 @@ def plan_document(scene: Scene) -> dict[str, Any]:
     served by (``gltf_materials``). Writes nothing."""
     from lutbake.scene.plan import plan_scene, truth_rate
 
+    start = time.perf_counter()  # the integrator first, as in the bake: its start-up includes OpenCL's
+    integrator = make_backend("auto")
+    startup_s = time.perf_counter() - start
     plan = plan_scene(scene)
     rate = truth_rate(plan)
     doc = plan.describe(rate)
     doc["seconds_per_truth_point"] = rate
-    start = time.perf_counter()
-    integrator = make_backend("auto")
-    doc.update(time_estimate(plan, integrator, time.perf_counter() - start))
+    doc.update(time_estimate(plan, integrator, startup_s))
     if scene.source is not None:
         from lutbake.scene.gltf.materials import material_rows
 

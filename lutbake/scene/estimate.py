@@ -2,12 +2,14 @@
 (issue 34 item 5; bench/bench_gltf_plan.py holds it against the bake, docs/gltf.md gives the table).
 
 A bake's time is its integrator's start-up, its slice jobs (each refined until its target holds, then its max
-searched), its 4D jobs (tuned, then their max searched over a budget of the bake's direct rule) and a glTF
+searched), its 4D jobs (refined, then their max searched over ``LUT_SEARCH_BUDGET`` evaluations) and a glTF
 scene's composed-colour checks (lutbake/scene/gltf/routes.py). Measured now: the start-up (making the
 integrator), up to ``SAMPLED_SLICES`` of the plan's slice jobs refined for real (spread over the plan; their
-mean times the count), and the direct rule's seconds per point at a 4D job's domain, times the points a 4D
-job evaluates (its search budget and scored points, at ``LUT_COST_PER_POINT`` of that rate) and the points of
-each composed check. Nothing is written.
+mean times the count), and one 4D job read along a base path (a texture-driven glTF metal) run for real as
+the bake runs it (jobs.refine_path: its points, every trial of its refinement; then its searched max), times
+the count of such jobs. A 4D job over a whole base box (a TOML scene's ranged base) is counted as the
+direct rule's seconds per point times the points it evaluates, at ``LUT_COST_PER_POINT`` of that rate. The
+composed checks: their points at the direct rule's rate. Nothing is written.
 """
 
 from __future__ import annotations
@@ -17,10 +19,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from lutbake.lut.sample import Lut
 from lutbake.physics.points import FilmPoints
 from lutbake.quality.refine import REPORT_POINTS
 from lutbake.scene.gltf.routes import composed_parts
-from lutbake.scene.jobs import LUT_SEARCH_BUDGET, refine_slice
+from lutbake.scene.jobs import LUT_SEARCH_BUDGET, refine_path, refine_slice
 from lutbake.scene.plan import SceneJob
 from lutbake.spectral.reference import subset
 
@@ -31,31 +34,48 @@ if TYPE_CHECKING:
 __all__ = ["time_estimate", "SAMPLED_SLICES", "LUT_COST_PER_POINT"]
 
 SAMPLED_SLICES = 3
-# A 4D job's seconds per point of its search budget and scored points, in units of the direct rule's seconds per
-# uniform point of its domain: its search climbs where the error is worst (grazing angles, thick films: long
-# rules) and its trials bake and score the grid between. 4.6 (CompareIridescence) and 8.2 (IridescenceLamp) on
-# the showcase assets' metal LUTs (AMD EPYC Zen 4, PoCL 3.1; bench/bench_gltf_plan.py holds the estimate).
+# A box 4D job's seconds per point of its search budget and scored points, in units of the direct rule's seconds
+# per uniform point of its domain (TOML scenes' ranged bases; glTF's 4D jobs are path jobs, measured instead).
 LUT_COST_PER_POINT = 6.0
 _RATE_POINTS = 500
 
 
 def time_estimate(plan: ScenePlan, integrator: Integrator, startup_s: float) -> dict[str, Any]:
     """Seconds a bake of ``plan`` will take here, by stage ({startup_s, slices_s, luts_s, checks_s,
-    estimate_seconds, sampled_slice_jobs})."""
+    estimate_seconds, sampled_slice_jobs, sampled_lut_jobs})."""
     slices = [job for job in plan.jobs if job.kind == "slice"]
     sampled = slices[:: max(1, -(-len(slices) // SAMPLED_SLICES))][:SAMPLED_SLICES]
     per_slice = float(np.mean([_timed_slice(job, integrator) for job in sampled])) if sampled else 0.0
-    luts = sum(job.kind == "lut" for job in plan.jobs)
+    paths = [job for job in plan.jobs if job.kind == "lut" and "base_path" in job.key]
+    boxes = sum(job.kind == "lut" and "base_path" not in job.key for job in plan.jobs)
     checks = len(composed_parts(plan.scene.source)) if plan.scene.source else 0
-    per_point = _check_rate(plan, integrator) if luts or checks else 0.0
-    lut_points = LUT_COST_PER_POINT * (LUT_SEARCH_BUDGET + 4 * REPORT_POINTS)  # 4: single-base and 3 channels
+    per_point = _check_rate(plan, integrator) if boxes or checks else 0.0
+    box_points = LUT_COST_PER_POINT * (LUT_SEARCH_BUDGET + 4 * REPORT_POINTS)  # 4: single-base and 3 channels
     stages = {
         "startup_s": startup_s,
         "slices_s": per_slice * len(slices),
-        "luts_s": luts * lut_points * per_point,
+        "luts_s": len(paths) * (_timed_path_job(paths[0], integrator) if paths else 0.0)
+        + boxes * box_points * per_point,
         "checks_s": checks * 3 * REPORT_POINTS * per_point,
     }
-    return {**stages, "estimate_seconds": sum(stages.values()), "sampled_slice_jobs": [j.id for j in sampled]}
+    return {
+        **stages,
+        "estimate_seconds": sum(stages.values()),
+        "sampled_slice_jobs": [j.id for j in sampled],
+        "sampled_lut_jobs": [j.id for j in paths[:1]],
+    }
+
+
+def _timed_path_job(job: SceneJob, integrator: Integrator) -> float:
+    """Seconds of a path job run now as the bake runs it: its refinement and its searched max (whose cost is
+    where it climbs: grazing angles and long paths, where the direct rule is dearest; a compass step of its
+    starts timed alone was 3-5x short), and its final grid baked once more (the winning trial's seconds: the
+    file the bake writes)."""
+    start = time.perf_counter()
+    points, result = refine_path(job, integrator)
+    assert isinstance(result.artefact, Lut)  # what the path refinement builds
+    points.searched(result.artefact, integrator)
+    return time.perf_counter() - start + result.best.seconds
 
 
 def _timed_slice(job: SceneJob, integrator: Integrator) -> float:

@@ -38,6 +38,7 @@ from lutbake.physics.points import FilmPoints
 from lutbake.quality.measure import SLICE_SEARCH_BUDGET, search_slice, search_stacks
 from lutbake.quality.refine import (
     REPORT_POINTS,
+    Refinement,
     Trial,
     bound_level,
     mixture_percentile,
@@ -57,7 +58,7 @@ if TYPE_CHECKING:
     # A slice's fixed uniform points and their colour by its integrator (``uniform_points``).
     Uniform = tuple[FilmPoints, np.ndarray]
 
-__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "LUT_SEARCH_BUDGET"]
+__all__ = ["uniform_points", "refine_slice", "slice_atlas", "tuned_lut", "refine_path", "LUT_SEARCH_BUDGET"]
 
 _LUT_MAX_ROUNDS = 6
 _SEARCH_STARTS = 100  # the worst scored points of each kind a searched max starts from (with the box's own)
@@ -119,16 +120,18 @@ def slice_atlas(job: SceneJob, values: np.ndarray) -> Atlas:
     return Atlas({"eta1": s.eta1, "space": s.space, "observer": s.observer, "slices": [header]}, values.astype(stored))
 
 
-def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dict[str, Any]]:
-    """The slice grown until its stored values meet the scene's target on `report`'s statistic at any
-    seed, then its max searched: (values (rows, columns, 3) in float64, record)."""
+def refine_slice(
+    job: SceneJob, integrator: Integrator, target: float | None = None, start: tuple[int, ...] | None = None
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The slice grown from ``start`` (the job's counts) until its stored values meet ``target`` (the scene's)
+    on `report`'s statistic at any seed, then its max searched: (values (rows, columns, 3) in float64,
+    record; ``target_met`` is against the scene's target)."""
     s = job.scene
     stack = job.stack()  # one stack: it keeps what it learns about its materials' spectra
     uniform = uniform_points(job, stack, integrator)
     frozen = (1,) if job.fixed_thickness else ()
-    result = refine(
-        _slice_measure(job, stack, uniform, integrator), job.counts, s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT
-    )
+    measure = _slice_measure(job, stack, uniform, integrator)
+    result = refine(measure, start or job.counts, target or s.max_de, frozen=frozen, cap=MAX_SLICE_COUNT)
     best = result.artefact
     assert isinstance(best, _ScoredSlice)  # what _slice_measure builds
     worst = _searched_slice(job, stack, uniform, best, integrator)
@@ -136,7 +139,7 @@ def refine_slice(job: SceneJob, integrator: Integrator) -> tuple[np.ndarray, dic
         "counts": list(result.counts),
         "de00_p99": result.best.de00_p99,
         "de00_p99_bound": result.best.held,
-        "target_met": result.met,
+        "target_met": result.best.held <= s.max_de,
         "de00_max": worst["de00_max"],
         "worst_case": worst,
         "scored_points": {"uniform": len(best.de00_uniform), "cell_centres": len(best.de00_centres)},
@@ -194,14 +197,7 @@ def tuned_lut(
     spec = job.lut_spec()
     frozen = (1,) if job.fixed_thickness else ()
     if "base_path" in job.key:
-        points = _PathPoints.build(spec, job.key["base_path"], integrator)
-        result = refine(
-            _path_measure(spec, points, integrator),
-            job.counts,
-            job.scene.max_de,
-            frozen=frozen,
-            max_rounds=_LUT_MAX_ROUNDS,
-        )
+        points, result = refine_path(job, integrator)
         assert isinstance(result.artefact, Lut)  # what _path_measure builds
         worst = points.searched(result.artefact, integrator)
     else:
@@ -244,6 +240,16 @@ def tuned_lut(
         **scoring,
         "sha256": sha256_file(files.members[path]),
     }
+
+
+def refine_path(job: SceneJob, integrator: Integrator) -> tuple[_PathPoints, Refinement]:
+    """A 4D job read along its ``base_path``: its scored points and its refinement to the smallest counts
+    that meet the target there (the Lut is the result's artefact); its search is left to the caller."""
+    spec = job.lut_spec()
+    points = _PathPoints.build(spec, job.key["base_path"], integrator)
+    frozen = (1,) if job.fixed_thickness else ()
+    measure = _path_measure(spec, points, integrator)
+    return points, refine(measure, job.counts, job.scene.max_de, frozen=frozen, max_rounds=_LUT_MAX_ROUNDS)
 
 
 @dataclass

@@ -5,15 +5,29 @@ what it is for. `bake --gltf --for web` writes the web set alone.
 The web set, read from the manifest as the plugin reads it (loadLutbakeBake): the manifest, the atlas and
 its GLSL include where a material entry is a slice, each 4D LUT a material entry names and its GLSL
 include; beside them the page's modules (engine/lutbake-gltf.js and the modules it imports) and,
-where a part is routed to the runtime table, that table's files (`lutbake runtime-table`).
+where a part is routed to the runtime table, that table's files (`lutbake runtime-table`). `--for web` into a
+folder that holds an earlier bake removes the build artefacts that bake wrote, as its manifest names them
+(``earlier_build_artefacts``), and nothing else.
 """
 
 from __future__ import annotations
 
-from pathlib import PurePath
+import contextlib
+import re
+from collections.abc import Iterable
+from pathlib import Path, PurePath
 from typing import Any
 
-__all__ = ["PAGE_MODULES", "CACHE_FOLDER", "shipping", "is_web_member"]
+from lutbake.io.manifest import read_scene_manifest
+
+__all__ = [
+    "PAGE_MODULES",
+    "CACHE_FOLDER",
+    "shipping",
+    "is_web_member",
+    "earlier_build_artefacts",
+    "remove_build_artefacts",
+]
 
 PAGE_MODULES = (
     "engine/lutbake-gltf.js",
@@ -22,6 +36,7 @@ PAGE_MODULES = (
     "engine/lutbake-exr.js",
 )
 CACHE_FOLDER = ".lutbake-cache"
+_CACHE_ENTRY = re.compile(r"(slice|lut)-[0-9a-f]{12}\.(npy|json)")  # lutbake/scene/cache.py's names: JOB.npy, JOB.json
 # A member's suffix -> what it is for, where a page does not load it.
 _BUILD_ROLES = {
     ".hlsl": "HLSL includes, for Unity, Unreal and Direct3D engines",
@@ -56,3 +71,32 @@ def shipping(manifest: dict[str, Any], stem: str, cache: bool = True) -> dict[st
         if record.get("film") is not None
     )
     return {"web": web, "page_modules": list(PAGE_MODULES), "runtime_table_parts": runtime, "build": build}
+
+
+def earlier_build_artefacts(out: Path, stem: str) -> list[Path]:
+    """The build artefacts of the bake whose manifest ``out/stem.json`` is: the members its ship list names as
+    build artefacts and its cache folder's entries (named as lutbake/scene/cache.py names them); none where
+    that manifest is missing or not one lutbake wrote (its seal broken), so nobody else's file is named."""
+    try:
+        manifest = read_scene_manifest(out / f"{stem}.json")
+    except (OSError, ValueError):
+        return []
+    paths = [out / name for name in shipping(manifest, stem, cache=False)["build"]]
+    cache = out / CACHE_FOLDER
+    return paths + (sorted(p for p in cache.iterdir() if _CACHE_ENTRY.fullmatch(p.name)) if cache.is_dir() else [])
+
+
+def remove_build_artefacts(paths: Iterable[Path], keep: Iterable[Path]) -> list[str]:
+    """Remove each of ``paths`` that is a file and not in ``keep`` (what the new set wrote), then the cache
+    folder where it is left empty; the names removed, relative to their folder (cache entries with theirs)."""
+    keep, removed = set(keep), []
+    for path in paths:
+        if path not in keep and path.is_file():
+            path.unlink()
+            removed.append(f"{CACHE_FOLDER}/{path.name}" if path.parent.name == CACHE_FOLDER else path.name)
+    for path in paths:
+        if path.parent.name == CACHE_FOLDER:
+            with contextlib.suppress(OSError):  # not empty: something lutbake did not write stays
+                path.parent.rmdir()
+            break
+    return removed

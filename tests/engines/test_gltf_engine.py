@@ -3,7 +3,6 @@ spheres and gradient textures) and of generated assets: every slice and 4D LUT h
 the three.js GLTFLoader plugin (engine/lutbake-gltf.js) in headless Chromium computes, at every pixel, the
 film term lutbake's samplers return for that pixel's cos θ, thickness, metalness and base colour, to 1e-4."""
 
-import json
 import shutil
 import sys
 import uuid
@@ -13,6 +12,7 @@ import pytest
 from engine_harness import ROOT, require_engine, run_harness
 from gltf_assets import SHOWCASE, document, iridescent, khronos_document, stand_in
 
+from lutbake.io.manifest import read_scene_manifest  # metal tables in place (the manifest names them)
 from lutbake.lut.sample import Atlas, Lut
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.points import FilmPoints
@@ -62,7 +62,7 @@ def bakes():
             gltf = stand_in(doc, folder / name, name)
             result = bake_scene(load_gltf_scene(gltf), folder / name / "out")
             assert result.unmet == {}, (name, result.unmet)
-            out[name] = (gltf, json.loads((folder / name / "out" / f"{name}.json").read_text()), folder / name / "out")
+            out[name] = (gltf, read_scene_manifest(folder / name / "out" / f"{name}.json"), folder / name / "out")
         yield out
     finally:
         shutil.rmtree(folder, ignore_errors=True)

@@ -69,9 +69,11 @@ def float32_rounding_bound(table, cos, d, eta2, eta3, kappa3):
     film = model._film(table.meta, f32(cos), f32(d), f32(np.ones(n)), f32(eta2))
     size, bound = np.array([t["width"], t["height"]]), np.zeros((n, 3))
     for band in range(3):
-        s, p = model._base(film, f32(np.ones(n)), f32(eta2), f32(eta3[:, band]), f32(kappa3[:, band]))
-        bound[:, band] = np.abs((0.5 * (s[0] + p[0]) + s[2] + p[2]) * t["white"][band])
-        for _, weights, _, w in (s, p):
+        s, p = model._base(film, f32(np.ones(n)), f32(eta3[:, band]), f32(kappa3[:, band]))
+        bound[:, band] = np.abs((0.5 * (s[0] + p[0]) + s[1][0] + p[1][0]) * t["white"][band])
+        for _, g, w in (s, p):
+            xt = film["xt"]
+            weights = np.stack([g[0] * (1 - xt), g[1] * (1 - xt), g[0] * xt, g[1] * xt], axis=1)
             x = film["centre"][0] + w[0]
             y = film["centre"][1] + w[1] + np.float32(band * t["band_rows"] * t["nodes"])
             read = lambda dx, dy: model._bilinear(table.image, x + np.float32(dx), y + np.float32(dy), None)  # noqa: E731,B023

@@ -20,6 +20,7 @@ from gltf_assets import (
     write_gltf,
 )
 
+from lutbake.io.manifest import read_scene_manifest
 from lutbake.lut.sample import Atlas
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
@@ -90,6 +91,34 @@ _ON = {"iridescenceFactor": 1.0}  # the extension with every other key at its de
 def _rows(tmp_path, materials, metal_mapping="fitted", **doc):
     scene = load_gltf_scene(write_gltf(tmp_path / "a.gltf", document(materials, **doc)), metal_mapping)
     return scene, material_rows(scene, plan_scene(scene))
+
+
+def test_texture_driven_metals_share_one_metal_table_in_the_manifest(tmp_path):
+    """Two texture-driven metals of one mapping: the manifest writes their F0 → (η3, κ3) table once, at its top
+    level (``metal_tables``, named by the mapping), and each part names it; the reader gives the parts back with
+    the table in place, equal to the plan's; a part naming a table the manifest lacks is refused by name."""
+    materials = []
+    for name in ("a", "b"):
+        material = iridescent(metallic=1.0, name=name)
+        material["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+        materials.append(material)
+    gltf = write_gltf(tmp_path / "t.gltf", document(materials, textures=[{}]))
+    # Both parts forced to the runtime table: the tables are written all the same, and nothing 4D is baked.
+    proc = cli("bake", "--gltf", gltf, "--out", tmp_path / "out", "--route", "a=runtime", "--route", "b=runtime")
+    assert proc.returncode == 0, proc.stderr
+    path = tmp_path / "out" / "t.json"
+    raw = json.loads(path.read_text())
+    (table,) = raw["metal_tables"].values()
+    assert list(raw["metal_tables"]) == ["fitted"] and path.read_text().count('"f0"') == 1
+    assert [r["parts"]["metal"]["table"] for r in raw["source"]["materials"]] == ["fitted", "fitted"]
+    planned = _rows(tmp_path, materials, textures=[{}])[1][0]["bases"]["metal"]["table"]
+    assert table == planned and table["f0"][-1] == F0_MAX["fitted"] and len(table["f0"]) == 65
+    read = read_scene_manifest(path)
+    assert [r["parts"]["metal"]["table"] for r in read["source"]["materials"]] == [planned, planned]
+    raw["source"]["materials"][1]["parts"]["metal"]["table"] = "gold"
+    path.write_text(json.dumps(raw))
+    with pytest.raises(ValueError, match=r"parts\.metal\.table 'gold' is not the name of a metal_tables entry"):
+        read_scene_manifest(path)
 
 
 def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):

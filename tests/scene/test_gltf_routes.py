@@ -24,40 +24,60 @@ def coloured_specular(**extra):
     return {**material, **extra}
 
 
+def textured_metal(**extra):
+    """A base-colour-textured metal: its 4D LUT, read per channel along the mapping's F0 table, misses the bound
+    at the curve's dark end (docs/gltf.md), and a 4D LUT is not re-refined: the part goes to the runtime table."""
+    material = iridescent(ior=1.5, d_max=400, metallic=1.0)
+    material["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+    return {**material, **extra}
+
+
 @pytest.fixture(scope="module")
 def baked(tmp_path_factory):
-    """The coloured specular twice, once forced to the bake (extras.lutbake.route), once left to lutbake: (the
-    folder, the bake's process)."""
+    """The coloured specular forced to the bake (extras.lutbake.route; 1 nm thicker, so that its slices are its
+    own), the same left to lutbake, and a texture-driven metal: (the folder, the bake's process)."""
     folder = tmp_path_factory.mktemp("routes")
     forced = coloured_specular(name="forced", extras={"lutbake": {"route": "bake"}})
-    gltf = write_gltf(folder / "routes.gltf", document([forced, coloured_specular(name="free")]))
+    forced["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessMaximum"] = 421
+    materials = [forced, coloured_specular(name="free"), textured_metal(name="textured")]
+    gltf = write_gltf(folder / "routes.gltf", document(materials, textures=[{}]))
     return folder, cli("bake", "--gltf", gltf, "--out", folder / "out")
 
 
 def parts(folder):
     manifest = json.loads((folder / "out" / "routes.json").read_text())
-    return manifest, [r["parts"]["dielectric"] for r in manifest["source"]["materials"]]
+    return manifest, [next(iter(r["parts"].values())) for r in manifest["source"]["materials"]]
 
 
-def test_a_part_that_misses_goes_to_the_runtime_table_recorded_printed_and_receipted(baked):
-    """The part left to lutbake: each channel's slice met the target, its composed colour did not, so the
-    runtime table serves it: route runtime, route_by auto and why in the manifest's source, no manifest entry
-    for its slices (engines then serve the part from the runtime table), its check rescored on the table, one
-    stderr line naming the material and why (again when the set is up to date), the receipt's JSON and HTML
-    say so. The forced part stays baked and unmet: exit 1
-    naming it (a bake never reports a target met that its receipt fails)."""
+def test_a_composed_miss_is_re_refined_once_and_what_still_misses_goes_to_the_runtime_table(baked):
+    """The part left to lutbake: each channel's slice met the target, its composed colour did not (bound 1.174),
+    so its slices were refined once more, each to its bound times 1/1.174, and it met: it stays baked, its
+    check records the re-refinement. The texture-driven metal's composed colour misses and its 4D LUT is not
+    re-refined: the runtime table serves it: route runtime, route_by auto and why in the manifest's source, no
+    manifest entry for its LUT (engines then serve the part from the runtime table), its check rescored on the
+    table, one stderr line naming the material and why (again when the set is up to date), the receipt's JSON
+    and HTML say so. The forced part stays baked, unmet and not re-refined: exit 1 naming it (a bake never
+    reports a target met that its receipt fails)."""
     folder, proc = baked
-    manifest, (forced, free) = parts(folder)
-    assert free["route"] == "runtime" and free["route_by"] == "auto" and "composed colour" in free["route_why"]
-    assert free["target_check"]["served_by"] == "runtime" and free["target_check"]["met"]
+    manifest, (forced, free, textured) = parts(folder)
+    again_check = free["target_check"]
+    assert "route" not in free and again_check["served_by"] == "bake" and again_check["met"]
+    assert again_check["rerefined"]["de00_p99_bound"] > 1.0 > again_check["de00_p99_bound"]
+    assert again_check["rerefined"]["slice_factor"] == pytest.approx(1.0 / again_check["rerefined"]["de00_p99_bound"])
+    assert set(free["channels"]) <= set(manifest["materials"])
+    assert (
+        textured["route"] == "runtime" and textured["route_by"] == "auto" and "composed colour" in textured["route_why"]
+    )
+    assert textured["target_check"]["served_by"] == "runtime" and textured["target_check"]["met"]
+    assert not set(textured["channels"]) & set(manifest["materials"])  # engines read the runtime table for it
     assert all(manifest["materials"][n]["target_met"] for n in forced["channels"])  # each slice alone: met
-    assert not set(free["channels"]) & set(manifest["materials"])  # engines read the runtime table for it
     assert forced["route"] == "bake" and forced["target_check"]["served_by"] == "bake"
     assert not forced["target_check"]["met"] and forced["target_check"]["de00_p99_bound"] > 1.0
+    assert "rerefined" not in forced["target_check"]
     lines = [line for line in proc.stderr.splitlines() if "runtime table" in line]
     assert lines == [
-        "lutbake: routes.gltf: materials[1] 'free': the dielectric part is served by the runtime table: "
-        + free["route_why"]
+        "lutbake: routes.gltf: materials[2] 'textured': the metal part is served by the runtime table: "
+        + textured["route_why"]
     ]
     assert proc.returncode == 1 and "materials[0] 'forced' dielectric part p99" in proc.stderr.splitlines()[-1]
     again = cli("bake", "--gltf", folder / "routes.gltf", "--out", folder / "out")
@@ -70,15 +90,16 @@ def test_a_part_that_misses_goes_to_the_runtime_table_recorded_printed_and_recei
 @pytest.mark.slow
 def test_a_part_the_bake_calls_met_passes_its_receipt_at_every_seed(baked):
     """The seed sweep that would have caught the composed-colour miss: at 1,000 points, as `report` scores, a part
-    the bake calls met passes its receipt at every seed; the forced part, whose slices each call themselves met
-    (what the bake used to report), fails its receipt at some seed, and the bake calls it unmet."""
+    the bake calls met (the re-refined one, the routed one on the runtime table) passes its receipt at every
+    seed; the forced part, whose slices each call themselves met (what the bake used to report), fails its
+    receipt at some seed, and the bake calls it unmet."""
     folder, _ = baked
     manifest, checked = parts(folder)
     verdicts = [part["target_check"]["met"] for part in checked]
-    assert verdicts == [False, True]
+    assert verdicts == [False, True, True]
     assert all(manifest["materials"][n]["target_met"] for n in checked[0]["channels"])
     served = []
     for seed in (1, 2, 3):
         receipts = gltf_receipts(folder / "out" / "routes.json", 1000, seed)
-        served.append([r["parts"]["dielectric"]["de00"]["baked"]["de00_p99"] for r in receipts["materials"]])
-    assert all(p99[1] <= 1.0 for p99 in served) and any(p99[0] > 1.0 for p99 in served), served
+        served.append([next(iter(r["parts"].values()))["de00"]["baked"]["de00_p99"] for r in receipts["materials"]])
+    assert all(max(p99[1:]) <= 1.0 for p99 in served) and any(p99[0] > 1.0 for p99 in served), served

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from gltf_assets import document, iridescent, write_gltf
+from gltf_assets import document, iridescent, khronos_gltf, write_gltf
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -80,6 +80,31 @@ def test_for_web_writes_the_web_set_alone_and_stays_up_to_date(asset):
     assert not (asset.parent / "toml").exists()
 
 
+def test_for_web_into_a_full_bake_removes_the_build_artefacts_that_bake_wrote_and_nothing_else(asset):
+    """`--for web` into a folder holding a full bake: the HLSL include and the cache entries that bake's manifest
+    names go (one stdout line naming them, ``ship.removed`` in --json), the web set stays, files lutbake did not
+    write stay (one beside the set, one in the cache folder, which then stays); a folder whose manifest is not
+    lutbake's (edited: its seal broken) keeps every file."""
+    out = asset.parent / "full-then-web"
+    assert cli("bake", "--gltf", asset, "--out", out).returncode == 0
+    cache_entries = sorted(f".lutbake-cache/{p.name}" for p in (out / ".lutbake-cache").iterdir())
+    (out / "notes.txt").write_text("mine")
+    (out / ".lutbake-cache" / "mine.txt").write_text("mine")
+    proc = cli("bake", "--gltf", asset, "--out", out, "--for", "web", "--json")
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(json.loads(proc.stdout)["ship"]["removed"]) == sorted(["ship.hlsl", *cache_entries])
+    assert {p.name for p in out.iterdir()} == {"ship.json", "ship.exr", "ship.glsl", "notes.txt", ".lutbake-cache"}
+    assert [p.name for p in (out / ".lutbake-cache").iterdir()] == ["mine.txt"]
+    foreign = asset.parent / "foreign"
+    assert cli("bake", "--gltf", asset, "--out", foreign).returncode == 0
+    manifest = json.loads((foreign / "ship.json").read_text())
+    (foreign / "ship.json").write_text(json.dumps({**manifest, "scene": "edited.gltf"}))
+    text = cli("bake", "--gltf", asset, "--out", foreign, "--for", "web").stdout
+    assert "removed" not in text and (foreign / "ship.hlsl").exists() and (foreign / ".lutbake-cache").is_dir()
+    again = cli("bake", "--gltf", asset, "--out", out, "--for", "web").stdout
+    assert "up to date" in again and "removed" not in again
+
+
 def test_plan_estimates_the_bake_by_stage_measured_now_and_writes_nothing(asset):
     """`plan --json`'s ``estimate_seconds`` is its stages' sum (start-up, slices from jobs refined now, 4D LUTs,
     composed-colour checks: one here, the gold metal's three slices); the jobs it refined are the plan's; nothing
@@ -96,3 +121,21 @@ def test_plan_estimates_the_bake_by_stage_measured_now_and_writes_nothing(asset)
     assert sorted(p.name for p in asset.parent.iterdir()) == before
     text = cli("plan", "--gltf", asset).stdout.splitlines()[-1]
     assert text.startswith("time ~") and "to bake here, measured just now" in text
+
+
+def test_plan_refines_a_texture_driven_metal_now_and_says_each_parts_route(tmp_path):
+    """CompareIridescence's texture-driven metal: `plan` refines its 4D job now (``sampled_lut_jobs``, counted
+    in ``luts_s``: bench/bench_gltf_plan.py holds it within 2x of the bake) and says each part's route: a forced
+    route as final, a baked part's as the bake's unless its check misses (only the bake can tell)."""
+    gltf = khronos_gltf("CompareIridescence", tmp_path)
+    doc = json.loads(cli("plan", "--gltf", gltf, "--json").stdout)
+    luts = [j["id"] for j in doc["jobs"] if j["kind"] == "lut"]
+    assert doc["sampled_lut_jobs"] == luts[:1] and len(luts) == 1 and doc["luts_s"] > 0
+    (row,) = doc["gltf_materials"]
+    assert row["routes"]["metal"] == {"route": "bake", "by": "auto", "unless": row["routes"]["metal"]["unless"]}
+    assert "composed colour" in row["routes"]["metal"]["unless"] and "slice" in row["routes"]["dielectric"]["unless"]
+    forced = json.loads(cli("plan", "--gltf", gltf, "--route", "1=runtime", "--json").stdout)
+    assert forced["gltf_materials"][0]["routes"] == {p: {"route": "runtime", "by": "--route"} for p in row["routes"]}
+    assert forced["luts_s"] == 0 and forced["sampled_lut_jobs"] == [] and not forced["jobs"]
+    text = cli("plan", "--gltf", gltf, "--route", "1=runtime").stdout
+    assert "metal → runtime (--route)" in text

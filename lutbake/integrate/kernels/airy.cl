@@ -401,7 +401,12 @@ inline void weight_transform(__global const REAL *table, int intervals, REAL s, 
     }
 }
 
-// The rule for one texel: the most terms it may take (cap ≥ 0), or −1 where
+// The most terms the series may take at X = x: as many as the table reaches (M·X ≤ x_max), `budget` at most.
+inline int series_terms_cap(REAL x, REAL x_max, int budget) {
+    return x == 0 ? 0 : (int)fmin(floor(x_max / x), (REAL)budget);
+}
+
+// The rule for one texel: the most terms it may take (cap ≥ 0, series_terms_cap), or −1 where
 // the series is not used: out of scope (evanescent film: one_minus_q < 0), or
 // the remainder bound is not ≤ tol within the table (M·X ≤ x_max) and
 // `budget` terms. Closed form (no loop). *bound gets the a-priori bound the
@@ -413,7 +418,7 @@ inline int series_cap(SeriesPol s, SeriesPol p, ColumnRule c, REAL x, REAL x_max
     if (s.one_minus_q < 0) return -1;
     if (x == 0) return 0;
     const Remainder r = remainder_setup(c, x, tail);
-    const int cap = (int)fmin(floor(x_max / x), (REAL)budget);
+    const int cap = series_terms_cap(x, x_max, budget);
     // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
     const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qs), qp_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qp);
     if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
@@ -481,24 +486,27 @@ inline void series_rgb(SeriesPol s, SeriesPol p, ColumnRule column, REAL x, CPLX
     SERIES_TEXEL_AT(x, y)
 
 #define BAND_ROWS 16   // rows per group of BAND_TEXEL's order
-#define BAND_TEXEL                                                                                \
+#define BAND_PLACE                                                                                \
     const int group = gid / (BAND_ROWS * width), first_row = group * BAND_ROWS;                  \
     const int group_rows = min(BAND_ROWS, n_items / width - first_row);                          \
     const int within = gid - first_row * width;                                                   \
     const int x = within / group_rows, y = row0 + first_row + within % group_rows;              \
-    const int index = (y - row0) * width + x;                                                     \
-    SERIES_TEXEL_AT(x, y)
+    const int index = (y - row0) * width + x;
+#define BAND_TEXEL BAND_PLACE SERIES_TEXEL_AT(x, y)
 
 #define SERIES_TEXEL_AT(x, y)                                                                     \
+    SERIES_CONSTANTS(x, y)                                                                        \
+    REAL bound;                                                                                    \
+    const int cap = series_cap(sp, pp, column, f[0], step * intervals, tail, interp, tol, budget, &bound);
+
+#define SERIES_CONSTANTS(x, y)                                                                    \
     const int i_cos = (x) % n_cos, i_eta3 = (x) / n_cos;   /* the tile packing: lutbake/grid/layout.py */ \
     const int i_opd = (y) % n_opd, i_kappa3 = (y) / n_opd;                                        \
     const int pair = i_opd * n_cos + i_cos;                                                       \
     __global const REAL *co = coefficients + COLUMN * ((i_kappa3 * (width / n_cos) + i_eta3) * n_cos + i_cos); \
     __global const REAL *f = film + 3 * pair;                                                     \
     const SeriesPol sp = series_pol(co), pp = series_pol(co + 6);                                 \
-    const ColumnRule column = column_rule(co);                                                    \
-    REAL bound;                                                                                    \
-    const int cap = series_cap(sp, pp, column, f[0], step * intervals, tail, interp, tol, budget, &bound);
+    const ColumnRule column = column_rule(co);
 
 // Ŵ(mX), m = 1 … terms, of each (cos θ, D) pair: `offset` (pairs + 1, from 0) places pair j's terms at
 // out[6·offset[j] …]. The same evaluation, to the bit, as a texel evaluating its own terms.
@@ -517,15 +525,28 @@ __kernel void pair_transform(__global const REAL *film, __global const int *offs
     }
 }
 
-// The series kernels' work-item: its texel's constants and rule; a texel the series does not take is
-// appended to `rest` (its band index; `rest_count` counts them) and the work-item is done.
-#define SERIES_OR_REST ITEMS_GUARD BAND_TEXEL if (cap < 0) { rest[atomic_inc(rest_count)] = index; return; }
+// The bake's series kernels' work-item: its texel's constants and the terms it may take; a texel the series
+// does not take is appended to `rest` (its band index; `rest_count` counts them) and the work-item is done.
+// Where `planned`, the plan's list of the band's texels the series leaves (`left`: 1 at each) decides
+// instead of the rule's remainder test (two exp a texel, ~20% of this pass on PoCL): the plan ran that test
+// on the same texel (plan_rows), and the terms it may take are then series_terms_cap's, as series_cap's.
+#define SERIES_OR_REST                                                                                       \
+    ITEMS_GUARD BAND_PLACE SERIES_CONSTANTS(x, y)                                                           \
+    int cap;                                                                                                  \
+    if (planned) {                                                                                            \
+        cap = left[index] ? -1 : series_terms_cap(f[0], step * intervals, budget);                           \
+    } else {                                                                                                  \
+        REAL bound;                                                                                           \
+        cap = series_cap(sp, pp, column, f[0], step * intervals, tail, interp, tol, budget, &bound);         \
+    }                                                                                                         \
+    if (cap < 0) { rest[atomic_inc(rest_count)] = index; return; }
+#define PLANNED_ARGS __global const char *left, const int planned
 
 // The bake's first pass over a band: the series for every texel whose rule allows it, Ŵ(mX) read from its
 // pair's shared values (`pair_w`, placed by `offset` as in pair_transform); the other texels are appended
 // to `rest` (their band index; `rest_count` counts them).
 __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                               __global const int *offset, __global const REAL *pair_w,
+                               __global const int *offset, __global const REAL *pair_w, PLANNED_ARGS,
                                __global REAL *rgb_out, __global int *rest, __global int *rest_count,
                                const int n_items)
 {
@@ -538,7 +559,7 @@ __kernel void bake_rows_series(const int n_cos, const int n_opd, const int width
 // bake_rows_series where the pairs share nothing (few texels per pair, or their table would not fit):
 // each texel evaluates the table for its own terms.
 __kernel void bake_rows_series_table(const int n_cos, const int n_opd, const int width, const int row0, SERIES_ARGS,
-                                     __global REAL *rgb_out, __global int *rest, __global int *rest_count,
+                                     PLANNED_ARGS, __global REAL *rgb_out, __global int *rest, __global int *rest_count,
                                      const int n_items)
 {
     SERIES_OR_REST

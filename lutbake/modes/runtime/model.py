@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 __all__ = ["runtime_colour", "runtime_rgb"]
 
 F = np.float32
+SQRT2 = 1.41421356  # as the include writes it
 
 
 def _cis_m1_conj(turns):
@@ -34,43 +35,43 @@ def _cis_m1_conj(turns):
     return F(-0.5) * s2 * s2, s2 * c
 
 
-def _sqrt(re, im):
-    """Principal square root for im ≥ 0 (a select picks the larger part, as the include does)."""
-    h = np.sqrt(np.maximum(F(0.5) * (np.hypot(re, im) + np.abs(re)), F(1e-30)))
-    lo = F(0.5) * im / h
+def _sqrt2(re, im):
+    """√2 times the principal square root for im ≥ 0 (a select picks the larger part, as the include does)."""
+    h = np.sqrt(np.maximum(np.hypot(re, im) + np.abs(re), F(1e-30)))
+    lo = im / h
     right = re >= 0
     return np.where(right, h, lo), np.where(right, lo, h)
 
 
 def _face(y1, y2):
-    """Interface 1-2 of one polarization: (a, −a/2, 1 + a, 1 − a², a²) as lutbake_rt_face computes them."""
+    """Interface 1-2 of one polarization: (a, −a/2, 1 + a, 1 − a², 1 − a² + 1e-30, a²) as lutbake_rt_face computes
+    them."""
     i2 = F(2) / (y1 + y2)
     u1 = y1 * i2
     a = u1 - F(1)
-    return {"a": a, "na": F(-0.5) * a, "u1": u1, "ea": u1 * (y2 * i2), "a2": a * a}
+    ea = u1 * (y2 * i2)
+    return {"a": a, "na": F(-0.5) * a, "u1": u1, "ea": ea, "ea_tiny": ea + F(1e-30), "a2": a * a}
 
 
 def _pol(face, p, q, pq, film):
-    """One polarization: (c0, the read's weights (4 columns), Re of its white share, w in texels) as lutbake_rt_pol
-    computes them, from conj(ζ) (complex values as (re, im) pairs)."""
+    """One polarization: (c0, g = conj(K e^(iθ)/ζ) as (re, im), w in texels) as lutbake_rt_pol computes them, from
+    conj(ζ) (complex values as (re, im) pairs); w = −(1 + ba) + ba (2 + ba)/e, e = ba + ζ."""
     n4 = F(4) / (pq[0] * pq[0] + pq[1] * pq[1])
     scale = face["na"] * n4
     nat2 = (scale * (q[0] * pq[0] + q[1] * pq[1]), scale * (q[0] * pq[1] - q[1] * pq[0]))
     eb = np.maximum((p[0] * q[0] + p[1] * q[1]) * n4, F(0))
-    eq = face["ea"] / np.maximum(face["ea"] + face["a2"] * eb, F(1e-30))
+    eq = face["ea"] / (face["ea_tiny"] + face["a2"] * eb)
     kr = eb * eq
     c0 = face["a2"] + face["ea"] * (eq - kr)
-    ab, em = (face["a"] + nat2[0], nat2[1]), film["em1c"]
-    zc = (face["u1"] + nat2[0] + (ab[0] * em[0] - ab[1] * em[1]), nat2[1] + (ab[0] * em[1] + ab[1] * em[0]))
+    abx, em = face["a"] + nat2[0], film["em1c"]
+    zc = (face["u1"] + nat2[0] + (abx * em[0] - nat2[1] * em[1]), nat2[1] * film["cos_phase"] + abx * em[1])
     kz = kr / np.maximum(zc[0] * zc[0] + zc[1] * zc[1], F(1e-30))
     g = (kr - kz * zc[0], kz * zc[1])
-    g1 = (g[0] * film["xt"], g[1] * film["xt"])
-    weights = np.stack([g[0] - g1[0], g[1] - g1[1], g1[0], g1[1]], axis=1)
-    den = (film["beta"] + film["alpha"] * zc[0], film["alpha"] * zc[1])
-    mob = ((film["beta"] - zc[0]) * den[0] - zc[1] * den[1], film["mob_im"] * zc[1])
-    r = film["half"] / np.maximum(den[0] * den[0] + den[1] * den[1], F(1e-30))
-    w = (np.clip(mob[0] * r, -film["half"], film["half"]), np.clip(mob[1] * r, -film["half"], film["half"]))
-    return c0, weights, g[0], w
+    ec = (film["ba"] + zc[0], zc[1])
+    t = film["kv"] / np.maximum(ec[0] * ec[0] + ec[1] * ec[1], F(1e-30))
+    half = film["half"]
+    w = (np.clip(film["w0"] + t * ec[0], -half, half), np.clip(t * ec[1], -half, half))
+    return c0, g, w
 
 
 def _film(meta, cos_theta, thickness_nm, eta1, eta2):
@@ -80,9 +81,9 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     g2 = np.sqrt(np.maximum((eta2 - eta1) * (eta2 + eta1) + e1c * e1c, F(1e-30)))
     h = g2 / (eta2 * eta2)
     xh = thickness_nm * g2
-    quarter_zoom = F(0.25 * t["zoom_nm"])
-    inv = F(1) / (xh + quarter_zoom)
-    beta = xh * inv
+    em1c = _cis_m1_conj(xh * F(2 * t["nu0_per_nm"]))
+    ba = xh * F(4 / t["zoom_nm"])
+    half = F(0.5 * (t["nodes"] - 1))
     last = F(t["slices"] - 1)
     s = np.minimum(np.sqrt(xh * F(2 * float(last) ** 2 / t["x_max_nm"])), last - F(1 / 4096))
     j = np.floor(s)
@@ -91,27 +92,30 @@ def _film(meta, cos_theta, thickness_nm, eta1, eta2):
     centre = ((tile - np.floor(tile)) * F(t["tiles_per_row"] * t["nodes"]), np.floor(tile) * nodes + F(0.5) * nodes)
     return {
         "e1c": e1c,
-        "g2": g2,
-        "h": h,
+        "g2r": F(SQRT2) * g2,
+        "hr": F(SQRT2) * h,
+        "sin2": (eta1 - e1c) * (eta1 + e1c),
         "face_s": _face(e1c, g2),
         "face_p": _face(c1, eta1 * h),
-        "em1c": _cis_m1_conj(xh * F(2 * t["nu0_per_nm"])),
-        "beta": beta,
-        "alpha": quarter_zoom * inv,
-        "mob_im": beta * (F(2) - beta),
-        "half": F(0.5 * (t["nodes"] - 1)),
+        "em1c": em1c,
+        "cos_phase": F(1) + em1c[0],
+        "ba": ba,
+        "kv": (ba * (F(2) + ba)) * half,  # texels: the same scale on both axes
+        "w0": -half - half * ba,
+        "half": half,
         "xt": s - j,
         "centre": centre,  # texels
     }
 
 
-def _base(film, eta1, eta2, eta3, kappa3):
-    """Both polarizations' (c0, weights, white share, w) over one base index per point."""
+def _base(film, eta1, eta3, kappa3):
+    """Both polarizations' (c0, g, w) over one base index per point (g3 and p's admittances scaled by √2)."""
     ek = F(2) * eta3 * kappa3
-    g3 = _sqrt((eta3 - eta1) * (eta3 + eta1) - kappa3 * kappa3 + film["e1c"] * film["e1c"], ek)
-    g2 = film["g2"]
-    s = _pol(film["face_s"], (g2, F(0) * g2), g3, (g2 + g3[0], g3[1]), film)
-    pn = (film["h"] * ((eta3 - kappa3) * (eta3 + kappa3)), film["h"] * ek)
+    zx = (eta3 - eta1) * (eta3 + eta1) - kappa3 * kappa3 + film["e1c"] * film["e1c"]
+    g3 = _sqrt2(zx, ek)
+    g2r = film["g2r"]
+    s = _pol(film["face_s"], (g2r, F(0) * g2r), g3, (g2r + g3[0], g3[1]), film)
+    pn = (film["hr"] * (zx + film["sin2"]), film["hr"] * ek)
     p = _pol(film["face_p"], pn, g3, (pn[0] + g3[0], pn[1] + g3[1]), film)
     return s, p
 
@@ -134,13 +138,19 @@ def _bilinear(image, x, y, bits):
     return top * (F(1) - ty) + bottom * ty
 
 
-def _read(table: RuntimeTable, film: dict, pol: tuple, band: npt.ArrayLike, bits: int | None) -> np.ndarray:
-    """One polarization's read of channel band ``band`` (an array or int) at its w, weighted: Re(K e^(iθ) V / ζ)."""
+def _read(table: RuntimeTable, film: dict, pol: tuple, band: int, bits: int | None, per_channel: bool) -> np.ndarray:
+    """One polarization's read of channel band ``band`` at its w, weighted: Re(K e^(iθ) V / ζ). The slices' blend
+    as the include does it: in the weights for ``lutbake_iridescence`` (three reads share them), in the texel for
+    ``lutbake_iridescence_rgb`` (one read)."""
     t = table.meta["table"]
-    w = pol[3]
+    w, g, xt = pol[2], pol[1], film["xt"]
     x = film["centre"][0] + w[0]
-    y = film["centre"][1] + w[1] + np.asarray(band, F) * F(t["band_rows"] * t["nodes"])
-    return (_bilinear(table.image, x, y, bits) * pol[1]).sum(axis=1)
+    y = film["centre"][1] + w[1] + F(band * t["band_rows"] * t["nodes"])
+    v = _bilinear(table.image, x, y, bits)
+    if per_channel:
+        return (v[:, 0] + (v[:, 2] - v[:, 0]) * xt) * g[0] + (v[:, 1] + (v[:, 3] - v[:, 1]) * xt) * g[1]
+    g1 = (g[0] * xt, g[1] * xt)
+    return (v * np.stack([g[0] - g1[0], g[1] - g1[1], g1[0], g1[1]], axis=1)).sum(axis=1)
 
 
 def runtime_colour(
@@ -169,10 +179,11 @@ def runtime_colour(
         else [(np.broadcast_to(eta3, (n,)), np.broadcast_to(kappa3, (n,)))]
     )
     for c, (e3, k3) in enumerate(bases):
-        s, p = _base(film, args[1], args[2], e3, k3)
-        share = F(0.5) * (s[0] + p[0]) + s[2] + p[2]
+        s, p = _base(film, args[1], e3, k3)
+        share = F(0.5) * (s[0] + p[0]) + s[1][0] + p[1][0]
         for band in [c] if per_channel else range(3):
-            departure = _read(table, film, s, band, filter_bits) + _read(table, film, p, band, filter_bits)
+            departure = _read(table, film, s, band, filter_bits, per_channel)
+            departure = departure + _read(table, film, p, band, filter_bits, per_channel)
             colour[:, band] = share * white[band] + departure
     return colour.astype(float)
 

@@ -49,6 +49,7 @@ from lutbake.scene.gltf.extensions import (
     dielectric_f0,
 )
 from lutbake.scene.gltf.mapping import read_metal_mapping
+from lutbake.scene.gltf.routes import planned_routes
 from lutbake.scene.gltf.scoring import served_materials
 from lutbake.scene.model import Base, BasePath, Scene, SceneMaterial, check_material_names
 
@@ -557,6 +558,7 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
                 "slices": slices,
                 "lut": luts[0] if luts else None,
                 "runtime_parts": runtime,
+                "routes": planned_routes(scene.source, r),
                 "why_not": r.get("why_not")
                 or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None)
                 or (None if slices or luts else r.get("zero_term")),

@@ -22,7 +22,7 @@ from lutbake.quality.refine import REPORT_POINTS, p99_bound
 from lutbake.scene.gltf.scoring import Sampler, film_points, part_colours, served_materials
 from lutbake.scene.model import Scene
 
-__all__ = ["choose_routes", "composed_parts", "route_lines", "source_unmet", "CHECK_SEED"]
+__all__ = ["choose_routes", "composed_parts", "planned_routes", "route_lines", "source_unmet", "CHECK_SEED"]
 
 CHECK_SEED = 0  # the bake's check points: fixed, so the same inputs give the same routes and bytes
 AUTO = "auto"
@@ -33,29 +33,69 @@ def choose_routes(
     met: Callable[[str], bool],
     sampler_of: Callable[[str], Sampler],
     truth_of: Callable[[float], Sampler],
+    rerefine: Callable[[list[str], float], set[str]] | None = None,
 ) -> set[str]:
     """Check every baked part of ``scene``'s glTF source (``met(scene material)``: its job's own verdict;
     ``sampler_of``: what the engine reads; ``truth_of(film η2)``: the bake's integrator's colour), recording
     ``target_check`` on the parts checked on their composed colour and routing the misses to the runtime
-    table; the scene materials no longer served by the bake."""
+    table; the scene materials no longer served by the bake. A part of slices whose composed colour misses,
+    that would go to the runtime table, first has its slices refined once more (``rerefine(scene materials,
+    factor)``: each slice to its reached bound times ``factor`` < 1, within its resolution cap; the scene
+    materials whose slices changed) and is checked again, and so is every part that reads a slice it changed."""
     assert scene.source is not None  # a glTF scene's
     routed: set[str] = set()
+    changed: set[str] = set()
+
+    def tracked(names: list[str], factor: float) -> None:
+        assert rerefine is not None  # called only where given
+        changed.update(rerefine(names, factor))
+
     composed = {id(info) for _, info in composed_parts(scene.source)}
     for record, info in _baked_parts(scene.source):
         if id(info) in composed:
             check = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
+            if not check["met"] and rerefine and _reroutable(info) and not info.get("texture"):
+                check = _rerefined(record, info, check, sampler_of, truth_of(record["film"]), scene.max_de, tracked)
             info["target_check"] = check
             why = None if check["met"] else _composed_why(check, scene.max_de)
         else:
             missed = [m for m in served_materials(info) if not met(m)]
             why = f"its slice {missed[0]} misses p99 ΔE00 {scene.max_de:g} at the resolution cap" if missed else None
-        # Forced to the bake, or a named metal (no (η3, κ3) for the table): it stays, unmet if it misses.
-        if why is None or info.get("route") == "bake" or info.get("mapping") == "named":
+        if why is None or not _reroutable(info):
             continue
         info.update(route="runtime", route_by=AUTO, route_why=why)
         info["target_check"] = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
         routed.update(served_materials(info))
+    for record, info in _baked_parts(scene.source):  # checked before a slice it reads was refined again
+        check = info.get("target_check", {})
+        if id(info) in composed and "rerefined" not in check and changed & set(served_materials(info)):
+            info["target_check"] = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
     return routed
+
+
+def _reroutable(info: dict[str, Any]) -> bool:
+    """Whether a miss sends the part to the runtime table: not forced to the bake, not a named metal (no (η3,
+    κ3) for the table); those stay, unmet if they miss."""
+    return info.get("route") != "bake" and info.get("mapping") != "named"
+
+
+def _rerefined(
+    record: dict[str, Any],
+    info: dict[str, Any],
+    check: dict[str, Any],
+    sampler_of: Callable[[str], Sampler],
+    truth: Sampler,
+    max_de: float,
+    rerefine: Callable[[list[str], float], None],
+) -> dict[str, Any]:
+    """The check again after the part's slices are refined once more, each to the bound it reached times the
+    factor by which the composed bound missed the target (target / bound: the composed colour's error follows
+    its slices' interpolation error); the check records that re-refinement (``rerefined``: the factor, the
+    composed p99 and bound before)."""
+    factor = max_de / check["de00_p99_bound"]
+    rerefine(list(dict.fromkeys(served_materials(info))), factor)
+    before = {k: check[k] for k in ("de00_p99", "de00_p99_bound")}
+    return {**_check(record, info, sampler_of, truth, max_de), "rerefined": {"slice_factor": factor, **before}}
 
 
 def _baked_parts(source: dict[str, Any]) -> Iterator[tuple[dict[str, Any], dict[str, Any]]]:
@@ -76,6 +116,24 @@ def composed_parts(source: dict[str, Any]) -> list[tuple[dict[str, Any], dict[st
     ]
 
 
+def planned_routes(source: dict[str, Any], record: dict[str, Any]) -> dict[str, dict[str, str]]:
+    """What `plan` knows of each part's route before the bake: {part: {route, by, unless}}: a constant or a
+    forced route (``--route``, extras) is final; a part the bake serves stays baked ``unless`` its check
+    misses (its composed colour, or its slice at the resolution cap; then the runtime table serves it), which
+    only the bake can tell."""
+    composed = {id(info) for _, info in composed_parts(source)}
+    routes = {}
+    for name, info in record["parts"].items() if record["film"] is not None else ():
+        if "constant" in info:
+            routes[name] = {"route": "constant", "by": "stack"}
+        elif "route_by" in info:
+            routes[name] = {"route": info["route"], "by": info["route_by"]}
+        else:
+            miss = "its composed colour (a table per channel)" if id(info) in composed else "its slice"
+            routes[name] = {"route": "bake", "by": AUTO, "unless": f"{miss} misses the target"}
+    return routes
+
+
 def _check(
     record: dict[str, Any], info: dict[str, Any], sampler_of: Callable[[str], Sampler], truth: Sampler, max_de: float
 ) -> dict[str, Any]:
@@ -94,9 +152,14 @@ def _check(
 
 
 def _composed_why(check: dict[str, Any], max_de: float) -> str:
+    again = (
+        f", after its slices were refined once more to {check['rerefined']['slice_factor']:.3f} of their error"
+        if "rerefined" in check
+        else ""
+    )
     return (
         f"its composed colour (a table per channel) reaches p99 ΔE00 {check['de00_p99']:.3f} (bound "
-        f"{check['de00_p99_bound']:.3f} at {check['points']:,} points) > the target {max_de:g}"
+        f"{check['de00_p99_bound']:.3f} at {check['points']:,} points) > the target {max_de:g}{again}"
     )
 
 
