@@ -18,7 +18,6 @@ asset has the thickness textures removed, its films then at their maximum thickn
 """
 
 import copy
-import json
 import shutil
 import subprocess
 import sys
@@ -32,6 +31,7 @@ from PIL import Image
 from runtime_contract import CONTRACT_MAX, CONTRACT_P99, runtime_table_files
 from web_engines import GLTF_PACKAGES, serve_gltf_bake
 
+from lutbake.io.manifest import read_scene_manifest
 from lutbake.modes.runtime import read_runtime_table
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.scene.gltf.materials import METAL_TABLE_NODES
@@ -89,7 +89,7 @@ def _bake(doc, folder):
     proc = subprocess.run(cli, capture_output=True, text=True, cwd=ROOT, timeout=600)
     written = proc.returncode == 1 and "(written;" in proc.stderr  # the forced LUT may miss the target: exit 1
     assert proc.returncode == 0 or written, proc.stderr[-2000:]
-    manifest = json.loads((out / f"{ASSET}.json").read_text())
+    manifest = read_scene_manifest(out / f"{ASSET}.json")  # metal tables in place (the manifest names them)
     metal = next(r for r in manifest["source"]["materials"] if r["gltf_index"] == 2)["parts"]["metal"]
     _write_base_colour(folder, doc, max(metal["f0_max"]))  # the F0 table's last node
     return gltf, out, manifest
