@@ -18,8 +18,9 @@
 // pass `bake` (loadLutbakeBakeBabylon) and each glTF material the manifest records is served, part by part
 // (dielectric, metal: mixed by the material's metallic value), by the route lutbake-routes.js picks: its atlas
 // slice, one slice per channel, the runtime table (`runtime` needed; `serve: 'runtime'` sends every part there)
-// or a constant. A texture-driven metal (a 4D LUT, or the runtime table per texel) is not served yet: it
-// throws, naming the material. What served each material: material.metadata.lutbake ({gltfIndex, name, parts: {dielectric|metal: route}}).
+// or a constant; a texture-driven metal (a base colour texture on a metal) at each pixel's base colour
+// (Babylon's baseColor: albedo factor x texture x vertex colour) through the mapping's F0 table, its 4D LUT
+// or the runtime table. What served each material: material.metadata.lutbake ({gltfIndex, name, parts: {dielectric|metal: route}}).
 //
 //   const bake = await loadLutbakeBakeBabylon('build/Lamp/IridescenceLamp.json', scene);
 //   ... extensionOptions: { lutbake_iridescence: { bake, runtime } } ...
@@ -29,10 +30,9 @@ import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-route
 
 export const NAME = 'lutbake_iridescence';
 
-// The manifest of a glTF bake with its atlas (if any slice serves a part) as a Babylon texture and its include.
-export async function loadLutbakeBakeBabylon(manifestUrl, scene) {
-  const bake = await loadBakeManifest(manifestUrl);
-  return { ...bake, atlas: bake.atlas && lutbakeTexture(bake.atlas, scene) };
+// The manifest of a glTF bake with its atlas (if any slice serves a part) and 4D LUTs as Babylon textures.
+export function loadLutbakeBakeBabylon(manifestUrl, scene) {
+  return loadBakeManifest(manifestUrl, (table) => lutbakeTexture(table, scene));
 }
 
 class LutbakeGltfExtension {

@@ -14,7 +14,9 @@
 //   lutbakeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
 //
 // `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour,
-// 'parameters' the (cos theta, thickness nm, film index) it used; with mode 'babylon' they are Babylon's own.
+// 'parameters' the (cos theta, thickness nm, film index) it used, 'basecolor' the base colour (a texture-driven
+// metal's F0), 'metallic' the metallic weight (alpha 1 in all: a blended material would scale a smaller alpha
+// in); with mode 'babylon' they are Babylon's own.
 import { MaterialPluginBase } from '@babylonjs/core/Materials/materialPluginBase.js';
 import { RawTexture } from '@babylonjs/core/Materials/Textures/rawTexture.js';
 import { Texture } from '@babylonjs/core/Materials/Textures/texture.js';
@@ -48,7 +50,7 @@ const BLOCK = 'iridescenceOut=iridescenceBlock(';
 const escape = (text) => text.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
 
 const MODES = { runtime: 1, babylon: 2 };
-const OUTPUTS = { fresnel: 1, parameters: 2 };
+const OUTPUTS = { fresnel: 1, parameters: 2, basecolor: 3, metallic: 4 };
 
 // The runtime table's term over the material's base: a dielectric of index lutbakeIor, a metal per channel.
 const RUNTIME_TERMS = {
@@ -56,14 +58,16 @@ const RUNTIME_TERMS = {
   metal: 'lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, eta1, eta2, lutbakeMetalEta, lutbakeMetalKappa)',
 };
 
-// Declarations (before the PBR blocks): the capture of the term for `output`, and for lutbake's term the
-// tables (the runtime table, a glTF bake's atlas), their includes and the film's term at (eta1, eta2, cos, d):
+// Declarations (before the PBR blocks): the capture of the term for `output`, the pixel's base colour and
+// metallic weight (set before the iridescence block), and for lutbake's term the tables (the runtime table, a
+// glTF bake's atlas and 4D LUT), their includes and the film's term at (eta1, eta2, cos, d):
 // `terms.dielectric` and `terms.metal` (GLSL expressions; absent: 0), mixed by the metallic weight.
 // Babylon's preprocessor reads `#if NAME` as `#ifdef NAME`; the includes' `#if` are on
 // LUTBAKE_SCANLINE0_AT_V0, defined 1 here, which both readings take as true (and `#if !NAME` as false).
 function definitions(include, terms) {
   const capture = `
 float lutbakeMetallic = 0.0;
+vec3 lutbakeBaseColour = vec3(0.0);
 vec3 lutbakeFresnel = vec3(0.0);
 vec3 lutbakeParameters = vec3(0.0);
 vec3 lutbakeCapture(vec3 fresnel, float cosTheta, float thicknessNm, float eta2) {
@@ -76,6 +80,7 @@ vec3 lutbakeCapture(vec3 fresnel, float cosTheta, float thicknessNm, float eta2)
   return `${capture}
 uniform highp sampler2D lutbakeTable;
 uniform highp sampler2D lutbakeAtlas;
+uniform highp sampler2D lutbakeLut;
 #define LUTBAKE_SCANLINE0_AT_V0 1
 ${include}
 vec3 lutbakeFilmFresnel(float eta1, float eta2, float cosTheta, float thicknessNm) {
@@ -96,7 +101,7 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
     this.metal = metal;
     this.output = output;
     this.bake = bake;
-    this.textures = { lutbakeTable: runtime && runtime.table, lutbakeAtlas: bake && bake.atlas };
+    this.textures = { lutbakeTable: runtime && runtime.table, lutbakeAtlas: bake && bake.atlas, lutbakeLut: bake && bake.lut };
     this._enable(true);
   }
 
@@ -110,7 +115,7 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
     defines.LUTBAKE_TABLE = this.mode === 'runtime' ? `${table}${this.bake ? this.bake.key : ''}` : 'none';  // effects are cached by defines
   }
 
-  // The textures lutbake's term reads (the runtime table, a bake's atlas), by sampler name.
+  // The textures lutbake's term reads (the runtime table, a bake's atlas and 4D LUT), by sampler name.
   lutbakeTextures() {
     return this.mode === 'runtime' ? Object.entries(this.textures).filter(([, texture]) => texture) : [];
   }
@@ -138,7 +143,8 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
     if (shaderType !== 'fragment') return null;
     const term = this.mode === 'runtime' ? 'lutbakeFilmFresnel(topIor,iridescenceIOR,viewAngle,iridescenceThickness)'
       : `lutbakeCapture(${CALL},viewAngle,iridescenceThickness,iridescenceIOR)`;
-    const out = { 1: 'lutbakeFresnel', 2: 'lutbakeParameters' }[OUTPUTS[this.output]];
+    const out = { 1: 'vec4(lutbakeFresnel, 1.0)', 2: 'vec4(lutbakeParameters, 1.0)',
+                  3: 'vec4(lutbakeBaseColour, 1.0)', 4: 'vec4(vec3(lutbakeMetallic), 1.0)' }[OUTPUTS[this.output]];
     return {
       CUSTOM_FRAGMENT_DEFINITIONS: this.mode === 'runtime'
         ? definitions([this.runtime && this.runtime.include, this.bake && this.bake.include].filter(Boolean).join('\n'),
@@ -149,8 +155,9 @@ class LutbakeIridescencePlugin extends MaterialPluginBase {
 #ifdef METALLICWORKFLOW
 lutbakeMetallic=reflectivityOut.metallic;
 #endif
+lutbakeBaseColour=baseColor;
 ${BLOCK}`,
-      CUSTOM_FRAGMENT_BEFORE_FRAGCOLOR: out ? `finalColor = vec4(${out}, 1.0);` : '',
+      CUSTOM_FRAGMENT_BEFORE_FRAGCOLOR: out ? `finalColor = ${out};` : '',
     };
   }
 }
@@ -159,12 +166,12 @@ const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
 
 // Attach lutbake's term to a PBRMaterial (its iridescence must be enabled); returns the material. `bake`
 // (lutbake-babylon-gltf.js: a glTF bake's routes) replaces the runtime table's terms by its own: { terms:
-// {dielectric, metal}, include, atlas, key } (the key names the terms for Babylon's effect cache).
+// {dielectric, metal}, include, atlas, lut, key } (the key names the terms for Babylon's effect cache).
 export function lutbakeIridescence(material, { runtime = null, bake = null, mode = runtime || bake ? 'runtime' : 'babylon',
                                                metal = DIELECTRIC_METAL, output = null } = {}) {
   if (!(mode in MODES)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${Object.keys(MODES).join(', ')}`);
   if (mode === 'runtime' && !runtime && !bake) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
-  if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not fresnel or parameters`);
+  if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not one of ${Object.keys(OUTPUTS).join(', ')}`);
   if (!pbrBlockIridescence.shader.includes(CALL)) {
     throw new Error('lutbakeIridescence: Babylon.js changed pbrBlockIridescence (its evalIridescence call is not found)');
   }

@@ -1,8 +1,8 @@
-// lutbake's runtime table for engines without a usable EXR loader (Babylon.js's needs fflate from a CDN,
-// PlayCanvas has none): a bounded reader of the half-float EXRs lutbake writes (scanline, ZIP or
-// uncompressed, HALF channels; lutbake/tables/exr.py; the runtime table is always RGBA half) with no dependency but the browser's DecompressionStream, and the
-// runtime table's loader on top of it. Engine-neutral: it returns texels and the include, the engine's file
-// uploads them.
+// lutbake's tables for engines without a usable EXR loader (Babylon.js's needs fflate from a CDN, PlayCanvas
+// has none): a bounded reader of the half-float EXRs lutbake writes (scanline, ZIP or uncompressed, HALF
+// channels; lutbake/tables/exr.py; the runtime table is always RGBA half) with no dependency but the browser's
+// DecompressionStream, and the loaders of the runtime table, a glTF bake's atlas and its 4D LUTs on top of it.
+// Engine-neutral: it returns texels and the include, the engine's file uploads them.
 //
 //   import { loadRuntimeTable } from './lutbake-exr.js';
 //   const { width, height, texels, include } = await loadRuntimeTable('luts/runtime/lutbake-runtime');
@@ -148,15 +148,26 @@ export async function loadSceneAtlas(stem) {
   return atlas;
 }
 
-// `lutbake runtime-table`'s STEM.exr and STEM.glsl, checked to be one set (the header's content hash is
-// the one the include's second line names: a folder copied mid-bake could pair two bakes).
-export async function loadRuntimeTable(stem) {
+// A table whose include names the EXR header's content hash on its second line, checked to be one set of
+// `format` (a folder copied mid-bake could pair two bakes): `again` says how to make one.
+async function loadHashedTable(stem, format, again) {
   const { include, ...table } = await loadExrAndInclude(stem);
-  if (table.header['lutbake.format'] !== 'lutbake-runtime') fail(stem, 'not a lutbake runtime table (lutbake.format)');
+  if (table.header['lutbake.format'] !== format) fail(stem, `not a ${format} table (lutbake.format)`);
   const named = include.match(/^\/\/ content hash ([0-9a-f]+);/m);
   if (!named || named[1] !== table.header['lutbake.content_hash']) {
     fail(stem, `the EXR (hash ${table.header['lutbake.content_hash']}) and its include (${named ? named[1] : 'no hash'}) `
-      + 'are of different bakes (copied or interrupted mid-commit): run lutbake runtime-table again');
+      + `are of different bakes (copied or interrupted mid-commit): ${again}`);
   }
   return { ...table, include };
+}
+
+// `lutbake runtime-table`'s STEM.exr and STEM.glsl.
+export const loadRuntimeTable = (stem) => loadHashedTable(stem, 'lutbake-runtime', 'run lutbake runtime-table again');
+
+// A baked 4D LUT's STEM.exr and STEM.glsl (a glTF bake's texture-driven metal), with the constant its include
+// defines (`ident`).
+export async function loadLutTable(stem) {
+  const lut = await loadHashedTable(stem, 'lutbake-lut', 'bake again');
+  const ident = lut.include.match(/^const LutbakeLut (\w+) =/m) || fail(stem, 'its include defines no LutbakeLut constant');
+  return { ...lut, ident: ident[1] };
 }

@@ -16,7 +16,9 @@
 //   lutbakeIridescence(material, { runtime, metal: { eta: [0.27, 0.68, 1.32], kappa: [3.61, 2.63, 2.29] } });
 //
 // `output` (tests, debugging): 'fresnel' writes the film's linear RGB Fresnel term instead of the lit colour,
-// 'parameters' the (cos theta, thickness nm, film index) it used; with mode 'playcanvas' they are PlayCanvas's.
+// 'parameters' the (cos theta, thickness nm, film index) it used, 'basecolor' the base colour (a texture-driven
+// metal's F0) and 'metallic' the metalness lutbake's term read (alpha 1 in all: a blended material, such as a
+// transmitting one, would scale a smaller alpha in); with mode 'playcanvas' they are PlayCanvas's (no base colour).
 import * as pc from 'playcanvas';
 import { loadRuntimeTable } from './lutbake-exr.js';
 import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-routes.js';
@@ -36,11 +38,10 @@ function lutbakeTexture(device, { width, height, texels }, name) {
   });
 }
 
-// A `lutbake bake --gltf` output (lutbake-routes.js) with its atlas, if a slice serves a part, as a texture
-// like the runtime table's: for lutbakeGltfOptions({ bake }).
-export async function loadLutbakeBakePlaycanvas(manifestUrl, device) {
-  const bake = await loadBakeManifest(manifestUrl);
-  return { ...bake, atlas: bake.atlas && lutbakeTexture(device, bake.atlas, 'lutbake-atlas') };
+// A `lutbake bake --gltf` output (lutbake-routes.js) with its atlas, if a slice serves a part, and its 4D LUTs
+// as textures like the runtime table's: for lutbakeGltfOptions({ bake }).
+export function loadLutbakeBakePlaycanvas(manifestUrl, device) {
+  return loadBakeManifest(manifestUrl, (table, name) => lutbakeTexture(device, table, `lutbake-${name}`));
 }
 
 // The chunk's interface: getIridescence(cos theta, base F0, thickness nm), and the film index uniform the
@@ -50,6 +51,8 @@ function chunk(declarations, film) {
 uniform float material_iridescenceRefractionIndex;
 vec3 lutbakeFresnel;
 vec3 lutbakeParameters;
+vec3 lutbakeBaseColour;
+float lutbakeMetallic;
 ${declarations}
 vec3 getIridescence(float cosTheta, vec3 specularity, float iridescenceThickness) {
   float eta2 = material_iridescenceRefractionIndex;
@@ -66,13 +69,15 @@ const RUNTIME_TERMS = {
   metal: 'lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, eta2, lutbakeMetalEta, lutbakeMetalKappa)',
 };
 
-// lutbake's term: `terms` (GLSL in cosTheta, thicknessNm, eta2, eta3; absent: 0) mixed by metalness, with
-// the samplers and includes they read (the runtime table's, a bake's atlas's: bakeTerms, lutbake-routes.js).
+// lutbake's term: `terms` (GLSL in cosTheta, thicknessNm, eta2, eta3 and lutbakeBaseColour, the pixel's base
+// colour before PlayCanvas scales it by 1 - metalness; absent: 0) mixed by metalness, with the samplers and
+// includes they read (the runtime table's, a bake's atlas's and 4D LUT's: bakeTerms, lutbake-routes.js).
 function lutbakeChunk({ runtime, bake }) {
   const terms = bake ? bake.terms : RUNTIME_TERMS;
   return chunk(`
 ${runtime ? 'uniform highp sampler2D lutbakeTable;' : ''}
 ${bake && bake.atlas ? 'uniform highp sampler2D lutbakeAtlas;' : ''}
+${bake && bake.lut ? 'uniform highp sampler2D lutbakeLut;' : ''}
 uniform vec3 lutbakeMetalEta;
 uniform vec3 lutbakeMetalKappa;
 #define LUTBAKE_SCANLINE0_AT_V0 1
@@ -86,6 +91,8 @@ vec3 lutbakeFilm(float cosTheta, float thicknessNm, float eta2) {
   float metallic = 0.0;
   float eta3 = 1.5;
 #endif
+  lutbakeBaseColour = dAlbedo;
+  lutbakeMetallic = metallic;
   vec3 dielectric = vec3(0.0);
   vec3 metal = vec3(0.0);
   if (metallic < 1.0) dielectric = ${terms.dielectric || 'vec3(0.0)'};
@@ -95,7 +102,8 @@ vec3 lutbakeFilm(float cosTheta, float thicknessNm, float eta2) {
 }
 
 const MODES = ['runtime', 'playcanvas'];
-const OUTPUTS = { fresnel: 'lutbakeFresnel', parameters: 'lutbakeParameters' };
+const OUTPUTS = { fresnel: 'vec4(lutbakeFresnel, 1.0)', parameters: 'vec4(lutbakeParameters, 1.0)',
+                  basecolor: 'vec4(lutbakeBaseColour, 1.0)', metallic: 'vec4(vec3(lutbakeMetallic), 1.0)' };
 const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
 
 // Replace a StandardMaterial's iridescence term (mode 'runtime'), or keep PlayCanvas's (its chunk from
@@ -108,12 +116,13 @@ export function lutbakeIridescence(material, { runtime = null, bake = null, mode
   if (!MODES.includes(mode)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${MODES.join(', ')}`);
   if (mode === 'runtime' && !runtime && !bake) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
   if (mode === 'playcanvas' && !device) throw new Error("lutbakeIridescence: mode 'playcanvas' needs the device (its stock chunk)");
-  if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not fresnel or parameters`);
+  if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not one of ${Object.keys(OUTPUTS).join(', ')}`);
   const chunks = material.getShaderChunks(pc.SHADERLANGUAGE_GLSL);
   if (mode === 'runtime') {
     chunks.set('iridescenceDiffractionPS', lutbakeChunk({ runtime, bake }));
     if (runtime) material.setParameter('lutbakeTable', runtime.table);
     if (bake && bake.atlas) material.setParameter('lutbakeAtlas', bake.atlas);
+    if (bake && bake.lut) material.setParameter('lutbakeLut', bake.lut);
     material.setParameter('lutbakeMetalEta', metal.eta);
     material.setParameter('lutbakeMetalKappa', metal.kappa);
   } else {
@@ -123,7 +132,7 @@ export function lutbakeIridescence(material, { runtime = null, bake = null, mode
       'playcanvasIridescence(cosTheta, specularity, iridescenceThickness)').replace(
       'uniform float material_iridescenceRefractionIndex;\n', ''));
   }
-  if (output) chunks.set('outputPS', `gl_FragColor = vec4(${OUTPUTS[output]}, 1.0);`);
+  if (output) chunks.set('outputPS', `gl_FragColor = ${OUTPUTS[output]};`);
   material.update();
   return material;
 }
@@ -138,9 +147,10 @@ export function lutbakeIridescence(material, { runtime = null, bake = null, mode
 //   app.assets.add(asset); app.assets.load(asset);
 //
 // With `bake` (loadLutbakeBakePlaycanvas) each glTF material the bake's manifest records is served by its
-// routes (lutbake-routes.js: slice, slice per channel, runtime table, constant; `serve: 'runtime'` sends every
-// part to the table), recorded in material.lutbake ({gltfIndex, name, parts}); the glTF material's index is
-// its place in the asset's materials, which the global preprocess hook keeps.
+// routes (lutbake-routes.js: slice, slice per channel, runtime table, constant, a texture-driven metal's 4D
+// LUT or runtime table at the pixel's base colour; `serve: 'runtime'` sends every part to the table),
+// recorded in material.lutbake ({gltfIndex, name, parts}); the glTF material's index is its place in the
+// asset's materials, which the global preprocess hook keeps.
 export function lutbakeGltfOptions({ runtime = null, metals = {}, output = null, bake = null, serve = 'bake' }) {
   if (!SERVES.includes(serve)) throw new Error(`lutbakeGltfOptions: serve '${serve}' is not ${SERVES.join(' or ')}`);
   let gltfMaterials = [];

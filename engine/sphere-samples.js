@@ -1,10 +1,13 @@
 // The test pages' read-back (babylon-page.js, playcanvas-page.js): a sphere's Fresnel term and the
 // parameters each pixel used, two size² RGBA float renders, as [r, g, b, cos theta, thickness nm, film index]
-// rows of every `stride`-th pixel the sphere covers (alpha > 0).
-export function coveredSamples(fresnel, params, size, stride) {
+// rows of every `stride`-th pixel the sphere covers (alpha > 0); with `more` (renders of outputs 'basecolor' and
+// 'metallic') the row goes on with the pixel's base colour and metallic weight.
+export function coveredSamples(fresnel, params, size, stride, more = null) {
   const samples = [];
   for (let i = 0; i < size * size; i += stride) {
-    if (fresnel[4 * i + 3] > 0) samples.push([...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)]);
+    if (fresnel[4 * i + 3] <= 0) continue;
+    const row = [...fresnel.subarray(4 * i, 4 * i + 3), ...params.subarray(4 * i, 4 * i + 3)];
+    samples.push(more ? [...row, ...more.base.subarray(4 * i, 4 * i + 3), more.metallic[4 * i]] : row);
   }
   return samples;
 }
@@ -43,14 +46,20 @@ export function thicknessWeights(seed) {
   return data;
 }
 
-// Each material a glTF asset loaded twice (output 'fresnel', then 'parameters': the same materials in the
-// same order) rendered by `render(material)`: its `describe(material)` and its samples.
+const GLTF_OUTPUTS = ['fresnel', 'parameters', 'basecolor', 'metallic'];
+
+// Each material a glTF asset loaded four times (outputs 'fresnel', 'parameters', 'basecolor', 'metallic': the
+// same materials in the same order) rendered by `render(material)`: its `describe(material)` and its samples
+// ([r, g, b, cos theta, thickness nm, film index, base r, g, b, metallic]).
 export async function gltfCells(load, render, describe, size, stride) {
-  const [fresnels, parameters] = [await load('fresnel'), await load('parameters')];
+  const loads = [];
+  for (const output of GLTF_OUTPUTS) loads.push(await load(output));
   const cells = [];
-  for (const [k, material] of fresnels.entries()) {
-    const samples = coveredSamples(await render(material, size), await render(parameters[k], size), size, stride);
-    cells.push({ ...describe(material), samples });
+  for (const [k, material] of loads[0].entries()) {
+    const renders = [];
+    for (const materials of loads) renders.push(await render(materials[k], size));
+    const [fresnel, params, base, metallic] = renders;
+    cells.push({ ...describe(material), samples: coveredSamples(fresnel, params, size, stride, { base, metallic }) });
   }
   return cells;
 }

@@ -68,6 +68,27 @@ def render_spheres(engine, spec, runtime_path, folder):
     return run_harness(engine, folder, spec, timeout=900)
 
 
+GLTF_PACKAGES = {"babylon": "@babylonjs/loaders", "playcanvas": "playcanvas"}  # the glTF pages' engine: its package
+
+
+def serve_gltf_bake(engine, gltf, manifest, serve, folder, size):
+    """The `ENGINE-gltf` page's cells (engine/sphere-samples.js gltfCells) for the glTF asset at ``gltf`` with
+    its `lutbake bake --gltf` output's ``manifest`` (paths in the repository), served by ``serve`` (bake or
+    runtime, the runtime table beside), every other pixel of a ``size``² render."""
+    require_package(GLTF_PACKAGES[engine])
+    runtime = runtime_table_files()
+    spec = {
+        "runtime": f"/{runtime.with_suffix('').relative_to(ROOT)}",
+        "asset": f"/{gltf.relative_to(ROOT)}",
+        "manifest": f"/{manifest.relative_to(ROOT)}",
+        "serve": serve,
+        "metals": {},
+        "size": size,
+        "stride": 2,
+    }
+    return run_harness(f"{engine}-gltf", folder, spec)["cells"]
+
+
 def require_package(package):
     """Node, Chromium and the pinned ``package`` (engine/package-lock.json): the test fails without them."""
     require_engine()

@@ -124,7 +124,7 @@ def test_the_engines_gltf_loader_serves_the_asset_from_the_runtime_table(gltf_ru
     for name, cell in cells.items():
         samples = np.array(cell["samples"], float)
         assert len(samples) >= 900
-        cos, d, eta2 = samples[:, 3:].T
+        cos, d, eta2 = samples[:, 3:6].T
         n = len(samples)
         eta3, kappa3 = (np.tile(np.asarray(v, float), (n, 1)) for v in bases[name])
         model = runtime_colour(table, cos, d, 1.0, eta2, eta3, kappa3)

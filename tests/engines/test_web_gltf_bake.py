@@ -22,10 +22,10 @@ import uuid
 
 import numpy as np
 import pytest
-from engine_harness import ROOT, run_harness
+from engine_harness import ROOT
 from gltf_assets import iridescent, khronos_document, stand_in
 from runtime_contract import runtime_table_files
-from web_engines import require_package
+from web_engines import GLTF_PACKAGES, require_package, serve_gltf_bake
 
 from lutbake.lut.sample import Atlas
 from lutbake.modes.runtime import read_runtime_table, runtime_colour
@@ -70,27 +70,16 @@ def baked():
     shutil.rmtree(folder, ignore_errors=True)
 
 
-ENGINES = {"babylon": "@babylonjs/loaders", "playcanvas": "playcanvas"}  # the harness's engine: its package
-
-
-@pytest.fixture(scope="module", params=[(engine, serve) for engine in sorted(ENGINES) for serve in sorted(ROUTES)])
+@pytest.fixture(
+    scope="module", params=[(engine, serve) for engine in sorted(GLTF_PACKAGES) for serve in sorted(ROUTES)]
+)
 def served(request, baked, tmp_path_factory):
     """The engine's render of every iridescent material of the asset, served by ``serve`` (bake or runtime)."""
     engine, serve = request.param
-    require_package(ENGINES[engine])
     gltf, out, manifest = baked[engine]
-    runtime = runtime_table_files()
-    spec = {
-        "runtime": f"/{runtime.with_suffix('').relative_to(ROOT)}",
-        "asset": f"/{gltf.relative_to(ROOT)}",
-        "manifest": f"/{(out / f'{ASSET}.json').relative_to(ROOT)}",
-        "serve": serve,
-        "metals": {},
-        "size": 48,
-        "stride": 2,
-    }
-    result = run_harness(f"{engine}-gltf", tmp_path_factory.mktemp(f"{engine}-{serve}"), spec)
-    return serve, result["cells"], manifest, out, read_runtime_table(runtime)
+    folder = tmp_path_factory.mktemp(f"{engine}-{serve}")
+    cells = serve_gltf_bake(engine, gltf, out / f"{ASSET}.json", serve, folder, size=48)
+    return serve, cells, manifest, out, read_runtime_table(runtime_table_files())
 
 
 def _expected(part, route, record, out, samples, table):
@@ -156,8 +145,11 @@ def test_the_check_tells_the_materials_apart(served):
 ROUTE_CASES = """
 import { bakeTerms, partRoutes } from './engine/lutbake-routes.js';
 const bake = { stem: 'Scene', atlas: null, include: '', manifest: { scene_hash: 'ab'.repeat(32), materials: {
-  s: { kind: 'slice' }, r: { kind: 'runtime' }, l: { kind: 'lut' } } } };
-const textured = { mapping: 'fitted', texture: true, table: {}, channels: ['l', 'l', 'l'] };
+  s: { kind: 'slice' }, r: { kind: 'runtime' }, l: { kind: 'lut', file: 'l.exr' } }, metal_tables: {} },
+  luts: { 'l.exr': { texture: 'the LUT texture', include: '// the LUT include', ident: 'LUTBAKE_L' } } };
+const table = { f0: [0, 0.25, 0.5], eta3: [1, 1.25, 0.5], kappa3: [0, 1.5, 3] };
+bake.manifest.metal_tables.fitted = table;   // a table at the manifest's top level, named by the part
+const textured = { mapping: 'fitted', texture: true, table, channels: ['l', 'l', 'l'] };
 const record = (parts) => ({ gltf_index: 7, name: 'Vase', film: 1.3, parts });
 const cases = {
   slice: [{ dielectric: { material: 's', base: [1.5, 0] } }, true, 'bake'],
@@ -169,12 +161,15 @@ const cases = {
   noRuntime: [{ dielectric: { material: 'gone', base: [1.5, 0] } }, false, 'bake'],
   texturedLut: [{ metal: textured }, true, 'bake'],
   texturedRuntime: [{ metal: textured }, true, 'runtime'],
+  texturedNamed: [{ metal: { ...textured, table: 'fitted' } }, true, 'bake'],
+  texturedUnnamed: [{ metal: { ...textured, table: 'gone' } }, true, 'bake'],
 };
 const out = {};
 for (const [name, [parts, runtime, serve]] of Object.entries(cases)) {
   try {
     const routes = partRoutes(bake, record(parts), { runtime, serve });
-    out[name] = { routes, terms: bakeTerms(bake, record(parts), routes).terms };
+    const { terms, include, lut } = bakeTerms(bake, record(parts), routes);
+    out[name] = { routes, terms, include, lut };
   } catch (e) { out[name] = { error: e.message }; }
 }
 console.log(JSON.stringify(out));
@@ -184,9 +179,10 @@ console.log(JSON.stringify(out));
 def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
     """engine/lutbake-routes.js on hand-made records (node, no browser): a slice where the manifest has one,
     the runtime table where the part's entry is handed over (`kind: "runtime"`) or absent or `serve` says so,
-    a named metal kept baked; a part that needs the table without one, a named metal the bake lacks and a
-    texture-driven metal (not served by the Babylon.js and PlayCanvas terms yet) are refused, naming the
-    material."""
+    a named metal kept baked; a texture-driven metal at the pixel's base colour through its F0 table (a constant
+    array in the include, read between its nodes and clamped at its ends) and its 4D LUT per channel (bound as
+    lutbakeLut) or the runtime table; a part that needs the table without one and a named metal the bake lacks
+    are refused, naming the material."""
     require_package("playcanvas")
     proc = subprocess.run(
         ["node", "--input-type=module", "-e", ROUTE_CASES], capture_output=True, text=True, cwd=ROOT, timeout=120
@@ -207,7 +203,21 @@ def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
     for name, words in {
         "namedMissing": "named metal is not in the bake",
         "noRuntime": "dielectric part is not baked",
-        "texturedLut": "texture-driven metal (route lut)",
-        "texturedRuntime": "texture-driven metal (route runtime)",
     }.items():
         assert "glTF material 7 'Vase'" in got[name].get("error", "") and words in got[name]["error"], (name, got[name])
+    textured = "lutbakeTexturedMetal(lutbakeBaseColour, cosTheta, thicknessNm)"
+    assert routes["texturedLut"] == {"metal": "lut"} and routes["texturedRuntime"] == {"metal": "runtime"}
+    assert got["texturedLut"]["terms"]["metal"] == got["texturedRuntime"]["terms"]["metal"] == textured
+    assert got["texturedLut"]["lut"] == "the LUT texture" and got["texturedRuntime"]["lut"] is None
+    table = "vec2[3](\n  vec2(1.0, 0.0),\n  vec2(1.25, 1.5),\n  vec2(0.5, 3.0))"
+    clamp = "clamp(f0 / 0.5, 0.0, 1.0) * 2.0"
+    for name, reads in {
+        "texturedLut": ["// the LUT include", "lutbake_sample(lutbakeLut, LUTBAKE_L, cosTheta, opd, g.x, g.y).g"],
+        "texturedNamed": ["// the LUT include"],
+        "texturedRuntime": [
+            "lutbake_iridescence_rgb(lutbakeTable, cosTheta, thicknessNm, 1.0, 1.3, vec3(r.x, g.x, b.x)"
+        ],
+    }.items():
+        for text in [table, clamp, *reads]:
+            assert text in got[name]["include"], (name, text)
+    assert "metal table 'gone' is not in the manifest's metal_tables" in got["texturedUnnamed"]["error"]
