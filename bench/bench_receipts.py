@@ -1,5 +1,5 @@
-"""Receipts of the IridescenceMetallicSpheres sphere grid (`lutbake report OUT/ASSET.json`): the shared ground
-truth (consecutive materials' stacks integrated together, once per distinct stack) against the unshared one (once
+"""Receipts of the IridescenceMetallicSpheres sphere grid (`lutbake report OUT/ASSET.json`): the batched ground
+truth (consecutive materials' stacks integrated together, once per distinct stack) against the per-part one (once
 per part and mapping), in one run.
 
     python bench/bench_receipts.py [--every 8] [--full] [--points 1000] [--work DIR] [--json FILE]
@@ -10,7 +10,7 @@ film index and base level present), --full keeps all 343. It is baked once (`lut
 --work, reused when the folder holds its manifest). Each path then runs the receipts in a fresh interpreter
 (the library call `report` makes, --points per part, seed 0), alternating the order over --repeats:
 wall, CPU/wall, peak resident memory, ground-truth integrations (calls to the truth) and points integrated.
-Reported: each path's figures, shared / unshared wall, and the largest difference between the two
+Reported: each path's figures, batched / per-part wall, and the largest difference between the two
 receipts' numbers (the same receipts to rounding: the truth differs only by where points fall in its chunks).
 """
 
@@ -49,7 +49,7 @@ def baked(work: Path, every: int) -> Path:
     return manifest
 
 
-def child(manifest: str, shared: bool, points: int, out: str) -> None:
+def child(manifest: str, batched: bool, points: int, out: str) -> None:
     """One path's receipts in this interpreter, timed, with the truth's calls counted."""
     from lutbake.scene.gltf import receipt, scoring
 
@@ -63,16 +63,16 @@ def child(manifest: str, shared: bool, points: int, out: str) -> None:
     truth = scoring.truth_rgb
     receipt.truth_rgb = scoring.truth_rgb = counted
     wall, cpu = time.perf_counter(), time.process_time()
-    receipts = receipt.gltf_receipts(manifest, points, 0, shared_truth=shared)
+    receipts = receipt.gltf_receipts(manifest, points, 0, shared_truth=batched)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     figures = {"wall_s": wall, "cpu_over_wall": cpu / wall, "peak_rss_mib": peak_mib, **counts}
     Path(out).write_text(json.dumps({"figures": figures, "receipts": receipts}))
 
 
-def run_path(manifest: Path, shared: bool, points: int, folder: Path) -> dict:
-    out = folder / f"{'shared' if shared else 'unshared'}.json"
-    argv = [sys.executable, __file__, "--child", str(manifest), "--shared", str(int(shared))]
+def run_path(manifest: Path, batched: bool, points: int, folder: Path) -> dict:
+    out = folder / f"{'batched' if batched else 'per-part'}.json"
+    argv = [sys.executable, __file__, "--child", str(manifest), "--batched", str(int(batched))]
     subprocess.run([*argv, "--points", str(points), "--result", str(out)], check=True)
     return json.loads(out.read_text())
 
@@ -102,31 +102,31 @@ def main() -> None:
     ap.add_argument("--work", type=Path, help="folder keeping the bake between runs (default: a temporary one)")
     ap.add_argument("--json", type=Path, help="write the figures here")
     ap.add_argument("--child", help=argparse.SUPPRESS)
-    ap.add_argument("--shared", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--batched", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--result", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
-        return child(args.child, bool(args.shared), args.points, args.result)
+        return child(args.child, bool(args.batched), args.points, args.result)
     every = 1 if args.full else args.every
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         manifest = baked(work, every)
-        runs: dict[str, list] = {"shared": [], "unshared": []}
+        runs: dict[str, list] = {"batched": [], "per-part": []}
         for k in range(args.repeats):
-            for shared in (True, False) if k % 2 == 0 else (False, True):
-                result = run_path(manifest, shared, args.points, Path(tmp))
-                runs["shared" if shared else "unshared"].append(result)
-                print(("shared  " if shared else "unshared"), json.dumps(result["figures"]), flush=True)
+            for batched in (True, False) if k % 2 == 0 else (False, True):
+                result = run_path(manifest, batched, args.points, Path(tmp))
+                runs["batched" if batched else "per-part"].append(result)
+                print(("batched " if batched else "per-part"), json.dumps(result["figures"]), flush=True)
     first = {name: r[0]["receipts"] for name, r in runs.items()}
-    diff, where = largest_difference(first["shared"], first["unshared"])
+    diff, where = largest_difference(first["batched"], first["per-part"])
     walls = {name: min(r["figures"]["wall_s"] for r in rs) for name, rs in runs.items()}
     doc = {
-        "asset": f"{ASSET}, every {every}th sphere ({len(first['shared']['materials'])} materials)",
+        "asset": f"{ASSET}, every {every}th sphere ({len(first['batched']['materials'])} materials)",
         "points_per_part": args.points,
         "load_average": os.getloadavg(),
         "paths": {name: [r["figures"] for r in rs] for name, rs in runs.items()},
-        "shared_over_unshared_wall": walls["shared"] / walls["unshared"],
+        "batched_over_per_part_wall": walls["batched"] / walls["per-part"],
         "largest_receipt_difference": {"value": diff, "at": where},
     }
     print(json.dumps({k: v for k, v in doc.items() if k != "paths"}, indent=2))
