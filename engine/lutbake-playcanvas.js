@@ -19,6 +19,10 @@
 // 'parameters' the (cos theta, thickness nm, film index) it used, 'basecolor' the base colour (a texture-driven
 // metal's F0) and 'metallic' the metalness lutbake's term read (alpha 1 in all: a blended material, such as a
 // transmitting one, would scale a smaller alpha in); with mode 'playcanvas' they are PlayCanvas's (no base colour).
+//
+// iridescenceThicknessMap: PlayCanvas 2.23.3's own shader does not compile with it (the sampler is undeclared);
+// both modes apply fixIridescenceThicknessMap, which stock PlayCanvas materials can use alone:
+//   fixIridescenceThicknessMap(material, app.graphicsDevice);
 import * as pc from 'playcanvas';
 import { loadRuntimeTable } from './lutbake-exr.js';
 import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-routes.js';
@@ -27,7 +31,7 @@ import { SERVES, bakeTerms, loadBakeManifest, partRoutes } from './lutbake-route
 // at v = 0 (lutbake-exr.js), so the include is compiled with LUTBAKE_SCANLINE0_AT_V0 1.
 export async function loadLutbakeRuntime(stem, device) {
   const runtime = await loadRuntimeTable(stem);
-  return { table: lutbakeTexture(device, runtime, 'lutbake-runtime'), include: runtime.include };
+  return { table: lutbakeTexture(device, runtime, 'lutbake-runtime'), include: runtime.include, device };
 }
 
 function lutbakeTexture(device, { width, height, texels }, name) {
@@ -39,9 +43,41 @@ function lutbakeTexture(device, { width, height, texels }, name) {
 }
 
 // A `lutbake bake --gltf` output (lutbake-routes.js) with its atlas, if a slice serves a part, and its 4D LUTs
-// as textures like the runtime table's: for lutbakeGltfOptions({ bake }).
-export function loadLutbakeBakePlaycanvas(manifestUrl, device) {
-  return loadBakeManifest(manifestUrl, (table, name) => lutbakeTexture(device, table, `lutbake-${name}`));
+// as textures like the runtime table's: for lutbakeGltfOptions({ bake }). Both loaders keep the device: the
+// thickness map's fix reads its chunks.
+export async function loadLutbakeBakePlaycanvas(manifestUrl, device) {
+  const bake = await loadBakeManifest(manifestUrl, (table, name) => lutbakeTexture(device, table, `lutbake-${name}`));
+  return { ...bake, device };
+}
+
+// PlayCanvas 2.23.3's StandardMaterial allocates iridescenceThicknessMap's sampler by setting
+// STD_IRIDESCENCETHICKNESS_TEXTURE_ALLOCATE (STD_, the property's name in capitals, _TEXTURE_ALLOCATE), but its
+// declarations chunk (stdDeclarationPS) declares the sampler only under STD_IRIDESCENCE_THICKNESS_TEXTURE_ALLOCATE,
+// which nothing sets: the thickness chunk (iridescenceThicknessPS) reads an undeclared sampler and the shader does
+// not compile. The fix: the device's own thickness chunk, preceded by the declaration under the define the
+// material sets (and not where the other is set, should a later version set that one).
+const THICKNESS_ALLOCATED = 'STD_IRIDESCENCETHICKNESS_TEXTURE_ALLOCATE';
+const THICKNESS_DECLARED = 'STD_IRIDESCENCE_THICKNESS_TEXTURE_ALLOCATE';
+
+// The fixed thickness chunk, or null where the device's declarations already declare the sampler under the
+// define the material sets (a PlayCanvas that fixed it: declaring it twice would not compile).
+function thicknessMapChunk(device) {
+  const stock = pc.ShaderChunks.get(device, pc.SHADERLANGUAGE_GLSL);
+  if (stock.get('stdDeclarationPS').includes(THICKNESS_ALLOCATED)) return null;
+  return `#if defined(${THICKNESS_ALLOCATED}) && !defined(${THICKNESS_DECLARED})
+uniform sampler2D {STD_IRIDESCENCETHICKNESS_TEXTURE_NAME};
+#endif
+${stock.get('iridescenceThicknessPS')}`;
+}
+
+// Make a StandardMaterial's iridescenceThicknessMap compile on `device` (WebGL2, GLSL chunks) where PlayCanvas
+// needs it (thicknessMapChunk); returns the material, updated. Its thickness then follows the map as
+// KHR_materials_iridescence says: mix(iridescenceThicknessMin, iridescenceThicknessMax, the map's G).
+export function fixIridescenceThicknessMap(material, device) {
+  const chunk = thicknessMapChunk(device);
+  if (chunk) material.getShaderChunks(pc.SHADERLANGUAGE_GLSL).set('iridescenceThicknessPS', chunk);
+  material.update();
+  return material;
 }
 
 // The chunk's interface: getIridescence(cos theta, base F0, thickness nm), and the film index uniform the
@@ -110,12 +146,13 @@ const DIELECTRIC_METAL = { eta: [1.5, 1.5, 1.5], kappa: [0, 0, 0] };
 // `device`) and only capture it for `output` (mode 'playcanvas'); returns the material.
 //
 // `bake` (lutbakeGltfOptions: a glTF bake's routes, bakeTerms of lutbake-routes.js) replaces the runtime
-// table's terms by its own.
+// table's terms by its own. `device`: the graphics device (default: the runtime table's), whose chunks the
+// thickness map's fix and mode 'playcanvas' read.
 export function lutbakeIridescence(material, { runtime = null, bake = null, mode = runtime || bake ? 'runtime' : 'playcanvas',
-                                               metal = DIELECTRIC_METAL, output = null, device = null } = {}) {
+                                               metal = DIELECTRIC_METAL, output = null, device = runtime?.device } = {}) {
   if (!MODES.includes(mode)) throw new Error(`lutbakeIridescence: mode '${mode}' is not one of ${MODES.join(', ')}`);
   if (mode === 'runtime' && !runtime && !bake) throw new Error("lutbakeIridescence: mode 'runtime' needs the runtime table");
-  if (mode === 'playcanvas' && !device) throw new Error("lutbakeIridescence: mode 'playcanvas' needs the device (its stock chunk)");
+  if (!device) throw new Error('lutbakeIridescence: needs the graphics device (its chunks): pass device, or a runtime table from loadLutbakeRuntime');
   if (output !== null && !(output in OUTPUTS)) throw new Error(`lutbakeIridescence: output '${output}' is not one of ${Object.keys(OUTPUTS).join(', ')}`);
   const chunks = material.getShaderChunks(pc.SHADERLANGUAGE_GLSL);
   if (mode === 'runtime') {
@@ -133,8 +170,7 @@ export function lutbakeIridescence(material, { runtime = null, bake = null, mode
       'uniform float material_iridescenceRefractionIndex;\n', ''));
   }
   if (output) chunks.set('outputPS', `gl_FragColor = ${OUTPUTS[output]};`);
-  material.update();
-  return material;
+  return fixIridescenceThicknessMap(material, device);
 }
 
 // The glTF-loading hook: container asset options whose material postprocess serves every
@@ -150,23 +186,28 @@ export function lutbakeIridescence(material, { runtime = null, bake = null, mode
 // routes (lutbake-routes.js: slice, slice per channel, runtime table, constant, a texture-driven metal's 4D
 // LUT or runtime table at the pixel's base colour; `serve: 'runtime'` sends every part to the table),
 // recorded in material.lutbake ({gltfIndex, name, parts}); the glTF material's index is its place in the
-// asset's materials, which the global preprocess hook keeps.
+// asset's materials, which the global preprocess hook keeps. `serve: 'playcanvas'` (tests, comparisons)
+// keeps PlayCanvas's own term on every iridescent material, with the thickness map's fix and `output`.
+const GLTF_SERVES = [...SERVES, 'playcanvas'];
+
 export function lutbakeGltfOptions({ runtime = null, metals = {}, output = null, bake = null, serve = 'bake' }) {
-  if (!SERVES.includes(serve)) throw new Error(`lutbakeGltfOptions: serve '${serve}' is not ${SERVES.join(' or ')}`);
+  if (!GLTF_SERVES.includes(serve)) throw new Error(`lutbakeGltfOptions: serve '${serve}' is not ${GLTF_SERVES.join(', ')}`);
+  const device = runtime?.device ?? bake?.device;
   let gltfMaterials = [];
   const served = (gltfMaterial, material) => {
     const record = bake.records.get(gltfMaterials.indexOf(gltfMaterial));
     if (!record) return;
     const routes = partRoutes(bake, record, { runtime: Boolean(runtime), serve });
-    lutbakeIridescence(material, { runtime, bake: bakeTerms(bake, record, routes), output });
+    lutbakeIridescence(material, { runtime, bake: bakeTerms(bake, record, routes), output, device });
     material.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };
   };
   return {
     global: { preprocess(gltf) { gltfMaterials = gltf.materials || []; } },
     material: {
       postprocess(gltfMaterial, material) {
-        if (bake) return served(gltfMaterial, material);
+        if (serve !== 'playcanvas' && bake) return served(gltfMaterial, material);
         if (!gltfMaterial.extensions?.KHR_materials_iridescence) return;
+        if (serve === 'playcanvas') return lutbakeIridescence(material, { mode: 'playcanvas', output, device });
         lutbakeIridescence(material, { runtime, metal: metals[gltfMaterial.name] || undefined, output });
       },
     },

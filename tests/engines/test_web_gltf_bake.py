@@ -10,10 +10,11 @@ material is rendered on a sphere with the film's Fresnel term as output and agai
 pixel used. At every pixel the term must be the manifest's model at those parameters to 1e-4: the atlas slice
 read as `lutbake sample` reads it (lutbake.lut.sample.Atlas), one slice per channel for the metal, the runtime
 model (runtime_colour) at the part's base for the runtime part. `serve: 'runtime'` sends every part to the
-table.
+table. Both engines load the same asset, the third material's thickness texture included (PlayCanvas 2.23.3
+with lutbake's fix of its thickness map, engine/lutbake-playcanvas.js fixIridescenceThicknessMap); stock
+PlayCanvas with that fix alone (`serve: 'playcanvas'`) reads the same thickness at each pixel.
 """
 
-import copy
 import json
 import shutil
 import subprocess
@@ -57,29 +58,39 @@ def _bake(doc, folder):
 
 @pytest.fixture(scope="module")
 def baked():
-    """The asset baked into a folder the harness serves, by engine: PlayCanvas 2.23.3 does not compile a
-    material with a thickness texture (docs/engines.md), so its copy has material 2's removed (its film then
-    at the maximum thickness). Both have a fourth material, a vacuum film on a black metal (vacuum over vacuum
-    under the fitted mapping): its part is the constant 0 (docs/gltf.md)."""
+    """The asset baked into a folder the harness serves, with a fourth material, a vacuum film on a black metal
+    (vacuum over vacuum under the fitted mapping): its part is the constant 0 (docs/gltf.md)."""
     folder = ROOT / "build" / f"web-bake-{uuid.uuid4().hex[:8]}"
     doc = khronos_document(ASSET)
     doc["materials"].append(iridescent(ior=1.0, metallic=1.0, colour=[0.0, 0.0, 0.0], name="black"))
-    untextured = copy.deepcopy(doc)
-    del untextured["materials"][2]["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessTexture"]
-    yield {"babylon": _bake(doc, folder / "babylon"), "playcanvas": _bake(untextured, folder / "playcanvas")}
+    yield _bake(doc, folder)
     shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def renders(baked, tmp_path_factory):
+    """render(engine, serve): the engine's cells for every iridescent material of the asset, served by
+    ``serve`` (bake, runtime, or for PlayCanvas its own term), each rendered once."""
+    gltf, out, _ = baked
+    done = {}
+
+    def render(engine, serve):
+        if (engine, serve) not in done:
+            folder = tmp_path_factory.mktemp(f"{engine}-{serve}")
+            done[engine, serve] = serve_gltf_bake(engine, gltf, out / f"{ASSET}.json", serve, folder, size=48)
+        return done[engine, serve]
+
+    return render
 
 
 @pytest.fixture(
     scope="module", params=[(engine, serve) for engine in sorted(GLTF_PACKAGES) for serve in sorted(ROUTES)]
 )
-def served(request, baked, tmp_path_factory):
+def served(request, baked, renders):
     """The engine's render of every iridescent material of the asset, served by ``serve`` (bake or runtime)."""
     engine, serve = request.param
-    gltf, out, manifest = baked[engine]
-    folder = tmp_path_factory.mktemp(f"{engine}-{serve}")
-    cells = serve_gltf_bake(engine, gltf, out / f"{ASSET}.json", serve, folder, size=48)
-    return serve, cells, manifest, out, read_runtime_table(runtime_table_files())
+    _, out, manifest = baked
+    return serve, renders(engine, serve), manifest, out, read_runtime_table(runtime_table_files())
 
 
 def _expected(part, route, record, out, samples, table):
@@ -140,6 +151,88 @@ def test_the_check_tells_the_materials_apart(served):
                 cell["lutbake"],
                 record["gltf_index"],
             )
+
+
+TEXTURED = 2  # the glTF material whose film thickness is textured: 200-600 nm by the texture's G
+THICKNESS_NM = (200.0, 600.0)
+ROW_NM = (THICKNESS_NM[1] - THICKNESS_NM[0]) / 31  # the stand-in's 32-row gradient (G along v): one row's step
+
+
+def _record(manifest, gltf_index):
+    return next(r for r in manifest["source"]["materials"] if r["gltf_index"] == gltf_index)
+
+
+def test_the_textured_thickness_is_read_per_pixel_and_the_check_sees_it(served):
+    """Material 2's pixels read their thickness from its texture (spread over most of 200-600 nm; in
+    PlayCanvas through lutbake's fix of its thickness map), and the 1e-4 check above would see a thickness
+    read one texel row off: lutbake's model there is > 1e-3 from the engine's term at most pixels."""
+    serve, cells, manifest, out, table = served
+    cell = next(c for c in cells if c["lutbake"]["gltfIndex"] == TEXTURED)
+    record = _record(manifest, TEXTURED)
+    samples = np.array(cell["samples"], float)
+    thickness = samples[:, 4]
+    assert THICKNESS_NM[0] - 1e-3 <= thickness.min() and thickness.max() <= THICKNESS_NM[1] + 1e-3, thickness
+    assert np.ptp(thickness) > 0.75 * (THICKNESS_NM[1] - THICKNESS_NM[0]), np.ptp(thickness)
+    ((part_name, route),) = cell["lutbake"]["parts"].items()
+    for step in (-ROW_NM, ROW_NM):
+        shifted = samples.copy()
+        shifted[:, 4] = np.clip(thickness + step, *THICKNESS_NM)
+        wrong = _expected(record["parts"][part_name], route, record, out, shifted, table)
+        off = np.abs(samples[:, :3] - wrong).max(-1)
+        assert np.median(off) > 10 * TOLERANCE, (serve, step, np.median(off))
+
+
+def test_stock_playcanvas_with_the_fix_reads_the_same_thickness(renders):
+    """Stock PlayCanvas 2.23.3 does not compile a material with iridescenceThicknessMap (docs/engines.md);
+    with fixIridescenceThicknessMap alone (`serve: 'playcanvas'`: its own term) every iridescent material
+    renders the pixels lutbake's serving renders, at the same cos θ, film index and thickness (the textured
+    material's read from its texture), with its own approximation's term, not lutbake's."""
+    own, lutbake = renders("playcanvas", "playcanvas"), renders("playcanvas", "runtime")
+    assert [cell["lutbake"] for cell in own] == [None] * len(lutbake) and len(lutbake) == len(ROUTES["runtime"])
+    for stock, served in zip(own, lutbake):
+        mine, theirs = np.array(stock["samples"], float), np.array(served["samples"], float)
+        assert len(mine) >= 250 and mine.shape == theirs.shape, (served["lutbake"], mine.shape, theirs.shape)
+        np.testing.assert_allclose(mine[:, 3:6], theirs[:, 3:6], rtol=1e-6, atol=1e-6)
+        assert np.isfinite(mine[:, :3]).all()  # its own approximation: not bounded by 1 (it reaches 1.08 here)
+        if served["lutbake"]["gltfIndex"] == TEXTURED:
+            assert np.ptp(mine[:, 4]) > 0.75 * (THICKNESS_NM[1] - THICKNESS_NM[0]), np.ptp(mine[:, 4])
+            assert np.abs(mine[:, :3] - theirs[:, :3]).max() > 0.01
+
+
+THICKNESS_FIX_CASES = """
+import * as pc from 'playcanvas';
+import { fixIridescenceThicknessMap } from './lutbake-playcanvas.js';
+const fixed = (declarations) => {
+  const device = { on() {} };
+  const chunks = pc.ShaderChunks.get(device, pc.SHADERLANGUAGE_GLSL);
+  chunks.set('stdDeclarationPS', `#ifdef ${declarations}\nuniform sampler2D texture_iridescenceThicknessMap;\n#endif`);
+  chunks.set('iridescenceThicknessPS', '// the device thickness chunk');
+  const material = fixIridescenceThicknessMap(new pc.StandardMaterial(), device);
+  return material.getShaderChunks(pc.SHADERLANGUAGE_GLSL).get('iridescenceThicknessPS') ?? null;
+};
+console.log(JSON.stringify({ version: pc.version, broken: fixed('STD_IRIDESCENCE_THICKNESS_TEXTURE_ALLOCATE'),
+                             repaired: fixed('STD_IRIDESCENCETHICKNESS_TEXTURE_ALLOCATE') }));
+"""
+
+
+def test_the_thickness_fix_declares_the_sampler_once():
+    """engine/lutbake-playcanvas.js fixIridescenceThicknessMap on devices with hand-made chunks (node, no
+    browser): where the declarations chunk declares the sampler under the define nothing sets (PlayCanvas
+    2.23.3), the material's thickness chunk is the device's preceded by the declaration under the define the
+    material sets (unless the other is set); where they declare it under the define the material sets (a fixed
+    PlayCanvas), the material's chunks are left alone."""
+    require_package("playcanvas")
+    cli = ["node", "--input-type=module", "-e", THICKNESS_FIX_CASES]
+    proc = subprocess.run(cli, capture_output=True, text=True, cwd=ROOT / "engine", timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    got = json.loads(proc.stdout)
+    assert got["version"] == "2.23.3"
+    assert got["broken"] == (
+        "#if defined(STD_IRIDESCENCETHICKNESS_TEXTURE_ALLOCATE)"
+        " && !defined(STD_IRIDESCENCE_THICKNESS_TEXTURE_ALLOCATE)\n"
+        "uniform sampler2D {STD_IRIDESCENCETHICKNESS_TEXTURE_NAME};\n#endif\n// the device thickness chunk"
+    )
+    assert got["repaired"] is None
 
 
 ROUTE_CASES = """
