@@ -19,8 +19,8 @@ sphere.addComponent('render', { type: 'sphere' });
 sphere.setLocalScale(2, 2, 2);
 app.root.addChild(sphere);
 
-// One film thickness per material (thickness min = max): with iridescenceThicknessMap set, PlayCanvas 2.23.3's
-// shader does not compile here (texture_iridescenceThicknessMap undeclared), so the films vary by material.
+// One film thickness per material (its maximum): no iridescenceThicknessMap here (lutbake-playcanvas.js
+// fixIridescenceThicknessMap makes one compile; the glTF page reads one), so the films vary by material.
 function standardMaterial(m) {
   const material = new pc.StandardMaterial();
   material.useMetalness = true;

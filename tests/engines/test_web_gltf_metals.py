@@ -8,7 +8,7 @@ figures). At every pixel the engine's term must be lutbake's model at the parame
 and base colour the pixel used (bench_gltf_runtime.baked_term: the LUT read as `lutbake sample` reads it at
 each channel's base from the F0 table, runtime.model per channel) to 1e-4; and against the spectral ground
 truth the runtime table within its contract, the bake as lutbake's own samplers are. PlayCanvas's copy of
-the asset has no thickness textures (PlayCanvas 2.23.3 does not compile them: docs/engines.md).
+the asset has no thickness textures (tests/web_metals.py says why; docs/engines.md).
 """
 
 import shutil
