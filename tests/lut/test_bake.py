@@ -321,6 +321,33 @@ def test_bake_json_says_where_the_time_went(tmp_path):
     assert sum(parts) == pytest.approx(row["seconds"], rel=1e-9)
     assert stages["cpu_s"] > 0.0 and stages["cpu_per_wall"] == pytest.approx(stages["cpu_s"] / row["seconds"])
     assert summary["imports_s"] > 0.0
+    phases = ("compile", "plan", "device", "write", "other")
+    assert sorted(stages["stage_cpu_s"]) == sorted(phases) and min(stages["stage_cpu_s"].values()) >= 0.0
+    assert sum(stages["stage_cpu_s"].values()) == pytest.approx(stages["cpu_s"], rel=1e-9)  # other: the rest
+    for phase in phases:
+        wall, cpu = stages[f"{phase}_s"], stages["stage_cpu_s"][phase]
+        assert stages["idle_core_s"][phase] == pytest.approx(max(0.0, stages["cores"] * wall - cpu), abs=1e-12)
+    assert stages["idle_core_s_total"] == pytest.approx(sum(stages["idle_core_s"].values()))
+
+
+def test_bake_stages_put_each_stage_cpu_in_its_own_stage():
+    """BakeStages.clock counts the process's CPU within each stage: a stage that computes on this thread
+    gets CPU near its wall, one that sleeps next to none and leaves its wall idle on every core."""
+    from lutbake.lut.pipeline import BakeStages
+
+    stages = BakeStages()
+    with stages.clock("plan"):
+        end = time.process_time() + 0.15
+        while time.process_time() < end:  # 0.15 s of this thread's CPU, however long a busy machine takes
+            pass
+    with stages.clock("write"):
+        time.sleep(0.2)
+    stages.cpu_s = sum(stages.stage_cpu_s.values())
+    described = stages.describe(stages.plan_s + stages.write_s, cores=2)
+    assert described["stage_cpu_s"]["plan"] >= 0.15 and described["stage_cpu_s"]["write"] < 0.05
+    assert described["stage_cores"]["write"] < 0.25 and described["stage_cores"]["plan"] > 0.0
+    assert described["idle_core_s"]["write"] == pytest.approx(2 * stages.write_s - stages.stage_cpu_s["write"])
+    assert described["other_s"] == 0.0 and described["stage_cpu_s"]["other"] == 0.0
 
 
 def test_unwritable_output_exits_2(tmp_path):
