@@ -1,7 +1,8 @@
 """The default LUT set (README command 1) against B1 and an independent numpy integration at 2 nm, in one
 run, on every OpenCL runtime that builds the kernel; where its time goes, LUT by LUT.
 
-    python bench/bench_default_set.py [--reps 2] [--sample-rows 64] [--device KEY] [--vs DIR] [--json FILE]
+    python bench/bench_default_set.py [--reps 2] [--sample-rows 64] [--device KEY] [--vs DIR] [--overlap N]
+                                      [--json FILE]
 
 Per runtime (``--device``: that one only), `lutbake bake --json --out DIR --device KEY` (the six default
 LUTs, 15.9 M cells) and `lutbake bake --json` of B1 (4.19 M cells, bench_b1.py's grid) alternate, each in
@@ -16,6 +17,15 @@ rep by rep (pairing keeps it fair on a busy machine); medians are reported. The 
 (bench_b1.numpy_2nm) runs on the first --sample-rows image rows of each default LUT and of B1 (its cost per
 texel does not depend on the texel: 236 wavelengths each), giving its cells/s on each, and so each bake's
 speed-up over it.
+
+Each stage's CPU seconds, cores busy and idle core-seconds (`bake --json`'s ``stage_cpu_s`` and
+``idle_core_s``) are summed over the set too (``plan_cpu_s``, ``plan_cores``, ``plan_idle_core_s``, ...), and
+each set bake samples its process's runnable threads (``runnable_mean``, ``share_below_cores``: Sampler of
+bench_device_passes.py; a busy machine's waiting threads still count, so they say what a quiet one would run).
+
+``--overlap N``: N pairs of the set baked as `lutbake bake` does and with each next LUT's plan ahead, on a
+second queue in a worker thread while the current LUT's bands stream (``plan_ahead``: a measuring probe, not
+lutbake's path; docs/spectral.md), in turn: walls pair by pair, CPU, runnable threads, the same bytes or not.
 
 ``--vs DIR``: another checkout (its lutbake/ first on PYTHONPATH: e.g. `git worktree add DIR main`) bakes
 the set in turn with this one, rep by rep, on each runtime, instead of B1 and numpy: the medians of each
