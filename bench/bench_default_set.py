@@ -1,7 +1,8 @@
 """The default LUT set (README command 1) against B1 and an independent numpy integration at 2 nm, in one
 run, on every OpenCL runtime that builds the kernel; where its time goes, LUT by LUT.
 
-    python bench/bench_default_set.py [--reps 2] [--sample-rows 64] [--device KEY] [--vs DIR] [--json FILE]
+    python bench/bench_default_set.py [--reps 2] [--sample-rows 64] [--device KEY] [--vs DIR] [--overlap N]
+                                      [--json FILE]
 
 Per runtime (``--device``: that one only), `lutbake bake --json --out DIR --device KEY` (the six default
 LUTs, 15.9 M cells) and `lutbake bake --json` of B1 (4.19 M cells, bench_b1.py's grid) alternate, each in
@@ -16,6 +17,15 @@ rep by rep (pairing keeps it fair on a busy machine); medians are reported. The 
 (bench_b1.numpy_2nm) runs on the first --sample-rows image rows of each default LUT and of B1 (its cost per
 texel does not depend on the texel: 236 wavelengths each), giving its cells/s on each, and so each bake's
 speed-up over it.
+
+Each stage's CPU seconds, cores busy and idle core-seconds (`bake --json`'s ``stage_cpu_s`` and
+``idle_core_s``) are summed over the set too (``plan_cpu_s``, ``plan_cores``, ``plan_idle_core_s``, ...), and
+each set bake samples its process's runnable threads (``runnable_mean``, ``share_below_cores``: Sampler of
+bench_device_passes.py; a busy machine's waiting threads still count, so they say what a quiet one would run).
+
+``--overlap N``: N pairs of the set baked as `lutbake bake` does and with each next LUT's plan ahead, on a
+second queue in a worker thread while the current LUT's bands stream (``plan_ahead``: a measuring probe, not
+lutbake's path; docs/spectral.md), in turn: walls pair by pair, CPU, runnable threads, the same bytes or not.
 
 ``--vs DIR``: another checkout (its lutbake/ first on PYTHONPATH: e.g. `git worktree add DIR main`) bakes
 the set in turn with this one, rep by rep, on each runtime, instead of B1 and numpy: the medians of each
@@ -43,6 +53,7 @@ from bench_b1 import (
     run_child,
     write_report,
 )
+from bench_device_passes import Sampler
 
 
 def child(what: str, out: str, device: str, rows: int) -> None:
@@ -50,6 +61,9 @@ def child(what: str, out: str, device: str, rows: int) -> None:
     from lutbake.lut.bake import default_specs, resident_bytes
 
     start = time.perf_counter()
+    if what in ("serial", "ahead"):
+        print(json.dumps(overlap_child(what, Path(out), device)))
+        return
     if what.startswith("numpy:"):
         name = what.split(":", 1)[1]
         spec = _spec(1.5, B1_AXES) if name == "b1" else default_specs()[name]
@@ -67,14 +81,17 @@ def child(what: str, out: str, device: str, rows: int) -> None:
         )
         return
     import lutbake
+    from lutbake.io.cores import usable_cores
 
     argv = (
         ["bake", "--quiet", "--json", "--out", out, "--device", device]
         if what == "set"
         else cli_argv(1.5, B1_AXES, "float64", device, out)
     )
+    sampler = Sampler(with_main=True)
     printed = cli_json(argv)
     wall = time.perf_counter() - start
+    sampler.stop()
     folder = Path(out) if what == "set" else Path(out).parent
     sidecars = [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
     paths = {
@@ -92,9 +109,98 @@ def child(what: str, out: str, device: str, rows: int) -> None:
         "texels_per_path": paths,
         "peak_rss_mib": resident_bytes(peak=True) / 2**20,
         "imports_s": printed["imports_s"],
+        **sampler.runnable(usable_cores()),
         "stages": {Path(lut["path"]).stem: lut["stages"] for lut in printed["luts"]},
     }
     print(json.dumps(row))
+
+
+def overlap_child(how: str, out: Path, device: str) -> dict:
+    """The default set baked into ``out`` in this process: as `lutbake bake` bakes it (``how`` 'serial':
+    bake_default_set) or with each next LUT's plan ahead ('ahead': plan_ahead); the bake's wall and CPU,
+    the runnable threads (Sampler) and a digest of the files."""
+    import hashlib
+
+    from lutbake.io.cores import usable_cores
+    from lutbake.lut.sets import bake_default_set, default_set_jobs
+
+    out.mkdir(parents=True, exist_ok=True)
+    cells = sum(spec.cells for _, spec in default_set_jobs(out))
+    sampler = Sampler(with_main=True)
+    start, cpu = time.perf_counter(), time.process_time()
+    if how == "serial":
+        bake_default_set(out, device=device)
+    else:
+        plan_ahead(default_set_jobs(out), device)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+    sampler.stop()
+    files = sorted(p for p in out.iterdir() if not p.name.startswith("."))
+    digest = hashlib.sha256(b"".join(p.name.encode() + p.read_bytes() for p in files)).hexdigest()
+    return {"how": how, "cells": cells, "wall_s": wall, "cpu_s": cpu, "cpu_per_wall": cpu / wall, "files": len(files),
+            "sha256": digest, **sampler.runnable(usable_cores())}  # fmt: skip
+
+
+def plan_ahead(jobs: list, device: str) -> None:
+    """The default set with LUT k + 1's plan (its probes, device plan and capped texels' error) on a second
+    queue of the same device, in a worker thread, while LUT k's bands stream into its EXR (the bands as
+    `lutbake bake` cuts them): a measuring probe of that overlap, not lutbake's path (docs/spectral.md)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import lutbake.lut.bake as lut
+    from lutbake.integrate.opencl import backend
+    from lutbake.integrate.program import DeviceProgram
+    from lutbake.integrate.series import SeriesOnDevice
+    from lutbake.io.fileset import open_set
+    from lutbake.lut.pipeline import BakeStages, stream_bands
+    from lutbake.lut.sets import _banded
+    from lutbake.tables.exr import exr_rows
+    from lutbake.tables.lutfile import write_companions
+
+    fast = backend("opencl", device=device)
+    planner = DeviceProgram(fast.ctx, fast.program.program, fast.compute)  # its own queue and kernels
+
+    def prepare(spec, probes_thread):
+        probes = probes_thread.submit(lut.spectral_error, spec)
+        series = SeriesOnDevice(planner, spec)
+        stats = series.plan().stats  # ends in blocking reads: its buffers are complete for the other queue
+        capped = lut.capped_error(spec, None if stats.direct_texels == spec.cells else stats.direct_texels)
+        return series, lut.metadata(spec, probes.result(), capped, stats.describe())
+
+    folder = jobs[0][0].parent
+    with open_set(folder, "lutbake-default-set") as files, ThreadPoolExecutor(1) as ahead, ThreadPoolExecutor(1) as pt:
+        upcoming = ahead.submit(prepare, jobs[0][1], pt)
+        for k, (path, spec) in enumerate(jobs):
+            series, meta = upcoming.result()
+            if k + 1 < len(jobs):
+                upcoming = ahead.submit(prepare, jobs[k + 1][1], pt)
+            series.program, fast._series = fast.program, series  # the bands on the bake's queue
+            chunks = spec.row_chunks(_banded(path, spec, False)["chunk_cells"])
+            with exr_rows(files.temp(path), *spec.file_layout.size, meta, spec.precision) as exr:
+                stream_bands(fast, spec, exr, chunks, BakeStages())
+            write_companions(files, path, meta, {**meta, "baked_on": {"backend": fast.name, "device": fast.device}})
+
+
+def overlap(tmp: Path, key: str, reps: int) -> dict:
+    """``reps`` pairs of the set baked serially and with the next plan ahead (overlap_child), in turn, the
+    order swapped every pair: walls pair by pair, CPU, runnable threads, whether the bytes are the same."""
+    pairs = []
+    for rep in range(reps):
+        order = ("serial", "ahead") if rep % 2 == 0 else ("ahead", "serial")
+        row = {how: run(how, tmp / f"{how}-{rep}", key) for how in order}
+        pairs.append({how: row[how] for how in ("serial", "ahead")})
+    keys = ("wall_s", "cpu_s", "cpu_per_wall", "runnable_mean", "share_below_cores")
+    return {
+        "pairs": pairs,
+        **{
+            f"{how}_{k}_median": float(np.median([p[how][k] for p in pairs]))
+            for how in ("serial", "ahead")
+            for k in keys
+        },
+        "ahead_over_serial_wall_median": float(
+            np.median([p["ahead"]["wall_s"] / p["serial"]["wall_s"] for p in pairs])
+        ),
+        "same_bytes": len({p[how]["sha256"] for p in pairs for how in p}) == 1,
+    }
 
 
 def run(what: str, out: Path, device: str = "", rows: int = 0, checkout: Path | None = None) -> dict:
@@ -103,17 +209,31 @@ def run(what: str, out: Path, device: str = "", rows: int = 0, checkout: Path | 
     return run_child(__file__, what, "--out", str(out), "--device", device, "--rows", str(rows), checkout=checkout)
 
 
-STAGES = ("compile_s", "plan_s", "device_s", "write_s", "other_s", "cpu_s")  # summed over a set
+PHASES = ("compile", "plan", "device", "write", "other")  # a bake's stages (lutbake/lut/pipeline.py)
+
+
+def flat_stages(stages: dict) -> dict:
+    """One LUT's `bake --json` stages as flat numbers: each phase's wall (``plan_s``), CPU (``plan_cpu_s``)
+    and idle core-seconds (``plan_idle_core_s``), the bake's CPU (``cpu_s``)."""
+    flat = {"cpu_s": stages["cpu_s"], "idle_core_s": stages["idle_core_s_total"]}
+    for phase in PHASES:
+        flat[f"{phase}_s"] = stages[f"{phase}_s"]
+        flat[f"{phase}_cpu_s"] = stages["stage_cpu_s"][phase]
+        flat[f"{phase}_idle_core_s"] = stages["idle_core_s"][phase]
+    return flat
 
 
 def stages_median(runs: list) -> dict:
-    """Each LUT's stages (and the set's, summed over its LUTs), median over ``runs``."""
+    """Each LUT's stages (flat_stages) and the set's (summed over its LUTs, with each phase's cores busy:
+    its CPU over its wall), median over ``runs``."""
+    flats = [{name: flat_stages(stages) for name, stages in r["stages"].items()} for r in runs]
     per_lut = {
-        name: {stage: float(np.median([r["stages"][name][stage] for r in runs])) for stage in stages}
-        for name, stages in runs[0]["stages"].items()
+        name: {key: float(np.median([f[name][key] for f in flats])) for key in lut} for name, lut in flats[0].items()
     }
-    summed = [{stage: sum(lut[stage] for lut in r["stages"].values()) for stage in STAGES} for r in runs]
-    return {**per_lut, "set": {stage: float(np.median([s[stage] for s in summed])) for stage in STAGES}}
+    summed = [{key: sum(lut[key] for lut in f.values()) for key in next(iter(f.values()))} for f in flats]
+    for s in summed:
+        s.update({f"{phase}_cores": s[f"{phase}_cpu_s"] / max(s[f"{phase}_s"], 1e-12) for phase in PHASES})
+    return {**per_lut, "set": {key: float(np.median([s[key] for s in summed])) for key in summed[0]}}
 
 
 def medians(runs: list) -> dict:
@@ -153,6 +273,7 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=2)
     ap.add_argument("--sample-rows", type=int, default=64)
     ap.add_argument("--vs", type=Path, help="another checkout, baking the set in turn with this one")
+    ap.add_argument("--overlap", type=int, default=0, help="pairs of the set serial and with the next plan ahead")
     ap.add_argument("--json")
     args = ap.parse_args()
     if args.child:
@@ -164,7 +285,9 @@ def main() -> None:
         tmp = Path(tmp)
         for key in keys:
             run("b1", tmp / f"warm-{key}" / "b1.exr", key)  # discarded: builds the kernel's binary cache
-        if args.vs:
+        if args.overlap:
+            report["overlap"] = {key: overlap(tmp, key, args.overlap) for key in keys}
+        elif args.vs:
             report["versus"] = {"vs": str(args.vs), "runtimes": versus(tmp, keys, args.reps, args.vs)}
         else:
             report.update(against_b1_and_numpy(tmp, keys, args.reps, args.sample_rows))

@@ -27,12 +27,15 @@ SAMPLE_S = 0.002
 
 
 class Sampler:
-    """Runnable threads besides the main one (and itself), counted per ``phase`` every SAMPLE_S."""
+    """Runnable threads besides the main one (``with_main``: and it) and itself, counted per ``phase`` every
+    SAMPLE_S; ``histogram``: samples by how many were runnable."""
 
-    def __init__(self) -> None:
+    def __init__(self, with_main: bool = False) -> None:
         self.phase = "host"
         self.samples: dict[str, list[int]] = collections.defaultdict(lambda: [0, 0])  # phase -> [samples, R]
-        self._main, self._stop = threading.get_native_id(), False
+        self.histogram: collections.Counter[int] = collections.Counter()
+        self._main = None if with_main else threading.get_native_id()
+        self._stop = False
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 
@@ -51,11 +54,22 @@ class Sampler:
             counts = self.samples[self.phase]
             counts[0] += 1
             counts[1] += runnable
+            self.histogram[runnable] += 1
             time.sleep(SAMPLE_S)
 
     def stop(self) -> None:
         self._stop = True
         self._thread.join()
+
+    def runnable(self, cores: int) -> dict:
+        """Over every sample: the mean of min(runnable, ``cores``) (the cores a machine with nothing else
+        running would keep busy; a shared machine's waiting threads still count) and the share of samples
+        with fewer than ``cores`` runnable."""
+        total = sum(self.histogram.values()) or 1
+        return {
+            "runnable_mean": sum(min(r, cores) * n for r, n in self.histogram.items()) / total,
+            "share_below_cores": sum(n for r, n in self.histogram.items() if r < cores) / total,
+        }
 
 
 def passes(spec, fast, sampler: Sampler, bands: int) -> dict:

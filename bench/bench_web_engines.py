@@ -5,6 +5,7 @@
     .venv/bin/python bench/bench_web_engines.py cost     # cost
     .venv/bin/python bench/bench_web_engines.py static   # WebGPU's SPIR-V counts alone, no timing
     .venv/bin/python bench/bench_web_engines.py metals [--size 64]   # texture-driven metals' accuracy
+    .venv/bin/python bench/bench_web_engines.py gltf-cost [--size 256] [--rounds 9]   # the glTF hooks' cost
 
 Accuracy (tests/engines/test_web_engines.py's and test_webgpu_engine.py's runs: lit spheres, every pixel's
 term and the parameters it used read back as float): per engine the largest difference from runtime.model at
@@ -22,12 +23,16 @@ tests/engines/test_web_gltf_metals.py runs) in Babylon.js and PlayCanvas, served
 table: per material the largest |engine - lutbake's model| over the pixels and ΔE00 p99 / max against the
 ground truth (120 pixels a material); --size: the render's side (every other pixel read; the test's is 64, the
 default 32 keeps a run short on a loaded machine).
+glTF cost: the glTF hooks of Babylon.js and PlayCanvas against each engine's own iridescence in one page: the
+metals' asset loaded without a film, stock, served by the bake and by the runtime table (tests/web_gltf_cost.py,
+the functions tests/engines/test_web_gltf_metals.py runs); per material and variant the median wall per draw
+of a --size² target (default 128) over --rounds (default 5), its ratio to the stock draw's and net of the draw
+without a film, and the whole fragment shader's SPIR-V counts (glslang, as bench_runtime_cost.py counts).
 """
 
 import argparse
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -38,10 +43,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests")]
-from bench_runtime_cost import PREFIX, _count  # noqa: E402  (the SPIR-V counting, beside this file)
 from engine_harness import ENGINE  # noqa: E402  (the suite's helpers, found through the path above)
 from runtime_contract import runtime_table_files  # noqa: E402
 from web_engines import GLTF_PACKAGES, OWN_MODES, PACKAGES, engine_points, run_engine, truth_subset  # noqa: E402
+from web_gltf_cost import VARIANTS, hook_costs, net_ratio, spirv_counts  # noqa: E402
 from web_metals import ROUTES, bake_for_engines, metal_model, serve_metals, truth_errors  # noqa: E402
 
 from lutbake.modes.runtime import runtime_colour  # noqa: E402
@@ -67,19 +72,11 @@ def wgsl_counts(wgsl: str) -> str:
     naga = shutil.which("naga")
     if naga is None:
         return "no WGSL counts (naga not found: cargo install naga-cli)"
-    env = {**os.environ, "LD_LIBRARY_PATH": str(PREFIX / "lib")}
     with tempfile.TemporaryDirectory() as tmp:
-        source, spv, opt = (Path(tmp) / n for n in ("s.wgsl", "s.spv", "o.spv"))
+        source, spv = Path(tmp) / "s.wgsl", Path(tmp) / "s.spv"
         source.write_text(wgsl)
         subprocess.run([naga, str(source), str(spv)], check=True, capture_output=True)
-        subprocess.run([str(PREFIX / "bin" / "spirv-opt"), "-O", str(spv), "-o", str(opt)], check=True, env=env)
-        text = subprocess.run(
-            [str(PREFIX / "bin" / "spirv-dis"), str(opt)], capture_output=True, text=True, env=env, check=True
-        ).stdout
-    components = {}
-    for m in re.finditer(r"(%\w+) = OpType(Vector|Float|Int|Bool) ?(%\w+)? ?(\d+)?", text):
-        components[m.group(1)] = int(m.group(4)) if m.group(2) == "Vector" else 1
-    counts = _count(text.splitlines(), components)
+        counts = spirv_counts(spv)
     return f"SPIR-V arithmetic {counts['arithmetic']}, texture instructions {counts['texture_instructions']}"
 
 
@@ -158,12 +155,54 @@ def metals(size: int) -> None:
                     print(f"ΔE00 p99 {p99:.3f}, max {de.max():.3f} ({len(de)} pixels)")
 
 
+def gltf_cost(size: int, rounds: int) -> None:
+    """The glTF hooks' cost against each engine's own iridescence (tests/web_gltf_cost.py), the asset baked
+    once per engine by the CLI into a temporary folder under build/."""
+    (ROOT / "build").mkdir(exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=ROOT / "build") as folder:
+        baked = bake_for_engines(Path(folder), sorted(GLTF_PACKAGES))
+        for engine in sorted(GLTF_PACKAGES):
+            before = os.getloadavg()[0]
+            costs = hook_costs(engine, baked[engine], Path(folder) / f"{engine}-cost", size, rounds, draws=3)
+            load = f"load average {before:.1f}-{os.getloadavg()[0]:.1f}"
+            print(f"{engine}: median ms per {size}² draw over {rounds} rounds ({load}); x own: over the stock draw,")
+            print("  net: each net of the draw without a film; SPIR-V of the whole fragment shader")
+            for index, variants in sorted(costs.items()):
+                print(f"  material {index}:")
+                for variant in VARIANTS:
+                    print(f"    {variant:8} {_cost_line(engine, variants, variant)}")
+
+
+def _cost_line(engine: str, variants: dict, variant: str) -> str:
+    cost = variants[variant]
+    ratios = f"x own {cost['ms'] / variants['stock']['ms']:.2f}, net {net_ratio(variants, variant):.2f}; "
+    served = {"none": "no film", "stock": f"{engine}'s own"}.get(variant)
+    parts = served or ", ".join(f"{part} {route}" for part, route in cost["routes"].items())
+    counts = f"arithmetic {cost['arithmetic']}, transcendental {cost['transcendental']}"
+    reads = f"texture instructions {cost['texture_instructions']}" + (
+        f", loops left {cost['loops']}" if cost["loops"] else ""
+    )
+    return f"{cost['ms']:7.2f} ms; {'' if served else ratios}{counts}, {reads} ({parts})"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("what", nargs="?", choices=["accuracy", "cost", "static", "metals"], default="accuracy")
-    parser.add_argument("--size", type=int, default=32, help="metals: the render's side in pixels (test: 64)")
+    modes = ["accuracy", "cost", "static", "metals", "gltf-cost"]
+    parser.add_argument("what", nargs="?", choices=modes, default="accuracy")
+    parser.add_argument(
+        "--size",
+        type=int,
+        help="metals: the render's side in pixels (default 32, test: 64); gltf-cost: the target's (default 128)",
+    )
+    parser.add_argument("--rounds", type=int, default=5, help="gltf-cost: timed rounds (default 5)")
     args = parser.parse_args()
-    runs = {"accuracy": accuracy, "cost": cost, "static": static, "metals": lambda: metals(args.size)}
+    runs = {
+        "accuracy": accuracy,
+        "cost": cost,
+        "static": static,
+        "metals": lambda: metals(args.size or 32),
+        "gltf-cost": lambda: gltf_cost(args.size or 128, args.rounds),
+    }
     runs[args.what]()
 
 

@@ -20,6 +20,7 @@ import '@babylonjs/loaders/glTF/2.0/index.js';
 import { loadLutbakeRuntime, lutbakeIridescence } from './lutbake-babylon.js';
 import { NAME, loadLutbakeBakeBabylon, registerLutbakeGltf } from './lutbake-babylon-gltf.js';
 import { gltfCells, sphereCells, thicknessWeights } from './sphere-samples.js';
+import { interleavedTimes } from './cost-rounds.js';
 
 const engine = new Engine(document.getElementById('view'), false, { preserveDrawingBuffer: true });
 const scene = new Scene(engine);
@@ -88,8 +89,31 @@ window.lutbakeBabylon = async ({ runtime: stem, materials, modes, size = 96, str
            texture: { textureType, samplingMode, anisotropicFilteringLevel, wrapU, wrapV }, cells };
 };
 // --- cost: wall per draw of a sphere lit by one directional light filling a size² float target, per material: no iridescence,
-// Babylon's own, lutbake's runtime table; interleaved rounds (the order rotates), each waits for the GPU
-// (a one-pixel read), so a slow stretch of a shared machine hits every entry alike; round 0 is dropped.
+// Babylon's own, lutbake's runtime table (engine/cost-rounds.js: interleaved rounds).
+// The sphere drawn into `target` with each entry's material, timed by interleavedTimes.
+function timing(target, rounds, draws) {
+  const pixel = new Float32Array(4);
+  return { rounds, draws, show: ({ material }) => { sphere.material = material; }, draw: () => target.render(),
+           wait: () => target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1) };
+}
+
+// The size² float target the cost pages draw the sphere into.
+function costTarget(size) {
+  const target = new RenderTargetTexture('cost', size, scene, { type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false });
+  target.renderList = [sphere];
+  target.activeCamera = camera;
+  return target;
+}
+
+// Each entry's material made ready on the sphere (its shader compiled).
+async function compileAll(entries) {
+  for (const { material } of entries) {
+    sphere.material = material;
+    await scene.whenReadyAsync();
+    while (!material.isReady(sphere)) await new Promise((ok) => setTimeout(ok, 10));
+  }
+}
+
 window.lutbakeBabylonCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
   const runtime = await loadLutbakeRuntime(stem, scene);
   const light = new DirectionalLight('light', new Vector3(-0.3, -0.5, 1), scene);  // the term is lit: not dead code
@@ -102,27 +126,9 @@ window.lutbakeBabylonCost = async ({ runtime: stem, materials, size = 256, round
       entries.push({ name: `${m.label}|${mode}`, material });
     }
   }
-  const target = new RenderTargetTexture('cost', size, scene, { type: Constants.TEXTURETYPE_FLOAT, generateMipMaps: false });
-  target.renderList = [sphere];
-  target.activeCamera = camera;
-  for (const { material } of entries) {
-    sphere.material = material;
-    await scene.whenReadyAsync();
-    while (!material.isReady(sphere)) await new Promise((ok) => setTimeout(ok, 10));
-  }
-  const pixel = new Float32Array(4);
-  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
-  for (let round = 0; round <= rounds; round++) {
-    for (let i = 0; i < entries.length; i++) {
-      const { name, material } = entries[(i + round) % entries.length];
-      sphere.material = material;
-      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
-      const start = performance.now();
-      for (let d = 0; d < draws; d++) target.render();
-      await target.readPixels(0, 0, pixel, true, false, 0, 0, 1, 1);
-      if (round > 0) times[name].push((performance.now() - start) / draws);
-    }
-  }
+  const target = costTarget(size);
+  await compileAll(entries);
+  const times = await interleavedTimes(entries, timing(target, rounds, draws));
   target.dispose();
   light.dispose();
   return { babylon: Engine.Version, size, times };
@@ -144,5 +150,46 @@ window.lutbakeBabylonGltf = async ({ runtime: stem, asset, metals, manifest = nu
   const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: m.indexOfRefraction, metallic: m.metallic,
                                                         lutbake: (m.metadata && m.metadata.lutbake) || null }), size, stride);
   return { babylon: Engine.Version, cells };
+};
+
+// --- glTF cost: the glTF asset at `asset` loaded four ways: none (Babylon's loader, iridescence then turned off:
+// the draw without a film term), stock (Babylon's own KHR_materials_iridescence, no lutbake extension), and with
+// lutbake's loader extension serving the `lutbake bake --gltf` output at `manifest` by its routes (bake: atlas
+// slices, 4D LUTs, texture-driven metals through their F0 table) or all on the runtime table (runtime); each
+// iridescent material on the sphere, lit as in the cost above, timed in interleaved rounds; per entry
+// (`gltfIndex|route`) the wall per draw, the routes lutbake served and the fragment shader Babylon compiled (its
+// effect's source, as WebGL2 received it).
+window.lutbakeBabylonGltfCost = async ({ runtime: stem, asset, manifest, size = 64, rounds = 3, draws = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, scene);
+  const bake = await loadLutbakeBakeBabylon(manifest, scene);
+  registerLutbakeGltf();
+  const load = async (options) => {
+    const pluginOptions = { gltf: { extensionOptions: options ? { [NAME]: options } : {} } };
+    const container = await LoadAssetContainerAsync(asset, scene, { pluginOptions });
+    return container.materials.filter((m) => m.iridescence && m.iridescence.isEnabled);
+  };
+  const loads = { none: await load(null), stock: await load(null), bake: await load({ runtime, bake, serve: 'bake' }),
+                  runtime: await load({ runtime, bake, serve: 'runtime' }) };
+  for (const material of loads.none) material.iridescence.isEnabled = false;
+  const entries = [];
+  for (const [k, served] of loads.bake.entries()) {
+    for (const [route, materials] of Object.entries(loads)) {
+      entries.push({ name: `${served.metadata.lutbake.gltfIndex}|${route}`, material: materials[k],
+                     parts: (materials[k].metadata && materials[k].metadata.lutbake || {}).parts || null });
+    }
+  }
+  const light = new DirectionalLight('light', new Vector3(-0.3, -0.5, 1), scene);
+  const target = costTarget(size);
+  await compileAll(entries);
+  const shaders = {};
+  for (const { name, material } of entries) {
+    sphere.material = material;
+    target.render();
+    shaders[name] = material.getEffect().fragmentSourceCode;  // the effect the last draw bound
+  }
+  const times = await interleavedTimes(entries, timing(target, rounds, draws));
+  target.dispose();
+  light.dispose();
+  return { babylon: Engine.Version, size, times, shaders, routes: Object.fromEntries(entries.map((e) => [e.name, e.parts])) };
 };
 window.lutbakeReady = true;

@@ -10,6 +10,7 @@
 //        node engine/harness.mjs babylon-gltf SPEC.json RESULT.json       (tests/engines/test_web_engines.py)
 //        node engine/harness.mjs webgpu SPEC.json RESULT.json             (tests/engines/test_webgpu_engine.py)
 //        node engine/harness.mjs webgpu-cost SPEC.json RESULT.json        (bench/bench_web_engines.py cost)
+//        node engine/harness.mjs babylon-gltf-cost SPEC.json RESULT.json  (bench/bench_web_engines.py gltf-cost)
 // The server serves the repository's files read-only; nothing outside the repository is reachable.
 import { createServer } from 'node:http';
 import { mkdtempSync, readFileSync, renameSync, rmSync, writeFileSync, existsSync, statSync } from 'node:fs';
@@ -83,6 +84,8 @@ const CALLS = { evaluate: ['lutbakeEvaluate'], cost: ['lutbakeCost'], 'dropin-co
                 'babylon-cost': ['lutbakeBabylonCost', '/engine/babylon-page.html'],
                 'playcanvas-cost': ['lutbakePlaycanvasCost', '/engine/playcanvas-page.html'],
                 'playcanvas-gltf': ['lutbakePlaycanvasGltf', '/engine/playcanvas-page.html'],
+                'babylon-gltf-cost': ['lutbakeBabylonGltfCost', '/engine/babylon-page.html'],
+                'playcanvas-gltf-cost': ['lutbakePlaycanvasGltfCost', '/engine/playcanvas-page.html'],
                 webgpu: ['lutbakeWebgpu', '/engine/webgpu-page.html', 'webgpu'],
                 'webgpu-cost': ['lutbakeWebgpuCost', '/engine/webgpu-page.html', 'webgpu'] };
 

@@ -5,6 +5,7 @@
 import * as pc from 'playcanvas';
 import { loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
 import { gltfCells, sphereCells } from './sphere-samples.js';
+import { interleavedTimes } from './cost-rounds.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
 const device = app.graphicsDevice;
@@ -58,14 +59,9 @@ window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, 
            texture: { format, mipmaps, anisotropy, minFilter, magFilter, addressU, addressV }, cells };
 };
 // --- cost: wall per draw of a sphere lit by one directional light filling a size² float target, per
-// material: no iridescence, PlayCanvas's own, lutbake's runtime table; interleaved rounds (the order
-// rotates), each waits for the GPU (a one-pixel read); round 0 (compilation) is dropped.
+// material: no iridescence, PlayCanvas's own, lutbake's runtime table (engine/cost-rounds.js: interleaved rounds).
 window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
-  const light = new pc.Entity('light');
-  light.addComponent('light', { type: 'directional' });
-  light.setEulerAngles(30, 20, 0);
-  app.root.addChild(light);
   const entries = [];
   for (const m of materials) {
     for (const mode of ['none', 'playcanvas', 'runtime']) {
@@ -76,30 +72,37 @@ window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, ro
       entries.push({ name: `${m.label}|${mode}`, material });
     }
   }
+  return withCostTarget(size, async (wait) => ({ playcanvas: pc.version, size,
+    times: await interleavedTimes(entries, timing(wait, rounds, draws)) }));
+};
+
+// `run(wait)` with a directional light and the camera drawing into a size² float target on demand (autoRender
+// off); `wait` reads one pixel of it (the GPU is done). Everything is put back after.
+async function withCostTarget(size, run) {
+  const light = new pc.Entity('light');
+  light.addComponent('light', { type: 'directional' });
+  light.setEulerAngles(30, 20, 0);
+  app.root.addChild(light);
   const colour = new pc.Texture(device, { width: size, height: size, format: pc.PIXELFORMAT_RGBA32F, mipmaps: false });
   const target = new pc.RenderTarget({ colorBuffer: colour, depth: true });
   camera.camera.renderTarget = target;
   app.autoRender = false;
-  const times = Object.fromEntries(entries.map((e) => [e.name, []]));
-  const wait = () => colour.read(0, 0, 1, 1, { renderTarget: target, immediate: true });
-  for (let round = 0; round <= rounds; round++) {
-    for (let i = 0; i < entries.length; i++) {
-      const { name, material } = entries[(i + round) % entries.length];
-      sphere.render.material = material;
-      await wait();
-      const start = performance.now();
-      for (let d = 0; d < draws; d++) app.render();
-      await wait();
-      if (round > 0) times[name].push((performance.now() - start) / draws);
-    }
+  try {
+    return await run(() => colour.read(0, 0, 1, 1, { renderTarget: target, immediate: true }));
+  } finally {
+    app.autoRender = true;
+    camera.camera.renderTarget = null;
+    light.destroy();
+    target.destroy();
+    colour.destroy();
   }
-  app.autoRender = true;
-  camera.camera.renderTarget = null;
-  light.destroy();
-  target.destroy();
-  colour.destroy();
-  return { playcanvas: pc.version, size, times };
-};
+}
+
+// The sphere drawn with each entry's material, timed by interleavedTimes.
+function timing(wait, rounds, draws) {
+  return { rounds, draws, wait, show: ({ material }) => { sphere.render.material = material; }, draw: () => app.render() };
+}
+
 // A glTF asset loaded as a container with lutbake's material hook: each of its iridescent materials rendered
 // on the sphere, its Fresnel term and parameters read back as above (the asset itself is not instantiated).
 // With `manifest` (a `lutbake bake --gltf` output) the hook serves the bake's routes (`serve`: 'bake' or
@@ -107,17 +110,61 @@ window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, ro
 window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, manifest = null, serve = 'bake', size = 96, stride = 2 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
   const bake = manifest && await loadLutbakeBakePlaycanvas(manifest, device);
-  // PlayCanvas caches a container by URL: the query keeps the two loads (and their hooks) apart.
-  const load = (output) => new Promise((ok, no) => {
-    const asset = new pc.Asset(`films-${output}`, 'container', { url: `${url}?output=${output}&serve=${serve}` }, null,
-                               lutbakeGltfOptions({ runtime, metals, output, bake, serve }));
+  const load = (output) => loadContainer(url, `output=${output}&serve=${serve}`,
+                                       lutbakeGltfOptions({ runtime, metals, output, bake, serve }));
+  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: 1 / m.refractionIndex, metallic: m.metalness,
+                                                        lutbake: m.lutbake || null }), size, stride);
+  return { playcanvas: pc.version, cells };
+};
+
+// The glTF container at `url` loaded with `options` (lutbakeGltfOptions, or none: PlayCanvas's own loader);
+// PlayCanvas caches a container by URL: `query` keeps loads (and their hooks) apart. Its iridescent materials.
+function loadContainer(url, query, options) {
+  return new Promise((ok, no) => {
+    const asset = new pc.Asset(`films-${query}`, 'container', { url: `${url}?${query}` }, null, options);
     asset.once('error', no);
     asset.ready(() => ok(asset.resource.data.materials.filter((m) => m.useIridescence)));
     app.assets.add(asset);
     app.assets.load(asset);
   });
-  const cells = await gltfCells(load, render, (m) => ({ name: m.name, ior: 1 / m.refractionIndex, metallic: m.metalness,
-                                                        lutbake: m.lutbake || null }), size, stride);
-  return { playcanvas: pc.version, cells };
+}
+
+// --- glTF cost: the glTF asset at `asset` loaded four ways: none (PlayCanvas's loader, iridescence then turned
+// off: the draw without a film term), stock (PlayCanvas's own KHR_materials_iridescence, no lutbake options), and
+// with lutbakeGltfOptions serving the `lutbake bake --gltf` output at `manifest` by its routes (bake: atlas slices,
+// 4D LUTs, texture-driven metals through their F0 table) or all on the runtime table (runtime); each iridescent
+// material on the sphere, lit as in the cost above, timed in interleaved rounds; per entry (`gltfIndex|route`) the
+// wall per draw, the routes lutbake served and the fragment shader PlayCanvas compiled (the forward pass's shader
+// as WebGL2 received it, else its definition's).
+window.lutbakePlaycanvasGltfCost = async ({ runtime: stem, asset: url, manifest, size = 64, rounds = 3, draws = 2 }) => {
+  const runtime = await loadLutbakeRuntime(stem, device);
+  const bake = await loadLutbakeBakePlaycanvas(manifest, device);
+  const loads = { none: await loadContainer(url, 'cost=none', undefined),
+                  stock: await loadContainer(url, 'cost=stock', undefined),
+                  bake: await loadContainer(url, 'cost=bake', lutbakeGltfOptions({ runtime, bake, serve: 'bake' })),
+                  runtime: await loadContainer(url, 'cost=runtime', lutbakeGltfOptions({ runtime, bake, serve: 'runtime' })) };
+  for (const material of loads.none) {
+    material.useIridescence = false;
+    material.update();
+  }
+  const entries = [];
+  for (const [k, served] of loads.bake.entries()) {
+    for (const [route, materials] of Object.entries(loads)) {
+      entries.push({ name: `${served.lutbake.gltfIndex}|${route}`, material: materials[k],
+                     parts: (materials[k].lutbake || {}).parts || null });
+    }
+  }
+  return withCostTarget(size, async (wait) => {
+    const shaders = {};
+    for (const { name, material } of entries) {
+      sphere.render.material = material;
+      app.render();
+      await wait();
+      const forward = [...sphere.render.meshInstances[0]._shaderCache.values()].find((s) => s.hashes[0] === pc.SHADER_FORWARD);
+      shaders[name] = forward.shader.impl._fsource || forward.shader.definition.fshader;
+    }
+    const times = await interleavedTimes(entries, timing(wait, rounds, draws));
+    return { playcanvas: pc.version, size, times, shaders, routes: Object.fromEntries(entries.map((e) => [e.name, e.parts])) };
+  });
 };
 window.lutbakeReady = true;

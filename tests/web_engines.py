@@ -86,7 +86,9 @@ def serve_gltf_bake(engine, gltf, manifest, serve, folder, size):
         "size": size,
         "stride": 2,
     }
-    return run_harness(f"{engine}-gltf", folder, spec)["cells"]
+    # A forced 4D LUT (3 x 256 reads a pixel) drawn four times per material took over 600 s under a shared
+    # machine's load (3 min at load 7): the limit only stops a hung page.
+    return run_harness(f"{engine}-gltf", folder, spec, timeout=1800)["cells"]
 
 
 def require_package(package):

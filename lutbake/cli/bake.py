@@ -175,13 +175,14 @@ def _library_imports() -> float:
 
 def _print_bakes(results: Sequence[BakeResult], as_json: bool, imports_s: float) -> None:
     """Each LUT's line (a warning beside it when texels past the spectral node cap err visibly), or one JSON
-    (each LUT's row with its stages, lutbake/lut/pipeline.py, and the library's ``imports_s``)."""
+    (each LUT's row with its stages, lutbake/lut/pipeline.py, the set's summed (``set``) and the library's
+    ``imports_s``)."""
     from lutbake.lut.evaluate import CAPPED_WARNING_RGB
-    from lutbake.lut.sets import summary
+    from lutbake.lut.sets import summary, totals
 
     rows = [summary(r) for r in results]
     if as_json:
-        echo_json({"luts": rows, "imports_s": imports_s})
+        echo_json({"luts": rows, "imports_s": imports_s, "set": totals(results)})
         return
     for row in rows:
         click.echo(

@@ -4,7 +4,9 @@
 waited for and written. The write runs on OpenEXR's own thread pool (lutbake/tables/exr.py), whose
 threads compress while the device's threads bake, so a bake on a CPU device keeps every core busy.
 ``BakeStages`` times each stage of a bake (the integrator's start, the plan, waiting on the device, the
-write) and the process's CPU time over it: `lutbake bake --json` and bench/bench_b1.py print them.
+write) and the process's CPU time over each, so how many cores each kept busy and how many core-seconds it
+left idle (what running anything beside it could at most fill): `lutbake bake --json`,
+bench/bench_b1.py and bench/bench_default_set.py print them.
 """
 
 from __future__ import annotations
@@ -12,17 +14,21 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from lutbake.io.cores import usable_cores
 
 if TYPE_CHECKING:
     from lutbake.grid.spec import BakeSpec
     from lutbake.integrate.bands import Integrator, PendingRows
     from lutbake.tables.exr import ExrRows
 
-__all__ = ["BakeStages", "stream_bands"]
+__all__ = ["BakeStages", "STAGES", "stream_bands"]
+
+STAGES = ("compile", "plan", "device", "write")  # BakeStages' timed stages; the rest of a bake's wall is "other"
 
 # on_band(rows done in this call, the image's rows): a bake's progress, band by band
 OnBand = Callable[[int, int], object]
@@ -31,7 +37,7 @@ OnBand = Callable[[int, int], object]
 @dataclass
 class BakeStages:
     """Wall seconds of a bake's stages, and the CPU seconds of the whole process (every thread: the
-    device's, OpenEXR's pool) over the bake.
+    device's, OpenEXR's pool) over the bake and over each stage.
 
     Attributes
     ----------
@@ -45,6 +51,9 @@ class BakeStages:
         Compressing and writing the EXR, and its companions (sidecar, includes).
     cpu_s : float
         CPU time of the process over the bake, s (``cpu_per_wall`` of ``describe``: how many cores were busy).
+    stage_cpu_s : dict
+        CPU time of the process within each stage (STAGES), s: the device's threads and OpenEXR's pool
+        count in the stage during which they run.
     """
 
     compile_s: float = 0.0
@@ -52,26 +61,40 @@ class BakeStages:
     device_s: float = 0.0
     write_s: float = 0.0
     cpu_s: float = 0.0
+    stage_cpu_s: dict[str, float] = field(default_factory=dict)
 
     @contextlib.contextmanager
     def clock(self, stage: str) -> Iterator[None]:
-        """Add the block's wall time to ``stage`` ('compile', 'plan', 'device' or 'write')."""
-        start = time.perf_counter()
+        """Add the block's wall time to ``stage`` (one of STAGES), and the process's CPU time over it."""
+        start, cpu_start = time.perf_counter(), time.process_time()
         try:
             yield
         finally:
             name = f"{stage}_s"
             setattr(self, name, getattr(self, name) + time.perf_counter() - start)
+            self.stage_cpu_s[stage] = self.stage_cpu_s.get(stage, 0.0) + time.process_time() - cpu_start
 
-    def describe(self, wall_s: float) -> dict[str, float]:
-        """The stages, the rest of ``wall_s`` (``other_s``: the metadata, the host's share of the bands) and
-        ``cpu_per_wall``."""
-        stages = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "cpu_s"}
+    def describe(self, wall_s: float, cores: int | None = None) -> dict:
+        """The stages' walls, the rest of ``wall_s`` (``other_s``: the metadata, the host's share of the
+        bands), ``cpu_s`` and ``cpu_per_wall``; per stage (other included) the CPU seconds
+        (``stage_cpu_s``), the cores busy (``stage_cores``: CPU over wall) and the core-seconds left idle
+        on ``cores`` (None: the cores this process may run on; ``idle_core_s``, and in all
+        ``idle_core_s_total``: the most that running other work beside the stage could fill)."""
+        walls = {stage: getattr(self, f"{stage}_s") for stage in STAGES}
+        walls["other"] = max(0.0, wall_s - sum(walls.values()))
+        cpu = {stage: self.stage_cpu_s.get(stage, 0.0) for stage in STAGES}
+        cpu["other"] = max(0.0, self.cpu_s - sum(cpu.values()))
+        cores = usable_cores() if cores is None else cores
+        idle = {stage: max(0.0, cores * walls[stage] - cpu[stage]) for stage in walls}
         return {
-            **stages,
-            "other_s": max(0.0, wall_s - sum(stages.values())),
+            **{f"{stage}_s": wall for stage, wall in walls.items()},
             "cpu_s": self.cpu_s,
             "cpu_per_wall": self.cpu_s / max(wall_s, 1e-12),
+            "stage_cpu_s": cpu,
+            "stage_cores": {stage: cpu[stage] / wall if wall > 0 else 0.0 for stage, wall in walls.items()},
+            "cores": cores,
+            "idle_core_s": idle,
+            "idle_core_s_total": sum(idle.values()),
         }
 
 

@@ -24,7 +24,7 @@ from lutbake.lut.bake import BakeResult, bake_set, default_specs
 if TYPE_CHECKING:
     from lutbake.integrate.devices import DeviceChoice
 
-__all__ = ["DEFAULT_SET_NAME", "bake_default_set", "bake_luts", "default_set_jobs", "summary"]
+__all__ = ["DEFAULT_SET_NAME", "bake_default_set", "bake_luts", "default_set_jobs", "summary", "totals"]
 
 DEFAULT_SET_NAME = "lutbake-default-set"  # the default set's name in its commit journal
 _PROGRESS_BANDS = 32  # bands per bake: the first lands within ~2 s and the ETA settles early
@@ -109,6 +109,29 @@ def summary(result: BakeResult) -> dict:
         "truncation_bound": result.truncation_bound,
         "capped_error_rgb_max": result.capped_error_rgb_max,
         "stages": result.stages.describe(result.seconds),
+    }
+
+
+def totals(results: Sequence[BakeResult]) -> dict:
+    """The set's row `bake --json` prints beside its LUTs': their cells, walls and CPU summed, and per stage
+    (compile, plan, device, write, other) the wall, the CPU, the cores busy (CPU over wall) and the
+    core-seconds left idle (lutbake/lut/pipeline.py), so the stage that holds the set back shows."""
+    described = [r.stages.describe(r.seconds) for r in results]
+    seconds, cpu = sum(r.seconds for r in results), sum(d["cpu_s"] for d in described)
+    phases = list(described[0]["stage_cpu_s"]) if described else []
+    walls = {phase: sum(d[f"{phase}_s"] for d in described) for phase in phases}
+    stage_cpu = {phase: sum(d["stage_cpu_s"][phase] for d in described) for phase in phases}
+    idle = {phase: sum(d["idle_core_s"][phase] for d in described) for phase in phases}
+    return {
+        "cells": sum(r.cells for r in results),
+        "seconds": seconds,
+        "cpu_s": cpu,
+        "cpu_per_wall": cpu / max(seconds, 1e-12),
+        "stage_s": walls,
+        "stage_cpu_s": stage_cpu,
+        "stage_cores": {phase: stage_cpu[phase] / wall if wall > 0 else 0.0 for phase, wall in walls.items()},
+        "idle_core_s": idle,
+        "idle_core_s_total": sum(idle.values()),
     }
 
 

@@ -9,8 +9,11 @@ and base colour the pixel used (bench_gltf_runtime.baked_term: the LUT read as `
 each channel's base from the F0 table, runtime.model per channel) to 1e-4; and against the spectral ground
 truth the runtime table within its contract, the bake as lutbake's own samplers are. PlayCanvas's copy of
 the asset has no thickness textures (tests/web_metals.py says why; docs/engines.md).
+The same bake runs bench/bench_web_engines.py gltf-cost's page end to end (tests/web_gltf_cost.py) on a tiny
+render: what it captures and counts, not how long it takes.
 """
 
+import re
 import shutil
 import uuid
 
@@ -19,9 +22,12 @@ import pytest
 from engine_harness import ROOT
 from runtime_contract import CONTRACT_MAX, CONTRACT_P99
 from web_engines import GLTF_PACKAGES
+from web_gltf_cost import VARIANTS, hook_costs
 from web_metals import ROUTES, bake_for_engines, metal_model, serve_metals, truth_errors
 
 TOLERANCE = 1e-4
+OWN_TERMS = {"babylon": "evalIridescence(", "playcanvas": "calcIridescence("}  # each engine's own film term
+CUBIC_LUT_READS = 256  # texel reads of one cubic 4D LUT sample (the LUT include's lutbake_sample_cubic)
 
 
 @pytest.fixture(scope="module")
@@ -79,3 +85,23 @@ def test_texture_driven_metals_against_the_ground_truth(served):
             assert np.percentile(de, 99) <= CONTRACT_P99 and de.max() <= CONTRACT_MAX, (index, de.max())
             continue
         assert np.abs(de - own).max() <= 0.01, (index, np.abs(de - own).max())
+
+
+@pytest.mark.parametrize("engine", sorted(GLTF_PACKAGES))
+def test_the_gltf_hook_cost_captures_and_counts_each_variants_shader(engine, baked, tmp_path):
+    """The glTF-hook cost page on a 16² target, one round: per material the four variants are drawn and timed
+    in one page; lutbake's (bake, runtime) shaders call lutbake's functions and say which routes served
+    them, the engine's own (stock) calls its film term, the draw without a film neither; every shader
+    compiles to SPIR-V with arithmetic and reads, and the forced 4D LUT's three cubic reads per channel are
+    all counted (loops unrolled)."""
+    costs = hook_costs(engine, baked[engine], tmp_path, size=16, rounds=1, draws=1)
+    assert sorted(costs) == sorted(ROUTES["bake"])
+    for index, variants in costs.items():
+        assert tuple(variants) == VARIANTS, index
+        for variant, cost in variants.items():
+            served = variant in ROUTES
+            assert bool(re.search(r"\blutbake\w*\(", cost["shader"])) == served, (index, variant)
+            assert cost["routes"] == (ROUTES[variant][index] if served else None), (index, variant)
+            assert cost["arithmetic"] > 0 and cost["texture_instructions"] > 0 and np.isfinite(cost["ms"])
+        assert OWN_TERMS[engine] in variants["stock"]["shader"] and OWN_TERMS[engine] not in variants["none"]["shader"]
+    assert costs[2]["bake"]["texture_instructions"] >= 3 * CUBIC_LUT_READS > costs[2]["runtime"]["texture_instructions"]

@@ -321,6 +321,61 @@ def test_bake_json_says_where_the_time_went(tmp_path):
     assert sum(parts) == pytest.approx(row["seconds"], rel=1e-9)
     assert stages["cpu_s"] > 0.0 and stages["cpu_per_wall"] == pytest.approx(stages["cpu_s"] / row["seconds"])
     assert summary["imports_s"] > 0.0
+    phases = ("compile", "plan", "device", "write", "other")
+    assert sorted(stages["stage_cpu_s"]) == sorted(phases) and min(stages["stage_cpu_s"].values()) >= 0.0
+    assert sum(stages["stage_cpu_s"].values()) == pytest.approx(stages["cpu_s"], rel=1e-9)  # other: the rest
+    for phase in phases:
+        wall, cpu = stages[f"{phase}_s"], stages["stage_cpu_s"][phase]
+        assert stages["idle_core_s"][phase] == pytest.approx(max(0.0, stages["cores"] * wall - cpu), abs=1e-12)
+    assert stages["idle_core_s_total"] == pytest.approx(sum(stages["idle_core_s"].values()))
+    whole = summary["set"]  # one LUT: the set's sums are its own
+    assert whole["seconds"] == row["seconds"] and whole["cpu_s"] == stages["cpu_s"] and whole["cells"] == row["cells"]
+    assert whole["stage_s"] == {phase: stages[f"{phase}_s"] for phase in phases}
+    assert whole["idle_core_s"] == stages["idle_core_s"] and whole["stage_cpu_s"] == stages["stage_cpu_s"]
+
+
+def test_a_set_bake_sums_its_luts_stages():
+    """sets.totals: the set's wall, CPU and each stage's wall, CPU and idle core-seconds are its LUTs' sums,
+    and a stage's cores are its summed CPU over its summed wall (not a mean of the LUTs' ratios)."""
+    from pathlib import Path
+
+    from lutbake.io.cores import usable_cores
+    from lutbake.lut.bake import BakeResult
+    from lutbake.lut.pipeline import BakeStages
+    from lutbake.lut.sets import totals
+
+    first = BakeStages(plan_s=1.0, write_s=0.5, cpu_s=2.5, stage_cpu_s={"plan": 2.0, "write": 0.25})
+    second = BakeStages(plan_s=3.0, device_s=0.5, cpu_s=4.0, stage_cpu_s={"plan": 3.0, "device": 1.0})
+    results = [BakeResult(Path(f"{n}.exr"), 10, seconds, "opencl", "d", 0.0, stages=st)
+               for n, seconds, st in ((1, 2.0, first), (2, 3.5, second))]  # fmt: skip
+    whole = totals(results)
+    assert whole["cells"] == 20 and whole["seconds"] == 5.5 and whole["cpu_s"] == 6.5
+    assert whole["stage_s"] == {"compile": 0.0, "plan": 4.0, "device": 0.5, "write": 0.5, "other": 0.5}
+    assert whole["stage_cpu_s"]["plan"] == 5.0 and whole["stage_cores"]["plan"] == 1.25
+    assert whole["stage_cpu_s"]["other"] == pytest.approx(0.25)  # each LUT's CPU outside its stages
+    cores = usable_cores()  # each LUT's idle is its own, never below 0: on 1 core the first plan's is 0, not -1
+    assert whole["idle_core_s"]["plan"] == pytest.approx(max(0.0, cores * 1.0 - 2.0) + max(0.0, cores * 3.0 - 3.0))
+    assert whole["idle_core_s_total"] == pytest.approx(sum(whole["idle_core_s"].values()))
+
+
+def test_bake_stages_put_each_stage_cpu_in_its_own_stage():
+    """BakeStages.clock counts the process's CPU within each stage: a stage that computes on this thread
+    gets CPU near its wall, one that sleeps next to none and leaves its wall idle on every core."""
+    from lutbake.lut.pipeline import BakeStages
+
+    stages = BakeStages()
+    with stages.clock("plan"):
+        end = time.process_time() + 0.15
+        while time.process_time() < end:  # 0.15 s of this thread's CPU, however long a busy machine takes
+            pass
+    with stages.clock("write"):
+        time.sleep(0.2)
+    stages.cpu_s = sum(stages.stage_cpu_s.values())
+    described = stages.describe(stages.plan_s + stages.write_s, cores=2)
+    assert described["stage_cpu_s"]["plan"] >= 0.15 and described["stage_cpu_s"]["write"] < 0.05
+    assert described["stage_cores"]["write"] < 0.25 and described["stage_cores"]["plan"] > 0.0
+    assert described["idle_core_s"]["write"] == pytest.approx(2 * stages.write_s - stages.stage_cpu_s["write"])
+    assert described["other_s"] == 0.0 and described["stage_cpu_s"]["other"] == 0.0
 
 
 def test_unwritable_output_exits_2(tmp_path):

@@ -406,6 +406,17 @@ inline int series_terms_cap(REAL x, REAL x_max, int budget) {
     return x == 0 ? 0 : (int)fmin(floor(x_max / x), (REAL)budget);
 }
 
+// Where the remainder test below passes whatever its rounding, its two exp are skipped (plan_rows: 1.1 -> 0.5
+// CPU s over the default set on PoCL): past the column's `geometric` count (the host's ceil(log(tol/Σ)/log
+// max|q|) + 1, Σ = (Σ_pol |K|/(1 − |q|)) · mass, the remainder's bound) max|q|^cap · Σ ≤ tol · max|q|, a
+// slack of one factor max|q| ≤ e^{−2^−16}, which the kernel's rounding (≤ 3·cap·ε·|log max|q|| in the
+// exponent, cap ≤ 512, and ~15 ε in the constants and tol; ε = 2^−24 in float32) cannot use up; the bound
+// is computed as before. Same outcome texel for texel (tests/integrate/test_series_plan.py builds it with
+// SURE_REMAINDER 0; docs/spectral.md "The remainder test where it is sure").
+#define SURE_REMAINDER 1
+#define REMAINDER_SURE(c, cap) \
+    (SURE_REMAINDER && (REAL)(cap) > (c).geometric && fmax((c).log_qs, (c).log_qp) <= -(REAL)1.52587890625e-05)
+
 // The rule for one texel: the most terms it may take (cap ≥ 0, series_terms_cap), or −1 where
 // the series is not used: out of scope (evanescent film: one_minus_q < 0), or
 // the remainder bound is not ≤ tol within the table (M·X ≤ x_max) and
@@ -417,11 +428,13 @@ inline int series_cap(SeriesPol s, SeriesPol p, ColumnRule c, REAL x, REAL x_max
     *bound = 0;
     if (s.one_minus_q < 0) return -1;
     if (x == 0) return 0;
-    const Remainder r = remainder_setup(c, x, tail);
     const int cap = series_terms_cap(x, x_max, budget);
-    // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
-    const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qs), qp_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qp);
-    if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
+    if (!REMAINDER_SURE(c, cap)) {
+        const Remainder r = remainder_setup(c, x, tail);
+        // |q|^cap through exp/log: a bound, so full-precision pow (slow on CPU runtimes) is not needed
+        const REAL qs_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qs), qp_cap = cap == 0 ? (REAL)1 : exp(cap * c.log_qp);
+        if (remainder_after(&r, qs_cap, qp_cap, cap) > tol) return -1;
+    }
     *bound = tol + interp * (c.ks * fmin((REAL)cap, 1 / s.one_minus_q) + c.kp * fmin((REAL)cap, 1 / p.one_minus_q));
     return cap;
 }
