@@ -179,10 +179,10 @@ def test_a_rule_finer_than_a_chunk_is_summed_in_spans_to_rounding():
     span by span and the spans summed in order: the one matrix product over every node to the rounding of
     reordered sums (√M·ε/2·Σ|w| ~ 1e-13 for random-walk rounding; seen 2e-15); a span shifted by one node
     moves it by more."""
-    from lutbake.spectral.reference import _CELLS_PER_CHUNK, _rule, spectral_reflectance
+    from lutbake.spectral.reference import _CELLS_PER_CHUNK, _rule, unpolarized_reflectance
 
     pts = FilmPoints.build(eta2=1.67, cos_theta=[1e-4, 3e-3, 0.5], thickness_nm=500.0, eta3=1.0, kappa3=0.0)
     rule = _rule(2048, "cie1931", "rec709", "rgb")
     assert rule.count > 10 * _CELLS_PER_CHUNK
-    whole = spectral_reflectance(pts, rule.wavelength_nm)[2] @ rule.weights.T
+    whole = unpolarized_reflectance(pts, rule.wavelength_nm) @ rule.weights.T
     np.testing.assert_allclose(_integrate(pts, rule), whole, rtol=0, atol=1e-13)
