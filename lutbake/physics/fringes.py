@@ -25,7 +25,7 @@ Rounding model (tests/physics/test_fringes.py): R is backward stable like optics
 exact R of inputs each within a few u (u = 2⁻⁵³) of theirs, so its error is bounded by the same
 sensitivity Σᵢ |xᵢ ∂R/∂xᵢ| (the phase's Φ ∂R/∂Φ, large in thick or high-finesse films, included).
 Points outside the model — a named (dispersive) material, an evanescent or nearly evanescent film
-(g2 < MIN_FILM_COS·η2), cos θ1 ≤ MIN_COS (grazing, where optics sets r = −1, and subnormal angles whose
+(η2 < η1 and g2 < MIN_FILM_COS·η2), cos θ1 ≤ MIN_COS (grazing, where optics sets r = −1, and subnormal angles whose
 squares underflow) — are for optics.film_reflectance (lutbake/spectral/reference.py picks per point).
 """
 
@@ -46,10 +46,12 @@ if TYPE_CHECKING:
 __all__ = ["FringeTerms", "fringe_terms", "fringe_polarized", "fringe_reflectance", "fringe_points"]
 
 # Below MIN_COS the squares of the per-point terms could leave float64's normal range (1e-30² ≫ 1e-308).
-# Near the film's critical angle r12 → 1 and r23 → −1 make both sums 0/0-like (optics' W form avoids the
-# division by g2 that this form hides): at cos θ2 = g2/η2 ~ 2e-3 the error reaches 5x the backward bound,
-# at ≥ 0.03 it stays under a tenth of it (tests/physics/test_fringes.py), so the film must lean less
-# than arccos(MIN_FILM_COS) ≈ 86.4°. Points outside take optics' path, which handles them by construction.
+# Near the critical angle of a film less dense than the ambient (η2 < η1, g2 → 0 while Y1 does not)
+# r12 → 1 and r23 → −1 make both sums 0/0-like (optics' W form avoids the division by g2 that this form
+# hides): at cos θ2 = g2/η2 ~ 2e-3 the error reached 5x the backward bound, at ≥ 0.03 under a tenth of it,
+# so such a film must lean less than arccos(MIN_FILM_COS) ≈ 86.4°. A film at least as dense as the ambient
+# has g2 ≥ Y1: small g2 only at grazing incidence, where r12 stays ≤ 0 and nothing cancels (tested down to
+# cos θ1 = 1e-12 with η2 = η1(1 + 1e-12)). Points outside take optics' path, which handles them by construction.
 MIN_COS = 1e-30
 MIN_FILM_COS = 1.0 / 16.0
 
@@ -73,16 +75,18 @@ class FringeTerms:
 
 def fringe_points(stack: FilmPoints) -> np.ndarray:
     """(P,) True where ``fringe_reflectance`` applies: constant indices, cos θ1 > MIN_COS and a propagating
-    wave in the lossless film leaning less than the critical angle allows (g2 ≥ MIN_FILM_COS·η2)."""
+    wave in the lossless film (g2 real > 0), at least as dense as the ambient or leaning less than its
+    critical angle allows (g2 ≥ MIN_FILM_COS·η2)."""
     if stack.film is not None or stack.base is not None:
         return np.zeros(len(stack), bool)
     e1, e2, c1 = np.broadcast_arrays(*(np.asarray(v, float) for v in (stack.eta1, stack.eta2, stack.cos_theta)))
     g2 = normal_admittance(e2, 0.0, e1, c1)
-    return np.asarray((c1 > MIN_COS) & (g2.imag == 0) & (g2.real >= MIN_FILM_COS * e2)).reshape(len(stack))
+    leaning = (e2 >= e1) | (g2.real >= MIN_FILM_COS * e2)  # a film denser than the ambient has no critical angle
+    return np.asarray((c1 > MIN_COS) & (g2.imag == 0) & (g2.real > 0) & leaning).reshape(len(stack))
 
 
 def _polarization(y1: np.ndarray, y2: np.ndarray, y3: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(num_floor, weight, β, den_floor, δ, transmitted) of one polarization (Y1, Y2 real > 0): the
+    """(num_floor, weight, e^{iβ}, den_floor, e^{iδ}, transmitted) of one polarization (Y1, Y2 real > 0): the
     numerator's and the denominator's cos² terms share the weight 4|q|."""
     r12 = (y1 - y2) / (y1 + y2)
     r23 = (y2 - y3) / (y2 + y3)
@@ -92,8 +96,13 @@ def _polarization(y1: np.ndarray, y2: np.ndarray, y3: np.ndarray) -> tuple[np.nd
     loss23 = 4.0 * y2 * np.maximum(y3.real, 0.0) / np.abs(y2 + y3) ** 2
     q = a12 * a23
     one_minus_q = (loss12 + a12 * a12 * loss23) / (1.0 + q)
-    arg12, arg23 = np.where(r12 < 0, np.pi, 0.0), np.angle(r23)
-    return (a12 - a23) ** 2, 4.0 * q, 0.5 * (arg23 - arg12), one_minus_q**2, 0.5 * (arg12 + arg23), loss12 * loss23
+    # e^{iβ}, e^{iδ} from half-angle phasors, never from angles: a quarter turn is exact (cos(π/2) would leave
+    # 6e-17, which a thin film's tiny cos(Φ/2 + β) near a 0/0 cannot absorb); the branch of each half angle
+    # (± the phasor) only flips the sign of cos(Φ/2 + β), which enters squared.
+    half12 = np.where(r12 < 0, 1j, 1.0 + 0j)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        half23 = np.where(a23 > 0, np.sqrt(r23 / a23), 1.0 + 0j)
+    return (a12 - a23) ** 2, 4.0 * q, half23 * np.conj(half12), one_minus_q**2, half12 * half23, loss12 * loss23
 
 
 def fringe_terms(stack: FilmPoints) -> FringeTerms:
@@ -112,11 +121,11 @@ def fringe_terms(stack: FilmPoints) -> FringeTerms:
         half_phase_nm=2.0 * np.pi * d * g2,
         weight=weight,
         num_floor=num_floor,
-        num_cos=np.cos(beta),
-        num_sin=np.sin(beta),
+        num_cos=beta.real,
+        num_sin=beta.imag,
         den_floor=den_floor,
-        den_cos=np.cos(delta),
-        den_sin=np.sin(delta),
+        den_cos=delta.real,
+        den_sin=delta.imag,
         transmitted=transmitted,
     )
 

@@ -17,9 +17,10 @@ BACKWARD_U = 16  # the bound optics is held to (tests/physics/test_optics.py)
 def _receipt_cases(rng, n):
     """(η1, η2, η3, κ3, cos θ1, d, λ) columns where the receipts' truth is dear: grazing incidence (cos θ1 down to
     1e-12) over near-totally reflecting metals (κ3 to 100), black bases (η3 = η1, κ3 = 0: the glTF mapping of a
-    black metal), total reflection at a dielectric base, films up to 100 µm."""
+    black metal), total reflection at a dielectric base, films up to 100 µm, film indices down to the ambient's
+    (g2 → 0 at grazing incidence)."""
     eta1 = np.ones(n)
-    eta2 = rng.uniform(1.2, 2.5, n)
+    eta2 = np.where(rng.random(n) < 0.8, rng.uniform(1.2, 2.5, n), rng.choice([1.0, 1 + 1e-12, 1 + 1e-6, 1.01], n))
     kind = rng.integers(0, 3, n)
     eta3 = np.choose(kind, [rng.uniform(0.05, 0.5, n), eta1, rng.uniform(1.0, 1.19, n)])
     kappa3 = np.choose(kind, [rng.uniform(3.0, 100.0, n), np.zeros(n), np.zeros(n)])
@@ -95,14 +96,19 @@ def test_a_sign_slip_in_a_phase_shift_breaks_the_bound(rng):
     assert np.max(np.abs(wrong - right)) > 1e-3
 
 
+def _cos_where_film_leans(cos_theta2, eta1=1.5, eta2=1.0):
+    """cos θ1 where a film η2 under an ambient η1 carries cos θ2 (η2 cos θ2 = g2)."""
+    return np.sqrt(1 - (1 - cos_theta2**2) * (eta2 / eta1) ** 2)
+
+
 @pytest.mark.parametrize(
     ("stack", "why"),
     [
         ((1.0, 1.5, 0.2, 3.0, 0.0, 300.0), "grazing incidence"),
         ((1.0, 1.5, 0.2, 3.0, 5e-324, 300.0), "subnormal cos θ1"),
         ((1.0, 1.5, 0.2, 3.0, 1e-31, 300.0), "cos θ1 below MIN_COS"),
-        ((2.0, 1.5, 1.0, 0.0, 0.3, 300.0), "evanescent film"),
-        ((1.0, 1.0, 1.0, 0.0, 0.5 * MIN_FILM_COS, 300.0), "film leaning past arccos(MIN_FILM_COS)"),
+        ((1.5, 1.0, 1.0, 0.0, _cos_where_film_leans(0.5 * MIN_FILM_COS), 300.0), "film past arccos(MIN_FILM_COS)"),
+        ((1.5, 1.0, 1.0, 0.0, 0.5, 300.0), "film less dense than the ambient, evanescent"),
     ],
 )
 def test_stacks_outside_the_model_are_left_to_optics(stack, why):
