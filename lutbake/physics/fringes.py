@@ -17,16 +17,22 @@ cancels: where the film resonates (|q| → 1 at grazing incidence over a near-to
 the denominator's minimum (1 − |q|)² tiny) the minimum is computed to a few ulps from
 1 − |q|² = (1 − r12²) + r12² (1 − |r23|²), 1 − r12² = 4 Y1 Y2 / (Y1 + Y2)², 1 − |r23|² =
 4 Y2 Re Y3 / |Y2 + Y3|², never as 1 + |q|² − 2|q|, whose rounding would be (1 − |q|)⁻² times larger.
-The numerator's difference |r12| − |r23| may cancel near R = 0: that costs R relative, not absolute,
-precision. cos(Φ/2 + β) = cos(Φ/2) cos β − sin(Φ/2) sin β: one cos and one sin of Φ/2 per
-wavelength serve both polarizations and both sums; the rest is per point.
+The numerator's difference |r12| − |r23| is taken as (1 − |r23|²)/(1 + |r23|) − (1 − r12²)/(1 + |r12|)
+(both near 1 at grazing incidence over a base matching the ambient, their difference still sets R); it may
+cancel near R = 0, which costs R relative, not absolute, precision; above R = 1/2 the numerator is taken
+as the denominator less (1 − r12²)(1 − |r23|²) (R + T = 1, as optics takes 1 − T), so the cancellation
+never costs absolute precision where R is large.
+cos(Φ/2 + β) = cos(Φ/2) cos β − sin(Φ/2) sin β, with e^{iβ} and e^{iδ} from exact half-angle phasors (no
+angle, no cos(π/2) residue): one cos and one sin of Φ/2 per wavelength serve both polarizations and both
+sums; the rest is per point (docs/optics.md).
 
 Rounding model (tests/physics/test_fringes.py): R is backward stable like optics.film_reflectance, the
 exact R of inputs each within a few u (u = 2⁻⁵³) of theirs, so its error is bounded by the same
 sensitivity Σᵢ |xᵢ ∂R/∂xᵢ| (the phase's Φ ∂R/∂Φ, large in thick or high-finesse films, included).
-Points outside the model — a named (dispersive) material, an evanescent or nearly evanescent film
-(η2 < η1 and g2 < MIN_FILM_COS·η2), cos θ1 ≤ MIN_COS (grazing, where optics sets r = −1, and subnormal angles whose
-squares underflow) — are for optics.film_reflectance (lutbake/spectral/reference.py picks per point).
+Points outside the model — a named (dispersive) material, an evanescent film or one less dense than the
+ambient near its critical angle (η2 < η1 and g2 < MIN_FILM_COS·η2), cos θ1 ≤ MIN_COS (grazing, where
+optics sets r = −1, and subnormal angles whose squares underflow) — are for optics.film_reflectance
+(lutbake/spectral/reference.py picks per point).
 """
 
 from __future__ import annotations
@@ -102,7 +108,10 @@ def _polarization(y1: np.ndarray, y2: np.ndarray, y3: np.ndarray) -> tuple[np.nd
     half12 = np.where(r12 < 0, 1j, 1.0 + 0j)
     with np.errstate(invalid="ignore", divide="ignore"):
         half23 = np.where(a23 > 0, np.sqrt(r23 / a23), 1.0 + 0j)
-    return (a12 - a23) ** 2, 4.0 * q, half23 * np.conj(half12), one_minus_q**2, half12 * half23, loss12 * loss23
+    # |r12| − |r23| as (1 − |r23|) − (1 − |r12|), each from its loss: at grazing incidence over a base that
+    # nearly matches the ambient both round to 1 while their difference (~ the losses, 1e-17) still sets R.
+    gap = loss23 / (1.0 + a23) - loss12 / (1.0 + a12)
+    return gap * gap, 4.0 * q, half23 * np.conj(half12), one_minus_q**2, half12 * half23, loss12 * loss23
 
 
 def fringe_terms(stack: FilmPoints) -> FringeTerms:

@@ -3,8 +3,10 @@
 For each point, RGB (or XYZ) = ∫ w(λ)·R(λ) dλ over 360–830 nm, with w the
 piecewise-linear illuminant-weighted sensitivity (lutbake/physics/colorimetry.py) and R the
 float64 Airy reflectance (lutbake/physics/optics.py), indices taken at each wavelength for
-dispersive materials. The integral runs Gauss–Legendre on every 1 nm panel
-and doubles the nodes per panel until two successive results agree to
+dispersive materials; for constant indices and a propagating film R is taken in its phase-only
+form (lutbake/physics/fringes.py: one cos and one sin per node, the same R to rounding). The
+integral runs Gauss–Legendre on every 1 nm panel and doubles the nodes per panel until two
+successive results agree to
 ``tolerance`` in every channel; the finer result is returned. Gauss–Legendre
 converges exponentially on a resolved integrand, so the returned value's
 error is far below the last difference (tests check ≤ 1e-7 against a rule
