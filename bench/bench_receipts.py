@@ -1,17 +1,20 @@
-"""Receipts of the IridescenceMetallicSpheres sphere grid (`lutbake report OUT/ASSET.json`): the batched ground
-truth (consecutive materials' stacks integrated together, once per distinct stack) against the per-part one (once
-per part and mapping), in one run.
+"""Receipts of the IridescenceMetallicSpheres sphere grid (`lutbake report OUT/ASSET.json`) with the ground truth's
+reflectance by physics/fringes.py where it applies (path "fringes", what `report` runs) against optics at every
+node (path "optics", the truth before it), in one run; "per-part" (the truth once per part and mapping instead of
+once per distinct stack over batched materials, fringes on) can be added.
 
-    python bench/bench_receipts.py [--every 8] [--full] [--points 1000] [--work DIR] [--json FILE]
+    python bench/bench_receipts.py [--every 8] [--full] [--points 1000] [--paths fringes,optics] [--work DIR]
+                                   [--json FILE]
 
 The asset is rebuilt from tests/fixtures/khronos_iridescence.json by tests/gltf_assets.py (343 spheres: film
 thickness x grey metal base x film index); --every K keeps every K-th sphere (default 8: 43 materials, every
 film index and base level present), --full keeps all 343. It is baked once (`lutbake bake --gltf`, kept in
 --work, reused when the folder holds its manifest). Each path then runs the receipts in a fresh interpreter
 (the library call `report` makes, --points per part, seed 0), alternating the order over --repeats:
-wall, CPU/wall, peak resident memory, ground-truth integrations (calls to the truth) and points integrated.
-Reported: each path's figures, batched / per-part wall, and the largest difference between the two
-receipts' numbers (the same receipts to rounding: the truth differs only by where points fall in its chunks).
+wall, CPU/wall, peak resident memory, ground-truth integrations (calls to the truth), points integrated and
+reflectance evaluations (point x wavelength node pairs, and the share fringes took). Reported: each path's
+figures, the first path's wall over the second's, and the largest difference between their receipts' numbers
+(relative above 1; the truth of both is within rounding of the exact integral, docs/optics.md).
 """
 
 import argparse
@@ -49,30 +52,48 @@ def baked(work: Path, every: int) -> Path:
     return manifest
 
 
-def child(manifest: str, batched: bool, points: int, out: str) -> None:
-    """One path's receipts in this interpreter, timed, with the truth's calls counted."""
-    from lutbake.scene.gltf import receipt, scoring
+PATHS = {"fringes": (True, True), "optics": (True, False), "per-part": (False, True)}  # (batched, fringes)
 
+
+def child(manifest: str, path: str, points: int, out: str) -> None:
+    """One path's receipts in this interpreter, timed, with the truth's calls and reflectance nodes counted."""
+    import numpy as np
+
+    from lutbake.scene.gltf import receipt, scoring
+    from lutbake.spectral import reference
+
+    batched, fringes = PATHS[path]
     counts = {"truth_integrations": 0, "points_integrated": 0}
+    nodes: list[tuple[int, int]] = []  # (pairs, pairs by fringes) per call; list.append is atomic across threads
 
     def counted(stack):
         counts["truth_integrations"] += 1
         counts["points_integrated"] += len(stack)
         return truth(stack)
 
-    truth = scoring.truth_rgb
+    def counted_reflectance(points, wavelength_nm):
+        fast = int(np.count_nonzero(reference.fringe_points(points)))
+        nodes.append((len(points) * wavelength_nm.size, fast * wavelength_nm.size))
+        return reflectance(points, wavelength_nm)
+
+    truth, reflectance = scoring.truth_rgb, reference.unpolarized_reflectance
     receipt.truth_rgb = scoring.truth_rgb = counted
+    reference.unpolarized_reflectance = counted_reflectance
+    if not fringes:
+        reference.fringe_points = lambda points: np.zeros(len(points), bool)
     wall, cpu = time.perf_counter(), time.process_time()
     receipts = receipt.gltf_receipts(manifest, points, 0, shared_truth=batched)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    pairs = sum(n for n, _ in nodes)
     figures = {"wall_s": wall, "cpu_over_wall": cpu / wall, "peak_rss_mib": peak_mib, **counts}
+    figures |= {"node_evaluations": pairs, "fringe_share": sum(f for _, f in nodes) / max(pairs, 1)}
     Path(out).write_text(json.dumps({"figures": figures, "receipts": receipts}))
 
 
-def run_path(manifest: Path, batched: bool, points: int, folder: Path) -> dict:
-    out = folder / f"{'batched' if batched else 'per-part'}.json"
-    argv = [sys.executable, __file__, "--child", str(manifest), "--batched", str(int(batched))]
+def run_path(manifest: Path, path: str, points: int, folder: Path) -> dict:
+    out = folder / f"{path}.json"
+    argv = [sys.executable, __file__, "--child", str(manifest), "--path", path]
     subprocess.run([*argv, "--points", str(points), "--result", str(out)], check=True)
     return json.loads(out.read_text())
 
@@ -98,35 +119,39 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=8, help="keep every K-th sphere (default 8: 43 materials)")
     ap.add_argument("--full", action="store_true", help="all 343 spheres (same as --every 1)")
     ap.add_argument("--points", type=int, default=1000, help="points per part (report's --points; default 1000)")
+    ap.add_argument("--paths", default="fringes,optics", help="two or more of fringes, optics, per-part")
     ap.add_argument("--repeats", type=int, default=1, help="runs of each path, order alternated")
     ap.add_argument("--work", type=Path, help="folder keeping the bake between runs (default: a temporary one)")
     ap.add_argument("--json", type=Path, help="write the figures here")
     ap.add_argument("--child", help=argparse.SUPPRESS)
-    ap.add_argument("--batched", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--path", choices=PATHS, help=argparse.SUPPRESS)
     ap.add_argument("--result", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
-        return child(args.child, bool(args.batched), args.points, args.result)
+        return child(args.child, args.path, args.points, args.result)
+    paths = args.paths.split(",")
+    if len(paths) < 2 or not set(paths) <= set(PATHS):
+        raise SystemExit(f"--paths {args.paths!r}: give two or more of {', '.join(PATHS)}")
     every = 1 if args.full else args.every
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         manifest = baked(work, every)
-        runs: dict[str, list] = {"batched": [], "per-part": []}
+        runs: dict[str, list] = {path: [] for path in paths}
         for k in range(args.repeats):
-            for batched in (True, False) if k % 2 == 0 else (False, True):
-                result = run_path(manifest, batched, args.points, Path(tmp))
-                runs["batched" if batched else "per-part"].append(result)
-                print(("batched " if batched else "per-part"), json.dumps(result["figures"]), flush=True)
-    first = {name: r[0]["receipts"] for name, r in runs.items()}
-    diff, where = largest_difference(first["batched"], first["per-part"])
+            for path in paths if k % 2 == 0 else paths[::-1]:
+                result = run_path(manifest, path, args.points, Path(tmp))
+                runs[path].append(result)
+                print(f"{path:9s}", json.dumps(result["figures"]), flush=True)
+    first, second = (runs[path][0]["receipts"] for path in paths[:2])
+    diff, where = largest_difference(first, second)
     walls = {name: min(r["figures"]["wall_s"] for r in rs) for name, rs in runs.items()}
     doc = {
-        "asset": f"{ASSET}, every {every}th sphere ({len(first['batched']['materials'])} materials)",
+        "asset": f"{ASSET}, every {every}th sphere ({len(first['materials'])} materials)",
         "points_per_part": args.points,
         "load_average": os.getloadavg(),
         "paths": {name: [r["figures"] for r in rs] for name, rs in runs.items()},
-        "batched_over_per_part_wall": walls["batched"] / walls["per-part"],
+        f"{paths[0]}_over_{paths[1]}_wall": walls[paths[0]] / walls[paths[1]],
         "largest_receipt_difference": {"value": diff, "at": where},
     }
     print(json.dumps({k: v for k, v in doc.items() if k != "paths"}, indent=2))

@@ -3,8 +3,10 @@
 For each point, RGB (or XYZ) = ∫ w(λ)·R(λ) dλ over 360–830 nm, with w the
 piecewise-linear illuminant-weighted sensitivity (lutbake/physics/colorimetry.py) and R the
 float64 Airy reflectance (lutbake/physics/optics.py), indices taken at each wavelength for
-dispersive materials. The integral runs Gauss–Legendre on every 1 nm panel
-and doubles the nodes per panel until two successive results agree to
+dispersive materials; for constant indices and a propagating film R is taken in its phase-only
+form (lutbake/physics/fringes.py: one cos and one sin per node, the same R to rounding). The
+integral runs Gauss–Legendre on every 1 nm panel and doubles the nodes per panel until two
+successive results agree to
 ``tolerance`` in every channel; the finer result is returned. Gauss–Legendre
 converges exponentially on a resolved integrand, so the returned value's
 error is far below the last difference (tests check ≤ 1e-7 against a rule
@@ -23,11 +25,19 @@ import numpy as np
 import numpy.typing as npt
 
 from lutbake.io.cores import usable_cores
+from lutbake.physics.fringes import fringe_points, fringe_reflectance, fringe_terms
 from lutbake.physics.optics import film_reflectance
 from lutbake.physics.points import FilmPoints
 from lutbake.spectral.rules import SpectralRule, panel_rule
 
-__all__ = ["ReferenceResult", "reference_colour", "reference_rgb", "spectral_reflectance", "subset"]
+__all__ = [
+    "ReferenceResult",
+    "reference_colour",
+    "reference_rgb",
+    "spectral_reflectance",
+    "subset",
+    "unpolarized_reflectance",
+]
 
 DEFAULT_TOLERANCE = 1e-9
 _START_NODES_PER_NM = 2
@@ -52,6 +62,20 @@ def spectral_reflectance(points: FilmPoints, wavelength_nm: npt.ArrayLike) -> tu
     return film_reflectance(points.as_column(), np.asarray(wavelength_nm, float))
 
 
+def unpolarized_reflectance(points: FilmPoints, wavelength_nm: np.ndarray) -> np.ndarray:
+    """R (P, M) of every point at every wavelength: the Airy sum as a function of its phase
+    (physics/fringes.py: constant indices and a propagating film, every glTF receipt's stack; one cos and one
+    sin per node) where it applies, optics.film_reflectance at the rest."""
+    fast = fringe_points(points)
+    if fast.all():
+        return fringe_reflectance(fringe_terms(points), wavelength_nm)
+    out = np.empty((len(points), wavelength_nm.size))
+    if fast.any():
+        out[fast] = fringe_reflectance(fringe_terms(subset(points, fast)), wavelength_nm)
+    out[~fast] = spectral_reflectance(subset(points, ~fast), wavelength_nm)[2]
+    return out
+
+
 def _integrate(points: FilmPoints, rule: SpectralRule, pool: ThreadPoolExecutor | None = None) -> np.ndarray:
     """The rule's sums at every point, chunk by chunk on ``pool``'s threads (numpy's loops release the
     interpreter, so the chunks run on every core), else in this thread. A rule finer than a chunk (a resonant
@@ -65,7 +89,7 @@ def _integrate(points: FilmPoints, rule: SpectralRule, pool: ThreadPoolExecutor 
     def chunk(start: int, node: int) -> None:
         part = subset(points, slice(start, start + step))
         nodes = slice(node, node + span)
-        reflectance = spectral_reflectance(part, rule.wavelength_nm[nodes])[2]
+        reflectance = unpolarized_reflectance(part, rule.wavelength_nm[nodes])
         partial[node // span, start : start + step] = reflectance @ rule.weights[:, nodes].T
 
     jobs = [(start, node) for start in range(0, len(points), step) for node in spans]
@@ -75,7 +99,7 @@ def _integrate(points: FilmPoints, rule: SpectralRule, pool: ThreadPoolExecutor 
 
 
 def subset(points: FilmPoints, index: slice | np.ndarray) -> FilmPoints:
-    """The points at ``index`` (a slice or an index array)."""
+    """The points at ``index`` (a slice, an index array or a (P,) mask)."""
     return FilmPoints(
         eta1=points.eta1[index],
         eta2=points.eta2[index],

@@ -1,10 +1,9 @@
 """The float64 Airy reflectance against tmm, mpmath at 50 digits, and identities."""
 
-import mpmath as mp
 import numpy as np
 import pytest
 import tmm
-from airy_mp import airy_reflectance_exact, airy_reflectance_mp
+from airy_mp import backward_error_ratios, extreme_cases, random_cases
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -21,26 +20,8 @@ def _stack(eta1, eta2, eta3, kappa3, cos_theta, thickness_nm):
     return FilmPoints(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta, thickness_nm=thickness_nm)
 
 
-def _random_cases(rng, n):
-    """Random stacks covering TIR at top and base, η3 = η2, metals, grazing, d = 0."""
-    eta1 = rng.choice([1.0, 1.0, 1.33, 2.0], n)
-    eta2 = rng.uniform(1.0, 3.0, n)
-    eta3 = rng.uniform(1.0, 4.0, n)
-    kind = rng.integers(0, 6, n)
-    eta3 = np.where(kind == 1, eta2, eta3)  # film matches base
-    eta3 = np.where(kind == 2, eta2 * rng.uniform(0.3, 0.95, n), eta3)  # TIR at the base
-    eta1 = np.where(kind == 3, eta2 * rng.uniform(1.05, 2.0, n), eta1)  # TIR at the top
-    kappa3 = rng.choice([0.0, 0.0, 10.0, -1.0], n)
-    kappa3 = np.where(kappa3 < 0, rng.uniform(0, 10, n), kappa3)
-    theta = np.where(kind == 4, rng.uniform(89.0, 89.999, n), rng.uniform(0, 89.999, n))
-    d = rng.choice([0.0, 5000.0, -1.0, -1.0], n)
-    d = np.where(d < 0, rng.uniform(0, 5000, n), d)
-    lam = rng.uniform(360, 830, n)
-    return eta1, eta2, eta3, kappa3, theta, d, lam
-
-
-def test_matches_tmm_on_10000_random_cases(rng):
-    cases = _random_cases(rng, 10_000)
+def test_matches_tmm_on_10000random_cases(rng):
+    cases = random_cases(rng, 10_000)
     eta1, eta2, eta3, kappa3, theta, d, lam = cases
     rs, rp, _ = film_reflectance(_stack(eta1, eta2, eta3, kappa3, np.cos(np.radians(theta)), d), lam)
     worst = 0.0
@@ -53,40 +34,7 @@ def test_matches_tmm_on_10000_random_cases(rng):
     assert {0.0, 5000.0} <= set(d) and {0.0, 10.0} <= set(kappa3)
 
 
-def _extreme_cases(rng, thickness_nm=(0.0, 2000.0)):
-    """≥ 200 stiff stacks: grazing, near-critical films, huge κ, TIR, η3 ≈ η2."""
-    cases = []
-    for _ in range(50):
-        e2 = rng.uniform(1.1, 3.0)
-        lam = rng.uniform(360, 830)
-        d = rng.uniform(*thickness_nm)
-        near = 1 + rng.choice([-1e-9, 1e-9, -1e-6, 1e-6])
-        cases += [
-            (1.0, e2, rng.uniform(1, 4), rng.uniform(0, 100), rng.choice([1e-12, 1e-9, 1e-6, 1e-3]), d, lam),
-            (3.5, e2, rng.uniform(1, 3), 0.0, np.sqrt(1 - (e2 / 3.5) ** 2 * near), d, lam),  # film near critical
-            (1.0, e2, e2 * (1 + rng.choice([-1e-12, 1e-12])), rng.choice([0.0, 1e-9]), rng.uniform(0, 1), d, lam),
-            (1.0, e2, 1.0, 0.0, rng.uniform(0, 1), d, lam),  # TIR at the base (η3 = 1 < η2)
-            (1.0, e2, rng.uniform(1, 3), 0.0, np.cos(np.arctan(e2)) * near, d, lam),  # near Brewster (top)
-        ]
-    return cases
-
-
 BACKWARD_U = 16  # the float64 R is the exact R of inputs each within 16u, rounded within 16u (checked below)
-
-
-def _input_sensitivity(case):
-    """Σ_i |x_i ∂R/∂x_i| over the seven inputs, for (R_s, R_p): how far R moves when every input moves by
-    one part in its own value (central differences at 50 digits, relative step 1e-20)."""
-    out = np.zeros(2)
-    with mp.workdps(50):
-        for i, x in enumerate(case):
-            step = mp.mpf(x) * mp.mpf(10) ** -20
-            up, down = ([mp.mpf(v) + sign * step * (j == i) for j, v in enumerate(case)] for sign in (1, -1))
-            out += [
-                float(abs(a - b) / (2 * mp.mpf(10) ** -20))
-                for a, b in zip(airy_reflectance_exact(*up), airy_reflectance_exact(*down))
-            ]
-    return out
 
 
 def _mp_errors(cases):
@@ -95,29 +43,24 @@ def _mp_errors(cases):
     BACKWARD_U·u, so |ΔR| ≤ BACKWARD_U·u·(Σ_i |x_i ∂R/∂x_i| + 1): ≤ 1 where that holds. The conditioning
     near the critical angle, at grazing incidence and at high finesse is the sensitivity's, not a
     constant's (measured ≤ 1.1 u·(Σ + 1) on an AMD Zen 4)."""
-    ratios = []
-    for case in cases:
-        ours = np.array(film_reflectance(_stack(*case[:6]), case[6])[:2])
-        ref = np.array(airy_reflectance_mp(*case))
-        ratios.append(np.abs(ours - ref) / (BACKWARD_U * U * (_input_sensitivity(case) + 1)))
-    return np.array(ratios)
+    return backward_error_ratios(lambda case: film_reflectance(_stack(*case[:6]), case[6])[:2], cases, BACKWARD_U)
 
 
 def test_matches_textbook_airy_at_50_digits(rng):
-    cases = _extreme_cases(rng)
+    cases = extreme_cases(rng)
     assert len(cases) >= 200
     assert _mp_errors(cases).max() <= 1
 
 
 def test_thick_films_within_phase_conditioning_of_50_digits(rng):
     """Φ ~ 4000 rad: one ulp of Φ alone moves R by ~1e-13; the thickness's share of the sensitivity is Φ ∂R/∂Φ."""
-    cases = _extreme_cases(rng, thickness_nm=(5e4, 1e5))[::5]
+    cases = extreme_cases(rng, thickness_nm=(5e4, 1e5))[::5]
     assert _mp_errors(cases).max() <= 1
 
 
 @pytest.mark.parametrize("pol", [0, 1])
 def test_zero_thickness_is_the_bare_ambient_base_interface(rng, pol):
-    e1, e2, e3, k3, theta, _, lam = _random_cases(rng, 500)
+    e1, e2, e3, k3, theta, _, lam = random_cases(rng, 500)
     c = np.cos(np.radians(theta))
     film = film_reflectance(_stack(e1, e2, e3, k3, c, 0.0), lam)[pol]
     bare = film_reflectance(_stack(e1, e1, e3, k3, c, 0.0), lam)[pol]
@@ -125,7 +68,7 @@ def test_zero_thickness_is_the_bare_ambient_base_interface(rng, pol):
 
 
 def test_film_matching_the_ambient_is_the_bare_interface(rng):
-    e1, _, e3, k3, theta, d, lam = _random_cases(rng, 500)
+    e1, _, e3, k3, theta, d, lam = random_cases(rng, 500)
     c = np.cos(np.radians(theta))
     film = film_reflectance(_stack(e1, e1, e3, k3, c, d), lam)
     bare = film_reflectance(_stack(e1, e1, e3, k3, c, 0.0), lam)
@@ -134,7 +77,7 @@ def test_film_matching_the_ambient_is_the_bare_interface(rng):
 
 
 def test_base_matching_the_film_is_the_ambient_film_interface(rng):
-    e1, e2, _, _, theta, d, lam = _random_cases(rng, 500)
+    e1, e2, _, _, theta, d, lam = random_cases(rng, 500)
     c = np.cos(np.radians(theta))
     film = film_reflectance(_stack(e1, e2, e2, 0.0, c, d), lam)
     g1, g2 = e1 * c, np.sqrt(e2**2 - e1**2 * (1 - c**2) + 0j)
@@ -145,7 +88,7 @@ def test_base_matching_the_film_is_the_ambient_film_interface(rng):
 
 
 def test_grazing_incidence_reflects_everything(rng):
-    e1, e2, e3, k3, _, d, lam = _random_cases(rng, 200)
+    e1, e2, e3, k3, _, d, lam = random_cases(rng, 200)
     for c in (0.0, 1e-9):
         r = film_reflectance(_stack(e1, e2, e3, k3, c, d), lam)[2]
         assert np.all(np.abs(r - 1.0) <= 1e-7 if c else r == 1.0)
@@ -154,7 +97,7 @@ def test_grazing_incidence_reflects_everything(rng):
 
 
 def test_energy_conservation_on_dielectric_bases(rng):
-    e1, e2, e3, _, theta, d, lam = _random_cases(rng, 5000)
+    e1, e2, e3, _, theta, d, lam = random_cases(rng, 5000)
     c = np.cos(np.radians(theta))
     r = film_reflectance(_stack(e1, e2, e3, 0.0, c, d), lam)
     t = film_transmittance(_stack(e1, e2, e3, 0.0, c, d), lam)
@@ -163,7 +106,7 @@ def test_energy_conservation_on_dielectric_bases(rng):
 
 
 def test_transmittance_matches_tmm_on_absorbing_bases(rng):
-    e1, e2, e3, _, theta, d, lam = _random_cases(rng, 300)
+    e1, e2, e3, _, theta, d, lam = random_cases(rng, 300)
     k3 = rng.uniform(0, 5, 300)
     t = film_transmittance(_stack(e1, e2, e3, k3, np.cos(np.radians(theta)), d), lam)
     for i in range(300):
@@ -226,7 +169,7 @@ def test_per_point_admittances_and_the_complement_where_taken_equal_the_per_node
     (P, M) first, with both branches taken by np.where over every node, gives the same to the rounding of a
     few operations (~40 U: the operands' order is the same, vectorized and scalar loops round alike up to an
     FMA)."""
-    eta1, eta2, eta3, kappa3, theta, d, _ = _random_cases(rng, 300)
+    eta1, eta2, eta3, kappa3, theta, d, _ = random_cases(rng, 300)
     column = _stack(eta1, eta2, eta3, kappa3, np.cos(np.radians(theta)), d).as_column()
     lam = np.linspace(360.0, 830.0, 97)
     per_node = FilmPoints(**{f: np.broadcast_to(getattr(column, f), (300, 97)) for f in _FIELDS})

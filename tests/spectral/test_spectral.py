@@ -179,10 +179,54 @@ def test_a_rule_finer_than_a_chunk_is_summed_in_spans_to_rounding():
     span by span and the spans summed in order: the one matrix product over every node to the rounding of
     reordered sums (√M·ε/2·Σ|w| ~ 1e-13 for random-walk rounding; seen 2e-15); a span shifted by one node
     moves it by more."""
-    from lutbake.spectral.reference import _CELLS_PER_CHUNK, _rule, spectral_reflectance
+    from lutbake.spectral.reference import _CELLS_PER_CHUNK, _rule, unpolarized_reflectance
 
     pts = FilmPoints.build(eta2=1.67, cos_theta=[1e-4, 3e-3, 0.5], thickness_nm=500.0, eta3=1.0, kappa3=0.0)
     rule = _rule(2048, "cie1931", "rec709", "rgb")
     assert rule.count > 10 * _CELLS_PER_CHUNK
-    whole = spectral_reflectance(pts, rule.wavelength_nm)[2] @ rule.weights.T
+    whole = unpolarized_reflectance(pts, rule.wavelength_nm) @ rule.weights.T
     np.testing.assert_allclose(_integrate(pts, rule), whole, rtol=0, atol=1e-13)
+
+
+def _receipt_points(rng, n):
+    """Stacks like a glTF receipt's dear ones: η1 = 1, grazing to normal incidence over near-totally reflecting
+    metals, black bases (η3 = 1, κ3 = 0) and dielectrics."""
+    kind = rng.integers(0, 3, n)
+    return FilmPoints.build(
+        eta2=rng.uniform(1.2, 2.5, n),
+        thickness_nm=rng.uniform(0, 1500, n),
+        cos_theta=np.where(kind == 0, rng.choice([1e-3, 1e-2, 0.05], n), rng.uniform(0.05, 1, n)),
+        eta3=np.choose(kind, [rng.uniform(0.05, 0.5, n), np.ones(n), rng.uniform(1.0, 2.0, n)]),
+        kappa3=np.choose(kind, [rng.uniform(3, 30, n), np.zeros(n), np.zeros(n)]),
+    )
+
+
+def test_the_truth_by_fringes_is_the_truth_by_optics_to_rounding(rng, monkeypatch):
+    """reference_colour with physics/fringes.py (where it applies) and with optics at every node (the truth
+    before it). Each node's R from either is within 16u·(Σ + 1) of the exact R (tests/physics: Σ the inputs'
+    sensitivity, here by differences of optics), each sum of M products rounds by ~√M·u·Σ|w R| (random walk),
+    so at a point that stops at the same rule the colours differ by ≤ Σ_k |w_k|·32u·(Σ_k + 1) + 2√M·u·Σ|w|;
+    where rounding moves the stop by one level (a last difference within that of the 1e-9 tolerance), by at
+    most the tolerance more."""
+    from airy_mp import optics_sensitivity
+
+    from lutbake.spectral import reference
+
+    u = np.finfo(float).eps / 2
+    pts = _receipt_points(rng, 24)
+    fringes = reference_colour(pts)
+    monkeypatch.setattr(reference, "fringe_points", lambda points: np.zeros(len(points), bool))
+    optics = reference_colour(pts)
+    assert np.mean(fringes.nodes_per_nm == optics.nodes_per_nm) >= 0.9
+    assert fringes.nodes_per_nm.max() >= 64  # resonant points among them
+    for i in range(len(pts)):
+        rule = panel_rule(int(fringes.nodes_per_nm[i]))
+        fields = (pts.eta1, pts.eta2, pts.eta3, pts.kappa3, pts.cos_theta, pts.thickness_nm)
+        columns = [np.full(rule.count, f[i]) for f in fields] + [rule.wavelength_nm]
+        sensitivity = 0.5 * optics_sensitivity(columns).sum(axis=0)  # R = (R_s + R_p)/2
+        bound = np.abs(rule.weights) @ (32 * u * (sensitivity + 1)) + 2 * np.sqrt(rule.count) * u * np.abs(
+            rule.weights
+        ).sum(axis=1)
+        if fringes.nodes_per_nm[i] != optics.nodes_per_nm[i]:
+            bound = bound + reference.DEFAULT_TOLERANCE
+        assert np.all(np.abs(fringes.values[i] - optics.values[i]) <= bound), i
