@@ -288,7 +288,7 @@ def main() -> None:
         if args.overlap:
             report["overlap"] = {key: overlap(tmp, key, args.overlap) for key in keys}
         elif args.vs:
-            report["versus"] = {"vs": str(args.vs), "runtimes": versus(tmp, keys, args.reps, args.vs)}
+            report["versus"] = {"vs": args.vs.name, "runtimes": versus(tmp, keys, args.reps, args.vs)}
         else:
             report.update(against_b1_and_numpy(tmp, keys, args.reps, args.sample_rows))
     write_report(report, args.json)

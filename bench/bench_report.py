@@ -100,7 +100,7 @@ def main() -> None:
     report = {
         "lut": args.lut.name,
         "load_average": [round(v, 2) for v in os.getloadavg()],
-        "checkouts": {name: str(path) for name, path in checkouts.items()},
+        "checkouts": {name: path.name for name, path in checkouts.items()},  # names only: no machine paths
         **{name: describe(r) for name, r in runs.items()},
     }
     if args.vs:
