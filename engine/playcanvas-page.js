@@ -3,7 +3,8 @@
 // with the film's Fresnel term as output and again with the parameters each pixel used, for PlayCanvas's own
 // term and lutbake's.
 import * as pc from 'playcanvas';
-import { loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
+import { fixIridescenceThicknessMap, loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions,
+         lutbakeIridescence } from './lutbake-playcanvas.js';
 import { gltfCells, sphereCells } from './sphere-samples.js';
 import { interleavedTimes } from './cost-rounds.js';
 
@@ -117,7 +118,7 @@ window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, manif
   return { playcanvas: pc.version, cells };
 };
 
-// The glTF container at `url` loaded with `options` (lutbakeGltfOptions, or none: PlayCanvas's own loader);
+// The glTF container at `url` loaded with `options` (container asset options: lutbakeGltfOptions, STOCK_OPTIONS);
 // PlayCanvas caches a container by URL: `query` keeps loads (and their hooks) apart. Its iridescent materials.
 function loadContainer(url, query, options) {
   return new Promise((ok, no) => {
@@ -129,8 +130,19 @@ function loadContainer(url, query, options) {
   });
 }
 
+// PlayCanvas's own loader with the thickness map's fix alone (lutbake-playcanvas.js: PlayCanvas 2.23.3 does not
+// compile a material with iridescenceThicknessMap), on every KHR_materials_iridescence material.
+const STOCK_OPTIONS = {
+  material: {
+    postprocess(gltfMaterial, material) {
+      if (gltfMaterial.extensions?.KHR_materials_iridescence) fixIridescenceThicknessMap(material, device);
+    },
+  },
+};
+
 // --- glTF cost: the glTF asset at `asset` loaded four ways: none (PlayCanvas's loader, iridescence then turned
-// off: the draw without a film term), stock (PlayCanvas's own KHR_materials_iridescence, no lutbake options), and
+// off: the draw without a film term), stock (PlayCanvas's own KHR_materials_iridescence with lutbake's fix of its
+// thickness map alone, so its films follow their thickness textures as lutbake's do), and
 // with lutbakeGltfOptions serving the `lutbake bake --gltf` output at `manifest` by its routes (bake: atlas slices,
 // 4D LUTs, texture-driven metals through their F0 table) or all on the runtime table (runtime); each iridescent
 // material on the sphere, lit as in the cost above, timed in interleaved rounds; per entry (`gltfIndex|route`) the
@@ -139,8 +151,8 @@ function loadContainer(url, query, options) {
 window.lutbakePlaycanvasGltfCost = async ({ runtime: stem, asset: url, manifest, size = 64, rounds = 3, draws = 2 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
   const bake = await loadLutbakeBakePlaycanvas(manifest, device);
-  const loads = { none: await loadContainer(url, 'cost=none', undefined),
-                  stock: await loadContainer(url, 'cost=stock', undefined),
+  const loads = { none: await loadContainer(url, 'cost=none', STOCK_OPTIONS),
+                  stock: await loadContainer(url, 'cost=stock', STOCK_OPTIONS),
                   bake: await loadContainer(url, 'cost=bake', lutbakeGltfOptions({ runtime, bake, serve: 'bake' })),
                   runtime: await loadContainer(url, 'cost=runtime', lutbakeGltfOptions({ runtime, bake, serve: 'runtime' })) };
   for (const material of loads.none) {
