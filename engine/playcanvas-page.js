@@ -5,7 +5,7 @@
 import * as pc from 'playcanvas';
 import { fixIridescenceThicknessMap, loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions,
          lutbakeIridescence } from './lutbake-playcanvas.js';
-import { gltfCells, sphereCells } from './sphere-samples.js';
+import { gltfCells, sphereCells, thicknessWeights } from './sphere-samples.js';
 import { interleavedTimes } from './cost-rounds.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
@@ -21,9 +21,20 @@ sphere.addComponent('render', { type: 'sphere' });
 sphere.setLocalScale(2, 2, 2);
 app.root.addChild(sphere);
 
-// One film thickness per material (its maximum): no iridescenceThicknessMap here (lutbake-playcanvas.js
-// fixIridescenceThicknessMap makes one compile; the glTF page reads one), so the films vary by material.
-function standardMaterial(m) {
+// Film thickness weights at random per texel (the glTF thickness texture's G), read by nearest filtering, as
+// Babylon's page reads them.
+function thicknessTexture(seed) {
+  return new pc.Texture(device, {
+    name: `thickness-${seed}`, width: 64, height: 32, format: pc.PIXELFORMAT_RGBA8, mipmaps: false,
+    minFilter: pc.FILTER_NEAREST, magFilter: pc.FILTER_NEAREST,
+    addressU: pc.ADDRESS_CLAMP_TO_EDGE, addressV: pc.ADDRESS_CLAMP_TO_EDGE, levels: [thicknessWeights(seed)],
+  });
+}
+
+// A film whose thickness range is not one value reads it from a random thickness map, with lutbake's fix of
+// PlayCanvas's thickness map (lutbake-playcanvas.js: stock PlayCanvas 2.23.3 does not compile one), so
+// PlayCanvas's own term (the mode without lutbake) compiles with it too.
+function standardMaterial(m, k) {
   const material = new pc.StandardMaterial();
   material.useMetalness = true;
   material.metalness = m.metal ? 1 : 0;
@@ -34,6 +45,10 @@ function standardMaterial(m) {
   material.iridescence = 1;
   material.iridescenceRefractionIndex = m.iridescenceIOR;
   [material.iridescenceThicknessMin, material.iridescenceThicknessMax] = m.thickness;
+  if (m.thickness[0] !== m.thickness[1]) {
+    material.iridescenceThicknessMap = thicknessTexture(k + 1);
+    fixIridescenceThicknessMap(material, device);
+  }
   return material;
 }
 
@@ -64,9 +79,9 @@ window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, 
 window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
   const entries = [];
-  for (const m of materials) {
+  for (const [k, m] of materials.entries()) {
     for (const mode of ['none', 'playcanvas', 'runtime']) {
-      const material = standardMaterial(m);
+      const material = standardMaterial(m, k);
       material.useIridescence = mode !== 'none';
       if (mode === 'runtime') lutbakeIridescence(material, { runtime, metal: m.metal || undefined });
       material.update();
