@@ -157,7 +157,7 @@ def metals(size: int) -> None:
 
 def gltf_cost(size: int, rounds: int) -> None:
     """The glTF hooks' cost against each engine's own iridescence (tests/web_gltf_cost.py), the asset baked
-    once per engine by the CLI into a temporary folder under build/."""
+    once by the CLI into a temporary folder under build/ (both engines load it, thickness textures included)."""
     (ROOT / "build").mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory(dir=ROOT / "build") as folder:
         baked = bake_for_engines(Path(folder), sorted(GLTF_PACKAGES))

@@ -3,8 +3,9 @@
 // with the film's Fresnel term as output and again with the parameters each pixel used, for PlayCanvas's own
 // term and lutbake's.
 import * as pc from 'playcanvas';
-import { loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions, lutbakeIridescence } from './lutbake-playcanvas.js';
-import { gltfCells, sphereCells } from './sphere-samples.js';
+import { fixIridescenceThicknessMap, loadLutbakeBakePlaycanvas, loadLutbakeRuntime, lutbakeGltfOptions,
+         lutbakeIridescence } from './lutbake-playcanvas.js';
+import { gltfCells, sphereCells, thicknessWeights } from './sphere-samples.js';
 import { interleavedTimes } from './cost-rounds.js';
 
 const app = new pc.Application(document.getElementById('view'), { graphicsDeviceOptions: { deviceTypes: ['webgl2'] } });
@@ -20,9 +21,20 @@ sphere.addComponent('render', { type: 'sphere' });
 sphere.setLocalScale(2, 2, 2);
 app.root.addChild(sphere);
 
-// One film thickness per material (its maximum): no iridescenceThicknessMap here (lutbake-playcanvas.js
-// fixIridescenceThicknessMap makes one compile; the glTF page reads one), so the films vary by material.
-function standardMaterial(m) {
+// Film thickness weights at random per texel (the glTF thickness texture's G), read by nearest filtering, as
+// Babylon's page reads them.
+function thicknessTexture(seed) {
+  return new pc.Texture(device, {
+    name: `thickness-${seed}`, width: 64, height: 32, format: pc.PIXELFORMAT_RGBA8, mipmaps: false,
+    minFilter: pc.FILTER_NEAREST, magFilter: pc.FILTER_NEAREST,
+    addressU: pc.ADDRESS_CLAMP_TO_EDGE, addressV: pc.ADDRESS_CLAMP_TO_EDGE, levels: [thicknessWeights(seed)],
+  });
+}
+
+// A film whose thickness range is not one value reads it from a random thickness map, with lutbake's fix of
+// PlayCanvas's thickness map (lutbake-playcanvas.js: stock PlayCanvas 2.23.3 does not compile one), so
+// PlayCanvas's own term (the mode without lutbake) compiles with it too.
+function standardMaterial(m, k) {
   const material = new pc.StandardMaterial();
   material.useMetalness = true;
   material.metalness = m.metal ? 1 : 0;
@@ -33,6 +45,10 @@ function standardMaterial(m) {
   material.iridescence = 1;
   material.iridescenceRefractionIndex = m.iridescenceIOR;
   [material.iridescenceThicknessMin, material.iridescenceThicknessMax] = m.thickness;
+  if (m.thickness[0] !== m.thickness[1]) {
+    material.iridescenceThicknessMap = thicknessTexture(k + 1);
+    fixIridescenceThicknessMap(material, device);
+  }
   return material;
 }
 
@@ -63,9 +79,9 @@ window.lutbakePlaycanvas = async ({ runtime: stem, materials, modes, size = 96, 
 window.lutbakePlaycanvasCost = async ({ runtime: stem, materials, size = 256, rounds = 7, draws = 3 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
   const entries = [];
-  for (const m of materials) {
+  for (const [k, m] of materials.entries()) {
     for (const mode of ['none', 'playcanvas', 'runtime']) {
-      const material = standardMaterial(m);
+      const material = standardMaterial(m, k);
       material.useIridescence = mode !== 'none';
       if (mode === 'runtime') lutbakeIridescence(material, { runtime, metal: m.metal || undefined });
       material.update();
@@ -117,7 +133,7 @@ window.lutbakePlaycanvasGltf = async ({ runtime: stem, asset: url, metals, manif
   return { playcanvas: pc.version, cells };
 };
 
-// The glTF container at `url` loaded with `options` (lutbakeGltfOptions, or none: PlayCanvas's own loader);
+// The glTF container at `url` loaded with `options` (container asset options: lutbakeGltfOptions, STOCK_OPTIONS);
 // PlayCanvas caches a container by URL: `query` keeps loads (and their hooks) apart. Its iridescent materials.
 function loadContainer(url, query, options) {
   return new Promise((ok, no) => {
@@ -129,8 +145,19 @@ function loadContainer(url, query, options) {
   });
 }
 
+// PlayCanvas's own loader with the thickness map's fix alone (lutbake-playcanvas.js: PlayCanvas 2.23.3 does not
+// compile a material with iridescenceThicknessMap), on every KHR_materials_iridescence material.
+const STOCK_OPTIONS = {
+  material: {
+    postprocess(gltfMaterial, material) {
+      if (gltfMaterial.extensions?.KHR_materials_iridescence) fixIridescenceThicknessMap(material, device);
+    },
+  },
+};
+
 // --- glTF cost: the glTF asset at `asset` loaded four ways: none (PlayCanvas's loader, iridescence then turned
-// off: the draw without a film term), stock (PlayCanvas's own KHR_materials_iridescence, no lutbake options), and
+// off: the draw without a film term), stock (PlayCanvas's own KHR_materials_iridescence with lutbake's fix of its
+// thickness map alone, so its films follow their thickness textures as lutbake's do), and
 // with lutbakeGltfOptions serving the `lutbake bake --gltf` output at `manifest` by its routes (bake: atlas slices,
 // 4D LUTs, texture-driven metals through their F0 table) or all on the runtime table (runtime); each iridescent
 // material on the sphere, lit as in the cost above, timed in interleaved rounds; per entry (`gltfIndex|route`) the
@@ -139,8 +166,8 @@ function loadContainer(url, query, options) {
 window.lutbakePlaycanvasGltfCost = async ({ runtime: stem, asset: url, manifest, size = 64, rounds = 3, draws = 2 }) => {
   const runtime = await loadLutbakeRuntime(stem, device);
   const bake = await loadLutbakeBakePlaycanvas(manifest, device);
-  const loads = { none: await loadContainer(url, 'cost=none', undefined),
-                  stock: await loadContainer(url, 'cost=stock', undefined),
+  const loads = { none: await loadContainer(url, 'cost=none', STOCK_OPTIONS),
+                  stock: await loadContainer(url, 'cost=stock', STOCK_OPTIONS),
                   bake: await loadContainer(url, 'cost=bake', lutbakeGltfOptions({ runtime, bake, serve: 'bake' })),
                   runtime: await loadContainer(url, 'cost=runtime', lutbakeGltfOptions({ runtime, bake, serve: 'runtime' })) };
   for (const material of loads.none) {

@@ -8,12 +8,11 @@ material 2 forced to the bake (`--route 2=bake`: its metal part is a 4D LUT) and
 on the runtime table (the bake's own choice). Its base colour texture (nearest filtering) holds random colours
 and searched ones: every channel at the F0 table's ends and past them (0, its last node, 1), at and between its
 nodes, and at the F0s where the runtime table is worst against the ground truth along the mapping's curve
-(bench_gltf_runtime.curve_worst). PlayCanvas's copy of the asset has the thickness textures removed, its films
-then at their maximum thickness: with them (lutbake's fix of PlayCanvas 2.23.3's thickness map) its bake page
-at 64² ran past the harness's 600 s under load (docs/engines.md).
+(bench_gltf_runtime.curve_worst). Both engines load the same asset, baked once, its thickness textures
+included (PlayCanvas 2.23.3 with lutbake's fix of its thickness map, engine/lutbake-playcanvas.js
+fixIridescenceThicknessMap): each pixel's film is at its textured thickness.
 """
 
-import copy
 import subprocess
 import sys
 
@@ -88,15 +87,12 @@ def _bake(doc, folder):
 
 
 def bake_for_engines(folder, engines) -> dict:
-    """The asset baked into FOLDER (one the harness serves, inside the repository) for each engine
-    (PlayCanvas's without thickness textures), every texture read with nearest filtering:
-    {engine: (glTF, out, manifest)}."""
+    """The asset baked once into FOLDER (one the harness serves, inside the repository), every texture read
+    with nearest filtering, the same bake for each engine: {engine: (glTF, out, manifest)}."""
     doc = khronos_document(ASSET)
     doc["samplers"] = [{"magFilter": NEAREST, "minFilter": NEAREST}]
-    untextured = copy.deepcopy(doc)
-    for material in untextured["materials"][1:]:
-        del material["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessTexture"]
-    return {engine: _bake(doc if engine == "babylon" else untextured, folder / engine) for engine in engines}
+    baked = _bake(doc, folder)
+    return dict.fromkeys(engines, baked)
 
 
 def serve_metals(engine, baked, serve, folder, size=64):

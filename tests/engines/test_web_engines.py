@@ -3,9 +3,10 @@ engine/lutbake-babylon.js (a material plugin), StandardMaterial's through engine
 shader chunk override).
 
 Each engine (pinned in engine/package-lock.json, headless Chromium, WebGL2 through SwiftShader) renders lit
-spheres (metallic workflow, KHR_materials_iridescence parameters; in Babylon a random thickness texture,
-in PlayCanvas one thickness per material) with the drop-in's output set to the film's Fresnel term and
-again to the parameters each pixel used (cos θ, d, η2). At every pixel the term must be runtime.model's
+spheres (metallic workflow, KHR_materials_iridescence parameters; a film whose thickness range is not one
+value reads it from a random thickness texture, in PlayCanvas with lutbake's fix of its thickness map) with
+the drop-in's output set to the film's Fresnel term and again to the parameters each pixel used (cos θ, d,
+η2); those pixels read thicknesses across the range. At every pixel the term must be runtime.model's
 at those parameters to 1e-4; the materials are random films over dielectric and metal bases, the films
 and bases of the worst points a search of the numpy model found (the sphere's pixels sweep cos θ through
 the searched one), and named metals per channel. Against the ground truth the contract holds (max
@@ -56,6 +57,10 @@ def test_the_engine_returns_the_model(engine_run):
         assert mine.sum() >= 300, (m, mine.sum())
         if "cos" in m:  # the sphere's pixels sweep through the searched cos θ
             assert np.abs(cos[mine] - m["cos"]).min() <= 0.01, m
+        thin, thick = m["thickness"]
+        if thin != thick:  # a thickness texture: the pixels read thicknesses across the range
+            assert len(np.unique(d[mine])) >= 50 and d[mine].min() >= thin - 1e-3 and d[mine].max() <= thick + 1e-3, m
+            assert np.ptp(d[mine]) >= 0.8 * (thick - thin), (m, np.ptp(d[mine]))
 
 
 def test_the_engine_meets_the_contract_and_its_own_term_does_not(engine_run):

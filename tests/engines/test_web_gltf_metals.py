@@ -7,8 +7,8 @@ colours and the model of a pixel are tests/web_metals.py's (bench/bench_web_engi
 figures). At every pixel the engine's term must be lutbake's model at the parameters
 and base colour the pixel used (bench_gltf_runtime.baked_term: the LUT read as `lutbake sample` reads it at
 each channel's base from the F0 table, runtime.model per channel) to 1e-4; and against the spectral ground
-truth the runtime table within its contract, the bake as lutbake's own samplers are. PlayCanvas's copy of
-the asset has no thickness textures (tests/web_metals.py says why; docs/engines.md).
+truth the runtime table within its contract, the bake as lutbake's own samplers are. Both engines load the
+same bake, its thickness textures included (PlayCanvas with lutbake's fixIridescenceThicknessMap).
 The same bake runs bench/bench_web_engines.py gltf-cost's page end to end (tests/web_gltf_cost.py) on a tiny
 render: what it captures and counts, not how long it takes.
 """
@@ -27,6 +27,7 @@ from web_metals import ROUTES, bake_for_engines, metal_model, serve_metals, trut
 
 TOLERANCE = 1e-4
 OWN_TERMS = {"babylon": "evalIridescence(", "playcanvas": "calcIridescence("}  # each engine's own film term
+THICKNESS_SAMPLERS = {"babylon": "iridescenceThicknessSampler", "playcanvas": "texture_iridescenceThicknessMap"}
 CUBIC_LUT_READS = 256  # texel reads of one cubic 4D LUT sample (the LUT include's lutbake_sample_cubic)
 
 
@@ -91,7 +92,8 @@ def test_texture_driven_metals_against_the_ground_truth(served):
 def test_the_gltf_hook_cost_captures_and_counts_each_variants_shader(engine, baked, tmp_path):
     """The glTF-hook cost page on a 16² target, one round: per material the four variants are drawn and timed
     in one page; lutbake's (bake, runtime) shaders call lutbake's functions and say which routes served
-    them, the engine's own (stock) calls its film term, the draw without a film neither; every shader
+    them, the engine's own (stock) calls its film term, the draw without a film neither; the films' shaders
+    all sample the thickness texture (stock PlayCanvas with lutbake's fix of its thickness map); every shader
     compiles to SPIR-V with arithmetic and reads, and the forced 4D LUT's three cubic reads per channel are
     all counted (loops unrolled)."""
     costs = hook_costs(engine, baked[engine], tmp_path, size=16, rounds=1, draws=1)
@@ -104,4 +106,6 @@ def test_the_gltf_hook_cost_captures_and_counts_each_variants_shader(engine, bak
             assert cost["routes"] == (ROUTES[variant][index] if served else None), (index, variant)
             assert cost["arithmetic"] > 0 and cost["texture_instructions"] > 0 and np.isfinite(cost["ms"])
         assert OWN_TERMS[engine] in variants["stock"]["shader"] and OWN_TERMS[engine] not in variants["none"]["shader"]
+        for variant in ("stock", *ROUTES):  # the engine's own film and lutbake's read the same thickness textures
+            assert THICKNESS_SAMPLERS[engine] in variants[variant]["shader"], (index, variant)
     assert costs[2]["bake"]["texture_instructions"] >= 3 * CUBIC_LUT_READS > costs[2]["runtime"]["texture_instructions"]
