@@ -66,7 +66,6 @@ class SpectralRule:
         return self.wavelength_nm.size
 
 
-@functools.lru_cache(maxsize=64)
 @functools.lru_cache(maxsize=16)
 def _gauss_legendre(nodes: int) -> tuple[np.ndarray, np.ndarray]:
     """numpy's Gauss–Legendre nodes and weights on [−1, 1], read-only: an eigenvalue problem of the node count's
@@ -76,6 +75,7 @@ def _gauss_legendre(nodes: int) -> tuple[np.ndarray, np.ndarray]:
     return x, w
 
 
+@functools.lru_cache(maxsize=64)
 def panel_rule(nodes_per_nm: int, observer: str = "cie1931", space: str = "rec709", basis: str = "rgb") -> SpectralRule:
     """Composite Gauss–Legendre rule, ``nodes_per_nm`` nodes on each 1 nm panel."""
     x, w = _gauss_legendre(int(nodes_per_nm))
