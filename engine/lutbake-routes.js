@@ -49,7 +49,13 @@ export function metalTable(manifest, entry) {
   const table = typeof entry.table === 'string' ? (manifest.metal_tables || {})[entry.table] : entry.table;
   if (!table) throw new Error(`metal table '${entry.table}' is not in the manifest's metal_tables`);
   const { f0, eta3, kappa3 } = table;
-  return { f0, eta3, kappa3, f0Max: f0[f0.length - 1] };
+  const nodes = Array.isArray(f0) ? f0.length : 0;
+  const valid = (a) => Array.isArray(a) && a.length === nodes && a.every(Number.isFinite);
+  // the include interpolates between nodes i and i + 1: fewer than two would read outside its array
+  if (nodes < 2 || ![f0, eta3, kappa3].every(valid)) {
+    throw new Error(`metal table '${entry.table}': f0, eta3 and kappa3 must be arrays of at least 2 finite numbers, all of one length`);
+  }
+  return { f0, eta3, kappa3, f0Max: f0[nodes - 1] };
 }
 
 // The constant the atlas include defines for a slice of the scene (lutfile.shader_ident).
@@ -81,7 +87,11 @@ export function partRoutes(bake, record, { runtime = false, serve = 'bake' } = {
   return routes;
 }
 
-const glslFloat = (x) => (Number.isInteger(x) ? x.toFixed(1) : String(x));
+// A manifest number as a GLSL literal; anything else (a string, null) would be pasted into the shader's source.
+const glslFloat = (x) => {
+  if (!Number.isFinite(x)) throw new Error(`manifest value ${JSON.stringify(x)} is not a finite number`);
+  return Number.isInteger(x) ? x.toFixed(1) : String(x);
+};
 const glslVec3 = (v) => `vec3(${v.map(glslFloat).join(', ')})`;
 
 // One part's film term by its route: a GLSL expression in (cosTheta, thicknessNm) reading the samplers

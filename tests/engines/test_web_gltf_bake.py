@@ -265,6 +265,18 @@ for (const [name, [parts, runtime, serve]] of Object.entries(cases)) {
     out[name] = { routes, terms, include, lut };
   } catch (e) { out[name] = { error: e.message }; }
 }
+const hostile = {  // manifest values that must not reach a shader's source
+  filmNotANumber: [{ ...record({ dielectric: { material: 'r', base: [1.5, 0] } }), film: '1.3); discard; (' }, 'runtime'],
+  baseNotANumber: [record({ dielectric: { material: 'r', base: [1.5, null] } }), 'runtime'],
+  oneNodeTable: [record({ metal: { ...textured, table: { f0: [0], eta3: [1], kappa3: [0] } } }), 'runtime'],
+  unevenTable: [record({ metal: { ...textured, table: { ...table, kappa3: [0, 1.5] } } }), 'runtime'],
+};
+for (const [name, [rec, serve]] of Object.entries(hostile)) {
+  try {
+    bakeTerms(bake, rec, partRoutes(bake, rec, { runtime: true, serve }));
+    out[name] = { error: null };
+  } catch (e) { out[name] = { error: e.message }; }
+}
 console.log(JSON.stringify(out));
 """
 
@@ -275,7 +287,8 @@ def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
     a named metal kept baked; a texture-driven metal at the pixel's base colour through its F0 table (a constant
     array in the include, read between its nodes and clamped at its ends) and its 4D LUT per channel (bound as
     lutbakeLut) or the runtime table; a part that needs the table without one and a named metal the bake lacks
-    are refused, naming the material."""
+    are refused, naming the material; a manifest value that is not a finite number, or an F0 table of fewer
+    than two nodes or uneven columns, is refused before it reaches a shader's source."""
     require_package("playcanvas")
     proc = subprocess.run(
         ["node", "--input-type=module", "-e", ROUTE_CASES], capture_output=True, text=True, cwd=ROOT, timeout=120
@@ -314,3 +327,7 @@ def test_routes_follow_the_manifest_and_refuse_what_an_engine_cannot_serve():
         for text in [table, clamp, *reads]:
             assert text in got[name]["include"], (name, text)
     assert "metal table 'gone' is not in the manifest's metal_tables" in got["texturedUnnamed"]["error"]
+    assert got["filmNotANumber"]["error"] == 'manifest value "1.3); discard; (" is not a finite number'
+    assert got["baseNotANumber"]["error"] == "manifest value null is not a finite number"
+    for name in ("oneNodeTable", "unevenTable"):
+        assert "must be arrays of at least 2 finite numbers, all of one length" in got[name]["error"], got[name]
