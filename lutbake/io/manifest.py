@@ -11,7 +11,8 @@ it is refused in one line instead of being half-trusted. ValueError names the fi
 A texture-driven metal's F0 → (η3, κ3) table is written once per distinct table at the top level
 (``metal_tables``, named by its metal mapping: 'fitted', 'threejs', then 'fitted-2' ...) and its part names
 it (``table``: the name); ``shared_metal_tables`` makes that form from a glTF source, and the reader gives
-back the source with each part's table in place, as the bake's records hold it.
+back the source with each part's table in place, as the bake's records hold it (a manifest written before
+``metal_tables``, its tables inline, reads the same).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from lutbake.io.names import SPACES
 __all__ = [
     "MANIFEST_FORMAT",
     "MAX_MANIFEST_BYTES",
+    "MEMBER_SUFFIXES",
     "manifest_hash",
     "read_scene_manifest",
     "sealed",
@@ -39,6 +41,7 @@ __all__ = [
 MANIFEST_FORMAT = ("lutbake-scene-manifest", 1)
 MAX_MANIFEST_BYTES = 256 << 20  # ~10^5 materials with their glTF records
 MAX_MATERIALS = 100_000
+MEMBER_SUFFIXES = (".exr", ".glsl", ".hlsl", ".json")  # a scene set's members: tables, includes, LUT headers
 MAX_CURVE_NODES = 4096  # a texture-driven metal's F0 → (η3, κ3) table (65 nodes written)
 
 
@@ -64,10 +67,12 @@ def read_scene_manifest(path: str | PathLike[str]) -> dict[str, Any]:
             "(the SCENE.json that `lutbake bake --scene` or `--gltf` writes)"
         )
     try:
-        _check(doc)
+        named = _check(doc)
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
-    return _tables_in_place(doc)
+    for info in named:  # doc is this reader's own: the checked parts take their table in place
+        info["table"] = doc["metal_tables"][info["table"]]
+    return doc
 
 
 def shared_metal_tables(source: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -90,18 +95,9 @@ def _texture_parts(source: dict[str, Any]) -> list[dict[str, Any]]:
     return [info for r in source.get("materials", []) for info in r.get("parts", {}).values() if "table" in info]
 
 
-def _tables_in_place(doc: dict[str, Any]) -> dict[str, Any]:
-    """``doc`` (checked) with each part's table name replaced by its ``metal_tables`` entry."""
-    if "metal_tables" not in doc:
-        return doc
-    doc = {**doc, "source": copy.deepcopy(doc["source"])}
-    for info in _texture_parts(doc["source"]):
-        info["table"] = doc["metal_tables"][info["table"]]
-    return doc
-
-
-def _check(doc: dict[str, Any]) -> None:
-    """Every field a reader takes, typed and ranged; then the seal."""
+def _check(doc: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every field a reader takes, typed and ranged; then the seal. Returns the checked texture-driven metal
+    parts that name a ``metal_tables`` entry."""
     settings = _object(doc, "settings")
     if settings.get("space") not in SPACES:
         raise ValueError(f"settings.space {_shown(settings.get('space'))} is not one of {', '.join(SPACES)}")
@@ -113,13 +109,15 @@ def _check(doc: dict[str, Any]) -> None:
     for name, entry in materials.items():
         _material(name, entry)
     for name, digest in _object(doc, "files").items():
-        _plain(name, f"files.{name}")
+        if not _plain(name, f"files.{name}").endswith(MEMBER_SUFFIXES):
+            raise ValueError(f"files.{name}: not a member a scene set has (names end {', '.join(MEMBER_SUFFIXES)})")
         _hex(digest, f"files.{name}", 64)
-    tables = _metal_tables(doc)
+    tables, named = _metal_tables(doc), list[dict[str, Any]]()
     if "source" in doc:
-        _source(_object(doc, "source"), materials, tables)
+        _source(_object(doc, "source"), materials, tables, named)
     if doc.get("manifest_hash") != manifest_hash(doc):
         raise ValueError("manifest_hash does not hold: edited since lutbake wrote it (bake the scene again)")
+    return named
 
 
 def _material(name: str, entry: object) -> None:
@@ -148,15 +146,21 @@ def _metal_tables(doc: dict[str, Any]) -> dict[str, Any]:
     if len(tables) > MAX_MATERIALS:
         raise ValueError(f"metal_tables: {len(tables):,} of them, at most {MAX_MATERIALS:,} are allowed")
     for name in tables:
-        table = _object(tables, name, "metal_tables")
-        nodes = table.get("f0")
-        count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
-        for key in ("f0", "eta3", "kappa3"):
-            _numbers(_at(table, key, f"metal_tables.{name}"), count, f"metal_tables.{name}.{key}")
+        _metal_table(_object(tables, name, "metal_tables"), f"metal_tables.{name}")
     return tables
 
 
-def _source(source: dict[str, Any], materials: dict[str, Any], tables: dict[str, Any]) -> None:
+def _metal_table(table: dict[str, Any], where: str) -> None:
+    """An F0 → (η3, κ3) table: f0, eta3 and kappa3, each 2 to MAX_CURVE_NODES numbers, all of one length."""
+    nodes = table.get("f0")
+    count = len(nodes) if isinstance(nodes, list) and 2 <= len(nodes) <= MAX_CURVE_NODES else 0
+    for key in ("f0", "eta3", "kappa3"):
+        _numbers(_at(table, key, where), count, f"{where}.{key}")
+
+
+def _source(
+    source: dict[str, Any], materials: dict[str, Any], tables: dict[str, Any], named: list[dict[str, Any]]
+) -> None:
     """A glTF bake's record of the asset (lutbake/scene/gltf/receipt.py reads it back)."""
     if _at(source, "kind", "source") != "gltf":
         return
@@ -178,10 +182,12 @@ def _source(source: dict[str, Any], materials: dict[str, Any], tables: dict[str,
         _number(record, "film", where)
         _numbers(_at(record, "thickness_nm", where), 2, f"{where}.thickness_nm")
         for part, info in record["parts"].items():
-            _part(info, materials, tables, f"{where}.parts.{part}")
+            _part(info, materials, tables, named, f"{where}.parts.{part}")
 
 
-def _part(info: object, materials: dict[str, Any], tables: dict[str, Any], where: str) -> None:
+def _part(
+    info: object, materials: dict[str, Any], tables: dict[str, Any], named: list[dict[str, Any]], where: str
+) -> None:
     """A part's base is numbers; a baked part names materials of this manifest, one served unbaked (``route``
     runtime: the runtime table; ``constant``: a film term that is 0) names what it would have been baked as."""
     if not isinstance(info, dict):
@@ -199,7 +205,7 @@ def _part(info: object, materials: dict[str, Any], tables: dict[str, Any], where
     if "material" in info:  # a dielectric part: its base index
         _numbers(_at(info, "base", where), 2, f"{where}.base")
     else:
-        _metal_part(info, tables, where)
+        _metal_part(info, tables, named, where)
 
 
 def _known(name: object, materials: dict[str, Any] | None) -> bool:
@@ -207,9 +213,10 @@ def _known(name: object, materials: dict[str, Any] | None) -> bool:
     return isinstance(name, str) and (materials is None or name in materials)
 
 
-def _metal_part(info: dict[str, Any], tables: dict[str, Any], where: str) -> None:
+def _metal_part(info: dict[str, Any], tables: dict[str, Any], named: list[dict[str, Any]], where: str) -> None:
     """A metal part, per channel: a named material, a texture's F0 → (η3, κ3) curve (a ``metal_tables``
-    name), or three bases."""
+    name, noted in ``named``; or the table itself, as a manifest written before metal_tables holds it), or
+    three bases."""
     if len(info["channels"]) != 3:
         raise ValueError(f"{where}.channels: not one material per channel (3)")
     if info.get("mapping") == "named":
@@ -217,8 +224,12 @@ def _metal_part(info: dict[str, Any], tables: dict[str, Any], where: str) -> Non
     elif info.get("texture"):
         _numbers(_at(info, "f0_max", where), 3, f"{where}.f0_max")
         table = _at(info, "table", where)
-        if not isinstance(table, str) or table not in tables:
-            raise ValueError(f"{where}.table {_shown(table)} is not the name of a metal_tables entry")
+        if isinstance(table, dict):
+            _metal_table(table, f"{where}.table")
+        elif isinstance(table, str) and table in tables:
+            named.append(info)
+        else:
+            raise ValueError(f"{where}.table {_shown(table)} is neither a metal_tables entry's name nor a table")
     else:
         for key in ("eta3", "kappa3"):
             _numbers(_at(info, key, where), 3, f"{where}.{key}")

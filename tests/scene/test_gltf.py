@@ -1,6 +1,7 @@
 """glTF as a scene source (issue 23): the Khronos showcase assets plan and bake, the mapping rules hold,
 hand-written assets with random films bake, the metal mappings are what they claim."""
 
+import copy
 import json
 import subprocess
 import sys
@@ -20,7 +21,7 @@ from gltf_assets import (
     write_gltf,
 )
 
-from lutbake.io.manifest import read_scene_manifest
+from lutbake.io.manifest import read_scene_manifest, sealed
 from lutbake.lut.sample import Atlas
 from lutbake.physics.colorimetry import delta_e00
 from lutbake.physics.metals import F0_MAX, conductor, conductor_reflectance, gltf_metal_reflectance, reflectance_error
@@ -96,7 +97,8 @@ def _rows(tmp_path, materials, metal_mapping="fitted", **doc):
 def test_texture_driven_metals_share_one_metal_table_in_the_manifest(tmp_path):
     """Two texture-driven metals of one mapping: the manifest writes their F0 → (η3, κ3) table once, at its top
     level (``metal_tables``, named by the mapping), and each part names it; the reader gives the parts back with
-    the table in place, equal to the plan's; a part naming a table the manifest lacks is refused by name."""
+    the table in place, equal to the plan's (also from a manifest written before metal_tables, its table inline);
+    a part naming a table the manifest lacks, or a table that is not one, is refused by name."""
     materials = []
     for name in ("a", "b"):
         material = iridescent(metallic=1.0, name=name)
@@ -115,10 +117,28 @@ def test_texture_driven_metals_share_one_metal_table_in_the_manifest(tmp_path):
     assert table == planned and table["f0"][-1] == F0_MAX["fitted"] and len(table["f0"]) == 65
     read = read_scene_manifest(path)
     assert [r["parts"]["metal"]["table"] for r in read["source"]["materials"]] == [planned, planned]
-    raw["source"]["materials"][1]["parts"]["metal"]["table"] = "gold"
-    path.write_text(json.dumps(raw))
-    with pytest.raises(ValueError, match=r"parts\.metal\.table 'gold' is not the name of a metal_tables entry"):
+    # A manifest written before metal_tables, its table inline in each part, reads the same.
+    inline = copy.deepcopy(raw)
+    for record in inline["source"]["materials"]:
+        record["parts"]["metal"]["table"] = table
+    path.write_text(json.dumps(sealed({k: v for k, v in inline.items() if k not in ("manifest_hash", "metal_tables")})))
+    read = read_scene_manifest(path)
+    assert [r["parts"]["metal"]["table"] for r in read["source"]["materials"]] == [planned, planned]
+    # A record the reader does not check (no film) may carry anything: it is not resolved, so nothing raises.
+    skipped = copy.deepcopy(raw)
+    skipped["source"]["materials"].append({"read": {}, "parts": {"metal": {"table": ["unhashable"]}}, "film": None})
+    path.write_text(json.dumps(sealed({k: v for k, v in skipped.items() if k != "manifest_hash"})))
+    assert read_scene_manifest(path)["source"]["materials"][2]["parts"]["metal"]["table"] == ["unhashable"]
+    # A member no scene set has (the --for web clean-up names each member's role by its suffix).
+    odd = {**raw, "files": {**raw["files"], "notes.txt": "0" * 64}}
+    path.write_text(json.dumps(sealed({k: v for k, v in odd.items() if k != "manifest_hash"})))
+    with pytest.raises(ValueError, match=r"files\.notes\.txt: not a member a scene set has"):
         read_scene_manifest(path)
+    for bad in ("gold", ["unhashable"], {"f0": [0.0], "eta3": [1.0], "kappa3": [0.0]}):
+        raw["source"]["materials"][1]["parts"]["metal"]["table"] = bad
+        path.write_text(json.dumps(sealed({k: v for k, v in raw.items() if k != "manifest_hash"})))
+        with pytest.raises(ValueError, match=r"parts\.metal\.table"):
+            read_scene_manifest(path)
 
 
 def test_mapping_rules_film_thickness_base_and_defaults(tmp_path):
