@@ -10,6 +10,7 @@ import pytest
 from gltf_assets import document, iridescent, write_gltf
 
 from lutbake.scene.gltf.receipt import gltf_receipts
+from lutbake.scene.gltf.routes import planned_routes
 
 
 def cli(*args):
@@ -103,3 +104,22 @@ def test_a_part_the_bake_calls_met_passes_its_receipt_at_every_seed(baked):
         receipts = gltf_receipts(folder / "out" / "routes.json", 1000, seed)
         served.append([next(iter(r["parts"].values()))["de00"]["baked"]["de00_p99"] for r in receipts["materials"]])
     assert all(max(p99[1:]) <= 1.0 for p99 in served) and any(p99[0] > 1.0 for p99 in served), served
+
+
+def test_plan_says_which_parts_the_bake_may_still_reroute():
+    """`plan`'s routes before the bake (hand-made records): a part the bake serves stays baked unless its check
+    misses (a composed colour's or its slice's), except a named metal, which has no (η3, κ3) for the runtime
+    table and so is final; forced routes and constants are final."""
+    slice_part = {"material": "s", "base": [1.5, 0.0]}
+    textured = {"texture": True, "channels": ["a", "a", "a"], "mapping": "fitted"}
+    named = {"channels": ["n", "n", "n"], "mapping": "named", "named": "Au"}
+    forced = {**slice_part, "route": "runtime", "route_by": "extras"}
+    record = {
+        "film": 1.3,
+        "parts": {"d": slice_part, "t": textured, "n": named, "f": forced, "c": {"constant": [0] * 3}},
+    }
+    routes = planned_routes(record)
+    assert "slice misses" in routes["d"]["unless"] and "composed colour" in routes["t"]["unless"]
+    assert routes["n"] == {"route": "bake", "by": "auto"}
+    assert routes["f"] == {"route": "runtime", "by": "extras"} and routes["c"] == {"route": "constant", "by": "stack"}
+    assert planned_routes({"film": None, "parts": {"d": slice_part}}) == {}

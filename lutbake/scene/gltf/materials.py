@@ -558,7 +558,7 @@ def material_rows(scene: Scene, plan: ScenePlan) -> list[dict[str, Any]]:
                 "slices": slices,
                 "lut": luts[0] if luts else None,
                 "runtime_parts": runtime,
-                "routes": planned_routes(scene.source, r),
+                "routes": planned_routes(r),
                 "why_not": r.get("why_not")
                 or (f"served by the runtime table: {', '.join(runtime)}" if runtime else None)
                 or (None if slices or luts else r.get("zero_term")),

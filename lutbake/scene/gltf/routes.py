@@ -44,19 +44,19 @@ def choose_routes(
     materials whose slices changed) and is checked again, and so is every part that reads a slice it changed."""
     assert scene.source is not None  # a glTF scene's
     routed: set[str] = set()
-    changed: set[str] = set()
+    changes: list[set[str]] = []  # the scene materials each re-refinement changed, in order
+    checked_at: dict[int, int] = {}  # a composed part's: how many re-refinements its check saw
 
     def tracked(names: list[str], factor: float) -> None:
         assert rerefine is not None  # called only where given
-        changed.update(rerefine(names, factor))
+        changes.append(rerefine(names, factor))
 
-    composed = {id(info) for _, info in composed_parts(scene.source)}
     for record, info in _baked_parts(scene.source):
-        if id(info) in composed:
+        if _composed(info):
             check = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
             if not check["met"] and rerefine and _reroutable(info) and not info.get("texture"):
                 check = _rerefined(record, info, check, sampler_of, truth_of(record["film"]), scene.max_de, tracked)
-            info["target_check"] = check
+            info["target_check"], checked_at[id(info)] = check, len(changes)
             why = None if check["met"] else _composed_why(check, scene.max_de)
         else:
             missed = [m for m in served_materials(info) if not met(m)]
@@ -67,9 +67,10 @@ def choose_routes(
         info["target_check"] = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
         routed.update(served_materials(info))
     for record, info in _baked_parts(scene.source):  # checked before a slice it reads was refined again
-        check = info.get("target_check", {})
-        if id(info) in composed and "rerefined" not in check and changed & set(served_materials(info)):
-            info["target_check"] = _check(record, info, sampler_of, truth_of(record["film"]), scene.max_de)
+        later = set().union(*changes[checked_at.get(id(info), len(changes)) :])
+        if later & set(served_materials(info)):
+            kept = {k: v for k, v in info["target_check"].items() if k == "rerefined"}
+            info["target_check"] = {**_check(record, info, sampler_of, truth_of(record["film"]), scene.max_de), **kept}
     return routed
 
 
@@ -109,27 +110,29 @@ def _baked_parts(source: dict[str, Any]) -> Iterator[tuple[dict[str, Any], dict[
 def composed_parts(source: dict[str, Any]) -> list[tuple[dict[str, Any], dict[str, Any]]]:
     """(material record, part) of the baked parts whose colour is composed per channel from different tables or
     bases: a texture-driven metal's 4D LUT, or a slice per channel."""
-    return [
-        (record, info)
-        for record, info in _baked_parts(source)
-        if info.get("texture") or len(set(served_materials(info))) > 1
-    ]
+    return [(record, info) for record, info in _baked_parts(source) if _composed(info)]
 
 
-def planned_routes(source: dict[str, Any], record: dict[str, Any]) -> dict[str, dict[str, str]]:
+def _composed(info: dict[str, Any]) -> bool:
+    """Whether a part's colour is composed per channel: a texture-driven metal, or a slice per channel."""
+    return bool(info.get("texture")) or len(set(served_materials(info))) > 1
+
+
+def planned_routes(record: dict[str, Any]) -> dict[str, dict[str, str]]:
     """What `plan` knows of each part's route before the bake: {part: {route, by, unless}}: a constant or a
-    forced route (``--route``, extras) is final; a part the bake serves stays baked ``unless`` its check
-    misses (its composed colour, or its slice at the resolution cap; then the runtime table serves it), which
-    only the bake can tell."""
-    composed = {id(info) for _, info in composed_parts(source)}
+    forced route (``--route``, extras) is final, and so is a named metal's bake (no (η3, κ3) for the table); any
+    other part the bake serves stays baked ``unless`` its check misses (its composed colour, or its slice at the
+    resolution cap; then the runtime table serves it), which only the bake can tell."""
     routes = {}
     for name, info in record["parts"].items() if record["film"] is not None else ():
         if "constant" in info:
             routes[name] = {"route": "constant", "by": "stack"}
         elif "route_by" in info:
             routes[name] = {"route": info["route"], "by": info["route_by"]}
+        elif not _reroutable(info):  # a named metal: no (η3, κ3) for the table, so it stays baked
+            routes[name] = {"route": "bake", "by": AUTO}
         else:
-            miss = "its composed colour (a table per channel)" if id(info) in composed else "its slice"
+            miss = "its composed colour (a table per channel)" if _composed(info) else "its slice"
             routes[name] = {"route": "bake", "by": AUTO, "unless": f"{miss} misses the target"}
     return routes
 
