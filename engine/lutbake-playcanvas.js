@@ -196,7 +196,10 @@ export function lutbakeGltfOptions({ runtime = null, metals = {}, output = null,
   let gltfMaterials = [];
   const served = (gltfMaterial, material) => {
     const record = bake.records.get(gltfMaterials.indexOf(gltfMaterial));
-    if (!record) return;
+    if (!record) {  // not in the bake: PlayCanvas's own film, which needs the fix to compile a thickness map
+      if (gltfMaterial.extensions?.KHR_materials_iridescence) fixIridescenceThicknessMap(material, device);
+      return;
+    }
     const routes = partRoutes(bake, record, { runtime: Boolean(runtime), serve });
     lutbakeIridescence(material, { runtime, bake: bakeTerms(bake, record, routes), output, device });
     material.lutbake = { gltfIndex: record.gltf_index, name: record.name, parts: routes };

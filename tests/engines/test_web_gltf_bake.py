@@ -266,7 +266,8 @@ for (const [name, [parts, runtime, serve]] of Object.entries(cases)) {
   } catch (e) { out[name] = { error: e.message }; }
 }
 const hostile = {  // manifest values that must not reach a shader's source
-  filmNotANumber: [{ ...record({ dielectric: { material: 'r', base: [1.5, 0] } }), film: '1.3); discard; (' }, 'runtime'],
+  filmNotANumber: [
+    { ...record({ dielectric: { material: 'r', base: [1.5, 0] } }), film: '1.3); discard; (' }, 'runtime'],
   baseNotANumber: [record({ dielectric: { material: 'r', base: [1.5, null] } }), 'runtime'],
   oneNodeTable: [record({ metal: { ...textured, table: { f0: [0], eta3: [1], kappa3: [0] } } }), 'runtime'],
   unevenTable: [record({ metal: { ...textured, table: { ...table, kappa3: [0, 1.5] } } }), 'runtime'],
