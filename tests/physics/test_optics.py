@@ -20,7 +20,7 @@ def _stack(eta1, eta2, eta3, kappa3, cos_theta, thickness_nm):
     return FilmPoints(eta1=eta1, eta2=eta2, eta3=eta3, kappa3=kappa3, cos_theta=cos_theta, thickness_nm=thickness_nm)
 
 
-def test_matches_tmm_on_10000random_cases(rng):
+def test_matches_tmm_on_10000_random_cases(rng):
     cases = random_cases(rng, 10_000)
     eta1, eta2, eta3, kappa3, theta, d, lam = cases
     rs, rp, _ = film_reflectance(_stack(eta1, eta2, eta3, kappa3, np.cos(np.radians(theta)), d), lam)

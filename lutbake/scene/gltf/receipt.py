@@ -39,6 +39,7 @@ from lutbake.scene.gltf.scoring import (
     Bases,
     Sampler,
     SharedTruth,
+    base_f0,
     film_points,
     film_stacks,
     part_colours,
@@ -139,7 +140,7 @@ def _receipt(
             other = next(m for m in MAPPINGS if m != info["mapping"])
             costs["other_mapping"] = {
                 "mapping": other,
-                **_stats(_other_truth(info, other, record["film"], cos_t, thickness, bases, truth), colours.truth),
+                **_stats(_other_truth(other, record["film"], cos_t, thickness, bases, truth), colours.truth),
             }
         row["parts"][part] = {**{k: v for k, v in info.items() if k != "table"}, "de00": costs}
     return row
@@ -176,7 +177,6 @@ def _gltf_model(eta2: float, cos_t: np.ndarray, thickness: np.ndarray, f0: list[
 
 
 def _other_truth(
-    info: dict[str, Any],
     mapping: str,
     eta2: float,
     cos_t: np.ndarray,
@@ -188,8 +188,7 @@ def _other_truth(
     other: dict[int, Bases] = {}
     for b in bases:
         if id(b) not in other:
-            f0 = ((b["eta3"] - 1.0) ** 2 + b["kappa3"] ** 2) / ((b["eta3"] + 1.0) ** 2 + b["kappa3"] ** 2)
-            eta, kappa, _ = conductor(np.atleast_1d(f0), mapping)
+            eta, kappa, _ = conductor(np.atleast_1d(base_f0(b["eta3"], b["kappa3"])), mapping)
             other[id(b)] = {
                 "eta3": eta if np.ndim(b["eta3"]) else eta[0],
                 "kappa3": kappa if np.ndim(b["kappa3"]) else kappa[0],

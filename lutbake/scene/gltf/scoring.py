@@ -22,6 +22,7 @@ from lutbake.spectral.reference import reference_colour
 
 __all__ = [
     "Bases",
+    "base_f0",
     "PartColours",
     "Sampler",
     "SharedTruth",
@@ -80,7 +81,7 @@ def _bases(info: dict[str, Any], n: int, rng: np.random.Generator) -> tuple[list
     metal's F0 drawn uniform up to each channel's reach, mapped through the manifest's table."""
     if "material" in info:  # one base for every channel
         base = {"eta3": info["base"][0], "kappa3": info["base"][1]}
-        return [base] * 3, info.get("f0") or [_f0(info["base"][0], info["base"][1])] * 3
+        return [base] * 3, info.get("f0") or [base_f0(info["base"][0], info["base"][1])] * 3
     if info.get("texture"):
         table = info["table"]
         f0 = [rng.uniform(0.0, top, n) for top in info["f0_max"]]
@@ -113,7 +114,7 @@ def served_materials(part: dict[str, Any]) -> list[str]:
     return [part["material"]] if "material" in part else list(part["channels"])
 
 
-def _f0(eta: Any, kappa: Any) -> Any:
+def base_f0(eta: Any, kappa: Any) -> Any:
     """Normal-incidence reflectance under air of a base η + iκ."""
     return ((eta - 1.0) ** 2 + kappa**2) / ((eta + 1.0) ** 2 + kappa**2)
 
