@@ -152,7 +152,7 @@ def fringe_polarized(terms: FringeTerms, wavelength_nm: ArrayLike) -> tuple[np.n
         den += terms.den_floor[pol]
         # Above R = 1/2 the numerator is the denominator less the passed-on power (R + T = 1 for a lossless
         # film): 1 − R keeps its relative precision where the direct sum's |r12| − |r23| cancels.
-        np.copyto(num, den - terms.transmitted[pol], where=num > 0.5 * den)
+        np.subtract(den, terms.transmitted[pol], out=num, where=num > 0.5 * den)
         num /= den
         out.append(num)
     return out[0], out[1]
