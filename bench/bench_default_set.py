@@ -276,6 +276,8 @@ def main() -> None:
     ap.add_argument("--overlap", type=int, default=0, help="pairs of the set serial and with the next plan ahead")
     ap.add_argument("--json")
     args = ap.parse_args()
+    if args.overlap and args.vs:
+        ap.error("--overlap and --vs measure different things: give one of them")
     if args.child:
         child(args.child, args.out, args.device, args.rows)
         return
