@@ -11,19 +11,25 @@ from lutbake.integrate.program import KERNEL_SOURCES, DeviceProgram, kernel_defi
 from lutbake.integrate.series import SeriesOnDevice
 
 _SKIP = "#define SURE_REMAINDER 1"
+_GUARD = "if (!REMAINDER_SURE(c, cap)) {"
 
 
-def _without_the_skip(program: DeviceProgram) -> DeviceProgram:
-    """``program``'s kernels built again with every texel's remainder test run (SURE_REMAINDER 0)."""
+def _rebuilt(program: DeviceProgram, old: str, new: str) -> DeviceProgram:
+    """``program``'s kernels built again with ``old`` (found once in the sources) replaced by ``new``."""
     from importlib import resources
 
     import pyopencl as cl
 
     source = "\n".join(resources.files("lutbake.integrate").joinpath(name).read_text() for name in KERNEL_SOURCES)
-    assert source.count(_SKIP) == 1
+    assert source.count(old) == 1
     options = (["-DLUTBAKE_FP64"] if program.compute == "float64" else []) + kernel_defines()
-    built = cl.Program(program.ctx, source.replace(_SKIP, "#define SURE_REMAINDER 0")).build(options=options)
+    built = cl.Program(program.ctx, source.replace(old, new)).build(options=options)
     return DeviceProgram(program.ctx, built, program.compute)
+
+
+def _without_the_skip(program: DeviceProgram) -> DeviceProgram:
+    """``program``'s kernels with every texel's remainder test run (SURE_REMAINDER 0)."""
+    return _rebuilt(program, _SKIP, "#define SURE_REMAINDER 0")
 
 
 # η2, then (lo, hi, nodes, spacing) of cos θ, D, η3 and κ3: thin films (cap = the budget) and thick ones (cap
@@ -68,3 +74,14 @@ def test_the_plan_is_the_same_with_the_remainder_test_run_at_every_texel(name, c
     if plans[0].kept is not None:
         assert all(np.array_equal(a, b) for a, b in zip(plans[0].kept, plans[1].kept))
     assert plans[0].stats.series_texels > 0
+
+
+@pytest.mark.parametrize("name", list(GRIDS))
+def test_the_skip_takes_texels_of_every_grid(name, kernel_device):
+    """The comparison above shows something only where the skip fires: with the texels it takes refused the
+    series instead (a probe kernel), the plan's series texels drop."""
+    spec = _grid(name, "float64")
+    program = OpenCLBackend("float64", device=kernel_device).program
+    probe = _rebuilt(program, _GUARD, "if (REMAINDER_SURE(c, cap)) return -1;\n    {")
+    taken = SeriesOnDevice(program, spec).plan().stats.series_texels
+    assert SeriesOnDevice(probe, spec).plan().stats.series_texels < taken
