@@ -32,7 +32,7 @@
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { loadLutbakeLut } from './lutbake-iridescence.js';
-import { partRoute, sliceIdent } from './lutbake-routes.js';
+import { metalTable, partRoute, sliceIdent } from './lutbake-routes.js';
 
 async function loadText(url) {
   const response = await fetch(url);
@@ -61,13 +61,16 @@ export async function loadLutbakeBake(manifestUrl) {
 }
 
 // A texture-driven metal's part names its F0 -> (eta3, kappa3) table, written once at the manifest's top level
-// (manifest.metal_tables: one per metal mapping); the record as the plugin reads it holds the table itself.
+// (manifest.metal_tables: one per metal mapping); the record as the plugin reads it holds the table itself,
+// read and checked by lutbake-routes.js metalTable.
 function withMetalTables(manifest, record) {
   const parts = Object.fromEntries(Object.entries(record.parts).map(([name, part]) => {
-    if (typeof part.table !== 'string') return [name, part];
-    const table = (manifest.metal_tables || {})[part.table];
-    if (!table) throw new Error(`glTF material ${record.gltf_index} '${record.name}': metal table '${part.table}' is not in the manifest's metal_tables`);
-    return [name, { ...part, table }];
+    if (part.table === undefined) return [name, part];
+    try {
+      return [name, { ...part, table: metalTable(manifest, part) }];
+    } catch (e) {
+      throw new Error(`glTF material ${record.gltf_index} '${record.name}': ${e.message}`);
+    }
   }));
   return { ...record, parts };
 }
