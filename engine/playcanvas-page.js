@@ -188,6 +188,8 @@ window.lutbakePlaycanvasGltfCost = async ({ runtime: stem, asset: url, manifest,
       app.render();
       await wait();
       const forward = [...sphere.render.meshInstances[0]._shaderCache.values()].find((s) => s.hashes[0] === pc.SHADER_FORWARD);
+      // PlayCanvas's private fields (2.23.3): a version that moves them fails here, by name, not further on
+      if (!forward?.shader) throw new Error(`PlayCanvas ${pc.version}: no forward-pass shader on the mesh instance to count`);
       shaders[name] = forward.shader.impl._fsource || forward.shader.definition.fshader;
     }
     const times = await interleavedTimes(entries, timing(wait, rounds, draws));
